@@ -1,0 +1,545 @@
+//! The graph document: nodes with stable ids, typed edges, parameters and key-frames, held in a
+//! petgraph `StableDiGraph`.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use petgraph::stable_graph::{NodeIndex, StableDiGraph};
+use petgraph::visit::{EdgeRef, IntoEdgeReferences};
+use petgraph::Direction as PgDir;
+
+use super::error::GraphError;
+use super::schema::{Catalog, NodeSchema};
+use super::types::{sample_keys, Key, ParamProblem, ParamSpec, ParamValue, PortType};
+
+/// One node of the document.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Stable id, unique in the document and never reused by [`Graph::add_node`].
+    pub id: String,
+    /// Node kind (a catalog name).
+    pub kind: String,
+    /// Parameters set explicitly; the others take the schema's default.
+    pub params: BTreeMap<String, ParamValue>,
+    /// Key-frame tracks by parameter name (numeric parameters only, sorted by time).
+    pub keys: BTreeMap<String, Vec<Key>>,
+    /// Position on the editor canvas.
+    pub pos: Option<[f32; 2]>,
+    /// Free-form per-node data block (TF layers, strokes, splats), kept verbatim.
+    pub data: Option<ron::Value>,
+}
+
+/// An edge payload: which output port feeds which input port.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Wire {
+    /// Output port on the source node.
+    pub from_port: String,
+    /// Input port on the destination node.
+    pub to_port: String,
+}
+
+/// An edge as endpoints, for listing.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct EdgeRefs {
+    /// Source node id.
+    pub from_node: String,
+    /// Source output port.
+    pub from_port: String,
+    /// Destination node id.
+    pub to_node: String,
+    /// Destination input port.
+    pub to_port: String,
+}
+
+/// Split `node.port` at its last dot.
+pub fn split_endpoint(text: &str) -> Result<(&str, &str), GraphError> {
+    match text.rsplit_once('.') {
+        Some((n, p)) if !n.is_empty() && !p.is_empty() => Ok((n, p)),
+        _ => Err(GraphError::BadEndpoint { text: text.to_string() }),
+    }
+}
+
+/// The node-graph document.
+#[derive(Debug, Clone, Default)]
+pub struct Graph {
+    g: StableDiGraph<Node, Wire>,
+    index: BTreeMap<String, NodeIndex>,
+    retired: BTreeSet<String>,
+}
+
+impl PartialEq for Graph {
+    fn eq(&self, other: &Self) -> bool {
+        self.index.len() == other.index.len()
+            && self.nodes().zip(other.nodes()).all(|(a, b)| a == b)
+            && self.edges() == other.edges()
+    }
+}
+
+fn param_error(node: &str, spec: &ParamSpec, value: &ParamValue, p: ParamProblem) -> GraphError {
+    match p {
+        ParamProblem::WrongType | ParamProblem::UnknownEnum(_) => GraphError::WrongParamType {
+            node: node.to_string(),
+            param: spec.name.to_string(),
+            expected: spec.expected(),
+            found: match value {
+                ParamValue::Enum(s) | ParamValue::Text(s) => format!("\"{s}\""),
+                v => format!("{} {v}", v.kind_name()),
+            },
+        },
+        ParamProblem::OutOfRange(v) => GraphError::OutOfRange {
+            node: node.to_string(),
+            param: spec.name.to_string(),
+            value: v,
+            expected: spec.expected(),
+        },
+    }
+}
+
+impl Graph {
+    /// An empty document.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    /// Whether the document has no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// Nodes ordered by id.
+    pub fn nodes(&self) -> impl Iterator<Item = &Node> + '_ {
+        self.index.values().map(move |ix| &self.g[*ix])
+    }
+
+    /// The node with id `id`.
+    pub fn node(&self, id: &str) -> Option<&Node> {
+        self.index.get(id).map(|ix| &self.g[*ix])
+    }
+
+    fn ix(&self, id: &str) -> Result<NodeIndex, GraphError> {
+        self.index
+            .get(id)
+            .copied()
+            .ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })
+    }
+
+    fn schema_of(&self, catalog: &Catalog, id: &str) -> Result<&'static NodeSchema, GraphError> {
+        let node = self.node(id).ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })?;
+        catalog.get(&node.kind).ok_or_else(|| GraphError::UnknownKind {
+            node: id.to_string(),
+            kind: node.kind.clone(),
+            known: catalog.kind_names(),
+        })
+    }
+
+    /// Add a node of `kind` with a fresh id derived from the kind (`math1`, `math2`, ...); ids of
+    /// removed nodes are never handed out again by this document.
+    pub fn add_node(&mut self, catalog: &Catalog, kind: &str) -> Result<String, GraphError> {
+        let stem: String = kind.to_lowercase();
+        let mut n = 1;
+        let id = loop {
+            let id = format!("{stem}{n}");
+            if !self.index.contains_key(&id) && !self.retired.contains(&id) {
+                break id;
+            }
+            n += 1;
+        };
+        self.insert_node(
+            catalog,
+            Node {
+                id: id.clone(),
+                kind: kind.to_string(),
+                params: BTreeMap::new(),
+                keys: BTreeMap::new(),
+                pos: None,
+                data: None,
+            },
+        )?;
+        Ok(id)
+    }
+
+    /// Insert a fully described node, checking its kind, parameters and key-frames.
+    pub fn insert_node(&mut self, catalog: &Catalog, node: Node) -> Result<(), GraphError> {
+        if self.index.contains_key(&node.id) {
+            return Err(GraphError::DuplicateNode { node: node.id });
+        }
+        let schema = catalog.get(&node.kind).ok_or_else(|| GraphError::UnknownKind {
+            node: node.id.clone(),
+            kind: node.kind.clone(),
+            known: catalog.kind_names(),
+        })?;
+        let mut checked = node.clone();
+        checked.params.clear();
+        checked.keys.clear();
+        for (name, value) in &node.params {
+            let v = check_param(schema, &node.id, name, value.clone())?;
+            checked.params.insert(name.clone(), v);
+        }
+        for (name, keys) in &node.keys {
+            check_keys(schema, &node.id, name, keys)?;
+            checked.keys.insert(name.clone(), keys.clone());
+        }
+        let ix = self.g.add_node(checked);
+        self.index.insert(node.id, ix);
+        Ok(())
+    }
+
+    /// Remove a node and its edges. Its id is retired.
+    pub fn remove_node(&mut self, id: &str) -> Result<Node, GraphError> {
+        let ix = self.ix(id)?;
+        self.index.remove(id);
+        self.retired.insert(id.to_string());
+        self.g
+            .remove_node(ix)
+            .ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })
+    }
+
+    /// Set a parameter, checking its type and range.
+    pub fn set_param(
+        &mut self,
+        catalog: &Catalog,
+        id: &str,
+        name: &str,
+        value: ParamValue,
+    ) -> Result<(), GraphError> {
+        let schema = self.schema_of(catalog, id)?;
+        let v = check_param(schema, id, name, value)?;
+        let ix = self.ix(id)?;
+        self.g[ix].params.insert(name.to_string(), v);
+        Ok(())
+    }
+
+    /// Set (or with an empty list, clear) a parameter's key-frames.
+    pub fn set_keys(
+        &mut self,
+        catalog: &Catalog,
+        id: &str,
+        name: &str,
+        mut keys: Vec<Key>,
+    ) -> Result<(), GraphError> {
+        let schema = self.schema_of(catalog, id)?;
+        keys.sort_by(|a, b| a.t.total_cmp(&b.t));
+        let ix = self.ix(id)?;
+        if keys.is_empty() {
+            self.g[ix].keys.remove(name);
+            return Ok(());
+        }
+        check_keys(schema, id, name, &keys)?;
+        self.g[ix].keys.insert(name.to_string(), keys);
+        Ok(())
+    }
+
+    /// Set the canvas position of a node.
+    pub fn set_pos(&mut self, id: &str, pos: Option<[f32; 2]>) -> Result<(), GraphError> {
+        let ix = self.ix(id)?;
+        self.g[ix].pos = pos;
+        Ok(())
+    }
+
+    /// A parameter's value at time `t`: key-frames if any, else the explicit value, else the
+    /// default. Int parameters round interpolated values to nearest; results are clamped to the
+    /// hard range.
+    pub fn param_at(
+        &self,
+        catalog: &Catalog,
+        id: &str,
+        name: &str,
+        t: f64,
+    ) -> Result<ParamValue, GraphError> {
+        let schema = self.schema_of(catalog, id)?;
+        let node = &self.g[self.ix(id)?];
+        let spec = schema.param(name).ok_or_else(|| GraphError::UnknownParam {
+            node: id.to_string(),
+            kind: node.kind.clone(),
+            param: name.to_string(),
+            known: schema.param_names(),
+        })?;
+        if let Some(v) = node.keys.get(name).and_then(|k| sample_keys(k, t)) {
+            let v = v.clamp(spec.min, spec.max);
+            return Ok(match spec.kind {
+                super::types::ParamKind::Int => ParamValue::Int(v.round() as i64),
+                _ => ParamValue::Float(v),
+            });
+        }
+        Ok(node
+            .params
+            .get(name)
+            .cloned()
+            .unwrap_or_else(|| spec.default.value()))
+    }
+
+    /// Edges ordered by destination then source.
+    pub fn edges(&self) -> Vec<EdgeRefs> {
+        let mut v: Vec<EdgeRefs> = (&self.g)
+            .edge_references()
+            .map(|e| EdgeRefs {
+                from_node: self.g[e.source()].id.clone(),
+                from_port: e.weight().from_port.clone(),
+                to_node: self.g[e.target()].id.clone(),
+                to_port: e.weight().to_port.clone(),
+            })
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// The `(node, port)` feeding input `port` of node `id`, if connected.
+    pub fn source_of(&self, id: &str, port: &str) -> Option<(&str, &str)> {
+        let ix = self.index.get(id)?;
+        self.g
+            .edges_directed(*ix, PgDir::Incoming)
+            .find(|e| e.weight().to_port == port)
+            .map(|e| (self.g[e.source()].id.as_str(), e.weight().from_port.as_str()))
+    }
+
+    /// Ids of the nodes directly downstream of `id`.
+    pub fn consumers(&self, id: &str) -> Vec<&str> {
+        let Some(ix) = self.index.get(id) else { return Vec::new() };
+        let mut v: Vec<&str> = self
+            .g
+            .edges_directed(*ix, PgDir::Outgoing)
+            .map(|e| self.g[e.target()].id.as_str())
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+
+    /// The type produced by output `port` of node `id`, resolving polymorphic outputs from the
+    /// types of the connected inputs.
+    pub fn output_type(&self, catalog: &Catalog, id: &str, port: &str) -> Option<PortType> {
+        let schema = self.schema_of(catalog, id).ok()?;
+        let spec = schema.output(port)?;
+        if spec.types.len() <= 1 {
+            return spec.types.first().copied();
+        }
+        let mut best = 0usize;
+        for input in schema.inputs {
+            if let Some((src, sport)) = self.source_of(id, input.name) {
+                if let Some(t) = self.output_type(catalog, src, sport) {
+                    if let Some(i) = spec.types.iter().rposition(|c| t.can_feed(*c)) {
+                        best = best.max(i);
+                    }
+                }
+            }
+        }
+        spec.types.get(best).copied()
+    }
+
+    /// Connect output `from` (`node.port`) to input `to` (`node.port`).
+    ///
+    /// Refused (document unchanged) when a node or port is missing, the types are incompatible,
+    /// the input already has an edge, or the edge would close a cycle; the error names both ends.
+    pub fn connect(&mut self, catalog: &Catalog, from: &str, to: &str) -> Result<(), GraphError> {
+        let (fnode, fport) = split_endpoint(from)?;
+        let (tnode, tport) = split_endpoint(to)?;
+        let missing = |node: &str| GraphError::EdgeMissingNode {
+            from: from.to_string(),
+            to: to.to_string(),
+            node: node.to_string(),
+        };
+        let fix = *self.index.get(fnode).ok_or_else(|| missing(fnode))?;
+        let tix = *self.index.get(tnode).ok_or_else(|| missing(tnode))?;
+        let fschema = self.schema_of(catalog, fnode)?;
+        let tschema = self.schema_of(catalog, tnode)?;
+        if fschema.output(fport).is_none() {
+            return Err(GraphError::EdgeMissingPort {
+                from: from.into(),
+                to: to.into(),
+                node: fnode.into(),
+                kind: fschema.kind.into(),
+                direction: "output",
+                port: fport.into(),
+                known: fschema.output_names(),
+            });
+        }
+        if tschema.input(tport).is_none() {
+            return Err(GraphError::EdgeMissingPort {
+                from: from.into(),
+                to: to.into(),
+                node: tnode.into(),
+                kind: tschema.kind.into(),
+                direction: "input",
+                port: tport.into(),
+                known: tschema.input_names(),
+            });
+        }
+        if let Some((sn, sp)) = self.source_of(tnode, tport) {
+            return Err(GraphError::InputTaken {
+                from: from.into(),
+                to: to.into(),
+                existing: format!("{sn}.{sp}"),
+            });
+        }
+        if fix == tix || petgraph::algo::has_path_connecting(&self.g, tix, fix, None) {
+            return Err(GraphError::Cycle {
+                from: from.into(),
+                to: to.into(),
+                from_node: fnode.into(),
+                to_node: tnode.into(),
+            });
+        }
+        self.check_edge_type(catalog, fnode, fport, tnode, tport)?;
+        let e = self.g.add_edge(
+            fix,
+            tix,
+            Wire {
+                from_port: fport.to_string(),
+                to_port: tport.to_string(),
+            },
+        );
+        // A polymorphic output may have changed type: re-check every edge downstream.
+        if let Err(err) = self.check_all_types(catalog) {
+            self.g.remove_edge(e);
+            return Err(err);
+        }
+        Ok(())
+    }
+
+    /// Remove the edge into input `port` of node `id`; returns whether there was one.
+    pub fn disconnect(&mut self, id: &str, port: &str) -> bool {
+        let Some(ix) = self.index.get(id) else { return false };
+        let e = self
+            .g
+            .edges_directed(*ix, PgDir::Incoming)
+            .find(|e| e.weight().to_port == port)
+            .map(|e| e.id());
+        match e {
+            Some(e) => self.g.remove_edge(e).is_some(),
+            None => false,
+        }
+    }
+
+    fn check_edge_type(
+        &self,
+        catalog: &Catalog,
+        fnode: &str,
+        fport: &str,
+        tnode: &str,
+        tport: &str,
+    ) -> Result<(), GraphError> {
+        let tschema = self.schema_of(catalog, tnode)?;
+        let Some(ft) = self.output_type(catalog, fnode, fport) else {
+            return Ok(());
+        };
+        let accepts = tschema.input(tport).map(|p| p.types).unwrap_or(&[]);
+        if accepts.iter().any(|t| ft.can_feed(*t)) {
+            Ok(())
+        } else {
+            Err(GraphError::TypeMismatch {
+                from: format!("{fnode}.{fport}"),
+                to: format!("{tnode}.{tport}"),
+                from_type: ft,
+                to_types: accepts.iter().map(|t| t.name()).collect::<Vec<_>>().join(" | "),
+            })
+        }
+    }
+
+    /// Check the type of every edge.
+    pub fn check_all_types(&self, catalog: &Catalog) -> Result<(), GraphError> {
+        for e in self.edges() {
+            self.check_edge_type(catalog, &e.from_node, &e.from_port, &e.to_node, &e.to_port)?;
+        }
+        Ok(())
+    }
+
+    /// Node ids in a topological order (sources first; ties by id).
+    pub fn topo_order(&self) -> Vec<String> {
+        let mut indeg: BTreeMap<&str, usize> = BTreeMap::new();
+        for n in self.nodes() {
+            indeg.insert(&n.id, 0);
+        }
+        for e in (&self.g).edge_references() {
+            *indeg.entry(self.g[e.target()].id.as_str()).or_default() += 1;
+        }
+        let mut ready: BTreeSet<&str> =
+            indeg.iter().filter(|(_, d)| **d == 0).map(|(k, _)| *k).collect();
+        let mut out = Vec::new();
+        while let Some(id) = ready.pop_first() {
+            out.push(id.to_string());
+            if let Some(ix) = self.index.get(id) {
+                for e in self.g.edges_directed(*ix, PgDir::Outgoing) {
+                    let t = self.g[e.target()].id.as_str();
+                    if let Some(d) = indeg.get_mut(t) {
+                        *d -= 1;
+                        if *d == 0 {
+                            ready.insert(t);
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+fn check_param(
+    schema: &NodeSchema,
+    node: &str,
+    name: &str,
+    value: ParamValue,
+) -> Result<ParamValue, GraphError> {
+    let spec = schema.param(name).ok_or_else(|| GraphError::UnknownParam {
+        node: node.to_string(),
+        kind: schema.kind.to_string(),
+        param: name.to_string(),
+        known: schema.param_names(),
+    })?;
+    spec.coerce(value.clone())
+        .map_err(|p| param_error(node, spec, &value, p))
+}
+
+/// Check a parameter's value with the error the document would give (used by the CLI too).
+pub fn check_param_value(
+    schema: &NodeSchema,
+    node: &str,
+    name: &str,
+    value: ParamValue,
+) -> Result<ParamValue, GraphError> {
+    check_param(schema, node, name, value)
+}
+
+fn check_keys(schema: &NodeSchema, node: &str, name: &str, keys: &[Key]) -> Result<(), GraphError> {
+    let target = format!("{node}.{name}");
+    let spec = schema.param(name).ok_or_else(|| GraphError::UnknownParam {
+        node: node.to_string(),
+        kind: schema.kind.to_string(),
+        param: name.to_string(),
+        known: schema.param_names(),
+    })?;
+    if !spec.kind.is_numeric() {
+        return Err(GraphError::BadKeys {
+            target,
+            reason: format!("parameter is {}, only Float and Int can be key-framed", spec.kind.name()),
+        });
+    }
+    if keys.is_empty() {
+        return Err(GraphError::BadKeys { target, reason: "no keys".into() });
+    }
+    for k in keys {
+        if !k.t.is_finite() {
+            return Err(GraphError::BadKeys { target, reason: format!("time {} is not finite", k.t) });
+        }
+        let v = if spec.kind == super::types::ParamKind::Int {
+            ParamValue::Int(k.v.round() as i64)
+        } else {
+            ParamValue::Float(k.v)
+        };
+        if spec.check(&v).is_err() {
+            return Err(GraphError::OutOfRange {
+                node: node.to_string(),
+                param: name.to_string(),
+                value: k.v,
+                expected: spec.expected(),
+            });
+        }
+    }
+    if keys.windows(2).any(|w| w[0].t >= w[1].t) {
+        return Err(GraphError::BadKeys { target, reason: "key times must be strictly increasing".into() });
+    }
+    Ok(())
+}

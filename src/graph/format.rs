@@ -1,0 +1,448 @@
+//! The RON file format: load (with migrations and located errors) and deterministic save.
+//!
+//! ```ron
+//! (
+//!     version: 2,
+//!     nodes: {
+//!         "a": (kind: "Constant", params: {"value": 2.0}),
+//!         "m": (kind: "Math", params: {"op": "mul"}, pos: (120.0, 40.0)),
+//!     },
+//!     edges: [("a.value", "m.a")],
+//!     keys: {"a.value": [(0.0, 1.0, Linear), (24.0, 3.0, Hold)]},
+//! )
+//! ```
+//!
+//! Saving orders nodes by id, parameters by name, edges by destination, so save → load → save is
+//! byte-identical. Older versions are migrated by [`MIGRATIONS`] before they are read.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use ron::value::{Number, Value};
+use serde::de::{MapAccess, Visitor};
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::document::{split_endpoint, Graph, Node};
+use super::error::{GraphError, LoadError, Location};
+use super::schema::Catalog;
+use super::types::{Interp, Key, ParamValue};
+
+/// The format version this build writes and the newest it reads.
+pub const FORMAT_VERSION: u32 = 2;
+
+/// A migration step: turns a file of version N (its index + 1) into version N + 1.
+pub type Migration = fn(Value) -> Result<Value, String>;
+
+/// Migration steps; entry `i` upgrades version `i + 1` to `i + 2`.
+pub const MIGRATIONS: &[Migration] = &[migrate_v1_to_v2];
+
+/// Version 1 named the key-frame table `keyframes` and node positions `position`; version 2 calls
+/// them `keys` and `pos`.
+fn migrate_v1_to_v2(v: Value) -> Result<Value, String> {
+    let Value::Map(mut root) = v else {
+        return Err("the file is not a graph struct".into());
+    };
+    if let Some(k) = root.remove(&Value::String("keyframes".into())) {
+        root.insert(Value::String("keys".into()), k);
+    }
+    if let Some(Value::Map(nodes)) = root.get_mut(&Value::String("nodes".into())) {
+        for (_, node) in nodes.iter_mut() {
+            if let Value::Map(fields) = node {
+                if let Some(p) = fields.remove(&Value::String("position".into())) {
+                    fields.insert(Value::String("pos".into()), p);
+                }
+            }
+        }
+    }
+    root.insert(Value::String("version".into()), Value::Number(Number::U32(2)));
+    Ok(Value::Map(root))
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileGraph {
+    version: u32,
+    #[serde(default, with = "pairs")]
+    nodes: Vec<(String, FileNode)>,
+    #[serde(default)]
+    edges: Vec<(String, String)>,
+    #[serde(default, with = "pairs")]
+    keys: Vec<(String, Vec<(f64, f64, Interp)>)>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileNode {
+    kind: String,
+    #[serde(default, with = "pairs", skip_serializing_if = "Vec::is_empty")]
+    params: Vec<(String, Value)>,
+    #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "ser_inner")]
+    pos: Option<(f32, f32)>,
+    #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "ser_inner")]
+    data: Option<Value>,
+}
+
+fn ser_inner<S: Serializer, T: Serialize>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+    match v {
+        Some(x) => x.serialize(s),
+        None => s.serialize_none(),
+    }
+}
+
+/// A map read as a list of pairs, so that repeated keys are seen instead of silently merged.
+mod pairs {
+    use super::*;
+
+    pub fn serialize<S: Serializer, K: Serialize, V: Serialize>(
+        v: &[(K, V)],
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(v.len()))?;
+        for (k, val) in v {
+            m.serialize_entry(k, val)?;
+        }
+        m.end()
+    }
+
+    struct PairsVisitor<K, V>(std::marker::PhantomData<(K, V)>);
+
+    impl<'de, K: Deserialize<'de>, V: Deserialize<'de>> Visitor<'de> for PairsVisitor<K, V> {
+        type Value = Vec<(K, V)>;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a map { \"key\": value, ... }")
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut a: A) -> Result<Self::Value, A::Error> {
+            let mut out = Vec::new();
+            while let Some(kv) = a.next_entry()? {
+                out.push(kv);
+            }
+            Ok(out)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, K: Deserialize<'de>, V: Deserialize<'de>>(
+        d: D,
+    ) -> Result<Vec<(K, V)>, D::Error> {
+        d.deserialize_map(PairsVisitor(std::marker::PhantomData))
+    }
+}
+
+fn ron_options() -> ron::Options {
+    ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+}
+
+/// Finds where things are named in the file's text, for error locations.
+struct Locator<'a> {
+    text: &'a str,
+}
+
+impl Locator<'_> {
+    fn at(&self, byte: usize) -> Location {
+        let before = &self.text[..byte.min(self.text.len())];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+        Location { line, col }
+    }
+
+    /// Byte offset of the `nth` (0-based) occurrence of `"s"` at or after `from`, optionally
+    /// only where followed by a colon (a map key).
+    fn find_quoted(&self, s: &str, from: usize, nth: usize, as_key: bool) -> Option<usize> {
+        let needle = format!("\"{s}\"");
+        let mut pos = from;
+        let mut seen = 0;
+        while let Some(i) = self.text.get(pos..)?.find(&needle) {
+            let abs = pos + i;
+            let after = self.text[abs + needle.len()..].trim_start();
+            if !as_key || after.starts_with(':') {
+                if seen == nth {
+                    return Some(abs);
+                }
+                seen += 1;
+            }
+            pos = abs + needle.len();
+        }
+        None
+    }
+
+    fn node(&self, id: &str, nth: usize) -> Option<usize> {
+        let nodes = self.text.find("nodes").unwrap_or(0);
+        self.find_quoted(id, nodes, nth, true)
+    }
+
+    fn param(&self, id: &str, param: &str) -> Option<usize> {
+        let n = self.node(id, 0)?;
+        self.find_quoted(param, n, 0, true)
+    }
+
+    fn edge(&self, endpoint: &str) -> Option<usize> {
+        let edges = self.text.find("edges").unwrap_or(0);
+        self.find_quoted(endpoint, edges, 0, false)
+    }
+
+    fn key(&self, target: &str) -> Option<usize> {
+        let keys = self.text.find("keys").unwrap_or(0);
+        self.find_quoted(target, keys, 0, true)
+    }
+
+    fn version(&self) -> Option<usize> {
+        self.text.find("version")
+    }
+}
+
+fn value_to_param(v: &Value) -> Result<ParamValue, String> {
+    match v {
+        Value::Number(n) => match n {
+            Number::F32(_) | Number::F64(_) => Ok(ParamValue::Float(n.into_f64())),
+            _ => Ok(ParamValue::Int(n.into_f64() as i64)),
+        },
+        Value::Bool(b) => Ok(ParamValue::Bool(*b)),
+        Value::String(s) => Ok(ParamValue::Text(s.clone())),
+        Value::Seq(items) if items.len() == 3 || items.len() == 4 => {
+            let mut c = [1.0f64; 4];
+            for (i, it) in items.iter().enumerate() {
+                match it {
+                    Value::Number(n) => c[i] = n.into_f64(),
+                    _ => return Err("a list of numbers".into()),
+                }
+            }
+            Ok(ParamValue::Colour(c))
+        }
+        Value::Seq(_) => Err("a list (colours have 3 or 4 numbers)".into()),
+        Value::Map(_) => Err("a map or struct".into()),
+        Value::Unit => Err("()".into()),
+        Value::Option(_) => Err("an option".into()),
+        Value::Char(c) => Err(format!("the character '{c}'")),
+        Value::Bytes(_) => Err("bytes".into()),
+    }
+}
+
+fn param_to_value(p: &ParamValue) -> Value {
+    match p {
+        ParamValue::Float(v) => Value::Number(Number::F64((*v).into())),
+        ParamValue::Int(v) => Value::Number(Number::I64(*v)),
+        ParamValue::Bool(b) => Value::Bool(*b),
+        ParamValue::Enum(s) | ParamValue::Text(s) => Value::String(s.clone()),
+        ParamValue::Colour(c) => Value::Seq(c.iter().map(|x| Value::Number(Number::F64((*x).into()))).collect()),
+    }
+}
+
+fn syntax_location(e: &ron::error::SpannedError) -> Location {
+    Location { line: e.span.start.line, col: e.span.start.col }
+}
+
+/// Parse a graph from text. `file` is used in error messages only.
+pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, LoadError> {
+    let loc = Locator { text };
+    let err = |location: Option<Location>, error: GraphError| LoadError {
+        file: file.to_path_buf(),
+        location,
+        error,
+    };
+    let raw: Value = ron_options().from_str(text).map_err(|e| {
+        err(Some(syntax_location(&e)), GraphError::Syntax { message: e.code.to_string() })
+    })?;
+    let version = match &raw {
+        Value::Map(m) => match m.get(&Value::String("version".into())) {
+            Some(Value::Number(n)) => n.into_f64(),
+            Some(_) => {
+                return Err(err(
+                    loc.version().map(|b| loc.at(b)),
+                    GraphError::Syntax { message: "`version` must be a whole number".into() },
+                ))
+            }
+            None => {
+                return Err(err(
+                    Some(Location { line: 1, col: 1 }),
+                    GraphError::Syntax { message: "expected a graph struct with a `version` field".into() },
+                ))
+            }
+        },
+        _ => {
+            return Err(err(
+                Some(Location { line: 1, col: 1 }),
+                GraphError::Syntax { message: "expected a graph struct `(version: .., nodes: {..}, ..)`".into() },
+            ))
+        }
+    };
+    if !(version >= 1.0 && version.fract() == 0.0 && version <= u32::MAX as f64) {
+        return Err(err(
+            loc.version().map(|b| loc.at(b)),
+            GraphError::Syntax { message: format!("`version` must be a whole number ≥ 1, found {version}") },
+        ));
+    }
+    let version = version as u32;
+    if version > FORMAT_VERSION {
+        return Err(err(
+            loc.version().map(|b| loc.at(b)),
+            GraphError::VersionTooNew { found: version, supported: FORMAT_VERSION },
+        ));
+    }
+    let parsed: FileGraph = if version < FORMAT_VERSION {
+        let mut v = raw;
+        for from in version..FORMAT_VERSION {
+            let step = MIGRATIONS[(from - 1) as usize];
+            v = step(v).map_err(|reason| err(None, GraphError::Migration { from, reason }))?;
+        }
+        let migrated = ron::to_string(&v)
+            .map_err(|e| err(None, GraphError::Migration { from: version, reason: e.to_string() }))?;
+        ron_options().from_str(&migrated).map_err(|e| {
+            err(None, GraphError::Syntax { message: format!("after migration from version {version}: {}", e.code) })
+        })?
+    } else {
+        ron_options().from_str(text).map_err(|e| {
+            err(Some(syntax_location(&e)), GraphError::Syntax { message: e.code.to_string() })
+        })?
+    };
+    build(parsed, &loc, catalog).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
+}
+
+fn build(f: FileGraph, loc: &Locator, catalog: &Catalog) -> Result<Graph, (Option<usize>, GraphError)> {
+    let mut g = Graph::new();
+    let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut key_tracks: BTreeMap<String, BTreeMap<String, Vec<Key>>> = BTreeMap::new();
+    for (target, keys) in &f.keys {
+        let (node, param) = split_endpoint(target).map_err(|e| (loc.key(target), e))?;
+        let keys = keys.iter().map(|(t, v, interp)| Key { t: *t, v: *v, interp: *interp }).collect();
+        key_tracks.entry(node.to_string()).or_default().insert(param.to_string(), keys);
+    }
+    for (id, fnode) in &f.nodes {
+        let count = seen.entry(id.as_str()).or_insert(0);
+        if *count > 0 {
+            return Err((loc.node(id, *count), GraphError::DuplicateNode { node: id.clone() }));
+        }
+        *count += 1;
+        let mut params = BTreeMap::new();
+        for (name, v) in &fnode.params {
+            let pv = value_to_param(v).map_err(|found| {
+                let expected = catalog
+                    .get(&fnode.kind)
+                    .and_then(|s| s.param(name))
+                    .map(|p| p.expected())
+                    .unwrap_or_else(|| "a parameter value".into());
+                (
+                    loc.param(id, name),
+                    GraphError::WrongParamType { node: id.clone(), param: name.clone(), expected, found },
+                )
+            })?;
+            params.insert(name.clone(), pv);
+        }
+        let node = Node {
+            id: id.clone(),
+            kind: fnode.kind.clone(),
+            params,
+            keys: key_tracks.remove(id).unwrap_or_default(),
+            pos: fnode.pos.map(|(x, y)| [x, y]),
+            data: fnode.data.clone(),
+        };
+        g.insert_node(catalog, node).map_err(|e| {
+            let at = match &e {
+                GraphError::UnknownParam { param, .. }
+                | GraphError::WrongParamType { param, .. }
+                | GraphError::OutOfRange { param, .. } => {
+                    loc.param(id, param).or_else(|| loc.key(&format!("{id}.{param}")))
+                }
+                GraphError::BadKeys { target, .. } => loc.key(target),
+                _ => loc.node(id, 0),
+            };
+            (at, e)
+        })?;
+    }
+    if let Some((node, tracks)) = key_tracks.into_iter().next() {
+        let target = format!("{node}.{}", tracks.keys().next().map(String::as_str).unwrap_or(""));
+        return Err((loc.key(&target), GraphError::BadKeys { reason: format!("no node '{node}'"), target }));
+    }
+    for (from, to) in &f.edges {
+        g.connect(catalog, from, to).map_err(|e| {
+            let at = match &e {
+                GraphError::EdgeMissingNode { node, .. } | GraphError::EdgeMissingPort { node, .. }
+                    if to.starts_with(&format!("{node}.")) =>
+                {
+                    loc.edge(to)
+                }
+                _ => loc.edge(from),
+            };
+            (at, e)
+        })?;
+    }
+    Ok(g)
+}
+
+/// Serialise a graph deterministically (ids, parameters and edges ordered).
+pub fn save_string(g: &Graph) -> String {
+    let mut keys = Vec::new();
+    let nodes = g
+        .nodes()
+        .map(|n| {
+            for (param, track) in &n.keys {
+                keys.push((
+                    format!("{}.{param}", n.id),
+                    track.iter().map(|k| (k.t, k.v, k.interp)).collect::<Vec<_>>(),
+                ));
+            }
+            (
+                n.id.clone(),
+                FileNode {
+                    kind: n.kind.clone(),
+                    params: n.params.iter().map(|(k, v)| (k.clone(), param_to_value(v))).collect(),
+                    pos: n.pos.map(|[x, y]| (x, y)),
+                    data: n.data.clone(),
+                },
+            )
+        })
+        .collect();
+    let file = FileGraph {
+        version: FORMAT_VERSION,
+        nodes,
+        edges: g
+            .edges()
+            .into_iter()
+            .map(|e| (format!("{}.{}", e.from_node, e.from_port), format!("{}.{}", e.to_node, e.to_port)))
+            .collect(),
+        keys,
+    };
+    let cfg = ron::ser::PrettyConfig::new()
+        .depth_limit(2)
+        .indentor("    ")
+        .new_line("\n")
+        .struct_names(false)
+        .separate_tuple_members(false);
+    let mut s = ron::ser::to_string_pretty(&file, cfg).unwrap_or_else(|e| format!("// {e}"));
+    s.push('\n');
+    s
+}
+
+/// Read and parse a graph file.
+pub fn load_file(path: &Path, catalog: &Catalog) -> Result<Graph, LoadError> {
+    let text = std::fs::read_to_string(path).map_err(|e| LoadError {
+        file: path.to_path_buf(),
+        location: None,
+        error: GraphError::Io(format!("cannot read: {e}")),
+    })?;
+    load_str(&text, path, catalog)
+}
+
+/// Write a graph file atomically: the text goes to a temporary file beside the target, is
+/// flushed to disk, then renamed over the target, so a crash leaves the old or the new file,
+/// never a truncated one.
+pub fn save_file(path: &Path, g: &Graph) -> Result<(), GraphError> {
+    write_atomic(path, save_string(g).as_bytes())
+}
+
+/// Atomically replace `path` with `bytes` (temporary file in the same folder, fsync, rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GraphError> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    let io = |e: std::io::Error| GraphError::Io(format!("cannot write {}: {e}", path.display()));
+    let mut f = std::fs::File::create(&tmp).map_err(io)?;
+    f.write_all(bytes).map_err(io)?;
+    f.sync_all().map_err(io)?;
+    drop(f);
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io(e)
+    })
+}

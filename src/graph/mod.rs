@@ -1,0 +1,20 @@
+//! The document: nodes, typed ports, parameters, key-frames and edges (petgraph
+//! `StableDiGraph`), validation, and the RON file format with versions and migrations.
+//!
+//! This module knows no GPU and no individual node kind: kinds are described by
+//! [`NodeSchema`]s gathered in a [`Catalog`] that the node registry provides.
+
+mod document;
+mod error;
+mod format;
+mod schema;
+mod types;
+
+pub use document::{check_param_value, split_endpoint, EdgeRefs, Graph, Node, Wire};
+pub use error::{GraphError, LoadError, Location};
+pub use format::{load_file, load_str, save_file, save_string, write_atomic, Migration, FORMAT_VERSION, MIGRATIONS};
+pub use schema::{Catalog, NodeSchema};
+pub use types::{
+    sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec, ParamValue, PortSpec,
+    PortType,
+};

@@ -1,0 +1,396 @@
+//! Port and parameter types: the vocabulary node schemas are written in.
+
+use std::fmt;
+
+/// The type of data travelling along an edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum PortType {
+    /// Light-space depth (one channel, 0 at the light's near plane, 1 at the far plane) plus the
+    /// light's view/projection matrices.
+    ShadowMap,
+    /// Camera linear depth (one channel) plus the camera's matrices.
+    Depth,
+    /// A one-channel float image.
+    Scalar,
+    /// An RGBA float image.
+    Image,
+    /// A 3D float texture.
+    Volume,
+    /// A 2D transfer-function texture indexed by (V̄, depth).
+    Lut2D,
+    /// A light-space RGB texture multiplying the incoming light.
+    LightMap,
+    /// A 3D scene (meshes, camera, light).
+    Scene,
+    /// A tabulated phase function.
+    Phase,
+}
+
+impl PortType {
+    /// Every port type, in declaration order.
+    pub const ALL: [PortType; 9] = [
+        PortType::ShadowMap,
+        PortType::Depth,
+        PortType::Scalar,
+        PortType::Image,
+        PortType::Volume,
+        PortType::Lut2D,
+        PortType::LightMap,
+        PortType::Scene,
+        PortType::Phase,
+    ];
+
+    /// Stable name used in files, the catalog and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            PortType::ShadowMap => "ShadowMap",
+            PortType::Depth => "Depth",
+            PortType::Scalar => "Scalar",
+            PortType::Image => "Image",
+            PortType::Volume => "Volume",
+            PortType::Lut2D => "Lut2D",
+            PortType::LightMap => "LightMap",
+            PortType::Scene => "Scene",
+            PortType::Phase => "Phase",
+        }
+    }
+
+    /// Whether a value of type `self` may flow into a port of type `to`.
+    ///
+    /// Identical types always may; a `ShadowMap` or `Depth` may also feed a `Scalar` port (its
+    /// matrices are dropped, the one-channel image is kept).
+    pub fn can_feed(self, to: PortType) -> bool {
+        self == to
+            || (to == PortType::Scalar && matches!(self, PortType::ShadowMap | PortType::Depth))
+    }
+
+    /// Whether values of this type are one-channel 2D images on the GPU.
+    pub fn is_single_channel(self) -> bool {
+        matches!(
+            self,
+            PortType::ShadowMap | PortType::Depth | PortType::Scalar
+        )
+    }
+}
+
+impl fmt::Display for PortType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Direction of a port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Data flows into the node.
+    Input,
+    /// Data flows out of the node.
+    Output,
+}
+
+/// A port declared by a node kind.
+#[derive(Clone, Copy, Debug)]
+pub struct PortSpec {
+    /// Stable port name (`node.port` in files).
+    pub name: &'static str,
+    /// Types this port accepts (inputs) or may produce (outputs). A polymorphic output (more than
+    /// one entry) produces the highest-ranked entry that any connected input carries, else the
+    /// first entry; see [`crate::graph::Graph::output_type`].
+    pub types: &'static [PortType],
+    /// Whether an input must be connected for the node to evaluate.
+    pub required: bool,
+    /// One-line description.
+    pub doc: &'static str,
+}
+
+/// The kind of a parameter's value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A 64-bit float, key-frameable.
+    Float,
+    /// An integer, key-frameable (interpolated values are rounded to nearest).
+    Int,
+    /// A boolean.
+    Bool,
+    /// One of a fixed set of names.
+    Enum(&'static [&'static str]),
+    /// Free text (paths, names).
+    Text,
+    /// An RGBA colour, each channel within the parameter's range.
+    Colour,
+}
+
+impl ParamKind {
+    /// Name used in messages and the catalog.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ParamKind::Float => "Float",
+            ParamKind::Int => "Int",
+            ParamKind::Bool => "Bool",
+            ParamKind::Enum(_) => "Enum",
+            ParamKind::Text => "Text",
+            ParamKind::Colour => "Colour",
+        }
+    }
+
+    /// Whether the parameter can carry key-frames.
+    pub fn is_numeric(&self) -> bool {
+        matches!(self, ParamKind::Float | ParamKind::Int)
+    }
+}
+
+/// A parameter's default, written in static node tables.
+#[derive(Clone, Copy, Debug)]
+pub enum DefaultValue {
+    /// Default of a `Float` parameter.
+    Float(f64),
+    /// Default of an `Int` parameter.
+    Int(i64),
+    /// Default of a `Bool` parameter.
+    Bool(bool),
+    /// Default of an `Enum` parameter.
+    Enum(&'static str),
+    /// Default of a `Text` parameter.
+    Text(&'static str),
+    /// Default of a `Colour` parameter.
+    Colour([f64; 4]),
+}
+
+impl DefaultValue {
+    /// The owned runtime value.
+    pub fn value(&self) -> ParamValue {
+        match *self {
+            DefaultValue::Float(v) => ParamValue::Float(v),
+            DefaultValue::Int(v) => ParamValue::Int(v),
+            DefaultValue::Bool(v) => ParamValue::Bool(v),
+            DefaultValue::Enum(v) => ParamValue::Enum(v.to_string()),
+            DefaultValue::Text(v) => ParamValue::Text(v.to_string()),
+            DefaultValue::Colour(v) => ParamValue::Colour(v),
+        }
+    }
+}
+
+/// A parameter declared by a node kind.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    /// Stable parameter name.
+    pub name: &'static str,
+    /// Value kind.
+    pub kind: ParamKind,
+    /// Default value.
+    pub default: DefaultValue,
+    /// Hard minimum (numeric kinds and each colour channel); values below are refused.
+    pub min: f64,
+    /// Hard maximum (numeric kinds and each colour channel); values above are refused.
+    pub max: f64,
+    /// Unit shown beside the value ("texels", "1/m", "" for none).
+    pub unit: &'static str,
+    /// One-line description.
+    pub doc: &'static str,
+}
+
+/// A parameter value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamValue {
+    /// Float value.
+    Float(f64),
+    /// Integer value.
+    Int(i64),
+    /// Boolean value.
+    Bool(bool),
+    /// Enum member name.
+    Enum(String),
+    /// Text value.
+    Text(String),
+    /// RGBA colour.
+    Colour([f64; 4]),
+}
+
+impl ParamValue {
+    /// The numeric value of a `Float` or `Int`.
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            ParamValue::Float(v) => Some(*v),
+            ParamValue::Int(v) => Some(*v as f64),
+            _ => None,
+        }
+    }
+
+    /// Kind name of this value, for messages.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            ParamValue::Float(_) => "Float",
+            ParamValue::Int(_) => "Int",
+            ParamValue::Bool(_) => "Bool",
+            ParamValue::Enum(_) => "Enum",
+            ParamValue::Text(_) => "Text",
+            ParamValue::Colour(_) => "Colour",
+        }
+    }
+
+    /// Feed this value into a hasher (floats by bit pattern).
+    pub fn hash_into(&self, h: &mut impl std::hash::Hasher) {
+        use std::hash::Hash;
+        match self {
+            ParamValue::Float(v) => (0u8, v.to_bits()).hash(h),
+            ParamValue::Int(v) => (1u8, v).hash(h),
+            ParamValue::Bool(v) => (2u8, v).hash(h),
+            ParamValue::Enum(v) => (3u8, v).hash(h),
+            ParamValue::Text(v) => (4u8, v).hash(h),
+            ParamValue::Colour(c) => (5u8, c.map(f64::to_bits)).hash(h),
+        }
+    }
+}
+
+impl fmt::Display for ParamValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ParamValue::Float(v) => write!(f, "{v}"),
+            ParamValue::Int(v) => write!(f, "{v}"),
+            ParamValue::Bool(v) => write!(f, "{v}"),
+            ParamValue::Enum(v) | ParamValue::Text(v) => f.write_str(v),
+            ParamValue::Colour(c) => write!(f, "{},{},{},{}", c[0], c[1], c[2], c[3]),
+        }
+    }
+}
+
+impl ParamSpec {
+    /// Check a value against this spec: its kind, enum membership and the hard range.
+    pub fn check(&self, value: &ParamValue) -> Result<(), ParamProblem> {
+        let in_range = |v: f64| v.is_finite() && v >= self.min && v <= self.max;
+        match (&self.kind, value) {
+            (ParamKind::Float, ParamValue::Float(_)) | (ParamKind::Int, ParamValue::Int(_)) => {
+                let v = value.as_f64().unwrap_or(f64::NAN);
+                if in_range(v) {
+                    Ok(())
+                } else {
+                    Err(ParamProblem::OutOfRange(v))
+                }
+            }
+            (ParamKind::Bool, ParamValue::Bool(_)) | (ParamKind::Text, ParamValue::Text(_)) => {
+                Ok(())
+            }
+            (ParamKind::Enum(names), ParamValue::Enum(v)) => {
+                if names.contains(&v.as_str()) {
+                    Ok(())
+                } else {
+                    Err(ParamProblem::UnknownEnum(v.clone()))
+                }
+            }
+            (ParamKind::Colour, ParamValue::Colour(c)) => match c.iter().find(|v| !in_range(**v)) {
+                None => Ok(()),
+                Some(v) => Err(ParamProblem::OutOfRange(*v)),
+            },
+            _ => Err(ParamProblem::WrongType),
+        }
+    }
+
+    /// Convert a loosely typed value (from RON or the command line) into this parameter's kind:
+    /// an integer literal is accepted for a `Float`, a string for an `Enum`.
+    pub fn coerce(&self, value: ParamValue) -> Result<ParamValue, ParamProblem> {
+        let v = match (&self.kind, value) {
+            (ParamKind::Float, ParamValue::Int(i)) => ParamValue::Float(i as f64),
+            (ParamKind::Enum(_), ParamValue::Text(s)) => ParamValue::Enum(s),
+            (ParamKind::Text, ParamValue::Enum(s)) => ParamValue::Text(s),
+            (_, v) => v,
+        };
+        self.check(&v)?;
+        Ok(v)
+    }
+
+    /// Parse a command-line string (`3`, `0.5`, `true`, `Circle`, `1,0.5,0,1`) into this kind.
+    pub fn parse_str(&self, s: &str) -> Result<ParamValue, ParamProblem> {
+        let v = match self.kind {
+            ParamKind::Float => ParamValue::Float(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
+            ParamKind::Int => ParamValue::Int(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
+            ParamKind::Bool => ParamValue::Bool(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
+            ParamKind::Enum(_) => ParamValue::Enum(s.trim().to_string()),
+            ParamKind::Text => ParamValue::Text(s.to_string()),
+            ParamKind::Colour => {
+                let parts: Result<Vec<f64>, _> = s.split(',').map(|p| p.trim().parse::<f64>()).collect();
+                let parts = parts.map_err(|_| ParamProblem::WrongType)?;
+                match parts.as_slice() {
+                    [g] => ParamValue::Colour([*g, *g, *g, 1.0]),
+                    [r, g, b] => ParamValue::Colour([*r, *g, *b, 1.0]),
+                    [r, g, b, a] => ParamValue::Colour([*r, *g, *b, *a]),
+                    _ => return Err(ParamProblem::WrongType),
+                }
+            }
+        };
+        self.check(&v)?;
+        Ok(v)
+    }
+
+    /// Human description of the accepted values, for messages.
+    pub fn expected(&self) -> String {
+        match self.kind {
+            ParamKind::Float | ParamKind::Int => {
+                format!("{} in [{}, {}]", self.kind.name(), self.min, self.max)
+            }
+            ParamKind::Colour => format!("Colour [r, g, b, a] with channels in [{}, {}]", self.min, self.max),
+            ParamKind::Enum(names) => format!("one of {}", names.join(", ")),
+            ParamKind::Bool => "true or false".into(),
+            ParamKind::Text => "a string".into(),
+        }
+    }
+}
+
+/// Why a parameter value was refused.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamProblem {
+    /// The value's kind does not match the parameter's.
+    WrongType,
+    /// A numeric value (or colour channel) outside the hard range, or not finite.
+    OutOfRange(f64),
+    /// An enum value not among the allowed names.
+    UnknownEnum(String),
+}
+
+/// Interpolation from one key-frame to the next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum Interp {
+    /// Straight line to the next key.
+    Linear,
+    /// Keep this key's value until the next key.
+    Hold,
+}
+
+/// One key-frame of a numeric parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Key {
+    /// Time (frames or seconds, as the graph's user chooses).
+    pub t: f64,
+    /// Value at `t`.
+    pub v: f64,
+    /// Interpolation towards the next key.
+    pub interp: Interp,
+}
+
+/// Evaluate a key-frame track (sorted by time, non-empty) at time `t`.
+///
+/// Before the first key the first value holds, after the last key the last value holds; between
+/// two keys the left key's interpolation decides. Returns `None` for an empty track.
+pub fn sample_keys(keys: &[Key], t: f64) -> Option<f64> {
+    let first = keys.first()?;
+    if t <= first.t {
+        return Some(first.v);
+    }
+    for w in keys.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if t < b.t {
+            return Some(match a.interp {
+                Interp::Hold => a.v,
+                Interp::Linear => {
+                    let span = b.t - a.t;
+                    if span <= 0.0 {
+                        b.v
+                    } else {
+                        let u = (t - a.t) / span;
+                        a.v + (b.v - a.v) * u
+                    }
+                }
+            });
+        }
+    }
+    keys.last().map(|k| k.v)
+}

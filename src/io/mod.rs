@@ -1,0 +1,296 @@
+//! Image files: OpenEXR (f32 and f16; one channel `Y`/`R`, or RGB(A)) and PNG (8/16-bit,
+//! grey or RGBA) read and write, through the `exr` and `image` crates.
+
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
+use thiserror::Error;
+
+/// A CPU-side float image: row-major, `channels` interleaved floats per pixel (1 or 4).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Raster {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Channels per pixel: 1 (grey/scalar) or 4 (RGBA).
+    pub channels: u32,
+    /// `width * height * channels` samples, rows top to bottom.
+    pub data: Vec<f32>,
+}
+
+impl Raster {
+    /// A raster filled with `fill`.
+    pub fn new(width: u32, height: u32, channels: u32, fill: f32) -> Self {
+        Self { width, height, channels, data: vec![fill; (width * height * channels) as usize] }
+    }
+
+    /// The samples of pixel (x, y).
+    pub fn pixel(&self, x: u32, y: u32) -> &[f32] {
+        let c = self.channels as usize;
+        let i = (y as usize * self.width as usize + x as usize) * c;
+        &self.data[i..i + c]
+    }
+
+    /// The pixel (x, y) as RGBA: one-channel rasters broadcast their value to all four channels.
+    pub fn rgba(&self, x: u32, y: u32) -> [f32; 4] {
+        let p = self.pixel(x, y);
+        if self.channels == 1 {
+            [p[0]; 4]
+        } else {
+            [p[0], p[1], p[2], p[3]]
+        }
+    }
+}
+
+/// How samples are stored in a written file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    /// 32-bit float (EXR).
+    F32,
+    /// 16-bit float (EXR).
+    F16,
+    /// 8-bit integer (PNG).
+    U8,
+    /// 16-bit integer (PNG).
+    U16,
+}
+
+/// Errors reading or writing image files; each names the file.
+#[derive(Debug, Error)]
+pub enum IoError {
+    /// The file could not be read or decoded.
+    #[error("cannot read image {path}: {reason}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The file could not be encoded or written.
+    #[error("cannot write image {path}: {reason}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The extension is neither `.exr` nor `.png`, or the precision does not fit the format.
+    #[error("{path}: {reason}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Which file format a path's extension asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FileKind {
+    /// OpenEXR.
+    Exr,
+    /// PNG.
+    Png,
+}
+
+/// The file format for `path`, from its extension (case-insensitive).
+pub fn file_kind(path: &Path) -> Result<FileKind, IoError> {
+    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+        Some("exr") => Ok(FileKind::Exr),
+        Some("png") => Ok(FileKind::Png),
+        _ => Err(IoError::Format {
+            path: path.to_path_buf(),
+            reason: "unsupported image extension (use .exr or .png)".into(),
+        }),
+    }
+}
+
+/// sRGB transfer: encoded [0,1] → linear.
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer: linear → encoded, for values clamped to [0,1].
+pub fn linear_to_srgb(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Read an EXR or PNG file. EXR: a single channel (any name, `Y` or `R` preferred) gives a
+/// one-channel raster, `R`,`G`,`B`(,`A`) give RGBA (alpha 1 when absent). PNG: grey gives one
+/// channel, anything else RGBA; with `srgb` the colour channels are decoded to linear.
+pub fn read_image(path: &Path, srgb: bool) -> Result<Raster, IoError> {
+    match file_kind(path)? {
+        FileKind::Exr => read_exr(path),
+        FileKind::Png => read_png(path, srgb),
+    }
+}
+
+fn read_exr(path: &Path) -> Result<Raster, IoError> {
+    let err = |reason: String| IoError::Read { path: path.to_path_buf(), reason };
+    let img = exrp::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| err(e.to_string()))?;
+    let layer = img.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    let chans = &layer.channel_data.list;
+    let samples = |c: &exrp::AnyChannel<exrp::FlatSamples>| -> Vec<f32> {
+        match &c.sample_data {
+            exrp::FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+            exrp::FlatSamples::F32(v) => v.clone(),
+            exrp::FlatSamples::U32(v) => v.iter().map(|x| *x as f32).collect(),
+        }
+    };
+    let find = |name: &str| chans.iter().find(|c| c.name.to_string().eq_ignore_ascii_case(name));
+    let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
+    let (width, height) = (w as u32, h as u32);
+    if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+        let (r, g, b) = (samples(r), samples(g), samples(b));
+        let a = find("A").map(samples);
+        let mut data = Vec::with_capacity(w * h * 4);
+        for i in 0..w * h {
+            data.extend_from_slice(&[r[i], g[i], b[i], a.as_ref().map_or(1.0, |a| a[i])]);
+        }
+        return Ok(Raster { width, height, channels: 4, data });
+    }
+    let one = find("Y").or_else(|| find("R")).or_else(|| if chans.len() == 1 { chans.first() } else { None });
+    match one {
+        Some(c) => Ok(Raster { width, height, channels: 1, data: samples(c) }),
+        None => Err(err(format!(
+            "expected one channel (Y or R) or R,G,B(,A); found channels {}",
+            names.join(", ")
+        ))),
+    }
+}
+
+fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
+    let err = |reason: String| IoError::Read { path: path.to_path_buf(), reason };
+    let img = image::open(path).map_err(|e| err(e.to_string()))?;
+    let (width, height) = (img.width(), img.height());
+    let decode = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+    let grey = matches!(
+        img.color(),
+        image::ColorType::L8 | image::ColorType::L16
+    );
+    if grey {
+        let l = img.to_luma32f();
+        Ok(Raster { width, height, channels: 1, data: l.into_raw().into_iter().map(decode).collect() })
+    } else {
+        let rgba = img.to_rgba32f();
+        let mut data = rgba.into_raw();
+        for px in data.chunks_mut(4) {
+            for c in &mut px[..3] {
+                *c = decode(*c);
+            }
+        }
+        Ok(Raster { width, height, channels: 4, data })
+    }
+}
+
+/// Write a raster as EXR (`F32`/`F16`; one channel is written as `Y`, four as `R`,`G`,`B`,`A`) or
+/// PNG (`U8`/`U16`; one channel as grey, four as RGBA, colour channels sRGB-encoded when
+/// `srgb`). Non-finite samples must have been removed by the caller. The write is atomic
+/// (temporary file, then rename).
+pub fn write_image(path: &Path, r: &Raster, precision: Precision, srgb: bool) -> Result<(), IoError> {
+    let err = |reason: String| IoError::Write { path: path.to_path_buf(), reason };
+    let kind = file_kind(path)?;
+    let fits = matches!(
+        (kind, precision),
+        (FileKind::Exr, Precision::F32 | Precision::F16) | (FileKind::Png, Precision::U8 | Precision::U16)
+    );
+    if !fits {
+        return Err(IoError::Format {
+            path: path.to_path_buf(),
+            reason: format!("precision {precision:?} cannot be written to this format (EXR: F32/F16, PNG: U8/U16)"),
+        });
+    }
+    if r.channels != 1 && r.channels != 4 {
+        return Err(err(format!("{} channels (expected 1 or 4)", r.channels)));
+    }
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
+    let tmp = dir.join(format!(".{name}.tmp{}.{ext}", std::process::id()));
+    let res = match kind {
+        FileKind::Exr => write_exr(&tmp, r, precision == Precision::F16),
+        FileKind::Png => write_png(&tmp, r, precision == Precision::U16, srgb),
+    };
+    match res.and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string())) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(err(e))
+        }
+    }
+}
+
+fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
+    let (w, h) = (r.width as usize, r.height as usize);
+    let samples = |c: usize| -> exrp::FlatSamples {
+        let ch = r.channels as usize;
+        let v: Vec<f32> = (0..w * h).map(|i| r.data[i * ch + c]).collect();
+        if half {
+            exrp::FlatSamples::F16(v.into_iter().map(exrp::f16::from_f32).collect())
+        } else {
+            exrp::FlatSamples::F32(v)
+        }
+    };
+    let list: exrp::SmallVec<[exrp::AnyChannel<exrp::FlatSamples>; 4]> = if r.channels == 1 {
+        exrp::SmallVec::from_vec(vec![exrp::AnyChannel::new("Y", samples(0))])
+    } else {
+        ["R", "G", "B", "A"]
+            .iter()
+            .enumerate()
+            .map(|(i, n)| exrp::AnyChannel::new(*n, samples(i)))
+            .collect()
+    };
+    let img = exrp::Image::from_channels((w, h), exrp::AnyChannels::sort(list));
+    img.write().to_file(path).map_err(|e| e.to_string())
+}
+
+fn write_png(path: &Path, r: &Raster, sixteen: bool, srgb: bool) -> Result<(), String> {
+    let (w, h) = (r.width, r.height);
+    let enc = |v: f32, colour: bool| -> f32 {
+        let v = if v.is_finite() { v } else { 0.0 };
+        if srgb && colour {
+            linear_to_srgb(v)
+        } else {
+            v.clamp(0.0, 1.0)
+        }
+    };
+    let q8 = |v: f32| (v * 255.0).round() as u8;
+    let q16 = |v: f32| (v * 65535.0).round() as u16;
+    let samples: Vec<f32> = r
+        .data
+        .iter()
+        .enumerate()
+        .map(|(i, v)| enc(*v, r.channels == 1 || i % 4 != 3))
+        .collect();
+    let res = match (r.channels, sixteen) {
+        (1, false) => image::GrayImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>()).map(|i| i.save(path)),
+        (1, true) => image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>())
+            .map(|i| i.save(path)),
+        (_, false) => image::RgbaImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>()).map(|i| i.save(path)),
+        (_, true) => image::ImageBuffer::<image::Rgba<u16>, _>::from_raw(w, h, samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>())
+            .map(|i| i.save_with_format(path, image::ImageFormat::Png)),
+    };
+    match res {
+        Some(Ok(())) => Ok(()),
+        Some(Err(e)) => Err(e.to_string()),
+        None => Err("raster size does not match its data".into()),
+    }
+}

@@ -1,0 +1,9 @@
+//! Tyndall: a GPU node-graph compositor for stylizing volumetric light shafts.
+//!
+//! Layout (see DESIGN.md): [`graph`] is the document, [`eval`] the evaluator, [`gpu`] the wgpu
+//! context, [`io`] image files, [`nodes`] the node kinds and their registry, [`cli`] the command
+//! line.
+#![deny(missing_docs)]
+
+pub mod graph;
+pub mod io;
