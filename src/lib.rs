@@ -7,3 +7,5 @@
 
 pub mod graph;
 pub mod io;
+pub mod gpu;
+pub mod eval;

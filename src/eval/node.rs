@@ -1,0 +1,241 @@
+//! What a node kind implements, and the context it runs in.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use thiserror::Error;
+
+use super::value::PortValue;
+use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
+use crate::graph::{NodeSchema, ParamValue};
+
+/// A failure inside a node, before the evaluator adds the node's id and kind.
+#[derive(Debug, Error, Clone)]
+pub enum NodeError {
+    /// A problem with one input port.
+    #[error("input '{port}': {message}")]
+    Input {
+        /// Port name.
+        port: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A problem with one parameter.
+    #[error("parameter '{param}': {message}")]
+    Param {
+        /// Parameter name.
+        param: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Reading or writing a file.
+    #[error("{0}")]
+    Io(String),
+    /// The GPU reported an error.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// Anything else.
+    #[error("{0}")]
+    Other(String),
+}
+
+impl From<crate::io::IoError> for NodeError {
+    fn from(e: crate::io::IoError) -> Self {
+        NodeError::Io(e.to_string())
+    }
+}
+
+/// Everything a node sees while it runs.
+pub struct RunCtx<'a> {
+    /// The GPU context.
+    pub gpu: &'a Gpu,
+    /// The node's id (for messages).
+    pub id: &'a str,
+    /// Parameter values at the evaluation time (all declared parameters present).
+    pub params: &'a BTreeMap<String, ParamValue>,
+    /// Values on connected input ports.
+    pub inputs: &'a BTreeMap<String, PortValue>,
+    /// Output ports some consumer needs; a node may skip the others.
+    pub wanted: &'a BTreeSet<String>,
+    /// The evaluation's default image size (`--size`), for nodes that make images from nothing.
+    pub size: (u32, u32),
+    /// Suffix added to file names written by sinks (wedges), before the extension.
+    pub output_suffix: &'a str,
+    /// Outputs produced so far.
+    pub outputs: BTreeMap<String, PortValue>,
+}
+
+impl RunCtx<'_> {
+    fn param(&self, name: &str) -> Result<&ParamValue, NodeError> {
+        self.params.get(name).ok_or_else(|| NodeError::Param {
+            param: name.to_string(),
+            message: "not declared by this node".into(),
+        })
+    }
+
+    /// A `Float` or `Int` parameter as f64.
+    pub fn f64(&self, name: &str) -> Result<f64, NodeError> {
+        self.param(name)?.as_f64().ok_or_else(|| NodeError::Param {
+            param: name.to_string(),
+            message: "is not numeric".into(),
+        })
+    }
+
+    /// A numeric parameter as f32.
+    pub fn f32(&self, name: &str) -> Result<f32, NodeError> {
+        Ok(self.f64(name)? as f32)
+    }
+
+    /// An `Int` parameter.
+    pub fn int(&self, name: &str) -> Result<i64, NodeError> {
+        match self.param(name)? {
+            ParamValue::Int(v) => Ok(*v),
+            ParamValue::Float(v) => Ok(v.round() as i64),
+            _ => Err(NodeError::Param { param: name.to_string(), message: "is not an integer".into() }),
+        }
+    }
+
+    /// A `Bool` parameter.
+    pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
+        match self.param(name)? {
+            ParamValue::Bool(v) => Ok(*v),
+            _ => Err(NodeError::Param { param: name.to_string(), message: "is not a boolean".into() }),
+        }
+    }
+
+    /// An `Enum` or `Text` parameter.
+    pub fn text(&self, name: &str) -> Result<&str, NodeError> {
+        match self.param(name)? {
+            ParamValue::Enum(v) | ParamValue::Text(v) => Ok(v),
+            _ => Err(NodeError::Param { param: name.to_string(), message: "is not text".into() }),
+        }
+    }
+
+    /// A `Colour` parameter.
+    pub fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
+        match self.param(name)? {
+            ParamValue::Colour(c) => Ok(c.map(|v| v as f32)),
+            _ => Err(NodeError::Param { param: name.to_string(), message: "is not a colour".into() }),
+        }
+    }
+
+    /// The value on input `port`, if connected.
+    pub fn input(&self, port: &str) -> Option<&PortValue> {
+        self.inputs.get(port)
+    }
+
+    /// The value on a required input `port`.
+    pub fn require(&self, port: &str) -> Result<&PortValue, NodeError> {
+        self.input(port)
+            .ok_or_else(|| NodeError::Input { port: port.to_string(), message: "must be connected".into() })
+    }
+
+    /// Whether output `port` is needed downstream.
+    pub fn wants(&self, port: &str) -> bool {
+        self.wanted.contains(port)
+    }
+
+    /// Set output `port`.
+    pub fn set(&mut self, port: &str, value: PortValue) {
+        self.outputs.insert(port.to_string(), value);
+    }
+
+    /// `path` with the evaluation's output suffix inserted before the extension.
+    pub fn suffixed(&self, path: &str) -> PathBuf {
+        with_suffix(path, self.output_suffix)
+    }
+}
+
+/// Insert `suffix` before a path's extension (`out.exr` + `_w1` → `out_w1.exr`).
+pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
+    let p = PathBuf::from(path);
+    if suffix.is_empty() {
+        return p;
+    }
+    let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = match p.extension() {
+        Some(ext) => format!("{stem}{suffix}.{}", ext.to_string_lossy()),
+        None => format!("{stem}{suffix}"),
+    };
+    p.with_file_name(name)
+}
+
+/// A node kind: its schema, its GPU implementation, and what the evaluator must know about it.
+///
+/// Each implementation also carries a plain-Rust CPU reference of its maths (a free function in
+/// its file), used by the tests as the oracle.
+pub trait NodeKind: Send + Sync {
+    /// Ports, parameters and docs.
+    fn schema(&self) -> &'static NodeSchema;
+
+    /// The node's shader (`shaders/<stem>.wgsl`, same stem as the node file).
+    fn shader(&self) -> Option<Shader>;
+
+    /// Uniform structs bound by the shader, for the layout test.
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        Vec::new()
+    }
+
+    /// Parameters that do not change the node's outputs (e.g. an output file path), left out of
+    /// the cache key.
+    fn key_exempt(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// Extra cache-key material the parameters do not capture (e.g. an input file's size and
+    /// modification time). Called every evaluation.
+    fn volatile_key(&self, _params: &BTreeMap<String, ParamValue>) -> u64 {
+        0
+    }
+
+    /// Whether the node is a sink: it writes something outside the graph and is evaluated when
+    /// the graph's outputs are requested.
+    fn is_sink(&self) -> bool {
+        false
+    }
+
+    /// Compute the wanted outputs (GPU work).
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError>;
+
+    /// For sinks: the side effect (write a file) from the node's (possibly cached) outputs.
+    /// Runs every evaluation in which the sink is requested.
+    fn commit(&self, _ctx: &RunCtx, _outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
+        Ok(())
+    }
+}
+
+/// The set of node kinds the evaluator can run, and the catalog the document checks against.
+#[derive(Default, Clone)]
+pub struct Registry {
+    kinds: BTreeMap<&'static str, Arc<dyn NodeKind>>,
+    catalog: crate::graph::Catalog,
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Add a node kind.
+    pub fn add(&mut self, kind: Arc<dyn NodeKind>) {
+        self.catalog.add(kind.schema());
+        self.kinds.insert(kind.schema().kind, kind);
+    }
+
+    /// The implementation of `kind`.
+    pub fn get(&self, kind: &str) -> Option<&Arc<dyn NodeKind>> {
+        self.kinds.get(kind)
+    }
+
+    /// All kinds, ordered by name.
+    pub fn iter(&self) -> impl Iterator<Item = &Arc<dyn NodeKind>> {
+        self.kinds.values()
+    }
+
+    /// The catalog of schemas.
+    pub fn catalog(&self) -> &crate::graph::Catalog {
+        &self.catalog
+    }
+}

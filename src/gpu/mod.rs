@@ -1,0 +1,376 @@
+//! The wgpu context: a headless device on any adapter (lavapipe included), a texture pool,
+//! a pipeline cache, one compute-dispatch helper and the one row-padded readback helper.
+
+mod layout;
+mod pool;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use thiserror::Error;
+
+pub use layout::{check_uniform_layout, UniformLayout};
+pub use pool::{GpuTexture, TexFormat, TexturePool};
+
+/// Errors from the GPU layer.
+#[derive(Debug, Error, Clone)]
+pub enum GpuError {
+    /// No adapter could be found (no driver, or none matching `WGPU_BACKEND`).
+    #[error("no GPU adapter found ({0}); install a Vulkan driver (e.g. Debian's mesa-vulkan-drivers for lavapipe)")]
+    NoAdapter(String),
+    /// The device could not be created.
+    #[error("cannot create a GPU device: {0}")]
+    Device(String),
+    /// wgpu reported a validation or out-of-memory error.
+    #[error("GPU error: {0}")]
+    Validation(String),
+    /// Reading a texture back failed.
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+    /// A requested texture is larger than the device allows.
+    #[error("texture {width}x{height} exceeds the device limit of {limit} texels per side")]
+    TooLarge {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// The device's `max_texture_dimension_2d`.
+        limit: u32,
+    },
+}
+
+/// One binding of a compute dispatch, in binding-number order (0, 1, 2, ...).
+pub enum Bind<'a> {
+    /// A uniform buffer with these bytes.
+    Uniform(&'a [u8]),
+    /// A texture read with `textureLoad` (`texture_2d<f32>`, unfilterable).
+    Texture(&'a GpuTexture),
+    /// A write-only storage texture (`texture_storage_2d<FORMAT, write>`).
+    Storage(&'a GpuTexture),
+}
+
+/// A WGSL source with the stem of its file in `shaders/`.
+#[derive(Clone, Copy, Debug)]
+pub struct Shader {
+    /// File stem (`math` for `shaders/math.wgsl`), also the node file's stem.
+    pub stem: &'static str,
+    /// WGSL source text.
+    pub source: &'static str,
+}
+
+/// The headless GPU context shared by all nodes.
+pub struct Gpu {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Adapter description (name, backend, device type).
+    pub info: wgpu::AdapterInfo,
+    /// Device limits (all the adapter offers).
+    pub limits: wgpu::Limits,
+    pool: Arc<TexturePool>,
+    pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl std::fmt::Debug for Gpu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Gpu({} on {:?})", self.info.name, self.info.backend)
+    }
+}
+
+impl Gpu {
+    /// Create a headless context on the best available adapter (any kind, software included).
+    /// `validation` turns on backend validation layers (`InstanceFlags::VALIDATION | DEBUG`);
+    /// `WGPU_BACKEND` and the other wgpu environment variables are honoured.
+    pub fn new(validation: bool) -> Result<Gpu, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        if validation {
+            desc.flags = wgpu::InstanceFlags::VALIDATION | wgpu::InstanceFlags::DEBUG;
+        }
+        let instance = wgpu::Instance::new(desc.with_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let wanted = wgpu::Features::FLOAT32_FILTERABLE | wgpu::Features::TIMESTAMP_QUERY;
+        let features = adapter.features() & wanted;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("tyndall"),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        Ok(Gpu {
+            pool: Arc::new(TexturePool::new(device.clone(), 64)),
+            device,
+            queue,
+            info: adapter.get_info(),
+            limits,
+            pipelines: Mutex::new(HashMap::new()),
+            errors,
+        })
+    }
+
+    /// The process-wide context (created on first use; validation on when
+    /// `TYNDALL_GPU_VALIDATION=1` or in debug builds).
+    pub fn shared() -> Result<Arc<Gpu>, GpuError> {
+        static CELL: OnceLock<Result<Arc<Gpu>, GpuError>> = OnceLock::new();
+        CELL.get_or_init(|| {
+            let validation = cfg!(debug_assertions)
+                || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1");
+            Gpu::new(validation).map(Arc::new)
+        })
+        .clone()
+    }
+
+    /// One line describing the adapter.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+    }
+
+    /// Errors wgpu reported since the last call (validation, out of memory), as an error.
+    pub fn take_errors(&self) -> Result<(), GpuError> {
+        let mut v = self.errors.lock().map_err(|e| GpuError::Validation(e.to_string()))?;
+        if v.is_empty() {
+            Ok(())
+        } else {
+            let msg = v.join("; ");
+            v.clear();
+            Err(GpuError::Validation(msg))
+        }
+    }
+
+    /// A texture from the pool (contents undefined), checked against the device's size limit.
+    pub fn texture(&self, width: u32, height: u32, format: TexFormat) -> Result<GpuTexture, GpuError> {
+        let limit = self.limits.max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > limit || height > limit {
+            return Err(GpuError::TooLarge { width, height, limit });
+        }
+        Ok(self.pool.acquire(width, height, format))
+    }
+
+    /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`) into a new texture.
+    pub fn upload(&self, width: u32, height: u32, channels: u32, data: &[f32]) -> Result<GpuTexture, GpuError> {
+        let format = if channels == 1 { TexFormat::R32F } else { TexFormat::Rgba32F };
+        let tex = self.texture(width, height, format)?;
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: tex.raw(),
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(data),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(width * format.bytes_per_texel()),
+                rows_per_image: Some(height),
+            },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        Ok(tex)
+    }
+
+    /// Read a texture back to the CPU: the one row-padded readback helper. Returns
+    /// `width * height * channels` interleaved floats, rows top to bottom, padding removed.
+    pub fn read_texture(&self, tex: &GpuTexture) -> Result<Vec<f32>, GpuError> {
+        let bpt = tex.format.bytes_per_texel();
+        let row = tex.width * bpt;
+        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: (padded * tex.height) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: tex.raw(),
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(tex.height),
+                },
+            },
+            wgpu::Extent3d { width: tex.width, height: tex.height, depth_or_array_layers: 1 },
+        );
+        self.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let view = buffer.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
+        let mut out = Vec::with_capacity((row / 4 * tex.height) as usize);
+        for y in 0..tex.height {
+            let start = (y * padded) as usize;
+            out.extend_from_slice(bytemuck::cast_slice(&view[start..start + row as usize]));
+        }
+        drop(view);
+        buffer.unmap();
+        self.take_errors()?;
+        Ok(out)
+    }
+
+    /// Block until all submitted work has finished.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::Validation(e.to_string()))
+    }
+
+    fn pipeline(&self, shader: Shader, entry: &str, binds: &[Bind]) -> Arc<wgpu::ComputePipeline> {
+        let mut key = format!("{}:{entry}", shader.stem);
+        for b in binds {
+            key.push_str(match b {
+                Bind::Uniform(_) => ":u",
+                Bind::Texture(_) => ":t",
+                Bind::Storage(t) => match t.format {
+                    TexFormat::R32F => ":s1",
+                    TexFormat::Rgba32F => ":s4",
+                },
+            });
+        }
+        let mut cache = match self.pipelines.lock() {
+            Ok(c) => c,
+            Err(p) => p.into_inner(),
+        };
+        if let Some(p) = cache.get(&key) {
+            return p.clone();
+        }
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                binding: i as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: match b {
+                    Bind::Uniform(_) => wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    Bind::Texture(_) => wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    Bind::Storage(t) => wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: t.format.wgpu(),
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
+                },
+                count: None,
+            })
+            .collect();
+        let bgl = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(&key),
+            entries: &entries,
+        });
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(&key),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(shader.stem),
+            source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+        });
+        let p = Arc::new(self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(&key),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        }));
+        cache.insert(key, p.clone());
+        p
+    }
+
+    /// Run one compute entry point over a `width × height` grid with 8×8 workgroups
+    /// (`@workgroup_size(8, 8)` in the shader). Bindings are numbered in the order given, all in
+    /// group 0. Pipelines are cached by (shader stem, entry point, binding signature).
+    pub fn dispatch(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[Bind],
+        width: u32,
+        height: u32,
+    ) -> Result<(), GpuError> {
+        let pipeline = self.pipeline(shader, entry, binds);
+        let buffers: Vec<Option<wgpu::Buffer>> = binds
+            .iter()
+            .map(|b| match b {
+                Bind::Uniform(bytes) => {
+                    let size = (bytes.len() as u64).div_ceil(16) * 16;
+                    let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("uniform"),
+                        size: size.max(16),
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    let mut padded = bytes.to_vec();
+                    padded.resize(size.max(16) as usize, 0);
+                    self.queue.write_buffer(&buf, 0, &padded);
+                    Some(buf)
+                }
+                _ => None,
+            })
+            .collect();
+        let mut entries = Vec::with_capacity(binds.len());
+        for (i, (b, buf)) in binds.iter().zip(&buffers).enumerate() {
+            let resource = match (b, buf) {
+                (Bind::Texture(t), _) | (Bind::Storage(t), _) => wgpu::BindingResource::TextureView(t.view()),
+                (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
+                (Bind::Uniform(_), None) => {
+                    return Err(GpuError::Validation(format!("{}: uniform {i} has no buffer", shader.stem)))
+                }
+            };
+            entries.push(wgpu::BindGroupEntry { binding: i as u32, resource });
+        }
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(shader.stem),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut enc = self.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(shader.stem),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        }
+        self.queue.submit([enc.finish()]);
+        self.take_errors()
+    }
+}

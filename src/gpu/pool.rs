@@ -1,0 +1,142 @@
+//! Texture pool: textures are recycled by (size, format) when the last handle drops.
+
+use std::sync::{Arc, Mutex, Weak};
+
+/// Texel formats used between nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TexFormat {
+    /// One float channel (`Scalar`, `Depth`, `ShadowMap`).
+    R32F,
+    /// Four float channels (`Image`).
+    Rgba32F,
+}
+
+impl TexFormat {
+    /// The wgpu format.
+    pub fn wgpu(self) -> wgpu::TextureFormat {
+        match self {
+            TexFormat::R32F => wgpu::TextureFormat::R32Float,
+            TexFormat::Rgba32F => wgpu::TextureFormat::Rgba32Float,
+        }
+    }
+
+    /// Bytes per texel.
+    pub fn bytes_per_texel(self) -> u32 {
+        match self {
+            TexFormat::R32F => 4,
+            TexFormat::Rgba32F => 16,
+        }
+    }
+
+    /// Channels per texel.
+    pub fn channels(self) -> u32 {
+        match self {
+            TexFormat::R32F => 1,
+            TexFormat::Rgba32F => 4,
+        }
+    }
+}
+
+type Free = Vec<(u32, u32, TexFormat, wgpu::Texture)>;
+
+/// Recycles textures; holds at most `capacity` idle textures.
+pub struct TexturePool {
+    device: wgpu::Device,
+    free: Arc<Mutex<Free>>,
+    capacity: usize,
+}
+
+/// A pooled 2D texture with its view; returns to the pool when dropped.
+pub struct GpuTexture {
+    tex: Option<wgpu::Texture>,
+    view: wgpu::TextureView,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Texel format.
+    pub format: TexFormat,
+    home: Weak<Mutex<Free>>,
+    capacity: usize,
+}
+
+impl std::fmt::Debug for GpuTexture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "GpuTexture({}x{} {:?})", self.width, self.height, self.format)
+    }
+}
+
+impl GpuTexture {
+    /// The wgpu texture.
+    pub fn raw(&self) -> &wgpu::Texture {
+        // `tex` is only taken in `drop`.
+        self.tex.as_ref().unwrap_or_else(|| unreachable!("texture used after drop"))
+    }
+
+    /// A view of the whole texture.
+    pub fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
+    /// Size in bytes.
+    pub fn bytes(&self) -> usize {
+        self.width as usize * self.height as usize * self.format.bytes_per_texel() as usize
+    }
+}
+
+impl Drop for GpuTexture {
+    fn drop(&mut self) {
+        if let (Some(tex), Some(home)) = (self.tex.take(), self.home.upgrade()) {
+            if let Ok(mut free) = home.lock() {
+                if free.len() < self.capacity {
+                    free.push((self.width, self.height, self.format, tex));
+                }
+            }
+        }
+    }
+}
+
+impl TexturePool {
+    /// A pool keeping at most `capacity` idle textures.
+    pub fn new(device: wgpu::Device, capacity: usize) -> Self {
+        Self { device, free: Arc::new(Mutex::new(Vec::new())), capacity }
+    }
+
+    /// A texture of this size and format, recycled when one is idle.
+    pub fn acquire(&self, width: u32, height: u32, format: TexFormat) -> GpuTexture {
+        let recycled = self.free.lock().ok().and_then(|mut free| {
+            let i = free.iter().position(|(w, h, f, _)| *w == width && *h == height && *f == format)?;
+            Some(free.swap_remove(i).3)
+        });
+        let tex = recycled.unwrap_or_else(|| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("tyndall"),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: format.wgpu(),
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        });
+        let view = tex.create_view(&Default::default());
+        GpuTexture {
+            tex: Some(tex),
+            view,
+            width,
+            height,
+            format,
+            home: Arc::downgrade(&self.free),
+            capacity: self.capacity,
+        }
+    }
+
+    /// Number of idle textures held.
+    pub fn idle(&self) -> usize {
+        self.free.lock().map(|f| f.len()).unwrap_or(0)
+    }
+}
