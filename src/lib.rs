@@ -5,7 +5,10 @@
 //! line.
 #![deny(missing_docs)]
 
+pub mod cli;
+pub mod eval;
+pub mod gpu;
 pub mod graph;
 pub mod io;
-pub mod gpu;
-pub mod eval;
+#[path = "../nodes/mod.rs"]
+pub mod nodes;

@@ -1,1 +1,5 @@
-fn main(){}
+//! The `tyndall` binary: see [`tyndall::cli`].
+
+fn main() {
+    std::process::exit(tyndall::cli::main());
+}

@@ -3,6 +3,7 @@
 //!
 //! The evaluator knows no node kind: a [`Registry`] of [`NodeKind`]s is handed to it.
 
+mod convert;
 mod node;
 mod value;
 
@@ -14,6 +15,7 @@ use std::time::{Duration, Instant};
 
 use thiserror::Error;
 
+pub use convert::{download, upload_raster};
 pub use node::{with_suffix, NodeError, NodeKind, Registry, RunCtx};
 pub use value::{Mat4, Matrices, PortValue, IDENTITY};
 
@@ -69,11 +71,19 @@ pub struct EvalOptions {
     pub size: (u32, u32),
     /// Suffix inserted before the extension of every file a sink writes.
     pub output_suffix: String,
+    /// Values injected on unconnected input ports, by (node, port) — how `tyndall node` feeds
+    /// files to a node. Each carries its own cache key.
+    pub inject: BTreeMap<(String, String), (PortValue, u64)>,
 }
 
 impl Default for EvalOptions {
     fn default() -> Self {
-        Self { time: 0.0, size: (512, 512), output_suffix: String::new() }
+        Self {
+            time: 0.0,
+            size: (512, 512),
+            output_suffix: String::new(),
+            inject: BTreeMap::new(),
+        }
     }
 }
 
@@ -126,18 +136,49 @@ impl Stats {
 
     /// Ids of nodes with this status.
     pub fn with_status(&self, s: Status) -> Vec<&str> {
-        self.nodes.iter().filter(|n| n.status == s).map(|n| n.id.as_str()).collect()
+        self.nodes
+            .iter()
+            .filter(|n| n.status == s)
+            .map(|n| n.id.as_str())
+            .collect()
     }
 }
 
 impl fmt::Display for Stats {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let w = self.nodes.iter().map(|n| n.id.len()).max().unwrap_or(4).max(4);
-        let k = self.nodes.iter().map(|n| n.kind.len()).max().unwrap_or(4).max(4);
-        writeln!(f, "{:<w$}  {:<k$}  {:<10}  {:>10}", "node", "kind", "status", "time ms")?;
+        let w = self
+            .nodes
+            .iter()
+            .map(|n| n.id.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
+        let k = self
+            .nodes
+            .iter()
+            .map(|n| n.kind.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
+        writeln!(
+            f,
+            "{:<w$}  {:<k$}  {:<10}  {:>10}",
+            "node", "kind", "status", "time ms"
+        )?;
         for n in &self.nodes {
-            let t = if n.status == Status::Ran { format!("{:.3}", n.time.as_secs_f64() * 1e3) } else { "-".into() };
-            writeln!(f, "{:<w$}  {:<k$}  {:<10}  {:>10}", n.id, n.kind, n.status.to_string(), t)?;
+            let t = if n.status == Status::Ran {
+                format!("{:.3}", n.time.as_secs_f64() * 1e3)
+            } else {
+                "-".into()
+            };
+            writeln!(
+                f,
+                "{:<w$}  {:<k$}  {:<10}  {:>10}",
+                n.id,
+                n.kind,
+                n.status.to_string(),
+                t
+            )?;
         }
         Ok(())
     }
@@ -174,7 +215,13 @@ pub const DEFAULT_CACHE_BUDGET: usize = 1 << 30;
 impl Evaluator {
     /// An evaluator with the default cache budget.
     pub fn new(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
-        Self { registry, gpu, cache: HashMap::new(), budget: DEFAULT_CACHE_BUDGET, clock: 0 }
+        Self {
+            registry,
+            gpu,
+            cache: HashMap::new(),
+            budget: DEFAULT_CACHE_BUDGET,
+            clock: 0,
+        }
     }
 
     /// Set the cache budget in bytes (results of the latest evaluation are kept regardless).
@@ -217,18 +264,28 @@ impl Evaluator {
     }
 
     fn kind_of(&self, graph: &Graph, id: &str) -> Result<(Arc<dyn NodeKind>, String), EvalError> {
-        let node = graph.node(id).ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })?;
-        let k = self.registry.get(&node.kind).ok_or_else(|| GraphError::UnknownKind {
+        let node = graph.node(id).ok_or_else(|| GraphError::UnknownNode {
             node: id.to_string(),
-            kind: node.kind.clone(),
-            known: self.registry.catalog().kind_names(),
         })?;
+        let k = self
+            .registry
+            .get(&node.kind)
+            .ok_or_else(|| GraphError::UnknownKind {
+                node: id.to_string(),
+                kind: node.kind.clone(),
+                known: self.registry.catalog().kind_names(),
+            })?;
         Ok((k.clone(), node.kind.clone()))
     }
 
     /// Evaluate `targets` of `graph`: only nodes they depend on are considered, and of those only
     /// nodes whose key changed since their cached result run again.
-    pub fn evaluate(&mut self, graph: &Graph, targets: &[Target], opts: &EvalOptions) -> Result<Evaluation, EvalError> {
+    pub fn evaluate(
+        &mut self,
+        graph: &Graph,
+        targets: &[Target],
+        opts: &EvalOptions,
+    ) -> Result<Evaluation, EvalError> {
         self.clock += 1;
         let catalog = self.registry.catalog().clone();
         // 1. What is needed, and which outputs of each node.
@@ -267,7 +324,10 @@ impl Evaluator {
             let (k, _) = self.kind_of(graph, &id)?;
             for input in k.schema().inputs {
                 if let Some((src, sport)) = graph.source_of(&id, input.name) {
-                    wanted.entry(src.to_string()).or_default().insert(sport.to_string());
+                    wanted
+                        .entry(src.to_string())
+                        .or_default()
+                        .insert(sport.to_string());
                     if needed.insert(src.to_string()) {
                         stack.push(src.to_string());
                     }
@@ -283,10 +343,17 @@ impl Evaluator {
         for id in order.iter().filter(|id| needed.contains(*id)) {
             let (k, kind) = self.kind_of(graph, id)?;
             let schema = k.schema();
-            let node_err = |source: NodeError| EvalError::Node { node: id.clone(), kind: kind.clone(), source };
+            let node_err = |source: NodeError| EvalError::Node {
+                node: id.clone(),
+                kind: kind.clone(),
+                source,
+            };
             let mut params = BTreeMap::new();
             for p in schema.params {
-                params.insert(p.name.to_string(), graph.param_at(&catalog, id, p.name, opts.time)?);
+                params.insert(
+                    p.name.to_string(),
+                    graph.param_at(&catalog, id, p.name, opts.time)?,
+                );
             }
             let mut h = DefaultHasher::new();
             kind.hash(&mut h);
@@ -302,13 +369,22 @@ impl Evaluator {
             for input in schema.inputs {
                 if let Some((src, sport)) = graph.source_of(id, input.name) {
                     (input.name, keys.get(src), sport).hash(&mut h);
-                    let v = results.get(src).and_then(|r| r.get(sport)).cloned().ok_or_else(|| {
-                        node_err(NodeError::Input {
-                            port: input.name.to_string(),
-                            message: format!("upstream {src}.{sport} produced no value"),
-                        })
-                    })?;
+                    let v = results
+                        .get(src)
+                        .and_then(|r| r.get(sport))
+                        .cloned()
+                        .ok_or_else(|| {
+                            node_err(NodeError::Input {
+                                port: input.name.to_string(),
+                                message: format!("upstream {src}.{sport} produced no value"),
+                            })
+                        })?;
                     inputs.insert(input.name.to_string(), convert(v, input.types));
+                } else if let Some((v, vkey)) =
+                    opts.inject.get(&(id.clone(), input.name.to_string()))
+                {
+                    (input.name, "inject", vkey).hash(&mut h);
+                    inputs.insert(input.name.to_string(), convert(v.clone(), input.types));
                 }
             }
             let key = h.finish();
@@ -340,14 +416,21 @@ impl Evaluator {
                 let elapsed = start.elapsed();
                 for p in want {
                     if !ctx.outputs.contains_key(p) {
-                        return Err(node_err(NodeError::Other(format!("did not produce output '{p}'"))));
+                        return Err(node_err(NodeError::Other(format!(
+                            "did not produce output '{p}'"
+                        ))));
                     }
                 }
                 let outputs = std::mem::take(&mut ctx.outputs);
                 let bytes = outputs.values().map(PortValue::bytes).sum();
                 self.cache.insert(
                     id.clone(),
-                    Entry { key, outputs: outputs.clone(), bytes, last_used: self.clock },
+                    Entry {
+                        key,
+                        outputs: outputs.clone(),
+                        bytes,
+                        last_used: self.clock,
+                    },
                 );
                 stats.insert(id.clone(), (Status::Ran, elapsed));
                 outputs
@@ -372,8 +455,16 @@ impl Evaluator {
                 .iter()
                 .filter_map(|id| {
                     let node = graph.node(id)?;
-                    let (status, time) = stats.get(id).copied().unwrap_or((Status::NotNeeded, Duration::ZERO));
-                    Some(NodeStat { id: id.clone(), kind: node.kind.clone(), status, time })
+                    let (status, time) = stats
+                        .get(id)
+                        .copied()
+                        .unwrap_or((Status::NotNeeded, Duration::ZERO));
+                    Some(NodeStat {
+                        id: id.clone(),
+                        kind: node.kind.clone(),
+                        status,
+                        time,
+                    })
                 })
                 .collect(),
         };
@@ -404,7 +495,9 @@ fn convert(v: PortValue, accepts: &[PortType]) -> PortValue {
         return v;
     }
     match v {
-        PortValue::ShadowMap(t, _) | PortValue::Depth(t, _) if accepts.contains(&PortType::Scalar) => {
+        PortValue::ShadowMap(t, _) | PortValue::Depth(t, _)
+            if accepts.contains(&PortType::Scalar) =>
+        {
             PortValue::Scalar(t)
         }
         other => other,

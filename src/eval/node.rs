@@ -92,7 +92,10 @@ impl RunCtx<'_> {
         match self.param(name)? {
             ParamValue::Int(v) => Ok(*v),
             ParamValue::Float(v) => Ok(v.round() as i64),
-            _ => Err(NodeError::Param { param: name.to_string(), message: "is not an integer".into() }),
+            _ => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is not an integer".into(),
+            }),
         }
     }
 
@@ -100,7 +103,10 @@ impl RunCtx<'_> {
     pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
         match self.param(name)? {
             ParamValue::Bool(v) => Ok(*v),
-            _ => Err(NodeError::Param { param: name.to_string(), message: "is not a boolean".into() }),
+            _ => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is not a boolean".into(),
+            }),
         }
     }
 
@@ -108,7 +114,10 @@ impl RunCtx<'_> {
     pub fn text(&self, name: &str) -> Result<&str, NodeError> {
         match self.param(name)? {
             ParamValue::Enum(v) | ParamValue::Text(v) => Ok(v),
-            _ => Err(NodeError::Param { param: name.to_string(), message: "is not text".into() }),
+            _ => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is not text".into(),
+            }),
         }
     }
 
@@ -116,7 +125,10 @@ impl RunCtx<'_> {
     pub fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
         match self.param(name)? {
             ParamValue::Colour(c) => Ok(c.map(|v| v as f32)),
-            _ => Err(NodeError::Param { param: name.to_string(), message: "is not a colour".into() }),
+            _ => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is not a colour".into(),
+            }),
         }
     }
 
@@ -127,8 +139,10 @@ impl RunCtx<'_> {
 
     /// The value on a required input `port`.
     pub fn require(&self, port: &str) -> Result<&PortValue, NodeError> {
-        self.input(port)
-            .ok_or_else(|| NodeError::Input { port: port.to_string(), message: "must be connected".into() })
+        self.input(port).ok_or_else(|| NodeError::Input {
+            port: port.to_string(),
+            message: "must be connected".into(),
+        })
     }
 
     /// Whether output `port` is needed downstream.
@@ -153,7 +167,10 @@ pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
     if suffix.is_empty() {
         return p;
     }
-    let stem = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = p
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let name = match p.extension() {
         Some(ext) => format!("{stem}{suffix}.{}", ext.to_string_lossy()),
         None => format!("{stem}{suffix}"),
@@ -200,7 +217,11 @@ pub trait NodeKind: Send + Sync {
 
     /// For sinks: the side effect (write a file) from the node's (possibly cached) outputs.
     /// Runs every evaluation in which the sink is requested.
-    fn commit(&self, _ctx: &RunCtx, _outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
+    fn commit(
+        &self,
+        _ctx: &RunCtx,
+        _outputs: &BTreeMap<String, PortValue>,
+    ) -> Result<(), NodeError> {
         Ok(())
     }
 }

@@ -10,7 +10,12 @@ use crate::graph::PortType;
 pub type Mat4 = [[f32; 4]; 4];
 
 /// The identity matrix.
-pub const IDENTITY: Mat4 = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+pub const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
 
 /// View and projection of the camera (for `Depth`) or the light (for `ShadowMap`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,7 +28,10 @@ pub struct Matrices {
 
 impl Default for Matrices {
     fn default() -> Self {
-        Self { view: IDENTITY, proj: IDENTITY }
+        Self {
+            view: IDENTITY,
+            proj: IDENTITY,
+        }
     }
 }
 
@@ -57,7 +65,10 @@ impl PortValue {
     /// The 2D texture, for the image-like types.
     pub fn texture(&self) -> Option<&Arc<GpuTexture>> {
         match self {
-            PortValue::ShadowMap(t, _) | PortValue::Depth(t, _) | PortValue::Scalar(t) | PortValue::Image(t) => Some(t),
+            PortValue::ShadowMap(t, _)
+            | PortValue::Depth(t, _)
+            | PortValue::Scalar(t)
+            | PortValue::Image(t) => Some(t),
             PortValue::Other(..) => None,
         }
     }

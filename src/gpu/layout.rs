@@ -31,7 +31,9 @@ macro_rules! uniform_layout {
 pub fn check_uniform_layout(wgsl: &str, layout: &UniformLayout) -> Result<(), String> {
     let module = naga::front::wgsl::parse_str(wgsl).map_err(|e| e.emit_to_string(wgsl))?;
     let mut layouter = naga::proc::Layouter::default();
-    layouter.update(module.to_ctx()).map_err(|e| e.to_string())?;
+    layouter
+        .update(module.to_ctx())
+        .map_err(|e| e.to_string())?;
     let (handle, ty) = module
         .types
         .iter()
@@ -44,7 +46,11 @@ pub fn check_uniform_layout(wgsl: &str, layout: &UniformLayout) -> Result<(), St
         .iter()
         .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
         .collect();
-    let rust_fields: Vec<(String, usize)> = layout.fields.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+    let rust_fields: Vec<(String, usize)> = layout
+        .fields
+        .iter()
+        .map(|(n, o)| (n.to_string(), *o))
+        .collect();
     if wgsl_fields != rust_fields {
         return Err(format!(
             "struct {}: WGSL members {:?} differ from Rust fields {:?}",

@@ -39,7 +39,7 @@ pub enum GpuError {
     },
 }
 
-/// One binding of a compute dispatch, in binding-number order (0, 1, 2, ...).
+/// One binding of a compute dispatch (paired with its binding number in group 0).
 pub enum Bind<'a> {
     /// A uniform buffer with these bytes.
     Uniform(&'a [u8]),
@@ -138,12 +138,18 @@ impl Gpu {
 
     /// One line describing the adapter.
     pub fn describe(&self) -> String {
-        format!("{} ({:?}, {:?})", self.info.name, self.info.backend, self.info.device_type)
+        format!(
+            "{} ({:?}, {:?})",
+            self.info.name, self.info.backend, self.info.device_type
+        )
     }
 
     /// Errors wgpu reported since the last call (validation, out of memory), as an error.
     pub fn take_errors(&self) -> Result<(), GpuError> {
-        let mut v = self.errors.lock().map_err(|e| GpuError::Validation(e.to_string()))?;
+        let mut v = self
+            .errors
+            .lock()
+            .map_err(|e| GpuError::Validation(e.to_string()))?;
         if v.is_empty() {
             Ok(())
         } else {
@@ -154,17 +160,36 @@ impl Gpu {
     }
 
     /// A texture from the pool (contents undefined), checked against the device's size limit.
-    pub fn texture(&self, width: u32, height: u32, format: TexFormat) -> Result<GpuTexture, GpuError> {
+    pub fn texture(
+        &self,
+        width: u32,
+        height: u32,
+        format: TexFormat,
+    ) -> Result<GpuTexture, GpuError> {
         let limit = self.limits.max_texture_dimension_2d;
         if width == 0 || height == 0 || width > limit || height > limit {
-            return Err(GpuError::TooLarge { width, height, limit });
+            return Err(GpuError::TooLarge {
+                width,
+                height,
+                limit,
+            });
         }
         Ok(self.pool.acquire(width, height, format))
     }
 
     /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`) into a new texture.
-    pub fn upload(&self, width: u32, height: u32, channels: u32, data: &[f32]) -> Result<GpuTexture, GpuError> {
-        let format = if channels == 1 { TexFormat::R32F } else { TexFormat::Rgba32F };
+    pub fn upload(
+        &self,
+        width: u32,
+        height: u32,
+        channels: u32,
+        data: &[f32],
+    ) -> Result<GpuTexture, GpuError> {
+        let format = if channels == 1 {
+            TexFormat::R32F
+        } else {
+            TexFormat::Rgba32F
+        };
         let tex = self.texture(width, height, format)?;
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
@@ -179,7 +204,11 @@ impl Gpu {
                 bytes_per_row: Some(width * format.bytes_per_texel()),
                 rows_per_image: Some(height),
             },
-            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
         );
         Ok(tex)
     }
@@ -189,7 +218,8 @@ impl Gpu {
     pub fn read_texture(&self, tex: &GpuTexture) -> Result<Vec<f32>, GpuError> {
         let bpt = tex.format.bytes_per_texel();
         let row = tex.width * bpt;
-        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size: (padded * tex.height) as u64,
@@ -212,7 +242,11 @@ impl Gpu {
                     rows_per_image: Some(tex.height),
                 },
             },
-            wgpu::Extent3d { width: tex.width, height: tex.height, depth_or_array_layers: 1 },
+            wgpu::Extent3d {
+                width: tex.width,
+                height: tex.height,
+                depth_or_array_layers: 1,
+            },
         );
         self.queue.submit([enc.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -223,7 +257,9 @@ impl Gpu {
         rx.recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let view = buffer.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
+        let view = buffer
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
         let mut out = Vec::with_capacity((row / 4 * tex.height) as usize);
         for y in 0..tex.height {
             let start = (y * padded) as usize;
@@ -243,9 +279,15 @@ impl Gpu {
             .map_err(|e| GpuError::Validation(e.to_string()))
     }
 
-    fn pipeline(&self, shader: Shader, entry: &str, binds: &[Bind]) -> Arc<wgpu::ComputePipeline> {
+    fn pipeline(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+    ) -> Arc<wgpu::ComputePipeline> {
         let mut key = format!("{}:{entry}", shader.stem);
-        for b in binds {
+        for (n, b) in binds {
+            key.push_str(&format!(":{n}"));
             key.push_str(match b {
                 Bind::Uniform(_) => ":u",
                 Bind::Texture(_) => ":t",
@@ -264,9 +306,8 @@ impl Gpu {
         }
         let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
             .iter()
-            .enumerate()
             .map(|(i, b)| wgpu::BindGroupLayoutEntry {
-                binding: i as u32,
+                binding: *i,
                 visibility: wgpu::ShaderStages::COMPUTE,
                 ty: match b {
                     Bind::Uniform(_) => wgpu::BindingType::Buffer {
@@ -288,46 +329,55 @@ impl Gpu {
                 count: None,
             })
             .collect();
-        let bgl = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(&key),
-            entries: &entries,
-        });
-        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(&key),
-            bind_group_layouts: &[Some(&bgl)],
-            immediate_size: 0,
-        });
-        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(shader.stem),
-            source: wgpu::ShaderSource::Wgsl(shader.source.into()),
-        });
-        let p = Arc::new(self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(&key),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        }));
+        let bgl = self
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(&key),
+                entries: &entries,
+            });
+        let layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(&key),
+                bind_group_layouts: &[Some(&bgl)],
+                immediate_size: 0,
+            });
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(shader.stem),
+                source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+            });
+        let p = Arc::new(
+            self.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&key),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                }),
+        );
         cache.insert(key, p.clone());
         p
     }
 
     /// Run one compute entry point over a `width × height` grid with 8×8 workgroups
-    /// (`@workgroup_size(8, 8)` in the shader). Bindings are numbered in the order given, all in
+    /// (`@workgroup_size(8, 8)` in the shader). Bindings are `(binding number, resource)` in
     /// group 0. Pipelines are cached by (shader stem, entry point, binding signature).
     pub fn dispatch(
         &self,
         shader: Shader,
         entry: &str,
-        binds: &[Bind],
+        binds: &[(u32, Bind)],
         width: u32,
         height: u32,
     ) -> Result<(), GpuError> {
         let pipeline = self.pipeline(shader, entry, binds);
         let buffers: Vec<Option<wgpu::Buffer>> = binds
             .iter()
-            .map(|b| match b {
+            .map(|(_, b)| match b {
                 Bind::Uniform(bytes) => {
                     let size = (bytes.len() as u64).div_ceil(16) * 16;
                     let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -345,15 +395,23 @@ impl Gpu {
             })
             .collect();
         let mut entries = Vec::with_capacity(binds.len());
-        for (i, (b, buf)) in binds.iter().zip(&buffers).enumerate() {
+        for ((i, b), buf) in binds.iter().zip(&buffers) {
             let resource = match (b, buf) {
-                (Bind::Texture(t), _) | (Bind::Storage(t), _) => wgpu::BindingResource::TextureView(t.view()),
+                (Bind::Texture(t), _) | (Bind::Storage(t), _) => {
+                    wgpu::BindingResource::TextureView(t.view())
+                }
                 (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
                 (Bind::Uniform(_), None) => {
-                    return Err(GpuError::Validation(format!("{}: uniform {i} has no buffer", shader.stem)))
+                    return Err(GpuError::Validation(format!(
+                        "{}: uniform {i} has no buffer",
+                        shader.stem
+                    )))
                 }
             };
-            entries.push(wgpu::BindGroupEntry { binding: i as u32, resource });
+            entries.push(wgpu::BindGroupEntry {
+                binding: *i,
+                resource,
+            });
         }
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(shader.stem),

@@ -62,7 +62,11 @@ pub struct GpuTexture {
 
 impl std::fmt::Debug for GpuTexture {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "GpuTexture({}x{} {:?})", self.width, self.height, self.format)
+        write!(
+            f,
+            "GpuTexture({}x{} {:?})",
+            self.width, self.height, self.format
+        )
     }
 }
 
@@ -70,7 +74,9 @@ impl GpuTexture {
     /// The wgpu texture.
     pub fn raw(&self) -> &wgpu::Texture {
         // `tex` is only taken in `drop`.
-        self.tex.as_ref().unwrap_or_else(|| unreachable!("texture used after drop"))
+        self.tex
+            .as_ref()
+            .unwrap_or_else(|| unreachable!("texture used after drop"))
     }
 
     /// A view of the whole texture.
@@ -99,19 +105,29 @@ impl Drop for GpuTexture {
 impl TexturePool {
     /// A pool keeping at most `capacity` idle textures.
     pub fn new(device: wgpu::Device, capacity: usize) -> Self {
-        Self { device, free: Arc::new(Mutex::new(Vec::new())), capacity }
+        Self {
+            device,
+            free: Arc::new(Mutex::new(Vec::new())),
+            capacity,
+        }
     }
 
     /// A texture of this size and format, recycled when one is idle.
     pub fn acquire(&self, width: u32, height: u32, format: TexFormat) -> GpuTexture {
         let recycled = self.free.lock().ok().and_then(|mut free| {
-            let i = free.iter().position(|(w, h, f, _)| *w == width && *h == height && *f == format)?;
+            let i = free
+                .iter()
+                .position(|(w, h, f, _)| *w == width && *h == height && *f == format)?;
             Some(free.swap_remove(i).3)
         });
         let tex = recycled.unwrap_or_else(|| {
             self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("tyndall"),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,

@@ -54,7 +54,9 @@ pub struct EdgeRefs {
 pub fn split_endpoint(text: &str) -> Result<(&str, &str), GraphError> {
     match text.rsplit_once('.') {
         Some((n, p)) if !n.is_empty() && !p.is_empty() => Ok((n, p)),
-        _ => Err(GraphError::BadEndpoint { text: text.to_string() }),
+        _ => Err(GraphError::BadEndpoint {
+            text: text.to_string(),
+        }),
     }
 }
 
@@ -124,16 +126,22 @@ impl Graph {
         self.index
             .get(id)
             .copied()
-            .ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })
+            .ok_or_else(|| GraphError::UnknownNode {
+                node: id.to_string(),
+            })
     }
 
     fn schema_of(&self, catalog: &Catalog, id: &str) -> Result<&'static NodeSchema, GraphError> {
-        let node = self.node(id).ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })?;
-        catalog.get(&node.kind).ok_or_else(|| GraphError::UnknownKind {
+        let node = self.node(id).ok_or_else(|| GraphError::UnknownNode {
             node: id.to_string(),
-            kind: node.kind.clone(),
-            known: catalog.kind_names(),
-        })
+        })?;
+        catalog
+            .get(&node.kind)
+            .ok_or_else(|| GraphError::UnknownKind {
+                node: id.to_string(),
+                kind: node.kind.clone(),
+                known: catalog.kind_names(),
+            })
     }
 
     /// Add a node of `kind` with a fresh id derived from the kind (`math1`, `math2`, ...); ids of
@@ -167,11 +175,13 @@ impl Graph {
         if self.index.contains_key(&node.id) {
             return Err(GraphError::DuplicateNode { node: node.id });
         }
-        let schema = catalog.get(&node.kind).ok_or_else(|| GraphError::UnknownKind {
-            node: node.id.clone(),
-            kind: node.kind.clone(),
-            known: catalog.kind_names(),
-        })?;
+        let schema = catalog
+            .get(&node.kind)
+            .ok_or_else(|| GraphError::UnknownKind {
+                node: node.id.clone(),
+                kind: node.kind.clone(),
+                known: catalog.kind_names(),
+            })?;
         let mut checked = node.clone();
         checked.params.clear();
         checked.keys.clear();
@@ -195,7 +205,9 @@ impl Graph {
         self.retired.insert(id.to_string());
         self.g
             .remove_node(ix)
-            .ok_or_else(|| GraphError::UnknownNode { node: id.to_string() })
+            .ok_or_else(|| GraphError::UnknownNode {
+                node: id.to_string(),
+            })
     }
 
     /// Set a parameter, checking its type and range.
@@ -293,12 +305,19 @@ impl Graph {
         self.g
             .edges_directed(*ix, PgDir::Incoming)
             .find(|e| e.weight().to_port == port)
-            .map(|e| (self.g[e.source()].id.as_str(), e.weight().from_port.as_str()))
+            .map(|e| {
+                (
+                    self.g[e.source()].id.as_str(),
+                    e.weight().from_port.as_str(),
+                )
+            })
     }
 
     /// Ids of the nodes directly downstream of `id`.
     pub fn consumers(&self, id: &str) -> Vec<&str> {
-        let Some(ix) = self.index.get(id) else { return Vec::new() };
+        let Some(ix) = self.index.get(id) else {
+            return Vec::new();
+        };
         let mut v: Vec<&str> = self
             .g
             .edges_directed(*ix, PgDir::Outgoing)
@@ -402,7 +421,9 @@ impl Graph {
 
     /// Remove the edge into input `port` of node `id`; returns whether there was one.
     pub fn disconnect(&mut self, id: &str, port: &str) -> bool {
-        let Some(ix) = self.index.get(id) else { return false };
+        let Some(ix) = self.index.get(id) else {
+            return false;
+        };
         let e = self
             .g
             .edges_directed(*ix, PgDir::Incoming)
@@ -434,7 +455,11 @@ impl Graph {
                 from: format!("{fnode}.{fport}"),
                 to: format!("{tnode}.{tport}"),
                 from_type: ft,
-                to_types: accepts.iter().map(|t| t.name()).collect::<Vec<_>>().join(" | "),
+                to_types: accepts
+                    .iter()
+                    .map(|t| t.name())
+                    .collect::<Vec<_>>()
+                    .join(" | "),
             })
         }
     }
@@ -456,8 +481,11 @@ impl Graph {
         for e in (&self.g).edge_references() {
             *indeg.entry(self.g[e.target()].id.as_str()).or_default() += 1;
         }
-        let mut ready: BTreeSet<&str> =
-            indeg.iter().filter(|(_, d)| **d == 0).map(|(k, _)| *k).collect();
+        let mut ready: BTreeSet<&str> = indeg
+            .iter()
+            .filter(|(_, d)| **d == 0)
+            .map(|(k, _)| *k)
+            .collect();
         let mut out = Vec::new();
         while let Some(id) = ready.pop_first() {
             out.push(id.to_string());
@@ -514,15 +542,24 @@ fn check_keys(schema: &NodeSchema, node: &str, name: &str, keys: &[Key]) -> Resu
     if !spec.kind.is_numeric() {
         return Err(GraphError::BadKeys {
             target,
-            reason: format!("parameter is {}, only Float and Int can be key-framed", spec.kind.name()),
+            reason: format!(
+                "parameter is {}, only Float and Int can be key-framed",
+                spec.kind.name()
+            ),
         });
     }
     if keys.is_empty() {
-        return Err(GraphError::BadKeys { target, reason: "no keys".into() });
+        return Err(GraphError::BadKeys {
+            target,
+            reason: "no keys".into(),
+        });
     }
     for k in keys {
         if !k.t.is_finite() {
-            return Err(GraphError::BadKeys { target, reason: format!("time {} is not finite", k.t) });
+            return Err(GraphError::BadKeys {
+                target,
+                reason: format!("time {} is not finite", k.t),
+            });
         }
         let v = if spec.kind == super::types::ParamKind::Int {
             ParamValue::Int(k.v.round() as i64)
@@ -539,7 +576,10 @@ fn check_keys(schema: &NodeSchema, node: &str, name: &str, keys: &[Key]) -> Resu
         }
     }
     if keys.windows(2).any(|w| w[0].t >= w[1].t) {
-        return Err(GraphError::BadKeys { target, reason: "key times must be strictly increasing".into() });
+        return Err(GraphError::BadKeys {
+            target,
+            reason: "key times must be strictly increasing".into(),
+        });
     }
     Ok(())
 }

@@ -52,7 +52,9 @@ pub enum GraphError {
         found: String,
     },
     /// A numeric value outside the parameter's hard range (or not finite).
-    #[error("node '{node}' parameter '{param}': value {value} is out of range, expected {expected}")]
+    #[error(
+        "node '{node}' parameter '{param}': value {value} is out of range, expected {expected}"
+    )]
     OutOfRange {
         /// Node id.
         node: String,

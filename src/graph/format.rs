@@ -57,7 +57,10 @@ fn migrate_v1_to_v2(v: Value) -> Result<Value, String> {
             }
         }
     }
-    root.insert(Value::String("version".into()), Value::Number(Number::U32(2)));
+    root.insert(
+        Value::String("version".into()),
+        Value::Number(Number::U32(2)),
+    );
     Ok(Value::Map(root))
 }
 
@@ -79,9 +82,17 @@ struct FileNode {
     kind: String,
     #[serde(default, with = "pairs", skip_serializing_if = "Vec::is_empty")]
     params: Vec<(String, Value)>,
-    #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "ser_inner")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     pos: Option<(f32, f32)>,
-    #[serde(default, skip_serializing_if = "Option::is_none", serialize_with = "ser_inner")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     data: Option<Value>,
 }
 
@@ -143,7 +154,12 @@ impl Locator<'_> {
     fn at(&self, byte: usize) -> Location {
         let before = &self.text[..byte.min(self.text.len())];
         let line = before.matches('\n').count() + 1;
-        let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+        let col = before
+            .rsplit('\n')
+            .next()
+            .map(|l| l.chars().count())
+            .unwrap_or(0)
+            + 1;
         Location { line, col }
     }
 
@@ -225,12 +241,19 @@ fn param_to_value(p: &ParamValue) -> Value {
         ParamValue::Int(v) => Value::Number(Number::I64(*v)),
         ParamValue::Bool(b) => Value::Bool(*b),
         ParamValue::Enum(s) | ParamValue::Text(s) => Value::String(s.clone()),
-        ParamValue::Colour(c) => Value::Seq(c.iter().map(|x| Value::Number(Number::F64((*x).into()))).collect()),
+        ParamValue::Colour(c) => Value::Seq(
+            c.iter()
+                .map(|x| Value::Number(Number::F64((*x).into())))
+                .collect(),
+        ),
     }
 }
 
 fn syntax_location(e: &ron::error::SpannedError) -> Location {
-    Location { line: e.span.start.line, col: e.span.start.col }
+    Location {
+        line: e.span.start.line,
+        col: e.span.start.col,
+    }
 }
 
 /// Parse a graph from text. `file` is used in error messages only.
@@ -242,7 +265,12 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
         error,
     };
     let raw: Value = ron_options().from_str(text).map_err(|e| {
-        err(Some(syntax_location(&e)), GraphError::Syntax { message: e.code.to_string() })
+        err(
+            Some(syntax_location(&e)),
+            GraphError::Syntax {
+                message: e.code.to_string(),
+            },
+        )
     })?;
     let version = match &raw {
         Value::Map(m) => match m.get(&Value::String("version".into())) {
@@ -250,34 +278,45 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
             Some(_) => {
                 return Err(err(
                     loc.version().map(|b| loc.at(b)),
-                    GraphError::Syntax { message: "`version` must be a whole number".into() },
+                    GraphError::Syntax {
+                        message: "`version` must be a whole number".into(),
+                    },
                 ))
             }
             None => {
                 return Err(err(
                     Some(Location { line: 1, col: 1 }),
-                    GraphError::Syntax { message: "expected a graph struct with a `version` field".into() },
+                    GraphError::Syntax {
+                        message: "expected a graph struct with a `version` field".into(),
+                    },
                 ))
             }
         },
         _ => {
             return Err(err(
                 Some(Location { line: 1, col: 1 }),
-                GraphError::Syntax { message: "expected a graph struct `(version: .., nodes: {..}, ..)`".into() },
+                GraphError::Syntax {
+                    message: "expected a graph struct `(version: .., nodes: {..}, ..)`".into(),
+                },
             ))
         }
     };
     if !(version >= 1.0 && version.fract() == 0.0 && version <= u32::MAX as f64) {
         return Err(err(
             loc.version().map(|b| loc.at(b)),
-            GraphError::Syntax { message: format!("`version` must be a whole number ≥ 1, found {version}") },
+            GraphError::Syntax {
+                message: format!("`version` must be a whole number ≥ 1, found {version}"),
+            },
         ));
     }
     let version = version as u32;
     if version > FORMAT_VERSION {
         return Err(err(
             loc.version().map(|b| loc.at(b)),
-            GraphError::VersionTooNew { found: version, supported: FORMAT_VERSION },
+            GraphError::VersionTooNew {
+                found: version,
+                supported: FORMAT_VERSION,
+            },
         ));
     }
     let parsed: FileGraph = if version < FORMAT_VERSION {
@@ -286,32 +325,66 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
             let step = MIGRATIONS[(from - 1) as usize];
             v = step(v).map_err(|reason| err(None, GraphError::Migration { from, reason }))?;
         }
-        let migrated = ron::to_string(&v)
-            .map_err(|e| err(None, GraphError::Migration { from: version, reason: e.to_string() }))?;
+        let migrated = ron::to_string(&v).map_err(|e| {
+            err(
+                None,
+                GraphError::Migration {
+                    from: version,
+                    reason: e.to_string(),
+                },
+            )
+        })?;
         ron_options().from_str(&migrated).map_err(|e| {
-            err(None, GraphError::Syntax { message: format!("after migration from version {version}: {}", e.code) })
+            err(
+                None,
+                GraphError::Syntax {
+                    message: format!("after migration from version {version}: {}", e.code),
+                },
+            )
         })?
     } else {
         ron_options().from_str(text).map_err(|e| {
-            err(Some(syntax_location(&e)), GraphError::Syntax { message: e.code.to_string() })
+            err(
+                Some(syntax_location(&e)),
+                GraphError::Syntax {
+                    message: e.code.to_string(),
+                },
+            )
         })?
     };
     build(parsed, &loc, catalog).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
 }
 
-fn build(f: FileGraph, loc: &Locator, catalog: &Catalog) -> Result<Graph, (Option<usize>, GraphError)> {
+fn build(
+    f: FileGraph,
+    loc: &Locator,
+    catalog: &Catalog,
+) -> Result<Graph, (Option<usize>, GraphError)> {
     let mut g = Graph::new();
     let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
     let mut key_tracks: BTreeMap<String, BTreeMap<String, Vec<Key>>> = BTreeMap::new();
     for (target, keys) in &f.keys {
         let (node, param) = split_endpoint(target).map_err(|e| (loc.key(target), e))?;
-        let keys = keys.iter().map(|(t, v, interp)| Key { t: *t, v: *v, interp: *interp }).collect();
-        key_tracks.entry(node.to_string()).or_default().insert(param.to_string(), keys);
+        let keys = keys
+            .iter()
+            .map(|(t, v, interp)| Key {
+                t: *t,
+                v: *v,
+                interp: *interp,
+            })
+            .collect();
+        key_tracks
+            .entry(node.to_string())
+            .or_default()
+            .insert(param.to_string(), keys);
     }
     for (id, fnode) in &f.nodes {
         let count = seen.entry(id.as_str()).or_insert(0);
         if *count > 0 {
-            return Err((loc.node(id, *count), GraphError::DuplicateNode { node: id.clone() }));
+            return Err((
+                loc.node(id, *count),
+                GraphError::DuplicateNode { node: id.clone() },
+            ));
         }
         *count += 1;
         let mut params = BTreeMap::new();
@@ -324,7 +397,12 @@ fn build(f: FileGraph, loc: &Locator, catalog: &Catalog) -> Result<Graph, (Optio
                     .unwrap_or_else(|| "a parameter value".into());
                 (
                     loc.param(id, name),
-                    GraphError::WrongParamType { node: id.clone(), param: name.clone(), expected, found },
+                    GraphError::WrongParamType {
+                        node: id.clone(),
+                        param: name.clone(),
+                        expected,
+                        found,
+                    },
                 )
             })?;
             params.insert(name.clone(), pv);
@@ -341,9 +419,9 @@ fn build(f: FileGraph, loc: &Locator, catalog: &Catalog) -> Result<Graph, (Optio
             let at = match &e {
                 GraphError::UnknownParam { param, .. }
                 | GraphError::WrongParamType { param, .. }
-                | GraphError::OutOfRange { param, .. } => {
-                    loc.param(id, param).or_else(|| loc.key(&format!("{id}.{param}")))
-                }
+                | GraphError::OutOfRange { param, .. } => loc
+                    .param(id, param)
+                    .or_else(|| loc.key(&format!("{id}.{param}"))),
                 GraphError::BadKeys { target, .. } => loc.key(target),
                 _ => loc.node(id, 0),
             };
@@ -351,13 +429,23 @@ fn build(f: FileGraph, loc: &Locator, catalog: &Catalog) -> Result<Graph, (Optio
         })?;
     }
     if let Some((node, tracks)) = key_tracks.into_iter().next() {
-        let target = format!("{node}.{}", tracks.keys().next().map(String::as_str).unwrap_or(""));
-        return Err((loc.key(&target), GraphError::BadKeys { reason: format!("no node '{node}'"), target }));
+        let target = format!(
+            "{node}.{}",
+            tracks.keys().next().map(String::as_str).unwrap_or("")
+        );
+        return Err((
+            loc.key(&target),
+            GraphError::BadKeys {
+                reason: format!("no node '{node}'"),
+                target,
+            },
+        ));
     }
     for (from, to) in &f.edges {
         g.connect(catalog, from, to).map_err(|e| {
             let at = match &e {
-                GraphError::EdgeMissingNode { node, .. } | GraphError::EdgeMissingPort { node, .. }
+                GraphError::EdgeMissingNode { node, .. }
+                | GraphError::EdgeMissingPort { node, .. }
                     if to.starts_with(&format!("{node}.")) =>
                 {
                     loc.edge(to)
@@ -379,14 +467,21 @@ pub fn save_string(g: &Graph) -> String {
             for (param, track) in &n.keys {
                 keys.push((
                     format!("{}.{param}", n.id),
-                    track.iter().map(|k| (k.t, k.v, k.interp)).collect::<Vec<_>>(),
+                    track
+                        .iter()
+                        .map(|k| (k.t, k.v, k.interp))
+                        .collect::<Vec<_>>(),
                 ));
             }
             (
                 n.id.clone(),
                 FileNode {
                     kind: n.kind.clone(),
-                    params: n.params.iter().map(|(k, v)| (k.clone(), param_to_value(v))).collect(),
+                    params: n
+                        .params
+                        .iter()
+                        .map(|(k, v)| (k.clone(), param_to_value(v)))
+                        .collect(),
                     pos: n.pos.map(|[x, y]| (x, y)),
                     data: n.data.clone(),
                 },
@@ -399,7 +494,12 @@ pub fn save_string(g: &Graph) -> String {
         edges: g
             .edges()
             .into_iter()
-            .map(|e| (format!("{}.{}", e.from_node, e.from_port), format!("{}.{}", e.to_node, e.to_port)))
+            .map(|e| {
+                (
+                    format!("{}.{}", e.from_node, e.from_port),
+                    format!("{}.{}", e.to_node, e.to_port),
+                )
+            })
             .collect(),
         keys,
     };
@@ -433,8 +533,14 @@ pub fn save_file(path: &Path, g: &Graph) -> Result<(), GraphError> {
 
 /// Atomically replace `path` with `bytes` (temporary file in the same folder, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), GraphError> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp: PathBuf = dir.join(format!(".{name}.tmp{}", std::process::id()));
     let io = |e: std::io::Error| GraphError::Io(format!("cannot write {}: {e}", path.display()));
     let mut f = std::fs::File::create(&tmp).map_err(io)?;

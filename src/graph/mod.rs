@@ -12,9 +12,12 @@ mod types;
 
 pub use document::{check_param_value, split_endpoint, EdgeRefs, Graph, Node, Wire};
 pub use error::{GraphError, LoadError, Location};
-pub use format::{load_file, load_str, save_file, save_string, write_atomic, Migration, FORMAT_VERSION, MIGRATIONS};
+pub use format::{
+    load_file, load_str, save_file, save_string, write_atomic, Migration, FORMAT_VERSION,
+    MIGRATIONS,
+};
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
-    sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec, ParamValue, PortSpec,
-    PortType,
+    sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec,
+    ParamValue, PortSpec, PortType,
 };

@@ -301,13 +301,20 @@ impl ParamSpec {
     /// Parse a command-line string (`3`, `0.5`, `true`, `Circle`, `1,0.5,0,1`) into this kind.
     pub fn parse_str(&self, s: &str) -> Result<ParamValue, ParamProblem> {
         let v = match self.kind {
-            ParamKind::Float => ParamValue::Float(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
-            ParamKind::Int => ParamValue::Int(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
-            ParamKind::Bool => ParamValue::Bool(s.trim().parse().map_err(|_| ParamProblem::WrongType)?),
+            ParamKind::Float => {
+                ParamValue::Float(s.trim().parse().map_err(|_| ParamProblem::WrongType)?)
+            }
+            ParamKind::Int => {
+                ParamValue::Int(s.trim().parse().map_err(|_| ParamProblem::WrongType)?)
+            }
+            ParamKind::Bool => {
+                ParamValue::Bool(s.trim().parse().map_err(|_| ParamProblem::WrongType)?)
+            }
             ParamKind::Enum(_) => ParamValue::Enum(s.trim().to_string()),
             ParamKind::Text => ParamValue::Text(s.to_string()),
             ParamKind::Colour => {
-                let parts: Result<Vec<f64>, _> = s.split(',').map(|p| p.trim().parse::<f64>()).collect();
+                let parts: Result<Vec<f64>, _> =
+                    s.split(',').map(|p| p.trim().parse::<f64>()).collect();
                 let parts = parts.map_err(|_| ParamProblem::WrongType)?;
                 match parts.as_slice() {
                     [g] => ParamValue::Colour([*g, *g, *g, 1.0]),
@@ -327,7 +334,10 @@ impl ParamSpec {
             ParamKind::Float | ParamKind::Int => {
                 format!("{} in [{}, {}]", self.kind.name(), self.min, self.max)
             }
-            ParamKind::Colour => format!("Colour [r, g, b, a] with channels in [{}, {}]", self.min, self.max),
+            ParamKind::Colour => format!(
+                "Colour [r, g, b, a] with channels in [{}, {}]",
+                self.min, self.max
+            ),
             ParamKind::Enum(names) => format!("one of {}", names.join(", ")),
             ParamKind::Bool => "true or false".into(),
             ParamKind::Text => "a string".into(),

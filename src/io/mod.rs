@@ -22,7 +22,12 @@ pub struct Raster {
 impl Raster {
     /// A raster filled with `fill`.
     pub fn new(width: u32, height: u32, channels: u32, fill: f32) -> Self {
-        Self { width, height, channels, data: vec![fill; (width * height * channels) as usize] }
+        Self {
+            width,
+            height,
+            channels,
+            data: vec![fill; (width * height * channels) as usize],
+        }
     }
 
     /// The samples of pixel (x, y).
@@ -30,16 +35,6 @@ impl Raster {
         let c = self.channels as usize;
         let i = (y as usize * self.width as usize + x as usize) * c;
         &self.data[i..i + c]
-    }
-
-    /// The pixel (x, y) as RGBA: one-channel rasters broadcast their value to all four channels.
-    pub fn rgba(&self, x: u32, y: u32) -> [f32; 4] {
-        let p = self.pixel(x, y);
-        if self.channels == 1 {
-            [p[0]; 4]
-        } else {
-            [p[0], p[1], p[2], p[3]]
-        }
     }
 }
 
@@ -96,7 +91,12 @@ pub enum FileKind {
 
 /// The file format for `path`, from its extension (case-insensitive).
 pub fn file_kind(path: &Path) -> Result<FileKind, IoError> {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
         Some("exr") => Ok(FileKind::Exr),
         Some("png") => Ok(FileKind::Png),
         _ => Err(IoError::Format {
@@ -136,7 +136,10 @@ pub fn read_image(path: &Path, srgb: bool) -> Result<Raster, IoError> {
 }
 
 fn read_exr(path: &Path) -> Result<Raster, IoError> {
-    let err = |reason: String| IoError::Read { path: path.to_path_buf(), reason };
+    let err = |reason: String| IoError::Read {
+        path: path.to_path_buf(),
+        reason,
+    };
     let img = exrp::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -155,7 +158,11 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
             exrp::FlatSamples::U32(v) => v.iter().map(|x| *x as f32).collect(),
         }
     };
-    let find = |name: &str| chans.iter().find(|c| c.name.to_string().eq_ignore_ascii_case(name));
+    let find = |name: &str| {
+        chans
+            .iter()
+            .find(|c| c.name.to_string().eq_ignore_ascii_case(name))
+    };
     let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
     let (width, height) = (w as u32, h as u32);
     if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
@@ -165,11 +172,27 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
         for i in 0..w * h {
             data.extend_from_slice(&[r[i], g[i], b[i], a.as_ref().map_or(1.0, |a| a[i])]);
         }
-        return Ok(Raster { width, height, channels: 4, data });
+        return Ok(Raster {
+            width,
+            height,
+            channels: 4,
+            data,
+        });
     }
-    let one = find("Y").or_else(|| find("R")).or_else(|| if chans.len() == 1 { chans.first() } else { None });
+    let one = find("Y").or_else(|| find("R")).or_else(|| {
+        if chans.len() == 1 {
+            chans.first()
+        } else {
+            None
+        }
+    });
     match one {
-        Some(c) => Ok(Raster { width, height, channels: 1, data: samples(c) }),
+        Some(c) => Ok(Raster {
+            width,
+            height,
+            channels: 1,
+            data: samples(c),
+        }),
         None => Err(err(format!(
             "expected one channel (Y or R) or R,G,B(,A); found channels {}",
             names.join(", ")
@@ -178,17 +201,22 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
 }
 
 fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
-    let err = |reason: String| IoError::Read { path: path.to_path_buf(), reason };
+    let err = |reason: String| IoError::Read {
+        path: path.to_path_buf(),
+        reason,
+    };
     let img = image::open(path).map_err(|e| err(e.to_string()))?;
     let (width, height) = (img.width(), img.height());
     let decode = |v: f32| if srgb { srgb_to_linear(v) } else { v };
-    let grey = matches!(
-        img.color(),
-        image::ColorType::L8 | image::ColorType::L16
-    );
+    let grey = matches!(img.color(), image::ColorType::L8 | image::ColorType::L16);
     if grey {
         let l = img.to_luma32f();
-        Ok(Raster { width, height, channels: 1, data: l.into_raw().into_iter().map(decode).collect() })
+        Ok(Raster {
+            width,
+            height,
+            channels: 1,
+            data: l.into_raw().into_iter().map(decode).collect(),
+        })
     } else {
         let rgba = img.to_rgba32f();
         let mut data = rgba.into_raw();
@@ -197,20 +225,34 @@ fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
                 *c = decode(*c);
             }
         }
-        Ok(Raster { width, height, channels: 4, data })
+        Ok(Raster {
+            width,
+            height,
+            channels: 4,
+            data,
+        })
     }
 }
 
 /// Write a raster as EXR (`F32`/`F16`; one channel is written as `Y`, four as `R`,`G`,`B`,`A`) or
 /// PNG (`U8`/`U16`; one channel as grey, four as RGBA, colour channels sRGB-encoded when
-/// `srgb`). Non-finite samples must have been removed by the caller. The write is atomic
-/// (temporary file, then rename).
-pub fn write_image(path: &Path, r: &Raster, precision: Precision, srgb: bool) -> Result<(), IoError> {
-    let err = |reason: String| IoError::Write { path: path.to_path_buf(), reason };
+/// `srgb`). Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
+/// atomic (temporary file, then rename).
+pub fn write_image(
+    path: &Path,
+    r: &Raster,
+    precision: Precision,
+    srgb: bool,
+) -> Result<(), IoError> {
+    let err = |reason: String| IoError::Write {
+        path: path.to_path_buf(),
+        reason,
+    };
     let kind = file_kind(path)?;
     let fits = matches!(
         (kind, precision),
-        (FileKind::Exr, Precision::F32 | Precision::F16) | (FileKind::Png, Precision::U8 | Precision::U16)
+        (FileKind::Exr, Precision::F32 | Precision::F16)
+            | (FileKind::Png, Precision::U8 | Precision::U16)
     );
     if !fits {
         return Err(IoError::Format {
@@ -221,10 +263,23 @@ pub fn write_image(path: &Path, r: &Raster, precision: Precision, srgb: bool) ->
     if r.channels != 1 && r.channels != 4 {
         return Err(err(format!("{} channels (expected 1 or 4)", r.channels)));
     }
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
     let tmp = dir.join(format!(".{name}.tmp{}.{ext}", std::process::id()));
+    let mut clean = r.clone();
+    for v in &mut clean.data {
+        if !v.is_finite() {
+            *v = 0.0;
+        }
+    }
+    let r = &clean;
     let res = match kind {
         FileKind::Exr => write_exr(&tmp, r, precision == Precision::F16),
         FileKind::Png => write_png(&tmp, r, precision == Precision::U16, srgb),
@@ -281,12 +336,26 @@ fn write_png(path: &Path, r: &Raster, sixteen: bool, srgb: bool) -> Result<(), S
         .map(|(i, v)| enc(*v, r.channels == 1 || i % 4 != 3))
         .collect();
     let res = match (r.channels, sixteen) {
-        (1, false) => image::GrayImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>()).map(|i| i.save(path)),
-        (1, true) => image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>())
-            .map(|i| i.save(path)),
-        (_, false) => image::RgbaImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>()).map(|i| i.save(path)),
-        (_, true) => image::ImageBuffer::<image::Rgba<u16>, _>::from_raw(w, h, samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>())
-            .map(|i| i.save_with_format(path, image::ImageFormat::Png)),
+        (1, false) => {
+            image::GrayImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>())
+                .map(|i| i.save(path))
+        }
+        (1, true) => image::ImageBuffer::<image::Luma<u16>, _>::from_raw(
+            w,
+            h,
+            samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>(),
+        )
+        .map(|i| i.save(path)),
+        (_, false) => {
+            image::RgbaImage::from_raw(w, h, samples.iter().map(|v| q8(*v)).collect::<Vec<u8>>())
+                .map(|i| i.save(path))
+        }
+        (_, true) => image::ImageBuffer::<image::Rgba<u16>, _>::from_raw(
+            w,
+            h,
+            samples.iter().map(|v| q16(*v)).collect::<Vec<u16>>(),
+        )
+        .map(|i| i.save_with_format(path, image::ImageFormat::Png)),
     };
     match res {
         Some(Ok(())) => Ok(()),

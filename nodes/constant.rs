@@ -1,0 +1,178 @@
+//! `Constant`: a flat one-channel image (`value`) and a flat RGBA image (`colour`).
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `value` | out | Scalar | every texel = `value` |
+//! | `colour` | out | Image | every texel = `colour` |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `value` | Float | 0 | ±1e30 | the Scalar output's value |
+//! | `colour` | Colour | (1,1,1,1) | ±1e30 | the Image output's colour (linear) |
+//! | `width`, `height` | Int | 0 | 0…16384 texels | size; 0 = the evaluation size (`--size`) |
+//!
+//! Only the outputs some consumer needs are computed.
+
+use bytemuck::{Pod, Zeroable};
+use std::sync::Arc;
+
+use super::util::size_or_default;
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `Constant` node kind.
+pub struct Constant;
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "Constant",
+    category: "Input",
+    doc: "A flat Scalar value and a flat RGBA colour, at a given size or the evaluation size.",
+    inputs: &[],
+    outputs: &[
+        PortSpec {
+            name: "value",
+            types: &[PortType::Scalar],
+            required: false,
+            doc: "Every texel equals `value`.",
+        },
+        PortSpec {
+            name: "colour",
+            types: &[PortType::Image],
+            required: false,
+            doc: "Every texel equals `colour`.",
+        },
+    ],
+    params: &[
+        ParamSpec {
+            name: "value",
+            kind: ParamKind::Float,
+            default: DefaultValue::Float(0.0),
+            min: -1e30,
+            max: 1e30,
+            unit: "",
+            doc: "Value of the Scalar output.",
+        },
+        ParamSpec {
+            name: "colour",
+            kind: ParamKind::Colour,
+            default: DefaultValue::Colour([1.0, 1.0, 1.0, 1.0]),
+            min: -1e30,
+            max: 1e30,
+            unit: "linear RGBA",
+            doc: "Colour of the Image output.",
+        },
+        ParamSpec {
+            name: "width",
+            kind: ParamKind::Int,
+            default: DefaultValue::Int(0),
+            min: 0.0,
+            max: 16384.0,
+            unit: "texels",
+            doc: "Width; 0 uses the evaluation size.",
+        },
+        ParamSpec {
+            name: "height",
+            kind: ParamKind::Int,
+            default: DefaultValue::Int(0),
+            min: 0.0,
+            max: 16384.0,
+            unit: "texels",
+            doc: "Height; 0 uses the evaluation size.",
+        },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "constant",
+    source: include_str!("../shaders/constant.wgsl"),
+};
+
+/// Uniforms of `shaders/constant.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct ConstantParams {
+    /// Colour of the Image output.
+    pub colour: [f32; 4],
+    /// Value of the Scalar output.
+    pub value: f32,
+    /// Padding.
+    pub _pad0: f32,
+    /// Padding.
+    pub _pad1: f32,
+    /// Padding.
+    pub _pad2: f32,
+}
+
+/// CPU reference: the `value` raster (one channel) and the `colour` raster (RGBA).
+pub fn reference(width: u32, height: u32, value: f32, colour: [f32; 4]) -> (Raster, Raster) {
+    let v = Raster::new(width, height, 1, value);
+    let mut c = Raster::new(width, height, 4, 0.0);
+    for px in c.data.chunks_mut(4) {
+        px.copy_from_slice(&colour);
+    }
+    (v, c)
+}
+
+impl NodeKind for Constant {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            ConstantParams,
+            "Params",
+            colour,
+            value,
+            _pad0,
+            _pad1,
+            _pad2
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (w, h) = size_or_default(ctx, "width", "height")?;
+        let u = ConstantParams {
+            colour: ctx.colour("colour")?,
+            value: ctx.f32("value")?,
+            _pad0: 0.0,
+            _pad1: 0.0,
+            _pad2: 0.0,
+        };
+        if ctx.wants("value") {
+            let out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+            ctx.gpu.dispatch(
+                SHADER,
+                "fill_scalar",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (1, Bind::Storage(&out)),
+                ],
+                w,
+                h,
+            )?;
+            ctx.set("value", PortValue::Scalar(Arc::new(out)));
+        }
+        if ctx.wants("colour") {
+            let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+            ctx.gpu.dispatch(
+                SHADER,
+                "fill_image",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (2, Bind::Storage(&out)),
+                ],
+                w,
+                h,
+            )?;
+            ctx.set("colour", PortValue::Image(Arc::new(out)));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,245 @@
+//! `ImageInput`: reads an EXR or PNG file and offers it as an Image, a Scalar, a ShadowMap or a
+//! Depth (the last two with identity matrices: a painted or exported map fed into a chain).
+//!
+//! One-channel files give grey images (alpha 1); RGBA files give their colour, and their
+//! Scalar is the channel chosen by `channel` (Rec. 709 luminance by default). 8/16-bit PNG colour
+//! is decoded from sRGB to linear when `srgb` is on.
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `image` | out | Image | RGBA |
+//! | `scalar` | out | Scalar | one channel |
+//! | `shadow` | out | ShadowMap | the one channel, light matrices identity |
+//! | `depth` | out | Depth | the one channel, camera matrices identity |
+//!
+//! | param | type | default | |
+//! |---|---|---|---|
+//! | `path` | Text | "" | file to read (`.exr`, `.png`) |
+//! | `channel` | Enum | luminance | luminance, r, g, b, a: Scalar of an RGBA file |
+//! | `srgb` | Bool | true | decode PNG colour from sRGB |
+//!
+//! The cache key includes the file's size and modification time, so editing the file on disk
+//! re-runs the node.
+
+use bytemuck::{Pod, Zeroable};
+use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
+use std::path::Path;
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::graph::{
+    DefaultValue, NodeSchema, ParamKind, ParamSpec, ParamValue, PortSpec, PortType,
+};
+use crate::io::Raster;
+
+/// The `ImageInput` node kind.
+pub struct ImageInput;
+
+/// Names of the `channel` parameter, in the shader's order.
+pub const CHANNELS: &[&str] = &["luminance", "r", "g", "b", "a"];
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "ImageInput",
+    category: "Input/Output",
+    doc: "Reads an EXR or PNG file as Image, Scalar, ShadowMap or Depth.",
+    inputs: &[],
+    outputs: &[
+        PortSpec {
+            name: "image",
+            types: &[PortType::Image],
+            required: false,
+            doc: "RGBA (grey files: value in R, G, B, alpha 1).",
+        },
+        PortSpec {
+            name: "scalar",
+            types: &[PortType::Scalar],
+            required: false,
+            doc: "One channel (see `channel`).",
+        },
+        PortSpec {
+            name: "shadow",
+            types: &[PortType::ShadowMap],
+            required: false,
+            doc: "The one channel as a shadow map with identity matrices.",
+        },
+        PortSpec {
+            name: "depth",
+            types: &[PortType::Depth],
+            required: false,
+            doc: "The one channel as linear depth with identity matrices.",
+        },
+    ],
+    params: &[
+        ParamSpec {
+            name: "path",
+            kind: ParamKind::Text,
+            default: DefaultValue::Text(""),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc: "File to read (.exr or .png).",
+        },
+        ParamSpec {
+            name: "channel",
+            kind: ParamKind::Enum(CHANNELS),
+            default: DefaultValue::Enum("luminance"),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc: "Which channel of an RGBA file the one-channel outputs carry.",
+        },
+        ParamSpec {
+            name: "srgb",
+            kind: ParamKind::Bool,
+            default: DefaultValue::Bool(true),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc: "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear).",
+        },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "image_input",
+    source: include_str!("../shaders/image_input.wgsl"),
+};
+
+/// Uniforms of `shaders/image_input.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct ImageInputParams {
+    /// Channels in the uploaded file data (1 or 4).
+    pub channels: u32,
+    /// Index into [`CHANNELS`].
+    pub channel: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+}
+
+/// Rec. 709 luminance weights.
+pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// CPU reference: the (image, scalar) pair produced from a file's raster.
+pub fn reference(file: &Raster, channel: &str) -> (Raster, Raster) {
+    let n = (file.width * file.height) as usize;
+    let mut image = Raster::new(file.width, file.height, 4, 0.0);
+    let mut scalar = Raster::new(file.width, file.height, 1, 0.0);
+    let ch = CHANNELS.iter().position(|c| *c == channel).unwrap_or(0);
+    for i in 0..n {
+        let px: [f32; 4] = if file.channels == 1 {
+            let v = file.data[i];
+            [v, v, v, 1.0]
+        } else {
+            let p = &file.data[i * 4..i * 4 + 4];
+            [p[0], p[1], p[2], p[3]]
+        };
+        image.data[i * 4..i * 4 + 4].copy_from_slice(&px);
+        scalar.data[i] = if file.channels == 1 {
+            file.data[i]
+        } else if ch == 0 {
+            px[0] * LUMA[0] + px[1] * LUMA[1] + px[2] * LUMA[2]
+        } else {
+            px[ch - 1]
+        };
+    }
+    (image, scalar)
+}
+
+impl NodeKind for ImageInput {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            ImageInputParams,
+            "Params",
+            channels,
+            channel,
+            _pad0,
+            _pad1
+        )]
+    }
+
+    fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
+        let mut h = std::hash::DefaultHasher::new();
+        if let Some(ParamValue::Text(p)) = params.get("path") {
+            if let Ok(m) = std::fs::metadata(p) {
+                m.len().hash(&mut h);
+                m.modified().ok().hash(&mut h);
+            }
+        }
+        h.finish()
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let path = ctx.text("path")?;
+        if path.is_empty() {
+            return Err(NodeError::Param {
+                param: "path".into(),
+                message: "is empty: set the file to read".into(),
+            });
+        }
+        let file = crate::io::read_image(Path::new(path), ctx.bool("srgb")?)?;
+        let channel = CHANNELS
+            .iter()
+            .position(|c| *c == ctx.text("channel").unwrap_or("luminance"))
+            .unwrap_or(0);
+        let src = ctx
+            .gpu
+            .upload(file.width, file.height, file.channels, &file.data)?;
+        let u = ImageInputParams {
+            channels: file.channels,
+            channel: channel as u32,
+            _pad0: 0,
+            _pad1: 0,
+        };
+        let (w, h) = (file.width, file.height);
+        if ctx.wants("image") {
+            let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+            ctx.gpu.dispatch(
+                SHADER,
+                "to_image",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (1, Bind::Texture(&src)),
+                    (3, Bind::Storage(&out)),
+                ],
+                w,
+                h,
+            )?;
+            ctx.set("image", PortValue::Image(Arc::new(out)));
+        }
+        if ["scalar", "shadow", "depth"].iter().any(|p| ctx.wants(p)) {
+            let out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+            ctx.gpu.dispatch(
+                SHADER,
+                "to_scalar",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (1, Bind::Texture(&src)),
+                    (2, Bind::Storage(&out)),
+                ],
+                w,
+                h,
+            )?;
+            let out = Arc::new(out);
+            ctx.set("scalar", PortValue::Scalar(out.clone()));
+            ctx.set(
+                "shadow",
+                PortValue::ShadowMap(out.clone(), Matrices::default()),
+            );
+            ctx.set("depth", PortValue::Depth(out, Matrices::default()));
+        }
+        Ok(())
+    }
+}

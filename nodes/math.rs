@@ -1,0 +1,289 @@
+//! `Math`: element-wise arithmetic on Scalar or Image inputs.
+//!
+//! `out = op(a, b)` per texel and channel, with `a`/`b` read from the connected inputs or, when
+//! an input is unconnected, from the parameters of the same name. The output is an Image when
+//! either input is an Image (a Scalar then broadcasts to all four channels), else a Scalar.
+//! Inputs of different sizes are refused unless one is 1×1 (it broadcasts).
+//!
+//! | op | result |
+//! |---|---|
+//! | `add`, `sub`, `mul` | a + b, a − b, a · b |
+//! | `div` | a / b, and 0 where b = 0 (safe division: never Inf/NaN from a zero divisor) |
+//! | `min`, `max` | min(a, b), max(a, b) |
+//! | `mix` | a + (b − a) · `factor` |
+//! | `clamp` | min(max(a, `lo`), `hi`) (b unused) |
+//! | `pow` | sign(a) · \|a\|^b; 0^b = 1 for b = 0, else 0 (no NaN for negative a or 0^−b) |
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `a`, `b` | in | Scalar \| Image (optional) |
+//! | `out` | out | Scalar \| Image |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `op` | Enum | add | see above | the operation |
+//! | `a`, `b` | Float | 0 | ±1e30 | operand values used when the input is unconnected |
+//! | `factor` | Float | 0.5 | −1e6…1e6 | `mix` weight of b |
+//! | `lo`, `hi` | Float | 0, 1 | ±1e30 | `clamp` bounds |
+
+use bytemuck::{Pod, Zeroable};
+use std::sync::Arc;
+
+use super::util::{image_like, placeholder};
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, GpuTexture, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `Math` node kind.
+pub struct Math;
+
+/// Operation names, in the order of the shader's `op` codes.
+pub const OPS: &[&str] = &[
+    "add", "sub", "mul", "div", "min", "max", "mix", "clamp", "pow",
+];
+
+const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "Math",
+    category: "Image",
+    doc: "Element-wise add, sub, mul, safe div, min, max, mix, clamp or pow of two Scalar/Image inputs or constants.",
+    inputs: &[
+        PortSpec { name: "a", types: IMG, required: false, doc: "First operand (the `a` parameter when unconnected)." },
+        PortSpec { name: "b", types: IMG, required: false, doc: "Second operand (the `b` parameter when unconnected)." },
+    ],
+    outputs: &[PortSpec { name: "out", types: IMG, required: false, doc: "Image if either input is an Image, else Scalar." }],
+    params: &[
+        ParamSpec { name: "op", kind: ParamKind::Enum(OPS), default: DefaultValue::Enum("add"), min: 0.0, max: 0.0, unit: "", doc: "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)." },
+        ParamSpec { name: "a", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Value of a when input a is unconnected." },
+        ParamSpec { name: "b", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Value of b when input b is unconnected." },
+        ParamSpec { name: "factor", kind: ParamKind::Float, default: DefaultValue::Float(0.5), min: -1e6, max: 1e6, unit: "", doc: "Weight of b for mix (0 = a, 1 = b)." },
+        ParamSpec { name: "lo", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Lower bound for clamp." },
+        ParamSpec { name: "hi", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Upper bound for clamp (wins when lo > hi)." },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "math",
+    source: include_str!("../shaders/math.wgsl"),
+};
+
+/// Uniforms of `shaders/math.wgsl` (struct `Params`). Modes: 0 constant, 1 Scalar texture
+/// (broadcast), 2 Image texture.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct MathParams {
+    /// Index into [`OPS`].
+    pub op: u32,
+    /// How a is read.
+    pub a_mode: u32,
+    /// How b is read.
+    pub b_mode: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Constant a.
+    pub a_const: f32,
+    /// Constant b.
+    pub b_const: f32,
+    /// Mix weight.
+    pub factor: f32,
+    /// Clamp low.
+    pub lo: f32,
+    /// Clamp high.
+    pub hi: f32,
+    /// Padding.
+    pub _pad1: f32,
+    /// Padding.
+    pub _pad2: f32,
+    /// Padding.
+    pub _pad3: f32,
+}
+
+/// CPU reference of one operation on one channel value (f32, same formulas as the shader).
+pub fn apply(op: &str, a: f32, b: f32, factor: f32, lo: f32, hi: f32) -> f32 {
+    match op {
+        "add" => a + b,
+        "sub" => a - b,
+        "mul" => a * b,
+        "div" => {
+            if b == 0.0 {
+                0.0
+            } else {
+                a / b
+            }
+        }
+        "min" => a.min(b),
+        "max" => a.max(b),
+        "mix" => a + (b - a) * factor,
+        "clamp" => a.max(lo).min(hi),
+        "pow" => {
+            let m = a.abs();
+            if m == 0.0 {
+                if b == 0.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            } else {
+                a.signum() * m.powf(b)
+            }
+        }
+        _ => a,
+    }
+}
+
+/// An operand for the CPU reference: a raster or a constant.
+pub enum Operand<'a> {
+    /// A constant value.
+    Const(f32),
+    /// A raster (1 channel broadcasts; 1×1 broadcasts over the other operand's size).
+    Raster(&'a Raster),
+}
+
+/// CPU reference of the whole node. `None` when neither operand is a raster or the sizes clash.
+pub fn reference(
+    op: &str,
+    a: Operand,
+    b: Operand,
+    factor: f32,
+    lo: f32,
+    hi: f32,
+) -> Option<Raster> {
+    let size = |o: &Operand| match o {
+        Operand::Raster(r) => Some((r.width, r.height, r.channels)),
+        Operand::Const(_) => None,
+    };
+    let (sa, sb) = (size(&a), size(&b));
+    let (w, h) = match (sa, sb) {
+        (Some((wa, ha, _)), Some((wb, hb, _))) if (wa, ha) == (wb, hb) || (wb, hb) == (1, 1) => {
+            (wa, ha)
+        }
+        (Some((1, 1, _)), Some((wb, hb, _))) => (wb, hb),
+        (Some(_), Some(_)) => return None,
+        (Some((w, h, _)), None) | (None, Some((w, h, _))) => (w, h),
+        (None, None) => return None,
+    };
+    let channels = if sa.map(|s| s.2) == Some(4) || sb.map(|s| s.2) == Some(4) {
+        4
+    } else {
+        1
+    };
+    let read = |o: &Operand, x: u32, y: u32, c: usize| -> f32 {
+        match o {
+            Operand::Const(v) => *v,
+            Operand::Raster(r) => {
+                let p = r.pixel(x.min(r.width - 1), y.min(r.height - 1));
+                if r.channels == 1 {
+                    p[0]
+                } else {
+                    p[c]
+                }
+            }
+        }
+    };
+    let mut out = Raster::new(w, h, channels, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..channels as usize {
+                let i = (y as usize * w as usize + x as usize) * channels as usize + c;
+                out.data[i] = apply(op, read(&a, x, y, c), read(&b, x, y, c), factor, lo, hi);
+            }
+        }
+    }
+    Some(out)
+}
+
+fn operand<'a>(ctx: &'a RunCtx, port: &str) -> (u32, Option<&'a Arc<GpuTexture>>) {
+    match ctx.input(port) {
+        Some(PortValue::Image(t)) => (2, Some(t)),
+        Some(v) => (1, v.texture()),
+        None => (0, None),
+    }
+}
+
+impl NodeKind for Math {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            MathParams, "Params", op, a_mode, b_mode, _pad0, a_const, b_const, factor, lo, hi,
+            _pad1, _pad2, _pad3
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let op = ctx.text("op")?;
+        let op_code = OPS.iter().position(|o| *o == op).unwrap_or(0) as u32;
+        let (a_mode, ta) = operand(ctx, "a");
+        let (b_mode, tb) = operand(ctx, "b");
+        let (w, h) = match (ta, tb) {
+            (Some(a), Some(b)) => {
+                if (a.width, a.height) == (b.width, b.height) || (b.width, b.height) == (1, 1) {
+                    (a.width, a.height)
+                } else if (a.width, a.height) == (1, 1) {
+                    (b.width, b.height)
+                } else {
+                    return Err(NodeError::Input {
+                        port: "b".into(),
+                        message: format!(
+                            "size {}x{} differs from input a's {}x{} (only 1×1 broadcasts)",
+                            b.width, b.height, a.width, a.height
+                        ),
+                    });
+                }
+            }
+            (Some(t), None) | (None, Some(t)) => (t.width, t.height),
+            (None, None) => {
+                return Err(NodeError::Input {
+                    port: "a".into(),
+                    message: "connect a or b: Math needs at least one image input".into(),
+                })
+            }
+        };
+        let u = MathParams {
+            op: op_code,
+            a_mode,
+            b_mode,
+            _pad0: 0,
+            a_const: ctx.f32("a")?,
+            b_const: ctx.f32("b")?,
+            factor: ctx.f32("factor")?,
+            lo: ctx.f32("lo")?,
+            hi: ctx.f32("hi")?,
+            _pad1: 0.0,
+            _pad2: 0.0,
+            _pad3: 0.0,
+        };
+        let dummy = placeholder(ctx)?;
+        let ta = ta.cloned().unwrap_or_else(|| dummy.clone());
+        let tb = tb.cloned().unwrap_or(dummy);
+        let image = a_mode == 2 || b_mode == 2;
+        let (format, entry, slot) = if image {
+            (TexFormat::Rgba32F, "math_image", 4)
+        } else {
+            (TexFormat::R32F, "math_scalar", 3)
+        };
+        let out = ctx.gpu.texture(w, h, format)?;
+        ctx.gpu.dispatch(
+            SHADER,
+            entry,
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                (1, Bind::Texture(&ta)),
+                (2, Bind::Texture(&tb)),
+                (slot, Bind::Storage(&out)),
+            ],
+            w,
+            h,
+        )?;
+        ctx.set("out", image_like(Arc::new(out)));
+        Ok(())
+    }
+}

@@ -1,0 +1,27 @@
+//! Node kinds, one file each (ports and parameters, CPU reference, GPU dispatch), and the
+//! registry that hands them to the document and the evaluator.
+//!
+//! Adding a node: write `nodes/<stem>.rs` and `shaders/<stem>.wgsl`, then add one line to
+//! [`registry`].
+
+use std::sync::Arc;
+
+use crate::eval::Registry;
+
+pub mod constant;
+pub mod image_input;
+pub mod image_output;
+pub mod math;
+pub mod remap;
+pub mod util;
+
+/// Every node kind Tyndall ships.
+pub fn registry() -> Registry {
+    let mut r = Registry::new();
+    r.add(Arc::new(constant::Constant));
+    r.add(Arc::new(image_input::ImageInput));
+    r.add(Arc::new(image_output::ImageOutput));
+    r.add(Arc::new(math::Math));
+    r.add(Arc::new(remap::Remap));
+    r
+}

@@ -1,0 +1,164 @@
+//! `Remap`: linear map of values from one range to another, optionally clamped.
+//!
+//! `out = to_min + (x − from_min) · (to_max − to_min) / (from_max − from_min)`; with a zero-width
+//! source range (`from_min = from_max`) the map is a step: `to_min` below `from_min`, `to_max`
+//! at or above it (never a division by zero). With `clamp`, the result is clamped to the target
+//! range (either order). Images remap R, G, B and keep alpha.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `in` | in | Scalar \| Image (required) |
+//! | `out` | out | same as `in` |
+//!
+//! | param | type | default | range |
+//! |---|---|---|---|
+//! | `from_min`, `from_max` | Float | 0, 1 | ±1e30 |
+//! | `to_min`, `to_max` | Float | 0, 1 | ±1e30 |
+//! | `clamp` | Bool | false | |
+
+use bytemuck::{Pod, Zeroable};
+use std::sync::Arc;
+
+use super::util::image_like;
+use crate::eval::{NodeError, NodeKind, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `Remap` node kind.
+pub struct Remap;
+
+const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "Remap",
+    category: "Image",
+    doc: "Linearly maps values from [from_min, from_max] to [to_min, to_max], optionally clamped; alpha is kept.",
+    inputs: &[PortSpec { name: "in", types: IMG, required: true, doc: "Values to remap." }],
+    outputs: &[PortSpec { name: "out", types: IMG, required: false, doc: "Remapped values, same type and size as `in`." }],
+    params: &[
+        ParamSpec { name: "from_min", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Source value mapped to to_min." },
+        ParamSpec { name: "from_max", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Source value mapped to to_max (equal to from_min: a step)." },
+        ParamSpec { name: "to_min", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Target of from_min." },
+        ParamSpec { name: "to_max", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Target of from_max." },
+        ParamSpec { name: "clamp", kind: ParamKind::Bool, default: DefaultValue::Bool(false), min: 0.0, max: 0.0, unit: "", doc: "Clamp the result to the target range." },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "remap",
+    source: include_str!("../shaders/remap.wgsl"),
+};
+
+/// Uniforms of `shaders/remap.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct RemapParams {
+    /// Source low.
+    pub from_min: f32,
+    /// Source high.
+    pub from_max: f32,
+    /// Target low.
+    pub to_min: f32,
+    /// Target high.
+    pub to_max: f32,
+    /// 1 to clamp.
+    pub clamp: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+}
+
+/// CPU reference for one value (same f32 formula as the shader).
+pub fn remap_value(x: f32, p: &RemapParams) -> f32 {
+    let span = p.from_max - p.from_min;
+    let mut y = if span == 0.0 {
+        if x < p.from_min {
+            p.to_min
+        } else {
+            p.to_max
+        }
+    } else {
+        p.to_min + (x - p.from_min) * ((p.to_max - p.to_min) / span)
+    };
+    if p.clamp != 0 {
+        y = y.max(p.to_min.min(p.to_max)).min(p.to_min.max(p.to_max));
+    }
+    y
+}
+
+/// CPU reference of the node (RGB remapped, alpha kept for four-channel rasters).
+pub fn reference(input: &Raster, p: &RemapParams) -> Raster {
+    let mut out = input.clone();
+    let c = input.channels as usize;
+    for (i, v) in out.data.iter_mut().enumerate() {
+        if c == 1 || i % c != 3 {
+            *v = remap_value(*v, p);
+        }
+    }
+    out
+}
+
+impl NodeKind for Remap {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            RemapParams,
+            "Params",
+            from_min,
+            from_max,
+            to_min,
+            to_max,
+            clamp,
+            _pad0,
+            _pad1,
+            _pad2
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let input = ctx.require("in")?;
+        let tex = input.texture().cloned().ok_or_else(|| NodeError::Input {
+            port: "in".into(),
+            message: "is not an image".into(),
+        })?;
+        let u = RemapParams {
+            from_min: ctx.f32("from_min")?,
+            from_max: ctx.f32("from_max")?,
+            to_min: ctx.f32("to_min")?,
+            to_max: ctx.f32("to_max")?,
+            clamp: ctx.bool("clamp")? as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        let (entry, slot) = match tex.format {
+            TexFormat::R32F => ("remap_scalar", 2),
+            TexFormat::Rgba32F => ("remap_image", 3),
+        };
+        let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;
+        ctx.gpu.dispatch(
+            SHADER,
+            entry,
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                (1, Bind::Texture(&tex)),
+                (slot, Bind::Storage(&out)),
+            ],
+            tex.width,
+            tex.height,
+        )?;
+        ctx.set("out", image_like(Arc::new(out)));
+        Ok(())
+    }
+}

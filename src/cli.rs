@@ -1,0 +1,754 @@
+//! The command line: `tyndall node | eval | render | validate | nodes`.
+//!
+//! Exit codes: 0 ok, 1 evaluation error, 2 bad input (file, graph, argument).
+
+use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use clap::{Args, Parser, Subcommand};
+use thiserror::Error;
+
+use crate::eval::{
+    download, upload_raster, with_suffix, EvalError, EvalOptions, Evaluation, Evaluator, PortValue,
+    Registry, Target,
+};
+use crate::gpu::Gpu;
+use crate::graph::{load_file, split_endpoint, Graph, NodeSchema, ParamKind, ParamValue, PortType};
+use crate::io::{read_image, write_image, Precision};
+
+/// Tyndall: a GPU node-graph compositor for stylized light shafts.
+#[derive(Parser, Debug)]
+#[command(name = "tyndall", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run one node on files: the quickest way to try a node.
+    Node(NodeArgs),
+    /// Evaluate a graph: its outputs, or chosen ports written to files.
+    Eval(EvalArgs),
+    /// Render a graph's outputs (all sinks), optionally over a frame range.
+    Render(RenderArgs),
+    /// Check a graph file and report the first problem with its line:column.
+    Validate {
+        /// The graph file.
+        graph: PathBuf,
+    },
+    /// List every node kind with its ports and parameters.
+    Nodes {
+        /// Markdown tables (for docs).
+        #[arg(long, conflicts_with = "json")]
+        markdown: bool,
+        /// JSON (for scripts and pipeline tools).
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Options shared by evaluation commands.
+#[derive(Args, Debug, Clone)]
+pub struct Common {
+    /// Default image size for nodes that create images, WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Print per-node statistics (ran | reused | not needed, time).
+    #[arg(long)]
+    pub stats: bool,
+    /// Evaluate once per value of NODE.PARAM in one process: NODE.PARAM=v1,v2,... Output files
+    /// get the suffix `_PARAM-VALUE`.
+    #[arg(long, value_name = "NODE.PARAM=V1,V2,...")]
+    pub wedge: Option<String>,
+    /// Override a parameter: NODE.PARAM=VALUE (repeatable).
+    #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
+    pub set: Vec<String>,
+}
+
+/// `tyndall node`.
+#[derive(Args, Debug)]
+pub struct NodeArgs {
+    /// Node kind (see `tyndall nodes`).
+    pub kind: String,
+    /// Parameter: NAME=VALUE (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// RON file holding the node's data block.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Input port fed from a file: PORT=FILE (repeatable).
+    #[arg(long = "input", value_name = "PORT=FILE")]
+    pub inputs: Vec<String>,
+    /// Output port written to a file: PORT=FILE (repeatable).
+    #[arg(long = "output", value_name = "PORT=FILE")]
+    pub outputs: Vec<String>,
+    /// Time at which key-frames are sampled.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f64,
+    /// Default image size, WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Print statistics.
+    #[arg(long)]
+    pub stats: bool,
+}
+
+/// `tyndall eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// The graph file.
+    pub graph: PathBuf,
+    /// Replace a node's `path` parameter (e.g. an ImageInput's file): NODE=FILE (repeatable).
+    #[arg(long = "input", value_name = "NODE=FILE")]
+    pub inputs: Vec<String>,
+    /// Write an output port to a file: NODE.PORT=FILE (repeatable). Without any, the graph's
+    /// outputs (sinks) are evaluated.
+    #[arg(long = "output", value_name = "NODE.PORT=FILE")]
+    pub outputs: Vec<String>,
+    /// Time at which key-frames are sampled.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f64,
+    /// Shared options.
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// `tyndall render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The graph file.
+    pub graph: PathBuf,
+    /// Output file; replaces the `path` of the graph's single output node.
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Frame range A-B (inclusive); files get the suffix `_NNNN`.
+    #[arg(long, value_parser = parse_frames)]
+    pub frames: Option<(i64, i64)>,
+    /// Shared options.
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// A CLI failure with its exit code.
+#[derive(Debug, Error)]
+pub enum CliError {
+    /// Bad file, graph or argument (exit 2).
+    #[error("{0}")]
+    BadInput(String),
+    /// Evaluation failed (exit 1).
+    #[error(transparent)]
+    Eval(#[from] EvalError),
+}
+
+impl CliError {
+    /// The process exit code.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CliError::BadInput(_) => 2,
+            CliError::Eval(_) => 1,
+        }
+    }
+}
+
+fn bad(msg: impl std::fmt::Display) -> CliError {
+    CliError::BadInput(msg.to_string())
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 960x540")?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width '{w}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height '{h}'"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err("width and height must be within 1..=16384".into());
+    }
+    Ok((w, h))
+}
+
+fn parse_frames(s: &str) -> Result<(i64, i64), String> {
+    let (a, b) = s.split_once('-').unwrap_or((s, s));
+    let a: i64 = a.trim().parse().map_err(|_| format!("bad frame '{a}'"))?;
+    let b: i64 = b.trim().parse().map_err(|_| format!("bad frame '{b}'"))?;
+    if b < a {
+        return Err(format!("frame range {a}-{b} is empty"));
+    }
+    Ok((a, b))
+}
+
+fn split_eq(s: &str, what: &str) -> Result<(String, String), CliError> {
+    s.split_once('=')
+        .map(|(a, b)| (a.trim().to_string(), b.to_string()))
+        .ok_or_else(|| bad(format!("'{s}': expected {what}")))
+}
+
+/// Run the command line; returns the exit code.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+/// Run a parsed command.
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    let registry = Arc::new(crate::nodes::registry());
+    match cli.command {
+        Command::Validate { graph } => {
+            let g = load_file(&graph, registry.catalog()).map_err(bad)?;
+            println!(
+                "{}: ok ({} nodes, {} edges)",
+                graph.display(),
+                g.len(),
+                g.edges().len()
+            );
+            Ok(())
+        }
+        Command::Nodes { markdown, json } => {
+            print!("{}", catalog_text(&registry, markdown, json));
+            Ok(())
+        }
+        Command::Node(a) => run_node(registry, a),
+        Command::Eval(a) => run_eval(registry, a),
+        Command::Render(a) => run_render(registry, a),
+    }
+}
+
+fn gpu() -> Result<Arc<Gpu>, CliError> {
+    Gpu::shared().map_err(|e| {
+        CliError::Eval(EvalError::Node {
+            node: "-".into(),
+            kind: "-".into(),
+            source: e.into(),
+        })
+    })
+}
+
+fn set_param_str(
+    registry: &Registry,
+    g: &mut Graph,
+    node: &str,
+    param: &str,
+    value: &str,
+) -> Result<(), CliError> {
+    let kind = g
+        .node(node)
+        .map(|n| n.kind.clone())
+        .ok_or_else(|| bad(format!("no node '{node}' in the graph")))?;
+    let schema = registry
+        .catalog()
+        .get(&kind)
+        .ok_or_else(|| bad(format!("unknown node kind '{kind}'")))?;
+    let spec = schema.param(param).ok_or_else(|| {
+        bad(format!(
+            "node '{node}' ({kind}) has no parameter '{param}' (its parameters: {})",
+            schema.param_names()
+        ))
+    })?;
+    let v = spec.parse_str(value).map_err(|_| {
+        bad(format!(
+            "node '{node}' parameter '{param}': '{value}' is not {}",
+            spec.expected()
+        ))
+    })?;
+    g.set_param(registry.catalog(), node, param, v)
+        .map_err(bad)?;
+    g.set_keys(registry.catalog(), node, param, Vec::new())
+        .map_err(bad)
+}
+
+fn file_key(path: &Path) -> u64 {
+    let mut h = std::hash::DefaultHasher::new();
+    path.hash(&mut h);
+    if let Ok(m) = std::fs::metadata(path) {
+        m.len().hash(&mut h);
+        m.modified().ok().hash(&mut h);
+    }
+    h.finish()
+}
+
+/// The port type a file with `channels` channels should become on a port accepting `accepts`.
+fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
+    if channels == 4 {
+        return accepts
+            .contains(&PortType::Image)
+            .then_some(PortType::Image);
+    }
+    accepts
+        .iter()
+        .copied()
+        .find(|t| t.is_single_channel())
+        .or_else(|| {
+            accepts
+                .contains(&PortType::Image)
+                .then_some(PortType::Image)
+        })
+}
+
+fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
+    let raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    let precision = match crate::io::file_kind(path).map_err(bad)? {
+        crate::io::FileKind::Exr => Precision::F32,
+        crate::io::FileKind::Png => Precision::U8,
+    };
+    write_image(path, &raster, precision, true).map_err(|e| {
+        CliError::Eval(EvalError::Node {
+            node: "-".into(),
+            kind: "output".into(),
+            source: e.into(),
+        })
+    })
+}
+
+fn print_stats(ev: &Evaluation, header: &str) {
+    if !header.is_empty() {
+        println!("{header}");
+    }
+    print!("{}", ev.stats);
+}
+
+fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliError> {
+    let catalog = registry.catalog().clone();
+    let schema: &NodeSchema = catalog.get(&a.kind).ok_or_else(|| {
+        bad(format!(
+            "unknown node kind '{}' (known kinds: {})",
+            a.kind,
+            catalog.kind_names()
+        ))
+    })?;
+    let id = a.kind.to_lowercase();
+    let data = match &a.data {
+        Some(d) => {
+            let text =
+                std::fs::read_to_string(d).map_err(|e| bad(format!("{}: {e}", d.display())))?;
+            let v: ron::Value = ron::from_str(&text)
+                .map_err(|e| bad(format!("{}:{}: {}", d.display(), e.span.start, e.code)))?;
+            Some(v)
+        }
+        None => None,
+    };
+    let mut g = Graph::new();
+    g.insert_node(
+        &catalog,
+        crate::graph::Node {
+            id: id.clone(),
+            kind: a.kind.clone(),
+            params: BTreeMap::new(),
+            keys: BTreeMap::new(),
+            pos: None,
+            data,
+        },
+    )
+    .map_err(bad)?;
+    for p in &a.params {
+        let (name, value) = split_eq(p, "NAME=VALUE")?;
+        set_param_str(&registry, &mut g, &id, &name, &value)?;
+    }
+    let gpu = gpu()?;
+    let mut opts = EvalOptions {
+        time: a.time,
+        ..Default::default()
+    };
+    if let Some(s) = a.size {
+        opts.size = s;
+    }
+    for i in &a.inputs {
+        let (port, file) = split_eq(i, "PORT=FILE")?;
+        let spec = schema.input(&port).ok_or_else(|| {
+            bad(format!(
+                "{} has no input port '{port}' (its inputs: {})",
+                a.kind,
+                schema.input_names()
+            ))
+        })?;
+        let path = PathBuf::from(&file);
+        let raster = read_image(&path, true).map_err(bad)?;
+        let ty = type_for_file(spec.types, raster.channels).ok_or_else(|| {
+            bad(format!(
+                "{file}: a {}-channel image cannot feed {}.{port}",
+                raster.channels, a.kind
+            ))
+        })?;
+        let v = upload_raster(&gpu, &raster, ty).map_err(|e| bad(format!("{file}: {e}")))?;
+        opts.inject
+            .insert((id.clone(), port.clone()), (v, file_key(&path)));
+    }
+    let mut targets = Vec::new();
+    let mut files = Vec::new();
+    for o in &a.outputs {
+        let (port, file) = split_eq(o, "PORT=FILE")?;
+        if schema.output(&port).is_none() {
+            return Err(bad(format!(
+                "{} has no output port '{port}' (its outputs: {})",
+                a.kind,
+                schema.output_names()
+            )));
+        }
+        targets.push(Target::Port(id.clone(), port.clone()));
+        files.push((port, PathBuf::from(file)));
+    }
+    let is_sink = registry.get(&a.kind).is_some_and(|k| k.is_sink());
+    if is_sink {
+        targets.push(Target::Node(id.clone()));
+    } else if targets.is_empty() {
+        return Err(bad(format!(
+            "nothing to write: give --output PORT=FILE (outputs of {}: {})",
+            a.kind,
+            schema.output_names()
+        )));
+    }
+    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+    let result = ev.evaluate(&g, &targets, &opts)?;
+    for (port, file) in files {
+        if let Some(v) = result.outputs.get(&(id.clone(), port)) {
+            write_value(&gpu, v, &file)?;
+        }
+    }
+    if a.stats {
+        print_stats(&result, "");
+    }
+    Ok(())
+}
+
+struct Wedge {
+    node: String,
+    param: String,
+    values: Vec<String>,
+}
+
+fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
+    let (target, values) = split_eq(s, "NODE.PARAM=V1,V2,...")?;
+    let (node, param) = split_endpoint(&target).map_err(bad)?;
+    let values: Vec<String> = values
+        .split(',')
+        .map(|v| v.trim().to_string())
+        .filter(|v| !v.is_empty())
+        .collect();
+    if values.is_empty() {
+        return Err(bad("--wedge needs at least one value"));
+    }
+    Ok(Wedge {
+        node: node.to_string(),
+        param: param.to_string(),
+        values,
+    })
+}
+
+fn load_graph(registry: &Registry, path: &Path, common: &Common) -> Result<Graph, CliError> {
+    let mut g = load_file(path, registry.catalog()).map_err(bad)?;
+    for s in &common.set {
+        let (target, value) = split_eq(s, "NODE.PARAM=VALUE")?;
+        let (node, param) = split_endpoint(&target).map_err(bad)?;
+        set_param_str(registry, &mut g, node, param, &value)?;
+    }
+    Ok(g)
+}
+
+/// One evaluation variant: the graph to evaluate, the file suffix and a label.
+struct Variant {
+    graph: Graph,
+    suffix: String,
+    label: String,
+}
+
+fn variants(registry: &Registry, g: &Graph, wedge: Option<&str>) -> Result<Vec<Variant>, CliError> {
+    let Some(w) = wedge else {
+        return Ok(vec![Variant {
+            graph: g.clone(),
+            suffix: String::new(),
+            label: String::new(),
+        }]);
+    };
+    let w = parse_wedge(w)?;
+    let mut out = Vec::new();
+    for (i, v) in w.values.iter().enumerate() {
+        let mut gv = g.clone();
+        set_param_str(registry, &mut gv, &w.node, &w.param, v)?;
+        let clean: String = v
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '.' || c == '-' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        out.push(Variant {
+            graph: gv,
+            suffix: format!("_{}-{clean}", w.param),
+            label: format!(
+                "evaluation {}/{} ({}.{} = {v})",
+                i + 1,
+                w.values.len(),
+                w.node,
+                w.param
+            ),
+        });
+    }
+    Ok(out)
+}
+
+fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
+    let mut g = load_graph(&registry, &a.graph, &a.common)?;
+    for i in &a.inputs {
+        let (node, file) = split_eq(i, "NODE=FILE")?;
+        let has_path = g
+            .node(&node)
+            .and_then(|n| registry.catalog().get(&n.kind))
+            .and_then(|s| s.param("path"))
+            .is_some_and(|p| p.kind == ParamKind::Text);
+        if !has_path {
+            return Err(bad(format!(
+                "--input {node}=...: node '{node}' is not in the graph or has no path parameter"
+            )));
+        }
+        g.set_param(registry.catalog(), &node, "path", ParamValue::Text(file))
+            .map_err(bad)?;
+    }
+    let mut targets = Vec::new();
+    let mut files = Vec::new();
+    for o in &a.outputs {
+        let (target, file) = split_eq(o, "NODE.PORT=FILE")?;
+        let (node, port) = split_endpoint(&target).map_err(bad)?;
+        targets.push(Target::Port(node.to_string(), port.to_string()));
+        files.push(((node.to_string(), port.to_string()), file));
+    }
+    let gpu = gpu()?;
+    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+    if targets.is_empty() {
+        targets = ev.sinks(&g);
+        if targets.is_empty() {
+            return Err(bad(format!(
+                "{}: the graph has no outputs; give --output NODE.PORT=FILE",
+                a.graph.display()
+            )));
+        }
+    }
+    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
+    for v in &vars {
+        let opts = EvalOptions {
+            time: a.time,
+            size: a.common.size.unwrap_or((512, 512)),
+            output_suffix: v.suffix.clone(),
+            inject: BTreeMap::new(),
+        };
+        let result = ev.evaluate(&v.graph, &targets, &opts)?;
+        for (key, file) in &files {
+            if let Some(val) = result.outputs.get(key) {
+                write_value(&gpu, val, &with_suffix(file, &v.suffix))?;
+            }
+        }
+        if a.common.stats {
+            print_stats(&result, &v.label);
+        }
+    }
+    Ok(())
+}
+
+fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
+    let mut g = load_graph(&registry, &a.graph, &a.common)?;
+    let gpu = gpu()?;
+    let mut ev = Evaluator::new(registry.clone(), gpu);
+    let targets = ev.sinks(&g);
+    if targets.is_empty() {
+        return Err(bad(format!(
+            "{}: the graph has no output nodes to render",
+            a.graph.display()
+        )));
+    }
+    if let Some(o) = &a.output {
+        let [Target::Node(sink)] = targets.as_slice() else {
+            return Err(bad(format!(
+                "-o needs a graph with exactly one output node; this one has {}",
+                targets.len()
+            )));
+        };
+        g.set_param(
+            registry.catalog(),
+            sink,
+            "path",
+            ParamValue::Text(o.to_string_lossy().into_owned()),
+        )
+        .map_err(bad)?;
+    }
+    let frames: Vec<Option<i64>> = match a.frames {
+        Some((s, e)) => (s..=e).map(Some).collect(),
+        None => vec![None],
+    };
+    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
+    let total = frames.len() * vars.len();
+    let bar = progress(total as u64);
+    for f in &frames {
+        for v in &vars {
+            let frame_suffix = f.map(|f| format!("_{f:04}")).unwrap_or_default();
+            let opts = EvalOptions {
+                time: f.map_or(0.0, |f| f as f64),
+                size: a.common.size.unwrap_or((960, 540)),
+                output_suffix: format!("{}{frame_suffix}", v.suffix),
+                inject: BTreeMap::new(),
+            };
+            let result = ev.evaluate(&v.graph, &targets, &opts)?;
+            if a.common.stats {
+                let label = match f {
+                    Some(f) => format!("frame {f} {}", v.label),
+                    None => v.label.clone(),
+                };
+                print_stats(&result, label.trim());
+            }
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    Ok(())
+}
+
+/// A progress bar on a terminal; hidden otherwise (long work prints plain lines via `--stats`).
+fn progress(total: u64) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if total <= 1 || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(total);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {elapsed}") {
+        bar.set_style(style);
+    }
+    bar
+}
+
+fn default_text(p: &crate::graph::ParamSpec) -> String {
+    match p.default.value() {
+        ParamValue::Text(s) => format!("\"{s}\""),
+        v => v.to_string(),
+    }
+}
+
+fn range_text(p: &crate::graph::ParamSpec) -> String {
+    match p.kind {
+        ParamKind::Float | ParamKind::Int | ParamKind::Colour => format!("[{}, {}]", p.min, p.max),
+        ParamKind::Enum(names) => names.join(" | "),
+        ParamKind::Bool => "true | false".into(),
+        ParamKind::Text => "text".into(),
+    }
+}
+
+/// The catalog as plain text, Markdown or JSON.
+pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
+    use std::fmt::Write;
+    let schemas: Vec<&NodeSchema> = registry.catalog().iter().collect();
+    if json {
+        let v: Vec<serde_json::Value> = schemas
+            .iter()
+            .map(|s| {
+                let ports = |dir: &str, ps: &[crate::graph::PortSpec]| -> Vec<serde_json::Value> {
+                    ps.iter()
+                        .map(|p| {
+                            serde_json::json!({
+                                "name": p.name, "direction": dir,
+                                "types": p.types.iter().map(|t| t.name()).collect::<Vec<_>>(),
+                                "required": p.required, "doc": p.doc,
+                            })
+                        })
+                        .collect()
+                };
+                let mut all = ports("input", s.inputs);
+                all.extend(ports("output", s.outputs));
+                serde_json::json!({
+                    "kind": s.kind, "category": s.category, "doc": s.doc,
+                    "ports": all,
+                    "params": s.params.iter().map(|p| {
+                        let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour);
+                        serde_json::json!({
+                            "name": p.name, "type": p.kind.name(),
+                            "default": match p.default.value() {
+                                ParamValue::Float(v) => serde_json::json!(v),
+                                ParamValue::Int(v) => serde_json::json!(v),
+                                ParamValue::Bool(v) => serde_json::json!(v),
+                                ParamValue::Enum(v) | ParamValue::Text(v) => serde_json::json!(v),
+                                ParamValue::Colour(c) => serde_json::json!(c),
+                            },
+                            "min": if numeric { serde_json::json!(p.min) } else { serde_json::Value::Null },
+                            "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },
+                            "values": match p.kind { ParamKind::Enum(n) => serde_json::json!(n), _ => serde_json::Value::Null },
+                            "unit": p.unit, "doc": p.doc,
+                        })
+                    }).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        return serde_json::to_string_pretty(&v).unwrap_or_default() + "\n";
+    }
+    let mut out = String::new();
+    for s in schemas {
+        if markdown {
+            let _ = writeln!(out, "## {}\n\n*{}* — {}\n", s.kind, s.category, s.doc);
+            let _ = writeln!(out, "| port | direction | type | doc |\n|---|---|---|---|");
+            for (dir, ps) in [("in", s.inputs), ("out", s.outputs)] {
+                for p in ps {
+                    let types: Vec<&str> = p.types.iter().map(|t| t.name()).collect();
+                    let _ = writeln!(
+                        out,
+                        "| `{}` | {dir} | {} | {} |",
+                        p.name,
+                        types.join(" \\| "),
+                        p.doc
+                    );
+                }
+            }
+            let _ = writeln!(
+                out,
+                "\n| parameter | type | default | range | unit | doc |\n|---|---|---|---|---|---|"
+            );
+            for p in s.params {
+                let _ = writeln!(
+                    out,
+                    "| `{}` | {} | {} | {} | {} | {} |",
+                    p.name,
+                    p.kind.name(),
+                    default_text(p),
+                    range_text(p).replace('|', "\\|"),
+                    p.unit,
+                    p.doc
+                );
+            }
+            out.push('\n');
+        } else {
+            let _ = writeln!(out, "{} ({}): {}", s.kind, s.category, s.doc);
+            for (dir, ps) in [("in ", s.inputs), ("out", s.outputs)] {
+                for p in ps {
+                    let types: Vec<&str> = p.types.iter().map(|t| t.name()).collect();
+                    let _ = writeln!(
+                        out,
+                        "  {dir} {:<10} {:<16} {}",
+                        p.name,
+                        types.join("|"),
+                        p.doc
+                    );
+                }
+            }
+            for p in s.params {
+                let _ = writeln!(
+                    out,
+                    "  param {:<10} {:<7} default {} range {} {} — {}",
+                    p.name,
+                    p.kind.name(),
+                    default_text(p),
+                    range_text(p),
+                    p.unit,
+                    p.doc
+                );
+            }
+            out.push('\n');
+        }
+    }
+    out
+}

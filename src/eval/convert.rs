@@ -1,0 +1,55 @@
+//! Moving values between files (CPU rasters) and ports (GPU textures).
+
+use std::sync::Arc;
+
+use super::node::NodeError;
+use super::value::{Matrices, PortValue};
+use crate::gpu::Gpu;
+use crate::graph::PortType;
+use crate::io::Raster;
+
+/// Upload a raster as a value of `ty`: one channel feeds `Scalar`, `Depth` or `ShadowMap`
+/// (matrices identity), four channels feed `Image`; a one-channel raster given for an `Image`
+/// becomes grey with alpha 1. Other combinations are refused with a message.
+pub fn upload_raster(gpu: &Gpu, r: &Raster, ty: PortType) -> Result<PortValue, NodeError> {
+    let mismatch = || {
+        NodeError::Other(format!(
+            "a {}-channel image cannot feed a {ty} port (one channel feeds Scalar/Depth/ShadowMap, RGBA feeds Image)",
+            r.channels
+        ))
+    };
+    match (ty, r.channels) {
+        (PortType::Image, 4) => Ok(PortValue::Image(Arc::new(
+            gpu.upload(r.width, r.height, 4, &r.data)?,
+        ))),
+        (PortType::Image, 1) => {
+            let data: Vec<f32> = r.data.iter().flat_map(|v| [*v, *v, *v, 1.0]).collect();
+            Ok(PortValue::Image(Arc::new(
+                gpu.upload(r.width, r.height, 4, &data)?,
+            )))
+        }
+        (PortType::Scalar | PortType::Depth | PortType::ShadowMap, 1) => {
+            let t = Arc::new(gpu.upload(r.width, r.height, 1, &r.data)?);
+            Ok(match ty {
+                PortType::Depth => PortValue::Depth(t, Matrices::default()),
+                PortType::ShadowMap => PortValue::ShadowMap(t, Matrices::default()),
+                _ => PortValue::Scalar(t),
+            })
+        }
+        _ => Err(mismatch()),
+    }
+}
+
+/// Read a 2D value back to the CPU.
+pub fn download(gpu: &Gpu, v: &PortValue) -> Result<Raster, NodeError> {
+    let t = v
+        .texture()
+        .ok_or_else(|| NodeError::Other(format!("a {} value is not an image", v.port_type())))?;
+    let data = gpu.read_texture(t)?;
+    Ok(Raster {
+        width: t.width,
+        height: t.height,
+        channels: t.format.channels(),
+        data,
+    })
+}
