@@ -6,7 +6,7 @@
 //!
 //! | port | dir | type |
 //! |---|---|---|
-//! | `image` | in | Image \| Scalar (ShadowMap and Depth convert to Scalar) — required |
+//! | `image` | in | Image \| Scalar \| ShadowMap \| Depth — required |
 //!
 //! | param | type | default | |
 //! |---|---|---|---|

@@ -20,7 +20,7 @@ pub use node::{with_suffix, NodeError, NodeKind, Registry, RunCtx};
 pub use value::{Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;
-use crate::graph::{Graph, GraphError, PortType};
+use crate::graph::{Graph, GraphError};
 
 /// An evaluation failure, naming the node (and port or parameter) at fault.
 #[derive(Debug, Error)]
@@ -379,12 +379,12 @@ impl Evaluator {
                                 message: format!("upstream {src}.{sport} produced no value"),
                             })
                         })?;
-                    inputs.insert(input.name.to_string(), convert(v, input.types));
+                    inputs.insert(input.name.to_string(), v);
                 } else if let Some((v, vkey)) =
                     opts.inject.get(&(id.clone(), input.name.to_string()))
                 {
                     (input.name, "inject", vkey).hash(&mut h);
-                    inputs.insert(input.name.to_string(), convert(v.clone(), input.types));
+                    inputs.insert(input.name.to_string(), v.clone());
                 }
             }
             let key = h.finish();
@@ -486,20 +486,5 @@ impl Evaluator {
                 None => break,
             }
         }
-    }
-}
-
-/// Convert a value to the type an input port accepts (`ShadowMap`/`Depth` → `Scalar`).
-fn convert(v: PortValue, accepts: &[PortType]) -> PortValue {
-    if accepts.contains(&v.port_type()) {
-        return v;
-    }
-    match v {
-        PortValue::ShadowMap(t, _) | PortValue::Depth(t, _)
-            if accepts.contains(&PortType::Scalar) =>
-        {
-            PortValue::Scalar(t)
-        }
-        other => other,
     }
 }

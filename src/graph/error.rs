@@ -161,14 +161,6 @@ pub enum GraphError {
         /// Newest version supported.
         supported: u32,
     },
-    /// A migration step failed.
-    #[error("migrating from format version {from}: {reason}")]
-    Migration {
-        /// Version migrated from.
-        from: u32,
-        /// What went wrong.
-        reason: String,
-    },
     /// Reading or writing the file failed.
     #[error("{0}")]
     Io(String),

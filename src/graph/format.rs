@@ -13,7 +13,7 @@
 //! ```
 //!
 //! Saving orders nodes by id, parameters by name, edges by destination, so save → load → save is
-//! byte-identical. Older versions are migrated by [`MIGRATIONS`] before they are read.
+//! byte-identical. Older versions are read and migrated by [`MIGRATIONS`].
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -33,40 +33,75 @@ use super::types::{Interp, Key, ParamValue};
 /// The format version this build writes and the newest it reads.
 pub const FORMAT_VERSION: u32 = 2;
 
-/// A migration step: turns a file of version N (its index + 1) into version N + 1.
-pub type Migration = fn(Value) -> Result<Value, String>;
+/// A reader for one older format version: parses text of that version (with located errors)
+/// and applies every migration step up to the current version.
+pub type Migration = fn(&str) -> Result<FileGraph, ron::error::SpannedError>;
 
-/// Migration steps; entry `i` upgrades version `i + 1` to `i + 2`.
-pub const MIGRATIONS: &[Migration] = &[migrate_v1_to_v2];
+/// Readers of older versions; entry `i` reads version `i + 1`. Each chains the per-version
+/// steps (`migrate_v1_to_v2`, and later `migrate_v2_to_v3`, ...).
+pub const MIGRATIONS: &[Migration] = &[read_v1];
 
-/// Version 1 named the key-frame table `keyframes` and node positions `position`; version 2 calls
-/// them `keys` and `pos`.
-fn migrate_v1_to_v2(v: Value) -> Result<Value, String> {
-    let Value::Map(mut root) = v else {
-        return Err("the file is not a graph struct".into());
-    };
-    if let Some(k) = root.remove(&Value::String("keyframes".into())) {
-        root.insert(Value::String("keys".into()), k);
-    }
-    if let Some(Value::Map(nodes)) = root.get_mut(&Value::String("nodes".into())) {
-        for (_, node) in nodes.iter_mut() {
-            if let Value::Map(fields) = node {
-                if let Some(p) = fields.remove(&Value::String("position".into())) {
-                    fields.insert(Value::String("pos".into()), p);
-                }
-            }
-        }
-    }
-    root.insert(
-        Value::String("version".into()),
-        Value::Number(Number::U32(2)),
-    );
-    Ok(Value::Map(root))
+/// Version 1 of the format: the key-frame table was called `keyframes` and node positions
+/// `position`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileGraphV1 {
+    #[allow(dead_code)]
+    version: u32,
+    #[serde(default, with = "pairs")]
+    nodes: Vec<(String, FileNodeV1)>,
+    #[serde(default)]
+    edges: Vec<(String, String)>,
+    #[serde(default, with = "pairs")]
+    keyframes: Vec<(String, Vec<(f64, f64, Interp)>)>,
 }
 
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileNodeV1 {
+    kind: String,
+    #[serde(default, with = "pairs")]
+    params: Vec<(String, Value)>,
+    #[serde(default)]
+    position: Option<(f32, f32)>,
+    #[serde(default)]
+    data: Option<Value>,
+}
+
+/// Version 1 → 2: `keyframes` → `keys`, `position` → `pos`.
+fn migrate_v1_to_v2(v: FileGraphV1) -> FileGraph {
+    FileGraph {
+        version: 2,
+        nodes: v
+            .nodes
+            .into_iter()
+            .map(|(id, n)| {
+                (
+                    id,
+                    FileNode {
+                        kind: n.kind,
+                        params: n.params,
+                        pos: n.position,
+                        data: n.data,
+                    },
+                )
+            })
+            .collect(),
+        edges: v.edges,
+        keys: v.keyframes,
+    }
+}
+
+fn read_v1(text: &str) -> Result<FileGraph, ron::error::SpannedError> {
+    ron_options()
+        .from_str::<FileGraphV1>(text)
+        .map(migrate_v1_to_v2)
+}
+
+/// The current file shape (version [`FORMAT_VERSION`]).
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct FileGraph {
+pub struct FileGraph {
     version: u32,
     #[serde(default, with = "pairs")]
     nodes: Vec<(String, FileNode)>,
@@ -319,39 +354,18 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
             },
         ));
     }
-    let parsed: FileGraph = if version < FORMAT_VERSION {
-        let mut v = raw;
-        for from in version..FORMAT_VERSION {
-            let step = MIGRATIONS[(from - 1) as usize];
-            v = step(v).map_err(|reason| err(None, GraphError::Migration { from, reason }))?;
-        }
-        let migrated = ron::to_string(&v).map_err(|e| {
-            err(
-                None,
-                GraphError::Migration {
-                    from: version,
-                    reason: e.to_string(),
-                },
-            )
-        })?;
-        ron_options().from_str(&migrated).map_err(|e| {
-            err(
-                None,
-                GraphError::Syntax {
-                    message: format!("after migration from version {version}: {}", e.code),
-                },
-            )
-        })?
-    } else {
-        ron_options().from_str(text).map_err(|e| {
-            err(
-                Some(syntax_location(&e)),
-                GraphError::Syntax {
-                    message: e.code.to_string(),
-                },
-            )
-        })?
+    let reader: Migration = match MIGRATIONS.get(version as usize - 1) {
+        Some(read_old) if version < FORMAT_VERSION => *read_old,
+        _ => |text| ron_options().from_str::<FileGraph>(text),
     };
+    let parsed = reader(text).map_err(|e| {
+        let message = if version < FORMAT_VERSION {
+            format!("{} (reading format version {version})", e.code)
+        } else {
+            e.code.to_string()
+        };
+        err(Some(syntax_location(&e)), GraphError::Syntax { message })
+    })?;
     build(parsed, &loc, catalog).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
 }
 

@@ -55,13 +55,11 @@ impl PortType {
         }
     }
 
-    /// Whether a value of type `self` may flow into a port of type `to`.
-    ///
-    /// Identical types always may; a `ShadowMap` or `Depth` may also feed a `Scalar` port (its
-    /// matrices are dropped, the one-channel image is kept).
+    /// Whether a value of type `self` may flow into a port of type `to`: only identical types
+    /// do (a node that accepts several types lists them all), so a `ShadowMap` never silently
+    /// loses its matrices by flowing into a `Scalar` port.
     pub fn can_feed(self, to: PortType) -> bool {
         self == to
-            || (to == PortType::Scalar && matches!(self, PortType::ShadowMap | PortType::Depth))
     }
 
     /// Whether values of this type are one-channel 2D images on the GPU.

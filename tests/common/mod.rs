@@ -1,0 +1,60 @@
+//! Shared test helpers.
+#![allow(dead_code)]
+
+use std::sync::Arc;
+
+use tyndall::gpu::Gpu;
+
+/// The shared GPU context, or `None` (with the reason printed) when no adapter exists here.
+/// With `TYNDALL_REQUIRE_GPU=1` (set by `.ci/run`) a missing adapter fails the test instead.
+pub fn gpu() -> Option<Arc<Gpu>> {
+    match Gpu::shared() {
+        Ok(g) => Some(g),
+        Err(e) => {
+            if std::env::var("TYNDALL_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+                panic!("TYNDALL_REQUIRE_GPU=1 but no GPU adapter: {e}");
+            }
+            eprintln!("skipping GPU test: {e}");
+            None
+        }
+    }
+}
+
+/// Evaluate to a GPU context or return from the test (see [`gpu`]).
+#[macro_export]
+macro_rules! require_gpu {
+    () => {
+        match common::gpu() {
+            Some(g) => g,
+            None => return,
+        }
+    };
+}
+
+/// A deterministic pseudo-random sequence (xorshift) for test inputs.
+pub struct Rng(pub u64);
+
+impl Rng {
+    /// Next value in [0, 1).
+    pub fn next_f32(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Next value in [lo, hi).
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next_f32()
+    }
+}
+
+/// A raster of random values in [lo, hi).
+pub fn random_raster(w: u32, h: u32, channels: u32, lo: f32, hi: f32, seed: u64) -> tyndall::io::Raster {
+    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let mut r = tyndall::io::Raster::new(w, h, channels, 0.0);
+    for v in &mut r.data {
+        *v = rng.range(lo, hi);
+    }
+    r
+}

@@ -1,0 +1,459 @@
+//! The document and its RON format: round trips, every error class, migrations, key-frames.
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use tyndall::graph::{
+    load_file, load_str, sample_keys, save_string, Graph, GraphError, Interp, Key, ParamKind,
+    ParamValue, FORMAT_VERSION,
+};
+
+fn catalog() -> tyndall::graph::Catalog {
+    tyndall::nodes::registry().catalog().clone()
+}
+
+/// A graph holding one node of every kind with every parameter set to a non-default value,
+/// edges, key-frames, positions and a data block.
+fn every_kind_graph() -> Graph {
+    let cat = catalog();
+    let mut g = Graph::new();
+    for schema in cat.iter() {
+        let id = g.add_node(&cat, schema.kind).expect("add node");
+        for p in schema.params {
+            let v = match p.kind {
+                ParamKind::Float => {
+                    ParamValue::Float((p.min.max(-3.0) + p.max.min(7.0)) * 0.375 + 0.125)
+                }
+                ParamKind::Int => {
+                    ParamValue::Int(((p.min + p.max.min(100.0)) / 2.0).round() as i64)
+                }
+                ParamKind::Bool => {
+                    ParamValue::Bool(!matches!(p.default.value(), ParamValue::Bool(true)))
+                }
+                ParamKind::Enum(names) => ParamValue::Enum(names[names.len() - 1].to_string()),
+                ParamKind::Text => {
+                    ParamValue::Text(format!("dir with space/{}\"q\".exr", schema.kind))
+                }
+                ParamKind::Colour => ParamValue::Colour([0.25, 0.5, 0.75, 1.0]),
+            };
+            g.set_param(&cat, &id, p.name, v)
+                .unwrap_or_else(|e| panic!("{id}.{}: {e}", p.name));
+            if p.kind == ParamKind::Float {
+                g.set_keys(
+                    &cat,
+                    &id,
+                    p.name,
+                    vec![
+                        Key {
+                            t: 0.0,
+                            v: p.min.max(-1.0),
+                            interp: Interp::Linear,
+                        },
+                        Key {
+                            t: 12.5,
+                            v: p.max.min(2.0),
+                            interp: Interp::Hold,
+                        },
+                    ],
+                )
+                .expect("keys");
+            }
+        }
+        g.set_pos(&id, Some([1.5, -2.25])).expect("pos");
+    }
+    g.connect(&cat, "constant1.value", "math1.a").expect("edge");
+    g.connect(&cat, "constant1.colour", "math1.b")
+        .expect("edge");
+    g.connect(&cat, "math1.out", "remap1.in").expect("edge");
+    g.connect(&cat, "remap1.out", "imageoutput1.image")
+        .expect("edge");
+    g
+}
+
+#[test]
+fn every_kind_round_trips_byte_identical() {
+    let cat = catalog();
+    let g = every_kind_graph();
+    assert_eq!(g.len(), cat.iter().count());
+    let text = save_string(&g);
+    let back =
+        load_str(&text, Path::new("mem.ron"), &cat).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    assert_eq!(back, g, "document changed through save/load");
+    assert_eq!(
+        save_string(&back),
+        text,
+        "save → load → save is not byte-identical"
+    );
+    assert!(
+        text.starts_with(&format!("(\n    version: {FORMAT_VERSION},")),
+        "{text}"
+    );
+}
+
+#[test]
+fn data_blocks_survive_round_trip() {
+    let cat = catalog();
+    let text = r#"(version: 2, nodes: {"c": (kind: "Constant", data: (strokes: [(1.0, 2.0), (3.0, 4.0)], name: "a"))})"#;
+    let g = load_str(text, Path::new("d.ron"), &cat).expect("load");
+    assert!(g.node("c").and_then(|n| n.data.as_ref()).is_some());
+    let saved = save_string(&g);
+    let again = load_str(&saved, Path::new("d.ron"), &cat).expect("reload");
+    assert_eq!(again, g);
+    assert_eq!(save_string(&again), saved);
+}
+
+/// (fixture, substring the message must contain, expected line:column).
+const BAD: &[(&str, &str, Option<(usize, usize)>)] = &[
+    ("syntax.ron", "syntax error", Some((5, 28))),
+    (
+        "unknown_kind.ron",
+        "node 'blur': unknown node kind 'GaussianBlur9000'",
+        Some((5, 9)),
+    ),
+    (
+        "unknown_param.ron",
+        "node 'm' (Math): unknown parameter 'opacity'",
+        Some((4, 51)),
+    ),
+    (
+        "wrong_type.ron",
+        "node 'm' parameter 'factor': wrong type, expected Float",
+        Some((4, 51)),
+    ),
+    (
+        "out_of_range.ron",
+        "node 'c' parameter 'width': value 99999 is out of range",
+        Some((4, 56)),
+    ),
+    ("duplicate_id.ron", "duplicate node id 'm'", Some((6, 9))),
+    (
+        "missing_node.ron",
+        "edge m.out -> nowhere.image: no node 'nowhere'",
+        Some((9, 19)),
+    ),
+    (
+        "missing_port.ron",
+        "node 'm' (Math) has no input port 'c'",
+        Some((8, 21)),
+    ),
+    (
+        "type_mismatch.ron",
+        "port type mismatch, map.shadow produces ShadowMap but m.a accepts Scalar | Image",
+        Some((8, 10)),
+    ),
+    (
+        "cycle.ron",
+        "edge m2.out -> m1.a: would close a cycle",
+        Some((9, 10)),
+    ),
+    (
+        "version_too_new.ron",
+        "format version 99 is newer than this build supports",
+        Some((2, 5)),
+    ),
+];
+
+#[test]
+fn every_error_class_is_reported_with_node_and_location() {
+    let cat = catalog();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad");
+    for (file, needle, loc) in BAD {
+        let path = dir.join(file);
+        let err = load_file(&path, &cat).expect_err(file);
+        let msg = err.to_string();
+        assert!(
+            msg.contains(needle),
+            "{file}: message {msg:?} lacks {needle:?}"
+        );
+        assert!(
+            msg.contains(file),
+            "{file}: message {msg:?} lacks the file name"
+        );
+        let got = err.location.map(|l| (l.line, l.col));
+        assert_eq!(got, *loc, "{file}: location of {msg:?}");
+    }
+}
+
+#[test]
+fn error_classes_are_distinct_variants() {
+    let cat = catalog();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad");
+    let variant =
+        |f: &str| std::mem::discriminant(&load_file(&dir.join(f), &cat).expect_err(f).error);
+    let all: Vec<_> = BAD.iter().map(|(f, _, _)| variant(f)).collect();
+    for i in 0..all.len() {
+        for j in i + 1..all.len() {
+            assert_ne!(
+                all[i], all[j],
+                "{} and {} share an error variant",
+                BAD[i].0, BAD[j].0
+            );
+        }
+    }
+}
+
+#[test]
+fn garbage_never_panics() {
+    let cat = catalog();
+    for text in [
+        "",
+        "(",
+        ")",
+        "(version: -1)",
+        "(version: 1.5)",
+        "[1,2]",
+        "(version: 2, nodes: 3)",
+        "\u{0}\u{ffff}",
+        "(version: 2, nodes: {\"a\": (kind: 5)})",
+    ] {
+        assert!(
+            load_str(text, Path::new("g.ron"), &cat).is_err(),
+            "{text:?} loaded"
+        );
+    }
+}
+
+#[test]
+fn migration_from_version_1() {
+    let cat = catalog();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v1_graph.ron");
+    let g = load_file(&path, &cat).expect("v1 loads");
+    let c = g.node("c").expect("node c");
+    assert_eq!(c.pos, Some([10.0, 20.0]));
+    assert_eq!(c.keys["value"].len(), 2);
+    assert_eq!(
+        g.param_at(&cat, "c", "value", 5.0).expect("param"),
+        ParamValue::Float(2.0)
+    );
+    let saved = save_string(&g);
+    assert!(
+        saved.contains("version: 2")
+            && saved.contains("pos: (10.0, 20.0)")
+            && saved.contains("keys:"),
+        "{saved}"
+    );
+    assert!(
+        !saved.contains("keyframes") && !saved.contains("position"),
+        "{saved}"
+    );
+}
+
+#[test]
+fn connect_refuses_mismatch_cycle_and_taken_input_leaving_document_unchanged() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let inp = g.add_node(&cat, "ImageInput").expect("add");
+    let m1 = g.add_node(&cat, "Math").expect("add");
+    let m2 = g.add_node(&cat, "Math").expect("add");
+    g.connect(&cat, &format!("{m1}.out"), &format!("{m2}.a"))
+        .expect("ok edge");
+    let before = g.clone();
+    let e = g
+        .connect(&cat, &format!("{m2}.out"), &format!("{m1}.a"))
+        .expect_err("cycle");
+    assert!(matches!(e, GraphError::Cycle { .. }), "{e}");
+    assert!(
+        e.to_string().contains("math2.out") && e.to_string().contains("math1.a"),
+        "{e}"
+    );
+    let e = g
+        .connect(&cat, &format!("{m1}.out"), &format!("{m1}.b"))
+        .expect_err("self loop");
+    assert!(matches!(e, GraphError::Cycle { .. }), "{e}");
+    let e = g
+        .connect(&cat, &format!("{inp}.shadow"), &format!("{m1}.a"))
+        .expect_err("mismatch");
+    assert!(matches!(e, GraphError::TypeMismatch { .. }), "{e}");
+    let e = g
+        .connect(&cat, &format!("{inp}.scalar"), &format!("{m2}.a"))
+        .expect_err("taken");
+    assert!(matches!(e, GraphError::InputTaken { .. }), "{e}");
+    assert_eq!(g, before);
+}
+
+#[test]
+fn polymorphic_output_type_follows_inputs_and_rechecks_downstream() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let c = g.add_node(&cat, "Constant").expect("add");
+    let m = g.add_node(&cat, "Math").expect("add");
+    assert_eq!(
+        g.output_type(&cat, &m, "out"),
+        Some(tyndall::graph::PortType::Scalar)
+    );
+    g.connect(&cat, &format!("{c}.colour"), &format!("{m}.b"))
+        .expect("edge");
+    assert_eq!(
+        g.output_type(&cat, &m, "out"),
+        Some(tyndall::graph::PortType::Image)
+    );
+}
+
+#[test]
+fn removed_ids_are_never_reused() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let a = g.add_node(&cat, "Math").expect("add");
+    g.remove_node(&a).expect("remove");
+    let b = g.add_node(&cat, "Math").expect("add");
+    assert_ne!(a, b);
+    assert!(
+        g.insert_node(&cat, g.node(&b).cloned().expect("node"))
+            .is_err(),
+        "duplicate insert accepted"
+    );
+}
+
+#[test]
+fn parameters_are_checked_when_set() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let m = g.add_node(&cat, "Math").expect("add");
+    let before = g.clone();
+    assert!(matches!(
+        g.set_param(&cat, &m, "op", ParamValue::Enum("sqrt".into())),
+        Err(GraphError::WrongParamType { .. })
+    ));
+    assert!(matches!(
+        g.set_param(&cat, &m, "factor", ParamValue::Float(f64::NAN)),
+        Err(GraphError::OutOfRange { .. })
+    ));
+    assert!(matches!(
+        g.set_param(&cat, &m, "factor", ParamValue::Float(1e7)),
+        Err(GraphError::OutOfRange { .. })
+    ));
+    assert!(matches!(
+        g.set_param(&cat, &m, "nope", ParamValue::Float(1.0)),
+        Err(GraphError::UnknownParam { .. })
+    ));
+    assert!(matches!(
+        g.set_keys(
+            &cat,
+            &m,
+            "op",
+            vec![Key {
+                t: 0.0,
+                v: 1.0,
+                interp: Interp::Linear
+            }]
+        ),
+        Err(GraphError::BadKeys { .. })
+    ));
+    assert_eq!(g, before);
+    g.set_param(&cat, &m, "factor", ParamValue::Int(1))
+        .expect("an integer literal is a valid Float");
+    assert_eq!(
+        g.param_at(&cat, &m, "factor", 0.0).expect("p"),
+        ParamValue::Float(1.0)
+    );
+}
+
+#[test]
+fn key_frames_interpolate_linear_and_hold() {
+    let keys = [
+        Key {
+            t: 0.0,
+            v: 10.0,
+            interp: Interp::Linear,
+        },
+        Key {
+            t: 10.0,
+            v: 20.0,
+            interp: Interp::Hold,
+        },
+        Key {
+            t: 20.0,
+            v: -4.0,
+            interp: Interp::Linear,
+        },
+    ];
+    assert_eq!(sample_keys(&keys, -5.0), Some(10.0));
+    assert_eq!(sample_keys(&keys, 0.0), Some(10.0));
+    assert_eq!(sample_keys(&keys, 2.5), Some(12.5));
+    assert_eq!(sample_keys(&keys, 10.0), Some(20.0));
+    assert_eq!(sample_keys(&keys, 19.999), Some(20.0));
+    assert_eq!(sample_keys(&keys, 20.0), Some(-4.0));
+    assert_eq!(sample_keys(&keys, 1e9), Some(-4.0));
+    assert_eq!(sample_keys(&[], 1.0), None);
+}
+
+#[test]
+fn int_parameters_round_and_clamp_interpolated_keys() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let c = g.add_node(&cat, "Constant").expect("add");
+    g.set_keys(
+        &cat,
+        &c,
+        "width",
+        vec![
+            Key {
+                t: 0.0,
+                v: 0.0,
+                interp: Interp::Linear,
+            },
+            Key {
+                t: 4.0,
+                v: 3.0,
+                interp: Interp::Linear,
+            },
+        ],
+    )
+    .expect("keys");
+    assert_eq!(
+        g.param_at(&cat, &c, "width", 1.0).expect("p"),
+        ParamValue::Int(1)
+    ); // 0.75 → 1
+    assert_eq!(
+        g.param_at(&cat, &c, "width", 2.0).expect("p"),
+        ParamValue::Int(2)
+    ); // 1.5 → 2
+    let e = g
+        .set_keys(
+            &cat,
+            &c,
+            "width",
+            vec![Key {
+                t: 0.0,
+                v: -1.0,
+                interp: Interp::Hold,
+            }],
+        )
+        .expect_err("range");
+    assert!(matches!(e, GraphError::OutOfRange { .. }), "{e}");
+}
+
+proptest! {
+    /// Linear interpolation stays between its neighbouring keys; Hold returns the left key.
+    #[test]
+    fn interpolation_is_bounded(v0 in -1e6f64..1e6, v1 in -1e6f64..1e6, dt in 1e-3f64..1e3, u in 0f64..1.0) {
+        let lin = [Key { t: 1.0, v: v0, interp: Interp::Linear }, Key { t: 1.0 + dt, v: v1, interp: Interp::Linear }];
+        let s = sample_keys(&lin, 1.0 + u * dt).expect("value");
+        prop_assert!(s >= v0.min(v1) - 1e-9 && s <= v0.max(v1) + 1e-9);
+        let hold = [Key { t: 1.0, v: v0, interp: Interp::Hold }, Key { t: 1.0 + dt, v: v1, interp: Interp::Hold }];
+        let h = sample_keys(&hold, 1.0 + u * dt * 0.999).expect("value");
+        prop_assert_eq!(h, v0);
+    }
+
+    /// Arbitrary parameter values and key tracks survive save → load → save byte for byte.
+    #[test]
+    fn random_documents_round_trip(value in -1e30f64..1e30, factor in -1e6f64..1e6, w in 0i64..16384,
+                                   t0 in -1e3f64..0.0, t1 in 1e-3f64..1e3, k in -1e6f64..1e6,
+                                   path in "[ -~]{0,20}") {
+        let cat = catalog();
+        let mut g = Graph::new();
+        let c = g.add_node(&cat, "Constant").expect("add");
+        let m = g.add_node(&cat, "Math").expect("add");
+        let i = g.add_node(&cat, "ImageInput").expect("add");
+        g.set_param(&cat, &c, "value", ParamValue::Float(value)).expect("value");
+        g.set_param(&cat, &c, "width", ParamValue::Int(w)).expect("w");
+        g.set_param(&cat, &m, "factor", ParamValue::Float(factor)).expect("factor");
+        g.set_param(&cat, &i, "path", ParamValue::Text(path)).expect("path");
+        g.set_keys(&cat, &m, "b", vec![Key { t: t0, v: k, interp: Interp::Hold }, Key { t: t1, v: -k, interp: Interp::Linear }]).expect("keys");
+        g.connect(&cat, &format!("{c}.value"), &format!("{m}.a")).expect("edge");
+        let text = save_string(&g);
+        let back = load_str(&text, Path::new("p.ron"), &cat).map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+        prop_assert_eq!(&back, &g);
+        prop_assert_eq!(save_string(&back), text);
+    }
+}
