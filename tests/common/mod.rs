@@ -50,11 +50,84 @@ impl Rng {
 }
 
 /// A raster of random values in [lo, hi).
-pub fn random_raster(w: u32, h: u32, channels: u32, lo: f32, hi: f32, seed: u64) -> tyndall::io::Raster {
+pub fn random_raster(
+    w: u32,
+    h: u32,
+    channels: u32,
+    lo: f32,
+    hi: f32,
+    seed: u64,
+) -> tyndall::io::Raster {
     let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
     let mut r = tyndall::io::Raster::new(w, h, channels, 0.0);
     for v in &mut r.data {
         *v = rng.range(lo, hi);
     }
     r
+}
+
+use std::collections::BTreeMap;
+
+use tyndall::eval::{download, upload_raster, EvalOptions, Evaluator, PortValue, Target};
+use tyndall::graph::{Graph, ParamValue, PortType};
+use tyndall::io::Raster;
+
+/// Upload a raster as a value of `ty`.
+pub fn upload(gpu: &tyndall::gpu::Gpu, r: &Raster, ty: PortType) -> PortValue {
+    upload_raster(gpu, r, ty).expect("upload")
+}
+
+/// Run one node of `kind` on the GPU with these parameters and injected inputs; return the
+/// requested outputs read back.
+pub fn run_node(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    kind: &str,
+    params: &[(&str, ParamValue)],
+    inputs: Vec<(&str, PortValue)>,
+    outputs: &[&str],
+    size: (u32, u32),
+) -> Result<BTreeMap<String, Raster>, tyndall::eval::EvalError> {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    let id = g.add_node(&cat, kind).expect("add node");
+    for (name, v) in params {
+        g.set_param(&cat, &id, name, v.clone()).expect("param");
+    }
+    let mut opts = EvalOptions {
+        size,
+        ..Default::default()
+    };
+    for (i, (port, v)) in inputs.into_iter().enumerate() {
+        opts.inject
+            .insert((id.clone(), port.to_string()), (v, i as u64 + 1));
+    }
+    let mut targets: Vec<Target> = outputs
+        .iter()
+        .map(|p| Target::Port(id.clone(), p.to_string()))
+        .collect();
+    if targets.is_empty() {
+        targets.push(Target::Node(id.clone())); // a sink: write its file
+    }
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let result = ev.evaluate(&g, &targets, &opts)?;
+    Ok(result
+        .outputs
+        .iter()
+        .map(|((_, port), v)| (port.clone(), download(gpu, v).expect("download")))
+        .collect())
+}
+
+/// Largest |a − b| over two rasters of equal shape (panics on shape mismatch).
+pub fn max_abs_diff(a: &Raster, b: &Raster) -> f32 {
+    assert_eq!(
+        (a.width, a.height, a.channels),
+        (b.width, b.height, b.channels),
+        "raster shapes differ"
+    );
+    a.data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
 }

@@ -1,0 +1,402 @@
+//! Each node on the GPU against its CPU reference (lavapipe here; any adapter in general).
+//!
+//! Tolerances follow WGSL's f32 accuracy rules (WGSL §15.5.1): `+ - *` and min/max/clamp/select
+//! are exact, so those compare exactly; `/` may be off by 2.5 ULP, and `mix` may be contracted
+//! into a fused multiply-add, so those compare within a few ULP of the result; `pow` inherits
+//! `exp2(x)`, x = b·log2|a| = log2|result|: exp2 is within 3 + 2|x| ULP, log2 within 3 ULP (or
+//! 2^-21 absolute on [0.5, 2]) which b scales into the exponent, so the relative tolerance is
+//! ε(4 + 5|x|) + 3·2^-21·ln 2 for the |b| ≤ 3 used here. Subnormal inputs are outside WGSL's
+//! accuracy guarantees (they may be flushed to zero) and are not used.
+
+mod common;
+
+use tyndall::graph::{ParamValue, PortType};
+use tyndall::io::Raster;
+use tyndall::nodes::{constant, image_input, image_output, math, remap};
+
+const F32_EPS: f32 = f32::EPSILON;
+
+#[test]
+fn constant_matches_reference_exactly() {
+    let gpu = require_gpu!();
+    let out = common::run_node(
+        &gpu,
+        "Constant",
+        &[
+            ("value", ParamValue::Float(-3.25)),
+            ("colour", ParamValue::Colour([0.1, 2.0, -1e10, 0.5])),
+            ("width", ParamValue::Int(7)),
+        ],
+        vec![],
+        &["value", "colour"],
+        (9, 5),
+    )
+    .expect("evaluate");
+    let (v, c) = constant::reference(7, 5, -3.25, [0.1, 2.0, -1e10, 0.5]);
+    assert_eq!(out["value"], v);
+    assert_eq!(out["colour"], c);
+}
+
+fn tolerance(op: &str, expected: f32) -> f32 {
+    match op {
+        "add" | "sub" | "mul" | "min" | "max" | "clamp" => 0.0,
+        "div" => 4.0 * F32_EPS * expected.abs(),
+        "mix" => 8.0 * F32_EPS * expected.abs().max(8.0),
+        "pow" if expected == 0.0 => 0.0,
+        "pow" => {
+            let x = expected.abs().log2().abs();
+            expected.abs()
+                * (F32_EPS * (4.0 + 5.0 * x) + 3.0 * (2f32).powi(-21) * std::f32::consts::LN_2)
+        }
+        _ => unreachable!(),
+    }
+}
+
+fn check_math(op: &str, a: math::Operand, b: math::Operand, got: &Raster) {
+    let expected = math::reference(op, a, b, 0.3, -0.5, 0.75).expect("reference");
+    assert_eq!(
+        (got.width, got.height, got.channels),
+        (expected.width, expected.height, expected.channels),
+        "{op}"
+    );
+    for (i, (g, e)) in got.data.iter().zip(&expected.data).enumerate() {
+        assert!(g.is_finite(), "{op}: non-finite {g} at {i}");
+        assert!(
+            (g - e).abs() <= tolerance(op, *e),
+            "{op}: sample {i}: gpu {g} vs cpu {e}"
+        );
+    }
+}
+
+#[test]
+fn math_matches_reference_for_every_op_and_operand_kind() {
+    let gpu = require_gpu!();
+    let sa = common::random_raster(13, 9, 1, -4.0, 4.0, 1);
+    let sb = common::random_raster(13, 9, 1, -3.0, 3.0, 2);
+    let ia = common::random_raster(13, 9, 4, -4.0, 4.0, 3);
+    let mut sb_zero = sb.clone();
+    for v in sb_zero.data.iter_mut().step_by(3) {
+        *v = 0.0; // division by zero and 0^b cases
+    }
+    let mut sa_zero = sa.clone();
+    for v in sa_zero.data.iter_mut().step_by(4) {
+        *v = 0.0;
+    }
+    let one = common::random_raster(1, 1, 4, 0.5, 2.0, 4);
+    for op in math::OPS {
+        let params = [
+            ("op", ParamValue::Enum(op.to_string())),
+            ("factor", ParamValue::Float(0.3)),
+            ("lo", ParamValue::Float(-0.5)),
+            ("hi", ParamValue::Float(0.75)),
+            ("b", ParamValue::Float(1.5)),
+        ];
+        // Scalar × Scalar (with zeros in both operands).
+        let got = common::run_node(
+            &gpu,
+            "Math",
+            &params,
+            vec![
+                ("a", common::upload(&gpu, &sa_zero, PortType::Scalar)),
+                ("b", common::upload(&gpu, &sb_zero, PortType::Scalar)),
+            ],
+            &["out"],
+            (4, 4),
+        )
+        .expect("scalar×scalar");
+        check_math(
+            op,
+            math::Operand::Raster(&sa_zero),
+            math::Operand::Raster(&sb_zero),
+            &got["out"],
+        );
+        // Image × Scalar broadcast.
+        let got = common::run_node(
+            &gpu,
+            "Math",
+            &params,
+            vec![
+                ("a", common::upload(&gpu, &ia, PortType::Image)),
+                ("b", common::upload(&gpu, &sb, PortType::Scalar)),
+            ],
+            &["out"],
+            (4, 4),
+        )
+        .expect("image×scalar");
+        check_math(
+            op,
+            math::Operand::Raster(&ia),
+            math::Operand::Raster(&sb),
+            &got["out"],
+        );
+        // 1×1 Image × Scalar: the 1×1 operand broadcasts over the other's size.
+        let got = common::run_node(
+            &gpu,
+            "Math",
+            &params,
+            vec![
+                ("a", common::upload(&gpu, &one, PortType::Image)),
+                ("b", common::upload(&gpu, &sb, PortType::Scalar)),
+            ],
+            &["out"],
+            (4, 4),
+        )
+        .expect("1x1×scalar");
+        check_math(
+            op,
+            math::Operand::Raster(&one),
+            math::Operand::Raster(&sb),
+            &got["out"],
+        );
+        // Scalar × constant parameter b.
+        let got = common::run_node(
+            &gpu,
+            "Math",
+            &params,
+            vec![("a", common::upload(&gpu, &sa, PortType::Scalar))],
+            &["out"],
+            (4, 4),
+        )
+        .expect("scalar×const");
+        check_math(
+            op,
+            math::Operand::Raster(&sa),
+            math::Operand::Const(1.5),
+            &got["out"],
+        );
+    }
+}
+
+#[test]
+fn math_refuses_mismatched_sizes_and_no_inputs_naming_node_and_port() {
+    let gpu = require_gpu!();
+    let a = common::random_raster(4, 4, 1, 0.0, 1.0, 5);
+    let b = common::random_raster(5, 4, 1, 0.0, 1.0, 6);
+    let err = common::run_node(
+        &gpu,
+        "Math",
+        &[],
+        vec![
+            ("a", common::upload(&gpu, &a, PortType::Scalar)),
+            ("b", common::upload(&gpu, &b, PortType::Scalar)),
+        ],
+        &["out"],
+        (4, 4),
+    )
+    .expect_err("size mismatch");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("node 'math1' (Math)") && msg.contains("input 'b'") && msg.contains("5x4"),
+        "{msg}"
+    );
+    let err = common::run_node(&gpu, "Math", &[], vec![], &["out"], (4, 4)).expect_err("no input");
+    assert!(err.to_string().contains("input 'a'"), "{err}");
+}
+
+#[test]
+fn math_extremes_stay_finite() {
+    let gpu = require_gpu!();
+    let mut a = Raster::new(6, 1, 1, 0.0);
+    a.data
+        .copy_from_slice(&[0.0, -0.0, 1e-37, -1e30, 1e30, -7.5]);
+    for (op, b) in [
+        ("div", 0.0),
+        ("pow", -2.0),
+        ("pow", 0.0),
+        ("pow", 0.5),
+        ("div", 1e-30),
+    ] {
+        let out = common::run_node(
+            &gpu,
+            "Math",
+            &[
+                ("op", ParamValue::Enum(op.into())),
+                ("b", ParamValue::Float(b)),
+            ],
+            vec![("a", common::upload(&gpu, &a, PortType::Scalar))],
+            &["out"],
+            (1, 1),
+        )
+        .expect("evaluate");
+        for (i, v) in out["out"].data.iter().enumerate() {
+            let e = math::apply(op, a.data[i], b as f32, 0.5, 0.0, 1.0);
+            // Overflow to ±Inf is the honest f32 answer for 1e30 / 1e-30; everything else is finite.
+            if e.is_finite() {
+                assert!(v.is_finite(), "{op} {b}: a = {} gave {v}", a.data[i]);
+                assert!(
+                    (v - e).abs() <= tolerance(op, e),
+                    "{op} {b}: a = {}: gpu {v} cpu {e}",
+                    a.data[i]
+                );
+            } else {
+                assert_eq!(*v, e, "{op} {b}: a = {}", a.data[i]);
+            }
+        }
+    }
+}
+
+#[test]
+fn remap_matches_reference() {
+    let gpu = require_gpu!();
+    let s = common::random_raster(11, 7, 1, -2.0, 3.0, 7);
+    let im = common::random_raster(11, 7, 4, -2.0, 3.0, 8);
+    let cases = [
+        (0.0, 1.0, 10.0, 20.0, false),
+        (-1.0, 2.0, 1.0, -1.0, true),
+        (0.5, 0.5, -3.0, 4.0, false), // zero-width source: a step, no division by zero
+        (1e-30, -1e-30, 0.0, 1.0, true),
+        (-1e30, 1e30, 0.0, 1.0, false),
+    ];
+    for (fmin, fmax, tmin, tmax, clamp) in cases {
+        let params = [
+            ("from_min", ParamValue::Float(fmin)),
+            ("from_max", ParamValue::Float(fmax)),
+            ("to_min", ParamValue::Float(tmin)),
+            ("to_max", ParamValue::Float(tmax)),
+            ("clamp", ParamValue::Bool(clamp)),
+        ];
+        let p = remap::RemapParams {
+            from_min: fmin as f32,
+            from_max: fmax as f32,
+            to_min: tmin as f32,
+            to_max: tmax as f32,
+            clamp: clamp as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        for (input, ty) in [(&s, PortType::Scalar), (&im, PortType::Image)] {
+            let got = common::run_node(
+                &gpu,
+                "Remap",
+                &params,
+                vec![("in", common::upload(&gpu, input, ty))],
+                &["out"],
+                (1, 1),
+            )
+            .expect("remap");
+            let want = remap::reference(input, &p);
+            for (g, e) in got["out"].data.iter().zip(&want.data) {
+                assert!(g.is_finite(), "{fmin}..{fmax}: non-finite");
+                // One division (2.5 ULP) then a multiply-add that may be fused.
+                let tol = 8.0 * F32_EPS * (e.abs() + tmin.abs() as f32 + tmax.abs() as f32);
+                assert!(
+                    (g - e).abs() <= tol,
+                    "{fmin}..{fmax}→{tmin}..{tmax}: gpu {g} cpu {e}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn image_input_matches_reference_for_exr_and_png() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rgba = common::random_raster(10, 6, 4, 0.0, 1.0, 9);
+    let grey = common::random_raster(10, 6, 1, -5.0, 5.0, 10);
+    let exr4 = dir.path().join("c.exr");
+    let exr1 = dir.path().join("g.exr");
+    tyndall::io::write_image(&exr4, &rgba, tyndall::io::Precision::F32, false).expect("write");
+    tyndall::io::write_image(&exr1, &grey, tyndall::io::Precision::F32, false).expect("write");
+    for channel in image_input::CHANNELS {
+        for (path, file) in [(&exr4, &rgba), (&exr1, &grey)] {
+            let out = common::run_node(
+                &gpu,
+                "ImageInput",
+                &[
+                    ("path", ParamValue::Text(path.display().to_string())),
+                    ("channel", ParamValue::Enum(channel.to_string())),
+                ],
+                vec![],
+                &["image", "scalar", "shadow", "depth"],
+                (1, 1),
+            )
+            .expect("read");
+            let (im, sc) = image_input::reference(file, channel);
+            assert_eq!(out["image"], im, "{channel} {}", path.display());
+            // Luminance is a 3-term dot product that may be fused: a few ULP of 1.
+            assert!(
+                common::max_abs_diff(&out["scalar"], &sc) <= 4.0 * F32_EPS,
+                "{channel}"
+            );
+            assert_eq!(out["shadow"], out["scalar"]);
+            assert_eq!(out["depth"], out["scalar"]);
+        }
+    }
+    let png = dir.path().join("c.png");
+    tyndall::io::write_image(&png, &rgba, tyndall::io::Precision::U16, true).expect("png");
+    let out = common::run_node(
+        &gpu,
+        "ImageInput",
+        &[("path", ParamValue::Text(png.display().to_string()))],
+        vec![],
+        &["image"],
+        (1, 1),
+    )
+    .expect("png read");
+    // 16-bit sRGB quantisation: the linear error is below the slope of the sRGB curve (≤ 1/12.92
+    // near 0... at most ~2.4 near 1) times half a 16-bit step.
+    assert!(
+        common::max_abs_diff(&out["image"], &rgba) <= 2.5 * 0.5 / 65535.0,
+        "png round trip"
+    );
+}
+
+#[test]
+fn image_input_errors_name_the_parameter_and_file() {
+    let gpu = require_gpu!();
+    let err = common::run_node(&gpu, "ImageInput", &[], vec![], &["image"], (1, 1))
+        .expect_err("empty path");
+    assert!(err.to_string().contains("parameter 'path'"), "{err}");
+    let err = common::run_node(
+        &gpu,
+        "ImageInput",
+        &[("path", ParamValue::Text("/nonexistent/x.exr".into()))],
+        vec![],
+        &["image"],
+        (1, 1),
+    )
+    .expect_err("missing file");
+    assert!(err.to_string().contains("/nonexistent/x.exr"), "{err}");
+}
+
+#[test]
+fn image_output_replaces_non_finite_samples_and_writes_every_precision() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut im = common::random_raster(5, 4, 4, 0.0, 1.0, 11);
+    im.data[0] = f32::NAN;
+    im.data[5] = f32::INFINITY;
+    im.data[10] = f32::NEG_INFINITY;
+    let clean = image_output::reference(&im);
+    assert!(clean.data.iter().all(|v| v.is_finite()));
+    for (name, precision, tol) in [
+        ("f.exr", "f32", 0.0),
+        ("h.exr", "f16", 1.0 / 2048.0),
+        ("b.png", "u8", 0.0),
+        ("w.png", "u16", 0.0),
+    ] {
+        let path = dir.path().join(name);
+        common::run_node(
+            &gpu,
+            "ImageOutput",
+            &[
+                ("path", ParamValue::Text(path.display().to_string())),
+                ("precision", ParamValue::Enum(precision.into())),
+                ("srgb", ParamValue::Bool(false)),
+            ],
+            vec![("image", common::upload(&gpu, &im, PortType::Image))],
+            &[],
+            (1, 1),
+        )
+        .expect("write");
+        let back = tyndall::io::read_image(&path, false).expect("read back");
+        let tol = match precision {
+            "u8" => 0.5 / 255.0 + 1e-6,
+            "u16" => 0.5 / 65535.0 + 1e-7,
+            _ => tol,
+        };
+        assert!(common::max_abs_diff(&back, &clean) <= tol, "{name}");
+    }
+}
