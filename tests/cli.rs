@@ -1,0 +1,251 @@
+//! The `tyndall` binary end to end: exit codes, messages, files.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn tyndall(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .args(args)
+        .output()
+        .expect("run tyndall")
+}
+
+fn fixture(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn gpu_available() -> bool {
+    common::gpu().is_some()
+}
+
+#[test]
+fn node_math_mul_equals_elementwise_product_of_openexr_files() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("C.exr");
+    let o = tyndall(&[
+        "node",
+        "Math",
+        "--param",
+        "op=mul",
+        "--input",
+        &format!("a={}", fixture("A.exr")),
+        "--input",
+        &format!("b={}", fixture("B.exr")),
+        "--output",
+        &format!("out={}", out.display()),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = tyndall::io::read_image(&out, false).expect("C.exr");
+    assert_eq!((c.width, c.height, c.channels), (16, 12, 1));
+    let mut max_err = 0f32;
+    for y in 0..12u32 {
+        for x in 0..16u32 {
+            let (xa, ya) = (x as f64, y as f64);
+            let a = ((xa + 1.0) / (ya + 2.0) - 0.37 * xa) as f32;
+            let b = ((ya - 5.5) * 0.25 + xa / 7.0) as f32;
+            max_err = max_err.max((c.pixel(x, y)[0] - a * b).abs());
+        }
+    }
+    assert!(max_err <= 1e-6, "max error {max_err}");
+}
+
+#[test]
+fn validate_exits_2_with_location_for_every_malformed_graph() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bad");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).expect("bad/") {
+        let path = entry.expect("entry").path();
+        let o = tyndall(&["validate", &path.display().to_string()]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", path.display());
+        let name = path
+            .file_name()
+            .and_then(|f| f.to_str())
+            .unwrap_or_default();
+        // file:line:col: message
+        let needle = format!("{name}:");
+        let rest = err
+            .split(&needle)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{name}: no file in {err}"));
+        let mut parts = rest.splitn(3, ':');
+        let line: usize = parts
+            .next()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{name}: no line in {err}"));
+        let col: usize = parts
+            .next()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{name}: no column in {err}"));
+        assert!(line >= 1 && col >= 1);
+        assert!(!err.contains("panicked"), "{err}");
+        n += 1;
+    }
+    assert!(n >= 11);
+    let ok = tyndall(&["validate", &fixture("v1_graph.ron")]);
+    assert!(ok.status.success());
+}
+
+#[test]
+fn wedge_reuses_the_independent_branch() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = dir.path().join("g.ron");
+    std::fs::write(
+        &graph,
+        format!(
+            r#"(
+    version: 2,
+    nodes: {{
+        "c1": (kind: "Constant", params: {{"value": 2.0, "width": 8, "height": 8}}),
+        "m1": (kind: "Math", params: {{"op": "mul", "b": 3.0}}),
+        "out1": (kind: "ImageOutput", params: {{"path": "{0}/one.exr"}}),
+        "c2": (kind: "Constant", params: {{"width": 8, "height": 8}}),
+        "r2": (kind: "Remap", params: {{"to_max": 2.0}}),
+        "out2": (kind: "ImageOutput", params: {{"path": "{0}/two.exr"}}),
+    }},
+    edges: [("c1.value", "m1.a"), ("m1.out", "out1.image"), ("c2.colour", "r2.in"), ("r2.out", "out2.image")],
+)"#,
+            dir.path().display()
+        ),
+    )
+    .expect("write graph");
+    let o = tyndall(&[
+        "eval",
+        &graph.display().to_string(),
+        "--wedge",
+        "m1.b=1,2,3",
+        "--stats",
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let blocks: Vec<&str> = out.split("evaluation ").skip(1).collect();
+    assert_eq!(blocks.len(), 3, "{out}");
+    let status = |block: &str, node: &str| -> String {
+        block
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(node))
+            .map(|l| l.split_whitespace().nth(2).unwrap_or_default().to_string())
+            .unwrap_or_else(|| panic!("{node} missing in {block}"))
+    };
+    for node in ["c1", "m1", "out1", "c2", "r2", "out2"] {
+        assert_eq!(status(blocks[0], node), "ran", "{out}");
+    }
+    for block in &blocks[1..] {
+        for node in ["c1", "c2", "r2", "out2"] {
+            assert_eq!(status(block, node), "reused", "{node}: {out}");
+        }
+        for node in ["m1", "out1"] {
+            assert_eq!(status(block, node), "ran", "{node}: {out}");
+        }
+    }
+    for v in 1..=3 {
+        let one = tyndall::io::read_image(&dir.path().join(format!("one_b-{v}.exr")), false)
+            .expect("wedge file");
+        assert!(one.data.iter().all(|x| *x == 2.0 * v as f32));
+        assert!(dir.path().join(format!("two_b-{v}.exr")).exists());
+    }
+}
+
+#[test]
+fn nodes_json_lists_every_kind_with_ports_and_params() {
+    let o = tyndall(&["nodes", "--json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    let kinds = v.as_array().expect("array");
+    let registry = tyndall::nodes::registry();
+    assert_eq!(kinds.len(), registry.catalog().iter().count());
+    for k in kinds {
+        let name = k["kind"].as_str().expect("kind");
+        let schema = registry.catalog().get(name).expect("known kind");
+        assert_eq!(
+            k["ports"].as_array().expect("ports").len(),
+            schema.inputs.len() + schema.outputs.len()
+        );
+        for p in k["ports"].as_array().expect("ports") {
+            assert!(p["name"].is_string() && p["direction"].is_string() && p["types"].is_array());
+        }
+        for p in k["params"].as_array().expect("params") {
+            assert!(
+                p["name"].is_string()
+                    && p["type"].is_string()
+                    && p["doc"].as_str().is_some_and(|d| !d.is_empty())
+            );
+        }
+    }
+    let md = tyndall(&["nodes", "--markdown"]);
+    assert!(String::from_utf8_lossy(&md.stdout).contains("## Math"));
+}
+
+#[test]
+fn bad_arguments_exit_2_with_a_message() {
+    for args in [
+        vec!["node", "Blur9000", "--output", "out=x.exr"],
+        vec![
+            "node",
+            "Math",
+            "--param",
+            "op=sqrt",
+            "--output",
+            "out=x.exr",
+        ],
+        vec!["node", "Math", "--param", "nope=1", "--output", "out=x.exr"],
+        vec!["node", "Math", "--output", "nope=x.exr"],
+        vec![
+            "node",
+            "Math",
+            "--input",
+            "a=/nonexistent.exr",
+            "--output",
+            "out=x.exr",
+        ],
+        vec!["eval", "/nonexistent.ron"],
+        vec!["render", "/nonexistent.ron", "--frames", "5-1"],
+        vec!["frobnicate"],
+    ] {
+        let o = tyndall(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!o.stderr.is_empty(), "{args:?}");
+        assert!(
+            !String::from_utf8_lossy(&o.stderr).contains("panicked"),
+            "{args:?}"
+        );
+    }
+}
+
+#[test]
+fn evaluation_errors_exit_1_naming_the_node() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = dir.path().join("g.ron");
+    std::fs::write(
+        &graph,
+        r#"(version: 2, nodes: {"in": (kind: "ImageInput", params: {"path": "/nonexistent/file.exr"}), "o": (kind: "ImageOutput")}, edges: [("in.image", "o.image")])"#,
+    )
+    .expect("write");
+    let o = tyndall(&["eval", &graph.display().to_string()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("node 'in' (ImageInput)") && err.contains("/nonexistent/file.exr"),
+        "{err}"
+    );
+}

@@ -1,0 +1,339 @@
+//! The evaluator: only what outputs need runs, only what changed re-runs, the cache is bounded.
+
+mod common;
+
+use std::sync::Arc;
+
+use tyndall::eval::{EvalOptions, Evaluator, Status, Target};
+use tyndall::graph::{load_str, Graph, Interp, Key, ParamValue};
+
+/// Two independent branches: c1 → m1 → out1 and c2 → r2 → out2.
+fn two_branches(dir: &std::path::Path) -> Graph {
+    let text = format!(
+        r#"(
+    version: 2,
+    nodes: {{
+        "c1": (kind: "Constant", params: {{"value": 2.0, "width": 8, "height": 8}}),
+        "m1": (kind: "Math", params: {{"op": "mul", "b": 3.0}}),
+        "out1": (kind: "ImageOutput", params: {{"path": "{0}/one.exr"}}),
+        "c2": (kind: "Constant", params: {{"colour": [0.5, 0.25, 1.0, 1.0], "width": 8, "height": 8}}),
+        "r2": (kind: "Remap", params: {{"to_max": 2.0}}),
+        "out2": (kind: "ImageOutput", params: {{"path": "{0}/two.exr"}}),
+    }},
+    edges: [("c1.value", "m1.a"), ("m1.out", "out1.image"), ("c2.colour", "r2.in"), ("r2.out", "out2.image")],
+)"#,
+        dir.display()
+    );
+    load_str(
+        &text,
+        std::path::Path::new("two.ron"),
+        tyndall::nodes::registry().catalog(),
+    )
+    .expect("graph")
+}
+
+fn evaluator(gpu: Arc<tyndall::gpu::Gpu>) -> Evaluator {
+    Evaluator::new(Arc::new(tyndall::nodes::registry()), gpu)
+}
+
+#[test]
+fn only_changed_node_and_downstream_rerun() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut g = two_branches(dir.path());
+    let mut ev = evaluator(gpu);
+    let cat = ev.registry().catalog().clone();
+    let sinks = ev.sinks(&g);
+    assert_eq!(sinks.len(), 2);
+    let opts = EvalOptions::default();
+    let first = ev.evaluate(&g, &sinks, &opts).expect("first");
+    assert_eq!(
+        first.stats.with_status(Status::Ran).len(),
+        6,
+        "{}",
+        first.stats
+    );
+    assert!(dir.path().join("one.exr").exists() && dir.path().join("two.exr").exists());
+
+    let again = ev.evaluate(&g, &sinks, &opts).expect("again");
+    assert_eq!(
+        again.stats.with_status(Status::Reused).len(),
+        6,
+        "{}",
+        again.stats
+    );
+
+    g.set_param(&cat, "m1", "b", ParamValue::Float(4.0))
+        .expect("set");
+    let third = ev.evaluate(&g, &sinks, &opts).expect("third");
+    let mut ran = third.stats.with_status(Status::Ran);
+    ran.sort();
+    assert_eq!(ran, vec!["m1", "out1"], "{}", third.stats);
+    let mut reused = third.stats.with_status(Status::Reused);
+    reused.sort();
+    assert_eq!(reused, vec!["c1", "c2", "out2", "r2"], "{}", third.stats);
+    let one = tyndall::io::read_image(&dir.path().join("one.exr"), false).expect("read");
+    assert!(one.data.iter().all(|v| *v == 8.0), "m1 = 2 · 4");
+}
+
+#[test]
+fn output_paths_do_not_invalidate_but_are_still_written() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let g = two_branches(dir.path());
+    let mut ev = evaluator(gpu);
+    let sinks = ev.sinks(&g);
+    ev.evaluate(&g, &sinks, &EvalOptions::default())
+        .expect("first");
+    let opts = EvalOptions {
+        output_suffix: "_w2".into(),
+        ..Default::default()
+    };
+    let second = ev.evaluate(&g, &sinks, &opts).expect("suffixed");
+    assert_eq!(
+        second.stats.with_status(Status::Ran).len(),
+        0,
+        "{}",
+        second.stats
+    );
+    assert!(dir.path().join("one_w2.exr").exists() && dir.path().join("two_w2.exr").exists());
+}
+
+#[test]
+fn nodes_no_output_needs_never_run() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let g = two_branches(dir.path());
+    let mut ev = evaluator(gpu);
+    let r = ev
+        .evaluate(
+            &g,
+            &[Target::Port("m1".into(), "out".into())],
+            &EvalOptions::default(),
+        )
+        .expect("eval");
+    let mut not_needed = r.stats.with_status(Status::NotNeeded);
+    not_needed.sort();
+    assert_eq!(not_needed, vec!["c2", "out1", "out2", "r2"], "{}", r.stats);
+    assert!(
+        !dir.path().join("one.exr").exists(),
+        "a sink ran without being requested"
+    );
+    assert!(r
+        .outputs
+        .contains_key(&("m1".to_string(), "out".to_string())));
+}
+
+#[test]
+fn a_node_computes_only_wanted_outputs() {
+    let gpu = require_gpu!();
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let mut g = Graph::new();
+    let c = g.add_node(&cat, "Constant").expect("add");
+    let mut ev = evaluator(gpu);
+    let opts = EvalOptions {
+        size: (4, 4),
+        ..Default::default()
+    };
+    let r = ev
+        .evaluate(&g, &[Target::Port(c.clone(), "value".into())], &opts)
+        .expect("value");
+    assert_eq!(r.stats.status(&c), Some(Status::Ran));
+    assert_eq!(
+        ev.cached_bytes(),
+        4 * 4 * 4,
+        "only the Scalar output was computed"
+    );
+    let r = ev
+        .evaluate(&g, &[Target::Port(c.clone(), "value".into())], &opts)
+        .expect("value");
+    assert_eq!(r.stats.status(&c), Some(Status::Reused));
+    let r = ev
+        .evaluate(&g, &[Target::Port(c.clone(), "colour".into())], &opts)
+        .expect("colour");
+    assert_eq!(
+        r.stats.status(&c),
+        Some(Status::Ran),
+        "colour was not computed before"
+    );
+}
+
+#[test]
+fn key_frames_drive_reevaluation_by_time() {
+    let gpu = require_gpu!();
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let mut g = Graph::new();
+    let c = g.add_node(&cat, "Constant").expect("add");
+    let m = g.add_node(&cat, "Math").expect("add");
+    g.connect(&cat, &format!("{c}.value"), &format!("{m}.a"))
+        .expect("edge");
+    g.set_keys(
+        &cat,
+        &m,
+        "b",
+        vec![
+            Key {
+                t: 0.0,
+                v: 1.0,
+                interp: Interp::Hold,
+            },
+            Key {
+                t: 10.0,
+                v: 5.0,
+                interp: Interp::Linear,
+            },
+        ],
+    )
+    .expect("keys");
+    g.set_param(&cat, &c, "value", ParamValue::Float(2.0))
+        .expect("set");
+    let mut ev = evaluator(gpu.clone());
+    let target = [Target::Port(m.clone(), "out".into())];
+    let at = |t: f64| EvalOptions {
+        time: t,
+        size: (2, 2),
+        ..Default::default()
+    };
+    let r0 = ev.evaluate(&g, &target, &at(0.0)).expect("t0");
+    let v0 = tyndall::eval::download(&gpu, &r0.outputs[&(m.clone(), "out".into())]).expect("dl");
+    assert_eq!(v0.data[0], 3.0);
+    let r1 = ev.evaluate(&g, &target, &at(5.0)).expect("t5");
+    assert_eq!(
+        r1.stats.status(&m),
+        Some(Status::Reused),
+        "Hold keeps b = 1 until t = 10"
+    );
+    assert_eq!(r1.stats.status(&c), Some(Status::Reused));
+    let r2 = ev.evaluate(&g, &target, &at(12.0)).expect("t12");
+    assert_eq!(r2.stats.status(&m), Some(Status::Ran));
+    let v2 = tyndall::eval::download(&gpu, &r2.outputs[&(m.clone(), "out".into())]).expect("dl");
+    assert_eq!(v2.data[0], 7.0);
+}
+
+#[test]
+fn cache_respects_its_memory_budget() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let g = two_branches(dir.path());
+    let mut ev = evaluator(gpu);
+    ev.evaluate(
+        &g,
+        &[Target::Port("m1".into(), "out".into())],
+        &EvalOptions::default(),
+    )
+    .expect("a");
+    assert_eq!(ev.cached_nodes(), 2);
+    ev.set_budget(0);
+    // The latest evaluation's results are kept; older ones are evicted past the budget.
+    let r = ev
+        .evaluate(
+            &g,
+            &[Target::Port("r2".into(), "out".into())],
+            &EvalOptions::default(),
+        )
+        .expect("b");
+    assert_eq!(ev.cached_nodes(), 2, "c2 and r2 only");
+    let r2 = ev
+        .evaluate(
+            &g,
+            &[Target::Port("m1".into(), "out".into())],
+            &EvalOptions::default(),
+        )
+        .expect("c");
+    assert_eq!(
+        r2.stats.status("m1"),
+        Some(Status::Ran),
+        "m1 was evicted, so it runs again"
+    );
+    drop(r);
+    ev.set_budget(usize::MAX);
+    ev.evaluate(&g, &ev.sinks(&g), &EvalOptions::default())
+        .expect("d");
+    assert_eq!(ev.cached_nodes(), 6);
+    assert!(ev.cached_bytes() > 0);
+}
+
+#[test]
+fn input_file_changes_rerun_image_input() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("in.exr");
+    tyndall::io::write_image(
+        &path,
+        &tyndall::io::Raster::new(3, 2, 1, 1.0),
+        tyndall::io::Precision::F32,
+        false,
+    )
+    .expect("w");
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let mut g = Graph::new();
+    let i = g.add_node(&cat, "ImageInput").expect("add");
+    g.set_param(
+        &cat,
+        &i,
+        "path",
+        ParamValue::Text(path.display().to_string()),
+    )
+    .expect("p");
+    let mut ev = evaluator(gpu);
+    let t = [Target::Port(i.clone(), "scalar".into())];
+    ev.evaluate(&g, &t, &EvalOptions::default()).expect("1");
+    assert_eq!(
+        ev.evaluate(&g, &t, &EvalOptions::default())
+            .expect("2")
+            .stats
+            .status(&i),
+        Some(Status::Reused)
+    );
+    tyndall::io::write_image(
+        &path,
+        &tyndall::io::Raster::new(4, 2, 1, 2.0),
+        tyndall::io::Precision::F32,
+        false,
+    )
+    .expect("w");
+    assert_eq!(
+        ev.evaluate(&g, &t, &EvalOptions::default())
+            .expect("3")
+            .stats
+            .status(&i),
+        Some(Status::Ran)
+    );
+}
+
+#[test]
+fn evaluation_errors_name_node_and_parameter() {
+    let gpu = require_gpu!();
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let mut g = Graph::new();
+    let c = g.add_node(&cat, "Constant").expect("add");
+    let o = g.add_node(&cat, "ImageOutput").expect("add");
+    g.connect(&cat, &format!("{c}.colour"), &format!("{o}.image"))
+        .expect("edge");
+    g.set_param(&cat, &o, "path", ParamValue::Text("".into()))
+        .expect("p");
+    let mut ev = evaluator(gpu);
+    let err = ev
+        .evaluate(
+            &g,
+            &ev.sinks(&g),
+            &EvalOptions {
+                size: (2, 2),
+                ..Default::default()
+            },
+        )
+        .expect_err("empty path");
+    assert!(
+        err.to_string()
+            .contains("node 'imageoutput1' (ImageOutput): parameter 'path'"),
+        "{err}"
+    );
+    let err = ev
+        .evaluate(
+            &g,
+            &[Target::Port(c.clone(), "nope".into())],
+            &EvalOptions::default(),
+        )
+        .expect_err("port");
+    assert!(err.to_string().contains("no output port 'nope'"), "{err}");
+}

@@ -1,0 +1,84 @@
+//! EXR and PNG read/write, including files written by another tool (OpenEXR's Python bindings).
+
+mod common;
+
+use std::path::Path;
+
+use tyndall::io::{read_image, write_image, Precision, Raster};
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// The values `tests/fixtures/make_exr.py` wrote (float64 maths rounded once to float32).
+pub fn fixture_a(x: u32, y: u32) -> f32 {
+    let (x, y) = (x as f64, y as f64);
+    ((x + 1.0) / (y + 2.0) - 0.37 * x) as f32
+}
+
+/// See [`fixture_a`].
+pub fn fixture_b(x: u32, y: u32) -> f32 {
+    let (x, y) = (x as f64, y as f64);
+    ((y - 5.5) * 0.25 + x / 7.0) as f32
+}
+
+#[test]
+fn reads_exr_written_by_openexr() {
+    let a = read_image(&fixture("A.exr"), true).expect("A");
+    let b = read_image(&fixture("B.exr"), true).expect("B");
+    assert_eq!((a.width, a.height, a.channels), (16, 12, 1));
+    assert_eq!((b.width, b.height, b.channels), (16, 12, 1));
+    for y in 0..12 {
+        for x in 0..16 {
+            assert_eq!(a.pixel(x, y)[0], fixture_a(x, y), "A({x},{y})");
+            assert_eq!(b.pixel(x, y)[0], fixture_b(x, y), "B({x},{y})");
+        }
+    }
+    let c = read_image(&fixture("rgba_half.exr"), true).expect("rgba");
+    assert_eq!(c.channels, 4);
+    let p = c.pixel(8, 6);
+    assert_eq!(
+        p,
+        &[0.5, 0.5, 0.4375, 0.5],
+        "half floats decode exactly for these values"
+    );
+}
+
+#[test]
+fn exr_and_png_round_trip_every_precision_and_channel_count() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for channels in [1, 4] {
+        let r = common::random_raster(7, 5, channels, 0.0, 1.0, 42 + channels as u64);
+        for (ext, precision, tol) in [
+            ("exr", Precision::F32, 0.0),
+            ("exr", Precision::F16, 1.0 / 2048.0), // half: 11 significant bits, values < 1
+            ("png", Precision::U8, 0.5 / 255.0 + 1e-6),
+            ("png", Precision::U16, 0.5 / 65535.0 + 1e-7),
+        ] {
+            let path = dir.path().join(format!("r{channels}_{precision:?}.{ext}"));
+            write_image(&path, &r, precision, false).expect("write");
+            let back = read_image(&path, false).expect("read");
+            assert!(common::max_abs_diff(&back, &r) <= tol, "{}", path.display());
+        }
+    }
+}
+
+#[test]
+fn writing_replaces_non_finite_and_refuses_bad_combinations() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut r = Raster::new(2, 1, 1, 0.5);
+    r.data[1] = f32::NAN;
+    let p = dir.path().join("n.exr");
+    write_image(&p, &r, Precision::F32, false).expect("write");
+    assert_eq!(read_image(&p, false).expect("read").data, vec![0.5, 0.0]);
+    let e = write_image(&dir.path().join("x.png"), &r, Precision::F16, false).expect_err("f16 png");
+    assert!(e.to_string().contains("x.png"), "{e}");
+    let e = write_image(&dir.path().join("x.tif"), &r, Precision::F32, false).expect_err("tif");
+    assert!(e.to_string().contains("x.tif"), "{e}");
+    let e = read_image(&fixture("missing.exr"), false).expect_err("missing");
+    assert!(e.to_string().contains("missing.exr"), "{e}");
+    std::fs::write(dir.path().join("garbage.exr"), b"not an exr").expect("w");
+    assert!(read_image(&dir.path().join("garbage.exr"), false).is_err());
+}
