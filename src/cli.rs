@@ -142,7 +142,13 @@ pub enum CliError {
     BadInput(String),
     /// Evaluation failed (exit 1).
     #[error(transparent)]
-    Eval(#[from] EvalError),
+    Eval(Box<EvalError>),
+}
+
+impl From<EvalError> for CliError {
+    fn from(e: EvalError) -> Self {
+        CliError::Eval(Box::new(e))
+    }
 }
 
 impl CliError {
@@ -225,7 +231,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 
 fn gpu() -> Result<Arc<Gpu>, CliError> {
     Gpu::shared().map_err(|e| {
-        CliError::Eval(EvalError::Node {
+        CliError::from(EvalError::Node {
             node: "-".into(),
             kind: "-".into(),
             source: e.into(),
@@ -301,7 +307,7 @@ fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
         crate::io::FileKind::Png => Precision::U8,
     };
     write_image(path, &raster, precision, true).map_err(|e| {
-        CliError::Eval(EvalError::Node {
+        CliError::from(EvalError::Node {
             node: "-".into(),
             kind: "output".into(),
             source: e.into(),

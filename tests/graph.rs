@@ -102,8 +102,11 @@ fn data_blocks_survive_round_trip() {
     assert_eq!(save_string(&again), saved);
 }
 
+/// Expected line:column of an error.
+type At = Option<(usize, usize)>;
+
 /// (fixture, substring the message must contain, expected line:column).
-const BAD: &[(&str, &str, Option<(usize, usize)>)] = &[
+const BAD: &[(&str, &str, At)] = &[
     ("syntax.ron", "syntax error", Some((5, 28))),
     (
         "unknown_kind.ron",

@@ -33,6 +33,9 @@ use super::types::{Interp, Key, ParamValue};
 /// The format version this build writes and the newest it reads.
 pub const FORMAT_VERSION: u32 = 2;
 
+/// A key-frame track as written: `(time, value, interpolation)` triples.
+type FileTrack = Vec<(f64, f64, Interp)>;
+
 /// A reader for one older format version: parses text of that version (with located errors)
 /// and applies every migration step up to the current version.
 pub type Migration = fn(&str) -> Result<FileGraph, ron::error::SpannedError>;
@@ -53,7 +56,7 @@ struct FileGraphV1 {
     #[serde(default)]
     edges: Vec<(String, String)>,
     #[serde(default, with = "pairs")]
-    keyframes: Vec<(String, Vec<(f64, f64, Interp)>)>,
+    keyframes: Vec<(String, FileTrack)>,
 }
 
 #[derive(Deserialize)]
@@ -108,7 +111,7 @@ pub struct FileGraph {
     #[serde(default)]
     edges: Vec<(String, String)>,
     #[serde(default, with = "pairs")]
-    keys: Vec<(String, Vec<(f64, f64, Interp)>)>,
+    keys: Vec<(String, FileTrack)>,
 }
 
 #[derive(Serialize, Deserialize)]
