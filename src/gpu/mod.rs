@@ -79,6 +79,35 @@ impl std::fmt::Debug for Gpu {
     }
 }
 
+/// Collects error-level log records from wgpu (the Vulkan validation layer reports through
+/// them) so that [`Gpu::take_errors`] turns them into failures; installed when validation is on.
+struct ValidationLogger;
+
+static LOGGED_ERRORS: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+impl log::Log for ValidationLogger {
+    fn enabled(&self, m: &log::Metadata) -> bool {
+        m.level() <= log::Level::Warn && m.target().starts_with("wgpu")
+    }
+
+    fn log(&self, r: &log::Record) {
+        if !self.enabled(r.metadata()) {
+            return;
+        }
+        let line = format!("{}: {}", r.target(), r.args());
+        eprintln!("{}: {line}", r.level());
+        if r.level() == log::Level::Error {
+            if let Ok(mut v) = LOGGED_ERRORS.lock() {
+                v.push(line);
+            }
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+static LOGGER: ValidationLogger = ValidationLogger;
+
 impl Gpu {
     /// Create a headless context on the best available adapter (any kind, software included).
     /// `validation` turns on backend validation layers (`InstanceFlags::VALIDATION | DEBUG`);
@@ -86,7 +115,13 @@ impl Gpu {
     pub fn new(validation: bool) -> Result<Gpu, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         if validation {
-            desc.flags = wgpu::InstanceFlags::VALIDATION | wgpu::InstanceFlags::DEBUG;
+            // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
+            // layer (1.3.239) does not know and reports as invalid SPIR-V.
+            desc.flags = wgpu::InstanceFlags::VALIDATION;
+            // Another logger may already be installed (an application's); then it sees them.
+            if log::set_logger(&LOGGER).is_ok() {
+                log::set_max_level(log::LevelFilter::Warn);
+            }
         }
         let instance = wgpu::Instance::new(desc.with_env());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -144,12 +179,16 @@ impl Gpu {
         )
     }
 
-    /// Errors wgpu reported since the last call (validation, out of memory), as an error.
+    /// Errors wgpu reported since the last call (API validation, out of memory, and with
+    /// validation on, the Vulkan validation layer's errors), as an error.
     pub fn take_errors(&self) -> Result<(), GpuError> {
         let mut v = self
             .errors
             .lock()
             .map_err(|e| GpuError::Validation(e.to_string()))?;
+        if let Ok(mut logged) = LOGGED_ERRORS.lock() {
+            v.append(&mut logged);
+        }
         if v.is_empty() {
             Ok(())
         } else {
