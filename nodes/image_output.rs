@@ -37,7 +37,12 @@ static SCHEMA: NodeSchema = NodeSchema {
     doc: "Writes its input to an EXR (f32/f16) or PNG (8/16-bit) file; NaN/Inf become 0.",
     inputs: &[PortSpec {
         name: "image",
-        types: &[PortType::Image, PortType::Scalar],
+        types: &[
+            PortType::Image,
+            PortType::Scalar,
+            PortType::ShadowMap,
+            PortType::Depth,
+        ],
         required: true,
         doc: "What to write.",
     }],

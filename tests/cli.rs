@@ -249,3 +249,43 @@ fn evaluation_errors_exit_1_naming_the_node() {
         "{err}"
     );
 }
+
+#[test]
+fn docs_nodes_md_matches_the_catalog() {
+    let o = tyndall(&["nodes", "--markdown"]);
+    let committed = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/nodes.md")).expect("docs/nodes.md");
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout),
+        committed,
+        "docs/nodes.md is stale: run `cargo run -- nodes --markdown > docs/nodes.md`"
+    );
+}
+
+#[test]
+fn every_graph_in_graphs_validates_and_renders() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs");
+    let mut files = Vec::new();
+    let mut stack = vec![root];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read_dir") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
+                files.push(p);
+            }
+        }
+    }
+    assert!(!files.is_empty());
+    let dir = tempfile::tempdir().expect("tempdir");
+    for f in files {
+        let o = tyndall(&["validate", &f.display().to_string()]);
+        assert!(o.status.success(), "{}: {}", f.display(), String::from_utf8_lossy(&o.stderr));
+        if gpu_available() {
+            let out = dir.path().join("r.png");
+            let o = tyndall(&["render", &f.display().to_string(), "-o", &out.display().to_string(), "--size", "32x16"]);
+            assert!(o.status.success(), "{}: {}", f.display(), String::from_utf8_lossy(&o.stderr));
+            assert!(out.exists());
+        }
+    }
+}

@@ -18,6 +18,6 @@ pub use format::{
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
-    sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec,
+    num, sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec,
     ParamValue, PortSpec, PortType,
 };

@@ -330,16 +330,31 @@ impl ParamSpec {
     pub fn expected(&self) -> String {
         match self.kind {
             ParamKind::Float | ParamKind::Int => {
-                format!("{} in [{}, {}]", self.kind.name(), self.min, self.max)
+                format!(
+                    "{} in [{}, {}]",
+                    self.kind.name(),
+                    num(self.min),
+                    num(self.max)
+                )
             }
             ParamKind::Colour => format!(
                 "Colour [r, g, b, a] with channels in [{}, {}]",
-                self.min, self.max
+                num(self.min),
+                num(self.max)
             ),
             ParamKind::Enum(names) => format!("one of {}", names.join(", ")),
             ParamKind::Bool => "true or false".into(),
             ParamKind::Text => "a string".into(),
         }
+    }
+}
+
+/// A number for people: large round values in exponent form (`1e30`), others as they are.
+pub fn num(v: f64) -> String {
+    if v.abs() >= 1e6 && v.fract() == 0.0 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 

@@ -236,7 +236,7 @@ fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
 
 /// Write a raster as EXR (`F32`/`F16`; one channel is written as `Y`, four as `R`,`G`,`B`,`A`) or
 /// PNG (`U8`/`U16`; one channel as grey, four as RGBA, colour channels sRGB-encoded when
-/// `srgb`). Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
+/// `srgb`). Missing parent folders are created. Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
 /// atomic (temporary file, then rename).
 pub fn write_image(
     path: &Path,
@@ -267,6 +267,8 @@ pub fn write_image(
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)
+        .map_err(|e| err(format!("cannot create folder {}: {e}", dir.display())))?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
