@@ -253,7 +253,9 @@ fn evaluation_errors_exit_1_naming_the_node() {
 #[test]
 fn docs_nodes_md_matches_the_catalog() {
     let o = tyndall(&["nodes", "--markdown"]);
-    let committed = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/nodes.md")).expect("docs/nodes.md");
+    let committed =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/nodes.md"))
+            .expect("docs/nodes.md");
     assert_eq!(
         String::from_utf8_lossy(&o.stdout),
         committed,
@@ -280,11 +282,28 @@ fn every_graph_in_graphs_validates_and_renders() {
     let dir = tempfile::tempdir().expect("tempdir");
     for f in files {
         let o = tyndall(&["validate", &f.display().to_string()]);
-        assert!(o.status.success(), "{}: {}", f.display(), String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            f.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
         if gpu_available() {
             let out = dir.path().join("r.png");
-            let o = tyndall(&["render", &f.display().to_string(), "-o", &out.display().to_string(), "--size", "32x16"]);
-            assert!(o.status.success(), "{}: {}", f.display(), String::from_utf8_lossy(&o.stderr));
+            let o = tyndall(&[
+                "render",
+                &f.display().to_string(),
+                "-o",
+                &out.display().to_string(),
+                "--size",
+                "32x16",
+            ]);
+            assert!(
+                o.status.success(),
+                "{}: {}",
+                f.display(),
+                String::from_utf8_lossy(&o.stderr)
+            );
             assert!(out.exists());
         }
     }
