@@ -460,3 +460,18 @@ proptest! {
         prop_assert_eq!(save_string(&back), text);
     }
 }
+
+proptest! {
+    /// Any mangling of a valid file gives an error or a graph, never a panic.
+    #[test]
+    fn mangled_files_never_panic(cut in 0usize..600, len in 0usize..40, insert in "[(){}\\[\\]\":,.a-z0-9 \n]{0,12}") {
+        let cat = catalog();
+        let text = save_string(&every_kind_graph());
+        let start = cut.min(text.len());
+        let end = (start + len).min(text.len());
+        if text.is_char_boundary(start) && text.is_char_boundary(end) {
+            let mangled = format!("{}{insert}{}", &text[..start], &text[end..]);
+            let _ = load_str(&mangled, Path::new("m.ron"), &cat);
+        }
+    }
+}

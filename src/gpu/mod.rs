@@ -83,7 +83,11 @@ impl std::fmt::Debug for Gpu {
 /// them) so that [`Gpu::take_errors`] turns them into failures; installed when validation is on.
 struct ValidationLogger;
 
-static LOGGED_ERRORS: Mutex<Vec<String>> = Mutex::new(Vec::new());
+thread_local! {
+    /// Error records logged on this thread (the validation layer reports synchronously on the
+    /// thread that made the offending call, so per-thread lists attribute errors correctly).
+    static LOGGED_ERRORS: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 
 impl log::Log for ValidationLogger {
     fn enabled(&self, m: &log::Metadata) -> bool {
@@ -97,9 +101,7 @@ impl log::Log for ValidationLogger {
         let line = format!("{}: {}", r.target(), r.args());
         eprintln!("{}: {line}", r.level());
         if r.level() == log::Level::Error {
-            if let Ok(mut v) = LOGGED_ERRORS.lock() {
-                v.push(line);
-            }
+            LOGGED_ERRORS.with(|v| v.borrow_mut().push(line));
         }
     }
 
@@ -141,6 +143,9 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
+        // Messages logged while backends were probed (e.g. an EGL driver that fails to load
+        // before Vulkan is chosen) are not errors of our work.
+        LOGGED_ERRORS.with(|v| v.borrow_mut().clear());
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -186,15 +191,37 @@ impl Gpu {
             .errors
             .lock()
             .map_err(|e| GpuError::Validation(e.to_string()))?;
-        if let Ok(mut logged) = LOGGED_ERRORS.lock() {
-            v.append(&mut logged);
-        }
+        LOGGED_ERRORS.with(|logged| v.append(&mut logged.borrow_mut()));
         if v.is_empty() {
             Ok(())
         } else {
             let msg = v.join("; ");
             v.clear();
             Err(GpuError::Validation(msg))
+        }
+    }
+
+    /// Run `f` inside validation and out-of-memory error scopes (thread-local in wgpu, so
+    /// errors are attributed to this call even when several threads share the device), then
+    /// report them with anything logged or uncaptured meanwhile.
+    pub fn scoped<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let v = pollster::block_on(validation.pop());
+        let o = pollster::block_on(oom.pop());
+        let mut msgs: Vec<String> = [v, o]
+            .into_iter()
+            .flatten()
+            .map(|e| e.to_string())
+            .collect();
+        if let Err(GpuError::Validation(m)) = self.take_errors() {
+            msgs.push(m);
+        }
+        if msgs.is_empty() {
+            Ok(out)
+        } else {
+            Err(GpuError::Validation(msgs.join("; ")))
         }
     }
 
@@ -230,25 +257,27 @@ impl Gpu {
             TexFormat::Rgba32F
         };
         let tex = self.texture(width, height, format)?;
-        self.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: tex.raw(),
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            bytemuck::cast_slice(data),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(width * format.bytes_per_texel()),
-                rows_per_image: Some(height),
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
+        self.scoped(|| {
+            self.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: tex.raw(),
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(data),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(width * format.bytes_per_texel()),
+                    rows_per_image: Some(height),
+                },
+                wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+            );
+        })?;
         Ok(tex)
     }
 
@@ -265,29 +294,31 @@ impl Gpu {
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: tex.raw(),
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(tex.height),
+        self.scoped(|| {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            enc.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture: tex.raw(),
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
                 },
-            },
-            wgpu::Extent3d {
-                width: tex.width,
-                height: tex.height,
-                depth_or_array_layers: 1,
-            },
-        );
-        self.queue.submit([enc.finish()]);
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded),
+                        rows_per_image: Some(tex.height),
+                    },
+                },
+                wgpu::Extent3d {
+                    width: tex.width,
+                    height: tex.height,
+                    depth_or_array_layers: 1,
+                },
+            );
+            self.queue.submit([enc.finish()]);
+        })?;
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -306,7 +337,6 @@ impl Gpu {
         }
         drop(view);
         buffer.unmap();
-        self.take_errors()?;
         Ok(out)
     }
 
@@ -323,7 +353,7 @@ impl Gpu {
         shader: Shader,
         entry: &str,
         binds: &[(u32, Bind)],
-    ) -> Arc<wgpu::ComputePipeline> {
+    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
         let mut key = format!("{}:{entry}", shader.stem);
         for (n, b) in binds {
             key.push_str(&format!(":{n}"));
@@ -341,65 +371,74 @@ impl Gpu {
             Err(p) => p.into_inner(),
         };
         if let Some(p) = cache.get(&key) {
-            return p.clone();
+            return Ok(p.clone());
         }
-        let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
-            .iter()
-            .map(|(i, b)| wgpu::BindGroupLayoutEntry {
-                binding: *i,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: match b {
-                    Bind::Uniform(_) => wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    Bind::Texture(_) => wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    Bind::Storage(t) => wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: t.format.wgpu(),
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                },
-                count: None,
+        let p = self
+            .scoped(|| {
+                let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
+                    .iter()
+                    .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                        binding: *i,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: match b {
+                            Bind::Uniform(_) => wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Uniform,
+                                has_dynamic_offset: false,
+                                min_binding_size: None,
+                            },
+                            Bind::Texture(_) => wgpu::BindingType::Texture {
+                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                                multisampled: false,
+                            },
+                            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
+                                access: wgpu::StorageTextureAccess::WriteOnly,
+                                format: t.format.wgpu(),
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                            },
+                        },
+                        count: None,
+                    })
+                    .collect();
+                let bgl = self
+                    .device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(&key),
+                        entries: &entries,
+                    });
+                let layout = self
+                    .device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some(&key),
+                        bind_group_layouts: &[Some(&bgl)],
+                        immediate_size: 0,
+                    });
+                let module = self
+                    .device
+                    .create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(shader.stem),
+                        source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+                    });
+                Arc::new(
+                    self.device
+                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(&key),
+                            layout: Some(&layout),
+                            module: &module,
+                            entry_point: Some(entry),
+                            compilation_options: Default::default(),
+                            cache: None,
+                        }),
+                )
             })
-            .collect();
-        let bgl = self
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(&key),
-                entries: &entries,
-            });
-        let layout = self
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(&key),
-                bind_group_layouts: &[Some(&bgl)],
-                immediate_size: 0,
-            });
-        let module = self
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(shader.stem),
-                source: wgpu::ShaderSource::Wgsl(shader.source.into()),
-            });
-        let p = Arc::new(
-            self.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&key),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                }),
-        );
+            .map_err(|e| match e {
+                GpuError::Validation(m) => {
+                    GpuError::Validation(format!("shader {}.wgsl, entry {entry}: {m}", shader.stem))
+                }
+                other => other,
+            })?;
         cache.insert(key, p.clone());
-        p
+        Ok(p)
     }
 
     /// Run one compute entry point over a `width × height` grid with 8×8 workgroups
@@ -413,7 +452,18 @@ impl Gpu {
         width: u32,
         height: u32,
     ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds);
+        let pipeline = self.pipeline(shader, entry, binds)?;
+        self.scoped(|| self.record(&pipeline, shader, binds, width, height))?
+    }
+
+    fn record(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        shader: Shader,
+        binds: &[(u32, Bind)],
+        width: u32,
+        height: u32,
+    ) -> Result<(), GpuError> {
         let buffers: Vec<Option<wgpu::Buffer>> = binds
             .iter()
             .map(|(_, b)| match b {
@@ -463,11 +513,11 @@ impl Gpu {
                 label: Some(shader.stem),
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
         }
         self.queue.submit([enc.finish()]);
-        self.take_errors()
+        Ok(())
     }
 }
