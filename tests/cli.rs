@@ -102,25 +102,7 @@ fn wedge_reuses_the_independent_branch() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let graph = dir.path().join("g.ron");
-    std::fs::write(
-        &graph,
-        format!(
-            r#"(
-    version: 2,
-    nodes: {{
-        "c1": (kind: "Constant", params: {{"value": 2.0, "width": 8, "height": 8}}),
-        "m1": (kind: "Math", params: {{"op": "mul", "b": 3.0}}),
-        "out1": (kind: "ImageOutput", params: {{"path": "{0}/one.exr"}}),
-        "c2": (kind: "Constant", params: {{"width": 8, "height": 8}}),
-        "r2": (kind: "Remap", params: {{"to_max": 2.0}}),
-        "out2": (kind: "ImageOutput", params: {{"path": "{0}/two.exr"}}),
-    }},
-    edges: [("c1.value", "m1.a"), ("m1.out", "out1.image"), ("c2.colour", "r2.in"), ("r2.out", "out2.image")],
-)"#,
-            dir.path().display()
-        ),
-    )
-    .expect("write graph");
+    std::fs::write(&graph, common::two_branches_ron(dir.path())).expect("write graph");
     let o = tyndall(&[
         "eval",
         &graph.display().to_string(),

@@ -7,25 +7,10 @@ use std::sync::Arc;
 use tyndall::eval::{EvalOptions, Evaluator, Status, Target};
 use tyndall::graph::{load_str, Graph, Interp, Key, ParamValue};
 
-/// Two independent branches: c1 → m1 → out1 and c2 → r2 → out2.
+/// Two independent branches (see `common::two_branches_ron`).
 fn two_branches(dir: &std::path::Path) -> Graph {
-    let text = format!(
-        r#"(
-    version: 2,
-    nodes: {{
-        "c1": (kind: "Constant", params: {{"value": 2.0, "width": 8, "height": 8}}),
-        "m1": (kind: "Math", params: {{"op": "mul", "b": 3.0}}),
-        "out1": (kind: "ImageOutput", params: {{"path": "{0}/one.exr"}}),
-        "c2": (kind: "Constant", params: {{"colour": [0.5, 0.25, 1.0, 1.0], "width": 8, "height": 8}}),
-        "r2": (kind: "Remap", params: {{"to_max": 2.0}}),
-        "out2": (kind: "ImageOutput", params: {{"path": "{0}/two.exr"}}),
-    }},
-    edges: [("c1.value", "m1.a"), ("m1.out", "out1.image"), ("c2.colour", "r2.in"), ("r2.out", "out2.image")],
-)"#,
-        dir.display()
-    );
     load_str(
-        &text,
+        &common::two_branches_ron(dir),
         std::path::Path::new("two.ron"),
         tyndall::nodes::registry().catalog(),
     )

@@ -131,3 +131,23 @@ pub fn max_abs_diff(a: &Raster, b: &Raster) -> f32 {
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f32::max)
 }
+
+/// A graph with two independent branches writing into `dir`: c1 → m1 (mul by 3) → out1
+/// (`one.exr`) and c2 → r2 → out2 (`two.exr`).
+pub fn two_branches_ron(dir: &std::path::Path) -> String {
+    format!(
+        r#"(
+    version: 2,
+    nodes: {{
+        "c1": (kind: "Constant", params: {{"value": 2.0, "width": 8, "height": 8}}),
+        "m1": (kind: "Math", params: {{"op": "mul", "b": 3.0}}),
+        "out1": (kind: "ImageOutput", params: {{"path": "{0}/one.exr"}}),
+        "c2": (kind: "Constant", params: {{"colour": [0.5, 0.25, 1.0, 1.0], "width": 8, "height": 8}}),
+        "r2": (kind: "Remap", params: {{"to_max": 2.0}}),
+        "out2": (kind: "ImageOutput", params: {{"path": "{0}/two.exr"}}),
+    }},
+    edges: [("c1.value", "m1.a"), ("m1.out", "out1.image"), ("c2.colour", "r2.in"), ("r2.out", "out2.image")],
+)"#,
+        dir.display()
+    )
+}
