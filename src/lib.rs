@@ -12,3 +12,4 @@ pub mod graph;
 pub mod io;
 #[path = "../nodes/mod.rs"]
 pub mod nodes;
+pub mod scene;

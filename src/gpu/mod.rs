@@ -3,6 +3,7 @@
 
 mod layout;
 mod pool;
+mod raster;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -11,6 +12,7 @@ use thiserror::Error;
 
 pub use layout::{check_uniform_layout, UniformLayout};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
+pub use raster::{MeshDraw, MeshVertex, RasterTarget};
 
 /// Errors from the GPU layer.
 #[derive(Debug, Error, Clone)]
@@ -70,6 +72,7 @@ pub struct Gpu {
     pub limits: wgpu::Limits,
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
+    render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
     errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -160,6 +163,7 @@ impl Gpu {
             info: adapter.get_info(),
             limits,
             pipelines: Mutex::new(HashMap::new()),
+            render_pipelines: Mutex::new(HashMap::new()),
             errors,
         })
     }

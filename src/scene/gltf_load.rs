@@ -1,0 +1,138 @@
+//! glTF 2.0 (`.gltf` with embedded or external buffers, `.glb`): meshes with node transforms,
+//! base colours, the first camera and the first directional light (`KHR_lights_punctual`).
+//! Tags come from a node's `extras: {"tags": [...]}`.
+
+use std::path::Path;
+
+use base64::Engine;
+use glam::{Mat3, Mat4, Vec3};
+
+use super::{Camera, Object, Scene, SceneError, Sun};
+
+fn err(path: &Path, reason: impl std::fmt::Display) -> SceneError {
+    SceneError::Gltf { path: path.display().to_string(), reason: reason.to_string() }
+}
+
+fn buffers(doc: &gltf::Document, blob: Option<Vec<u8>>, path: &Path) -> Result<Vec<Vec<u8>>, SceneError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    let mut blob = blob;
+    for b in doc.buffers() {
+        let data = match b.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| err(path, "buffer refers to a missing GLB binary chunk"))?,
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let b64 = rest.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| err(path, "data URI is not base64"))?;
+                    base64::engine::general_purpose::STANDARD.decode(b64).map_err(|e| err(path, format!("buffer: {e}")))?
+                } else {
+                    std::fs::read(dir.join(uri)).map_err(|e| err(path, format!("buffer {uri}: {e}")))?
+                }
+            }
+        };
+        if data.len() < b.length() {
+            return Err(err(path, format!("buffer {} is {} bytes, expected {}", b.index(), data.len(), b.length())));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// Load a glTF scene. Camera and sun default to a view of the bounds and a high sun when the
+/// file has none.
+pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| err(path, e))?;
+    let bufs = buffers(&doc, blob, path)?;
+    let mut objects = Vec::new();
+    let mut camera = None;
+    let mut sun = None;
+    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err(path, "no scene"))?;
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    while let Some((node, parent)) = stack.pop() {
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        for child in node.children() {
+            stack.push((child, world));
+        }
+        let name = node.name().unwrap_or("node").to_string();
+        let tags: Vec<String> = node
+            .extras()
+            .as_ref()
+            .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
+            .and_then(|v| v.get("tags").and_then(|t| t.as_array()).cloned())
+            .map(|a| a.iter().filter_map(|t| t.as_str().map(str::to_string)).collect())
+            .unwrap_or_default();
+        let (_, rot, pos) = world.to_scale_rotation_translation();
+        let forward = (rot * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
+        if let (Some(cam), None) = (node.camera(), camera) {
+            if let gltf::camera::Projection::Perspective(p) = cam.projection() {
+                camera = Some(Camera {
+                    position: pos,
+                    target: pos + forward * 10.0,
+                    fov_y: p.yfov().to_degrees(),
+                    near: p.znear().max(1e-4),
+                    far: p.zfar().unwrap_or(1000.0),
+                });
+            }
+        }
+        if let (Some(light), None) = (node.light(), sun) {
+            if let gltf::khr_lights_punctual::Kind::Directional = light.kind() {
+                let (azimuth, elevation) = Sun::angles_of(-forward);
+                sun = Some(Sun { azimuth, elevation, colour: light.color(), intensity: light.intensity() });
+            }
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        let normal_m = Mat3::from_mat4(world).inverse().transpose();
+        for (pi, prim) in mesh.primitives().enumerate() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                continue;
+            }
+            let reader = prim.reader(|b| bufs.get(b.index()).map(|v| v.as_slice()));
+            let Some(positions) = reader.read_positions() else { continue };
+            let positions: Vec<Vec3> = positions.map(|p| world.transform_point3(Vec3::from(p))).collect();
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(ix) => ix.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            if indices.iter().any(|i| *i as usize >= positions.len()) {
+                return Err(err(path, format!("mesh '{name}': index out of range")));
+            }
+            let normals: Vec<Vec3> = match reader.read_normals() {
+                Some(n) => n.map(|n| (normal_m * Vec3::from(n)).normalize_or(Vec3::Y)).collect(),
+                None => {
+                    let mut acc = vec![Vec3::ZERO; positions.len()];
+                    for t in indices.chunks_exact(3) {
+                        let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                        let n = (b - a).cross(c - a);
+                        for i in t {
+                            acc[*i as usize] += n;
+                        }
+                    }
+                    acc.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect()
+                }
+            };
+            let colour = prim.material().pbr_metallic_roughness().base_color_factor();
+            objects.push(Object {
+                name: if pi == 0 { name.clone() } else { format!("{name}.{pi}") },
+                positions,
+                normals,
+                indices,
+                colour,
+                tags: tags.clone(),
+            });
+        }
+    }
+    if objects.is_empty() {
+        return Err(err(path, "no triangle meshes"));
+    }
+    let mut s = Scene {
+        objects,
+        camera: Camera { position: Vec3::ZERO, target: Vec3::NEG_Z, fov_y: 45.0, near: 0.1, far: 100.0 },
+        sun: sun.unwrap_or(Sun { azimuth: 30.0, elevation: 60.0, colour: [1.0; 3], intensity: 3.0 }),
+    };
+    s.camera = camera.unwrap_or_else(|| {
+        let (lo, hi) = s.bounds();
+        let c = (lo + hi) * 0.5;
+        let r = ((hi - lo).length() * 0.5).max(1e-3);
+        Camera { position: c + Vec3::new(1.0, 0.6, 1.0).normalize() * r * 2.5, target: c, fov_y: 45.0, near: r * 0.01, far: r * 10.0 }
+    });
+    Ok(s)
+}

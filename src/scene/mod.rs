@@ -1,0 +1,171 @@
+//! Scenes: meshes with colours and tags, a perspective camera and a directional light (the sun);
+//! built-in procedural scenes, glTF 2.0 loading, and mesh upload for rasterisation.
+
+mod builtin;
+mod gltf_load;
+mod gpu;
+
+use glam::{Mat4, Vec3};
+use thiserror::Error;
+
+pub use builtin::{builtin, BUILTIN_SCENES};
+pub use gltf_load::load_gltf;
+pub use gpu::{GpuScene, MeshVertex};
+
+/// Errors building or loading a scene.
+#[derive(Debug, Error, Clone)]
+pub enum SceneError {
+    /// The built-in name is unknown.
+    #[error("unknown built-in scene '{0}' (built-in scenes: {list})", list = BUILTIN_SCENES.join(", "))]
+    UnknownBuiltin(String),
+    /// The glTF file could not be read or has no usable mesh.
+    #[error("glTF {path}: {reason}")]
+    Gltf {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// One object: a triangle mesh in world space with a base colour and tags.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Object {
+    /// Name (glTF node name or a built-in part name).
+    pub name: String,
+    /// Vertex positions (world space).
+    pub positions: Vec<Vec3>,
+    /// Vertex normals (world space, unit length).
+    pub normals: Vec<Vec3>,
+    /// Triangle list indices.
+    pub indices: Vec<u32>,
+    /// Linear RGBA base colour.
+    pub colour: [f32; 4],
+    /// Tags (`foliage`, `figure`, ...) for nodes that treat objects separately.
+    pub tags: Vec<String>,
+}
+
+/// A perspective camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Vertical field of view, degrees.
+    pub fov_y: f32,
+    /// Near plane distance.
+    pub near: f32,
+    /// Far plane distance; also the linear depth given to sky pixels.
+    pub far: f32,
+}
+
+impl Camera {
+    /// World → view (right-handed, looking down −Z, +Y up; a straight-down view uses +Z as up).
+    pub fn view(&self) -> Mat4 {
+        let dir = (self.target - self.position).normalize_or(Vec3::NEG_Z);
+        let up = if dir.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
+        glam::camera::rh::view::look_at_mat4(self.position, self.position + dir, up)
+    }
+
+    /// View → clip for an image of this aspect ratio (wgpu depth range 0..1).
+    pub fn proj(&self, aspect: f32) -> Mat4 {
+        glam::camera::rh::proj::directx::perspective(self.fov_y.to_radians(), aspect.max(1e-6), self.near, self.far)
+    }
+}
+
+/// The directional light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sun {
+    /// Azimuth, degrees clockwise from +Z seen from above.
+    pub azimuth: f32,
+    /// Elevation above the horizon, degrees (90 = straight down).
+    pub elevation: f32,
+    /// Linear RGB colour.
+    pub colour: [f32; 3],
+    /// Intensity multiplying the colour.
+    pub intensity: f32,
+}
+
+impl Sun {
+    /// Unit vector pointing from the scene towards the sun.
+    pub fn to_sun(&self) -> Vec3 {
+        let (az, el) = (self.azimuth.to_radians(), self.elevation.to_radians());
+        Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos()).normalize()
+    }
+
+    /// Azimuth and elevation (degrees) of a direction pointing towards the sun.
+    pub fn angles_of(to_sun: Vec3) -> (f32, f32) {
+        let d = to_sun.normalize_or(Vec3::Y);
+        (d.x.atan2(d.z).to_degrees(), d.y.clamp(-1.0, 1.0).asin().to_degrees())
+    }
+
+    /// Colour × intensity.
+    pub fn radiance(&self) -> [f32; 3] {
+        self.colour.map(|c| c * self.intensity)
+    }
+}
+
+/// A scene: objects, camera and sun.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// The camera (the file's or the built-in's; node parameters may override it).
+    pub camera: Camera,
+    /// The sun (the file's or the built-in's; node parameters may override it).
+    pub sun: Sun,
+}
+
+impl Scene {
+    /// Axis-aligned bounds of all vertices (a unit box around the origin when empty).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for o in &self.objects {
+            for p in &o.positions {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::splat(-1.0), Vec3::splat(1.0))
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// Number of triangles.
+    pub fn triangles(&self) -> usize {
+        self.objects.iter().map(|o| o.indices.len() / 3).sum()
+    }
+}
+
+/// Light-space matrices of an orthographic shadow map along `to_sun`, fitted to the bounds:
+/// `(view, proj)` with depth 0 at the light's near plane and 1 at the far plane, both planes
+/// touching the bounds.
+pub fn fit_light(to_sun: Vec3, bounds: (Vec3, Vec3)) -> (Mat4, Mat4) {
+    let (lo, hi) = bounds;
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(1e-3);
+    let d = to_sun.normalize_or(Vec3::Y);
+    let up = if d.cross(Vec3::Y).length_squared() < 1e-6 { Vec3::Z } else { Vec3::Y };
+    let eye = centre + d * radius * 2.0;
+    let view = glam::camera::rh::view::look_at_mat4(eye, centre, up);
+    let mut vmin = Vec3::splat(f32::INFINITY);
+    let mut vmax = Vec3::splat(f32::NEG_INFINITY);
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let v = view.transform_point3(c);
+        vmin = vmin.min(v);
+        vmax = vmax.max(v);
+    }
+    // A small margin keeps geometry on the box faces inside the map.
+    let m = radius * 1e-3;
+    let proj = glam::camera::rh::proj::directx::orthographic(vmin.x - m, vmax.x + m, vmin.y - m, vmax.y + m, -vmax.z - m, -vmin.z + m);
+    (view, proj)
+}
