@@ -8,20 +8,32 @@ use std::sync::Arc;
 
 use crate::eval::Registry;
 
+pub mod composite;
 pub mod constant;
+pub mod g_buffer;
 pub mod image_input;
 pub mod image_output;
 pub mod math;
 pub mod remap;
+pub mod scene;
+pub mod shadow_map;
+pub mod single_scattering;
+pub mod tonemap;
 pub mod util;
 
 /// Every node kind Tyndall ships.
 pub fn registry() -> Registry {
     let mut r = Registry::new();
+    r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
+    r.add(Arc::new(g_buffer::GBufferNode));
     r.add(Arc::new(image_input::ImageInput));
     r.add(Arc::new(image_output::ImageOutput));
     r.add(Arc::new(math::Math));
     r.add(Arc::new(remap::Remap));
+    r.add(Arc::new(scene::SceneNode));
+    r.add(Arc::new(shadow_map::ShadowMapNode));
+    r.add(Arc::new(single_scattering::SingleScattering));
+    r.add(Arc::new(tonemap::Tonemap));
     r
 }

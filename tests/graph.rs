@@ -22,7 +22,8 @@ fn every_kind_graph() -> Graph {
         for p in schema.params {
             let v = match p.kind {
                 ParamKind::Float => {
-                    ParamValue::Float((p.min.max(-3.0) + p.max.min(7.0)) * 0.375 + 0.125)
+                    let (lo, hi) = (p.min.max(-3.0), p.max.min(7.0));
+                    ParamValue::Float(lo + (hi - lo) * 0.375)
                 }
                 ParamKind::Int => {
                     ParamValue::Int(((p.min + p.max.min(100.0)) / 2.0).round() as i64)

@@ -17,20 +17,28 @@ pub const IDENTITY: Mat4 = [
     [0.0, 0.0, 0.0, 1.0],
 ];
 
-/// View and projection of the camera (for `Depth`) or the light (for `ShadowMap`).
+/// What a `Depth` or `ShadowMap` carries besides its texels: the camera's or the light's
+/// matrices, the far distance and the light's radiance.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Matrices {
     /// World → view.
     pub view: Mat4,
-    /// View → clip.
+    /// View → clip (wgpu conventions: y up, depth 0..1).
     pub proj: Mat4,
+    /// For `Depth`: the linear depth given to sky pixels (the camera's far distance).
+    pub far: f32,
+    /// For `ShadowMap`: the light's colour × intensity (zero for cameras).
+    pub radiance: [f32; 3],
 }
 
 impl Default for Matrices {
+    /// Identity matrices (clip space = world space), far 1, white light.
     fn default() -> Self {
         Self {
             view: IDENTITY,
             proj: IDENTITY,
+            far: 1.0,
+            radiance: [1.0; 3],
         }
     }
 }
@@ -70,6 +78,14 @@ impl PortValue {
             | PortValue::Scalar(t)
             | PortValue::Image(t) => Some(t),
             PortValue::Other(..) => None,
+        }
+    }
+
+    /// The payload of an `Other` value, if it is a `T`.
+    pub fn payload<T: Any + Send + Sync>(&self) -> Option<&T> {
+        match self {
+            PortValue::Other(_, p) => p.downcast_ref::<T>(),
+            _ => None,
         }
     }
 

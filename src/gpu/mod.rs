@@ -102,8 +102,9 @@ impl log::Log for ValidationLogger {
             return;
         }
         let line = format!("{}: {}", r.target(), r.args());
-        eprintln!("{}: {line}", r.level());
-        if r.level() == log::Level::Error {
+        if r.level() == log::Level::Warn {
+            eprintln!("warning: {line}");
+        } else {
             LOGGED_ERRORS.with(|v| v.borrow_mut().push(line));
         }
     }

@@ -38,7 +38,11 @@ pub struct MeshDraw<'a> {
 }
 
 impl Gpu {
-    fn raster_pipeline(&self, shader: Shader, formats: &[TexFormat]) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
+    fn raster_pipeline(
+        &self,
+        shader: Shader,
+        formats: &[TexFormat],
+    ) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
         let key = format!("{}:raster:{formats:?}", shader.stem);
         let mut cache = match self.render_pipelines.lock() {
             Ok(c) => c,
@@ -112,15 +116,27 @@ impl Gpu {
 
     /// Draw `mesh` with the shader's `vs`/`fs` entry points into `targets` (all the same size),
     /// with a fresh depth buffer (less-than test) and the uniform bytes at binding 0.
-    pub fn raster(&self, shader: Shader, uniform: &[u8], targets: &[RasterTarget], mesh: &MeshDraw) -> Result<(), GpuError> {
-        let first = targets.first().ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
+    pub fn raster(
+        &self,
+        shader: Shader,
+        uniform: &[u8],
+        targets: &[RasterTarget],
+        mesh: &MeshDraw,
+    ) -> Result<(), GpuError> {
+        let first = targets
+            .first()
+            .ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
         let (w, h) = (first.texture.width, first.texture.height);
         let formats: Vec<TexFormat> = targets.iter().map(|t| t.texture.format).collect();
         let pipeline = self.raster_pipeline(shader, &formats)?;
         self.scoped(|| {
             let depth = self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("depth"),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -141,7 +157,10 @@ impl Gpu {
             let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(shader.stem),
                 layout: &pipeline.get_bind_group_layout(0),
-                entries: &[wgpu::BindGroupEntry { binding: 0, resource: buf.as_entire_binding() }],
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buf.as_entire_binding(),
+                }],
             });
             let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
                 .iter()
@@ -151,7 +170,12 @@ impl Gpu {
                         depth_slice: None,
                         resolve_target: None,
                         ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color { r: t.clear[0], g: t.clear[1], b: t.clear[2], a: t.clear[3] }),
+                            load: wgpu::LoadOp::Clear(wgpu::Color {
+                                r: t.clear[0],
+                                g: t.clear[1],
+                                b: t.clear[2],
+                                a: t.clear[3],
+                            }),
                             store: wgpu::StoreOp::Store,
                         },
                     })
@@ -164,7 +188,10 @@ impl Gpu {
                     color_attachments: &attachments,
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                         view: &depth_view,
-                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Discard,
+                        }),
                         stencil_ops: None,
                     }),
                     timestamp_writes: None,

@@ -49,25 +49,58 @@ fn object(name: &str, colour: [f32; 4], tags: &[&str]) -> Object {
 
 /// Append a quad (corners counter-clockwise seen from the normal's side).
 fn quad(o: &mut Object, corners: [Vec3; 4]) {
-    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or(Vec3::Y);
+    let n = (corners[1] - corners[0])
+        .cross(corners[2] - corners[0])
+        .normalize_or(Vec3::Y);
     let base = o.positions.len() as u32;
     for c in corners {
         o.positions.push(c);
         o.normals.push(n);
     }
-    o.indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+    o.indices
+        .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
 }
 
 /// Append an oriented box: centre, half extents, rotation.
 fn cuboid(o: &mut Object, centre: Vec3, half: Vec3, rot: Quat) {
     let p = |x: f32, y: f32, z: f32| centre + rot * Vec3::new(x * half.x, y * half.y, z * half.z);
     let faces = [
-        [p(-1., -1., 1.), p(1., -1., 1.), p(1., 1., 1.), p(-1., 1., 1.)],
-        [p(1., -1., -1.), p(-1., -1., -1.), p(-1., 1., -1.), p(1., 1., -1.)],
-        [p(1., -1., 1.), p(1., -1., -1.), p(1., 1., -1.), p(1., 1., 1.)],
-        [p(-1., -1., -1.), p(-1., -1., 1.), p(-1., 1., 1.), p(-1., 1., -1.)],
-        [p(-1., 1., 1.), p(1., 1., 1.), p(1., 1., -1.), p(-1., 1., -1.)],
-        [p(-1., -1., -1.), p(1., -1., -1.), p(1., -1., 1.), p(-1., -1., 1.)],
+        [
+            p(-1., -1., 1.),
+            p(1., -1., 1.),
+            p(1., 1., 1.),
+            p(-1., 1., 1.),
+        ],
+        [
+            p(1., -1., -1.),
+            p(-1., -1., -1.),
+            p(-1., 1., -1.),
+            p(1., 1., -1.),
+        ],
+        [
+            p(1., -1., 1.),
+            p(1., -1., -1.),
+            p(1., 1., -1.),
+            p(1., 1., 1.),
+        ],
+        [
+            p(-1., -1., -1.),
+            p(-1., -1., 1.),
+            p(-1., 1., 1.),
+            p(-1., 1., -1.),
+        ],
+        [
+            p(-1., 1., 1.),
+            p(1., 1., 1.),
+            p(1., 1., -1.),
+            p(-1., 1., -1.),
+        ],
+        [
+            p(-1., -1., -1.),
+            p(1., -1., -1.),
+            p(1., -1., 1.),
+            p(-1., -1., 1.),
+        ],
     ];
     for f in faces {
         quad(o, f);
@@ -133,7 +166,8 @@ fn cylinder(o: &mut Object, bottom: Vec3, radius: f32, height: f32, segments: u3
     }
     for i in 0..segments {
         let a = base + i * 2;
-        o.indices.extend_from_slice(&[a, a + 1, a + 2, a + 1, a + 3, a + 2]);
+        o.indices
+            .extend_from_slice(&[a, a + 1, a + 2, a + 1, a + 3, a + 2]);
     }
     let top = bottom + Vec3::Y * height;
     let c = o.positions.len() as u32;
@@ -141,7 +175,8 @@ fn cylinder(o: &mut Object, bottom: Vec3, radius: f32, height: f32, segments: u3
     o.normals.push(Vec3::Y);
     for i in 0..=segments {
         let a = std::f32::consts::TAU * i as f32 / segments as f32;
-        o.positions.push(top + Vec3::new(a.cos(), 0.0, a.sin()) * radius);
+        o.positions
+            .push(top + Vec3::new(a.cos(), 0.0, a.sin()) * radius);
         o.normals.push(Vec3::Y);
     }
     for i in 0..segments {
@@ -152,7 +187,15 @@ fn cylinder(o: &mut Object, bottom: Vec3, radius: f32, height: f32, segments: u3
 fn ground(size: f32) -> Object {
     let mut g = object("ground", [0.55, 0.53, 0.5, 1.0], &["ground"]);
     let s = size;
-    quad(&mut g, [Vec3::new(-s, 0.0, s), Vec3::new(s, 0.0, s), Vec3::new(s, 0.0, -s), Vec3::new(-s, 0.0, -s)]);
+    quad(
+        &mut g,
+        [
+            Vec3::new(-s, 0.0, s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(-s, 0.0, -s),
+        ],
+    );
     g
 }
 
@@ -165,8 +208,19 @@ pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
             torus(&mut t, Vec3::new(0.0, 3.0, 0.0), 2.0, 0.6, 64, 24);
             Scene {
                 objects: vec![ground(10.0), t],
-                camera: Camera { position: Vec3::new(8.0, 3.5, 9.0), target: Vec3::new(0.0, 1.8, 0.0), fov_y: 45.0, near: 0.1, far: 60.0 },
-                sun: Sun { azimuth: 20.0, elevation: 72.0, colour: [1.0, 0.95, 0.85], intensity: 3.0 },
+                camera: Camera {
+                    position: Vec3::new(8.0, 1.2, 9.0),
+                    target: Vec3::new(0.0, 2.2, 0.0),
+                    fov_y: 50.0,
+                    near: 0.1,
+                    far: 60.0,
+                },
+                sun: Sun {
+                    azimuth: 225.0,
+                    elevation: 50.0,
+                    colour: [1.0, 0.95, 0.85],
+                    intensity: 3.0,
+                },
             }
         }
         "tree" => {
@@ -176,33 +230,65 @@ pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
                 let a = k as f32 * 1.3 + rng.range(0.0, 0.5);
                 let dir = Vec3::new(a.cos(), 0.8, a.sin()).normalize();
                 let c = Vec3::new(0.0, 3.8 + k as f32 * 0.3, 0.0) + dir * 1.0;
-                cuboid(&mut trunk, c, Vec3::new(0.09, 1.1, 0.09), Quat::from_rotation_arc(Vec3::Y, dir));
+                cuboid(
+                    &mut trunk,
+                    c,
+                    Vec3::new(0.09, 1.1, 0.09),
+                    Quat::from_rotation_arc(Vec3::Y, dir),
+                );
             }
             let mut leaves = object("canopy", [0.25, 0.5, 0.18, 1.0], &["foliage"]);
             let centre = Vec3::new(0.0, 6.2, 0.0);
             let mut placed = 0;
             while placed < 2200 {
-                let p = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                let p = Vec3::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                );
                 if p.length() > 1.0 {
                     continue;
                 }
                 // Gaps: a few empty lobes inside the canopy so light breaks through.
-                let gap = (p.x * 3.1 + seed as f32 * 0.37).sin() * (p.z * 2.7).cos() * (p.y * 2.3 + 1.0).sin();
+                let gap = (p.x * 3.1 + seed as f32 * 0.37).sin()
+                    * (p.z * 2.7).cos()
+                    * (p.y * 2.3 + 1.0).sin();
                 if gap > 0.35 {
                     continue;
                 }
                 let pos = centre + p * Vec3::new(3.2, 2.0, 3.2);
-                let rot = Quat::from_euler(glam::EulerRot::XYZ, rng.range(0.0, 6.3), rng.range(0.0, 6.3), rng.range(0.0, 6.3));
+                let rot = Quat::from_euler(
+                    glam::EulerRot::XYZ,
+                    rng.range(0.0, 6.3),
+                    rng.range(0.0, 6.3),
+                    rng.range(0.0, 6.3),
+                );
                 let s = rng.range(0.12, 0.22);
-                let corners = [Vec3::new(-s, 0.0, -s), Vec3::new(s, 0.0, -s), Vec3::new(s, 0.0, s), Vec3::new(-s, 0.0, s)]
-                    .map(|c| pos + rot * c);
+                let corners = [
+                    Vec3::new(-s, 0.0, -s),
+                    Vec3::new(s, 0.0, -s),
+                    Vec3::new(s, 0.0, s),
+                    Vec3::new(-s, 0.0, s),
+                ]
+                .map(|c| pos + rot * c);
                 quad(&mut leaves, corners);
                 placed += 1;
             }
             Scene {
                 objects: vec![ground(12.0), trunk, leaves],
-                camera: Camera { position: Vec3::new(9.0, 2.2, 9.5), target: Vec3::new(0.0, 3.5, 0.0), fov_y: 50.0, near: 0.1, far: 60.0 },
-                sun: Sun { azimuth: 200.0, elevation: 45.0, colour: [1.0, 0.92, 0.78], intensity: 3.0 },
+                camera: Camera {
+                    position: Vec3::new(9.0, 2.2, 9.5),
+                    target: Vec3::new(0.0, 3.5, 0.0),
+                    fov_y: 50.0,
+                    near: 0.1,
+                    far: 60.0,
+                },
+                sun: Sun {
+                    azimuth: 225.0,
+                    elevation: 38.0,
+                    colour: [1.0, 0.92, 0.78],
+                    intensity: 3.0,
+                },
             }
         }
         "window" => {
@@ -210,15 +296,50 @@ pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
             let (w, h, d) = (6.0f32, 3.5f32, 8.0f32);
             let t = 0.15;
             let mut floor = object("floor", [0.5, 0.42, 0.35, 1.0], &["floor"]);
-            cuboid(&mut floor, Vec3::new(0.0, -t, 0.0), Vec3::new(w, t, d), Quat::IDENTITY);
-            cuboid(&mut walls, Vec3::new(0.0, h + t, 0.0), Vec3::new(w, t, d), Quat::IDENTITY);
-            cuboid(&mut walls, Vec3::new(0.0, h / 2.0, -d), Vec3::new(w, h / 2.0, t), Quat::IDENTITY);
-            cuboid(&mut walls, Vec3::new(0.0, h / 2.0, d), Vec3::new(w, h / 2.0, t), Quat::IDENTITY);
-            cuboid(&mut walls, Vec3::new(-w, h / 2.0, 0.0), Vec3::new(t, h / 2.0, d), Quat::IDENTITY);
+            cuboid(
+                &mut floor,
+                Vec3::new(0.0, -t, 0.0),
+                Vec3::new(w, t, d),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut walls,
+                Vec3::new(0.0, h + t, 0.0),
+                Vec3::new(w, t, d),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut walls,
+                Vec3::new(0.0, h / 2.0, -d),
+                Vec3::new(w, h / 2.0, t),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut walls,
+                Vec3::new(0.0, h / 2.0, d),
+                Vec3::new(w, h / 2.0, t),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut walls,
+                Vec3::new(-w, h / 2.0, 0.0),
+                Vec3::new(t, h / 2.0, d),
+                Quat::IDENTITY,
+            );
             // The +x wall has three windows: built from a lower band, an upper band and piers.
             let (sill, lintel) = (1.0f32, 2.7f32);
-            cuboid(&mut walls, Vec3::new(w, sill / 2.0, 0.0), Vec3::new(t, sill / 2.0, d), Quat::IDENTITY);
-            cuboid(&mut walls, Vec3::new(w, (lintel + h) / 2.0, 0.0), Vec3::new(t, (h - lintel) / 2.0, d), Quat::IDENTITY);
+            cuboid(
+                &mut walls,
+                Vec3::new(w, sill / 2.0, 0.0),
+                Vec3::new(t, sill / 2.0, d),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut walls,
+                Vec3::new(w, (lintel + h) / 2.0, 0.0),
+                Vec3::new(t, (h - lintel) / 2.0, d),
+                Quat::IDENTITY,
+            );
             let jitter = rng.range(-0.3, 0.3);
             let windows = [-4.0 + jitter, 0.0, 4.0 - jitter];
             let half_w = 0.8;
@@ -231,12 +352,28 @@ pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
             for pair in edges.chunks(2) {
                 let (z0, z1) = (pair[0], pair[1]);
                 let hm = (lintel - sill) / 2.0;
-                cuboid(&mut walls, Vec3::new(w, sill + hm, (z0 + z1) / 2.0), Vec3::new(t, hm, (z1 - z0) / 2.0), Quat::IDENTITY);
+                cuboid(
+                    &mut walls,
+                    Vec3::new(w, sill + hm, (z0 + z1) / 2.0),
+                    Vec3::new(t, hm, (z1 - z0) / 2.0),
+                    Quat::IDENTITY,
+                );
             }
             Scene {
                 objects: vec![floor, walls],
-                camera: Camera { position: Vec3::new(-4.8, 1.7, -6.5), target: Vec3::new(2.0, 1.2, 1.0), fov_y: 60.0, near: 0.05, far: 40.0 },
-                sun: Sun { azimuth: 80.0, elevation: 32.0, colour: [1.0, 0.9, 0.75], intensity: 4.0 },
+                camera: Camera {
+                    position: Vec3::new(-4.8, 1.7, -6.5),
+                    target: Vec3::new(2.0, 1.2, 1.0),
+                    fov_y: 60.0,
+                    near: 0.05,
+                    far: 40.0,
+                },
+                sun: Sun {
+                    azimuth: 70.0,
+                    elevation: 30.0,
+                    colour: [1.0, 0.9, 0.75],
+                    intensity: 4.0,
+                },
             }
         }
         "fence" => {
@@ -244,29 +381,86 @@ pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
             for i in 0..11 {
                 let x = -5.0 + i as f32 + rng.range(-0.05, 0.05);
                 let hgt = 2.0 + rng.range(-0.1, 0.1);
-                cuboid(&mut f, Vec3::new(x, hgt / 2.0, 0.0), Vec3::new(0.12, hgt / 2.0, 0.12), Quat::IDENTITY);
+                cuboid(
+                    &mut f,
+                    Vec3::new(x, hgt / 2.0, 0.0),
+                    Vec3::new(0.12, hgt / 2.0, 0.12),
+                    Quat::IDENTITY,
+                );
             }
-            cuboid(&mut f, Vec3::new(0.0, 1.4, 0.16), Vec3::new(5.4, 0.1, 0.04), Quat::IDENTITY);
+            cuboid(
+                &mut f,
+                Vec3::new(0.0, 1.4, 0.16),
+                Vec3::new(5.4, 0.1, 0.04),
+                Quat::IDENTITY,
+            );
             Scene {
                 objects: vec![ground(10.0), f],
-                camera: Camera { position: Vec3::new(2.5, 1.6, 8.0), target: Vec3::new(0.0, 1.0, -1.0), fov_y: 50.0, near: 0.1, far: 50.0 },
-                sun: Sun { azimuth: 180.0, elevation: 25.0, colour: [1.0, 0.85, 0.65], intensity: 3.0 },
+                camera: Camera {
+                    position: Vec3::new(2.5, 1.6, 8.0),
+                    target: Vec3::new(0.0, 1.0, -1.0),
+                    fov_y: 50.0,
+                    near: 0.1,
+                    far: 50.0,
+                },
+                sun: Sun {
+                    azimuth: 180.0,
+                    elevation: 25.0,
+                    colour: [1.0, 0.85, 0.65],
+                    intensity: 3.0,
+                },
             }
         }
         "figure" => {
             let mut fig = object("figure", [0.6, 0.6, 0.65, 1.0], &["figure"]);
             let lean = rng.range(-0.05, 0.05);
             let r = Quat::from_rotation_z(lean);
-            cuboid(&mut fig, Vec3::new(-0.2, 0.9, 0.0), Vec3::new(0.12, 0.45, 0.12), Quat::IDENTITY);
-            cuboid(&mut fig, Vec3::new(0.2, 0.9, 0.0), Vec3::new(0.12, 0.45, 0.12), Quat::IDENTITY);
-            cuboid(&mut fig, Vec3::new(0.0, 1.75, 0.0), Vec3::new(0.38, 0.45, 0.2), r);
-            cuboid(&mut fig, Vec3::new(-0.55, 1.75, 0.0), Vec3::new(0.1, 0.42, 0.1), Quat::from_rotation_z(-0.25));
-            cuboid(&mut fig, Vec3::new(0.55, 1.75, 0.0), Vec3::new(0.1, 0.42, 0.1), Quat::from_rotation_z(0.25));
+            cuboid(
+                &mut fig,
+                Vec3::new(-0.2, 0.9, 0.0),
+                Vec3::new(0.12, 0.45, 0.12),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut fig,
+                Vec3::new(0.2, 0.9, 0.0),
+                Vec3::new(0.12, 0.45, 0.12),
+                Quat::IDENTITY,
+            );
+            cuboid(
+                &mut fig,
+                Vec3::new(0.0, 1.75, 0.0),
+                Vec3::new(0.38, 0.45, 0.2),
+                r,
+            );
+            cuboid(
+                &mut fig,
+                Vec3::new(-0.55, 1.75, 0.0),
+                Vec3::new(0.1, 0.42, 0.1),
+                Quat::from_rotation_z(-0.25),
+            );
+            cuboid(
+                &mut fig,
+                Vec3::new(0.55, 1.75, 0.0),
+                Vec3::new(0.1, 0.42, 0.1),
+                Quat::from_rotation_z(0.25),
+            );
             sphere(&mut fig, Vec3::new(0.0, 2.5, 0.0), Vec3::splat(0.22), 24);
             Scene {
                 objects: vec![ground(8.0), fig],
-                camera: Camera { position: Vec3::new(0.8, 1.5, 6.0), target: Vec3::new(0.0, 1.6, 0.0), fov_y: 50.0, near: 0.1, far: 40.0 },
-                sun: Sun { azimuth: 190.0, elevation: 30.0, colour: [1.0, 0.93, 0.8], intensity: 3.0 },
+                camera: Camera {
+                    position: Vec3::new(0.8, 1.5, 6.0),
+                    target: Vec3::new(0.0, 1.6, 0.0),
+                    fov_y: 50.0,
+                    near: 0.1,
+                    far: 40.0,
+                },
+                sun: Sun {
+                    azimuth: 190.0,
+                    elevation: 30.0,
+                    colour: [1.0, 0.93, 0.8],
+                    intensity: 3.0,
+                },
             }
         }
         other => return Err(SceneError::UnknownBuiltin(other.to_string())),

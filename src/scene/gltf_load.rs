@@ -10,27 +10,50 @@ use glam::{Mat3, Mat4, Vec3};
 use super::{Camera, Object, Scene, SceneError, Sun};
 
 fn err(path: &Path, reason: impl std::fmt::Display) -> SceneError {
-    SceneError::Gltf { path: path.display().to_string(), reason: reason.to_string() }
+    SceneError::Gltf {
+        path: path.display().to_string(),
+        reason: reason.to_string(),
+    }
 }
 
-fn buffers(doc: &gltf::Document, blob: Option<Vec<u8>>, path: &Path) -> Result<Vec<Vec<u8>>, SceneError> {
+fn buffers(
+    doc: &gltf::Document,
+    blob: Option<Vec<u8>>,
+    path: &Path,
+) -> Result<Vec<Vec<u8>>, SceneError> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     let mut blob = blob;
     for b in doc.buffers() {
         let data = match b.source() {
-            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| err(path, "buffer refers to a missing GLB binary chunk"))?,
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| err(path, "buffer refers to a missing GLB binary chunk"))?,
             gltf::buffer::Source::Uri(uri) => {
                 if let Some(rest) = uri.strip_prefix("data:") {
-                    let b64 = rest.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| err(path, "data URI is not base64"))?;
-                    base64::engine::general_purpose::STANDARD.decode(b64).map_err(|e| err(path, format!("buffer: {e}")))?
+                    let b64 = rest
+                        .split_once(";base64,")
+                        .map(|(_, d)| d)
+                        .ok_or_else(|| err(path, "data URI is not base64"))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(b64)
+                        .map_err(|e| err(path, format!("buffer: {e}")))?
                 } else {
-                    std::fs::read(dir.join(uri)).map_err(|e| err(path, format!("buffer {uri}: {e}")))?
+                    std::fs::read(dir.join(uri))
+                        .map_err(|e| err(path, format!("buffer {uri}: {e}")))?
                 }
             }
         };
         if data.len() < b.length() {
-            return Err(err(path, format!("buffer {} is {} bytes, expected {}", b.index(), data.len(), b.length())));
+            return Err(err(
+                path,
+                format!(
+                    "buffer {} is {} bytes, expected {}",
+                    b.index(),
+                    data.len(),
+                    b.length()
+                ),
+            ));
         }
         out.push(data);
     }
@@ -40,12 +63,18 @@ fn buffers(doc: &gltf::Document, blob: Option<Vec<u8>>, path: &Path) -> Result<V
 /// Load a glTF scene. Camera and sun default to a view of the bounds and a high sun when the
 /// file has none.
 pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
-    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(|e| err(path, e))?;
+    let gltf::Gltf {
+        document: doc,
+        blob,
+    } = gltf::Gltf::open(path).map_err(|e| err(path, e))?;
     let bufs = buffers(&doc, blob, path)?;
     let mut objects = Vec::new();
     let mut camera = None;
     let mut sun = None;
-    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err(path, "no scene"))?;
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err(path, "no scene"))?;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     while let Some((node, parent)) = stack.pop() {
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
@@ -58,7 +87,11 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
             .as_ref()
             .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
             .and_then(|v| v.get("tags").and_then(|t| t.as_array()).cloned())
-            .map(|a| a.iter().filter_map(|t| t.as_str().map(str::to_string)).collect())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|t| t.as_str().map(str::to_string))
+                    .collect()
+            })
             .unwrap_or_default();
         let (_, rot, pos) = world.to_scale_rotation_translation();
         let forward = (rot * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
@@ -76,7 +109,12 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
         if let (Some(light), None) = (node.light(), sun) {
             if let gltf::khr_lights_punctual::Kind::Directional = light.kind() {
                 let (azimuth, elevation) = Sun::angles_of(-forward);
-                sun = Some(Sun { azimuth, elevation, colour: light.color(), intensity: light.intensity() });
+                sun = Some(Sun {
+                    azimuth,
+                    elevation,
+                    colour: light.color(),
+                    intensity: light.intensity(),
+                });
             }
         }
         let Some(mesh) = node.mesh() else { continue };
@@ -86,8 +124,12 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
                 continue;
             }
             let reader = prim.reader(|b| bufs.get(b.index()).map(|v| v.as_slice()));
-            let Some(positions) = reader.read_positions() else { continue };
-            let positions: Vec<Vec3> = positions.map(|p| world.transform_point3(Vec3::from(p))).collect();
+            let Some(positions) = reader.read_positions() else {
+                continue;
+            };
+            let positions: Vec<Vec3> = positions
+                .map(|p| world.transform_point3(Vec3::from(p)))
+                .collect();
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(ix) => ix.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
@@ -96,11 +138,17 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
                 return Err(err(path, format!("mesh '{name}': index out of range")));
             }
             let normals: Vec<Vec3> = match reader.read_normals() {
-                Some(n) => n.map(|n| (normal_m * Vec3::from(n)).normalize_or(Vec3::Y)).collect(),
+                Some(n) => n
+                    .map(|n| (normal_m * Vec3::from(n)).normalize_or(Vec3::Y))
+                    .collect(),
                 None => {
                     let mut acc = vec![Vec3::ZERO; positions.len()];
                     for t in indices.chunks_exact(3) {
-                        let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                        let (a, b, c) = (
+                            positions[t[0] as usize],
+                            positions[t[1] as usize],
+                            positions[t[2] as usize],
+                        );
                         let n = (b - a).cross(c - a);
                         for i in t {
                             acc[*i as usize] += n;
@@ -111,7 +159,11 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
             };
             let colour = prim.material().pbr_metallic_roughness().base_color_factor();
             objects.push(Object {
-                name: if pi == 0 { name.clone() } else { format!("{name}.{pi}") },
+                name: if pi == 0 {
+                    name.clone()
+                } else {
+                    format!("{name}.{pi}")
+                },
                 positions,
                 normals,
                 indices,
@@ -125,14 +177,31 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     }
     let mut s = Scene {
         objects,
-        camera: Camera { position: Vec3::ZERO, target: Vec3::NEG_Z, fov_y: 45.0, near: 0.1, far: 100.0 },
-        sun: sun.unwrap_or(Sun { azimuth: 30.0, elevation: 60.0, colour: [1.0; 3], intensity: 3.0 }),
+        camera: Camera {
+            position: Vec3::ZERO,
+            target: Vec3::NEG_Z,
+            fov_y: 45.0,
+            near: 0.1,
+            far: 100.0,
+        },
+        sun: sun.unwrap_or(Sun {
+            azimuth: 30.0,
+            elevation: 60.0,
+            colour: [1.0; 3],
+            intensity: 3.0,
+        }),
     };
     s.camera = camera.unwrap_or_else(|| {
         let (lo, hi) = s.bounds();
         let c = (lo + hi) * 0.5;
         let r = ((hi - lo).length() * 0.5).max(1e-3);
-        Camera { position: c + Vec3::new(1.0, 0.6, 1.0).normalize() * r * 2.5, target: c, fov_y: 45.0, near: r * 0.01, far: r * 10.0 }
+        Camera {
+            position: c + Vec3::new(1.0, 0.6, 1.0).normalize() * r * 2.5,
+            target: c,
+            fov_y: 45.0,
+            near: r * 0.01,
+            far: r * 10.0,
+        }
     });
     Ok(s)
 }

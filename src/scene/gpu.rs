@@ -2,8 +2,8 @@
 
 use std::ops::Range;
 
-use crate::gpu::{Gpu, GpuError};
 pub use crate::gpu::MeshVertex;
+use crate::gpu::{Gpu, GpuError};
 
 use super::Scene;
 
@@ -21,7 +21,12 @@ pub struct GpuScene {
 
 impl std::fmt::Debug for GpuScene {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "GpuScene({} objects, {} triangles)", self.scene.objects.len(), self.scene.triangles())
+        write!(
+            f,
+            "GpuScene({} objects, {} triangles)",
+            self.scene.objects.len(),
+            self.scene.triangles()
+        )
     }
 }
 
@@ -34,14 +39,22 @@ impl GpuScene {
         for o in &scene.objects {
             let base = verts.len() as u32;
             for (p, n) in o.positions.iter().zip(&o.normals) {
-                verts.push(MeshVertex { position: p.to_array(), normal: n.to_array(), colour: o.colour });
+                verts.push(MeshVertex {
+                    position: p.to_array(),
+                    normal: n.to_array(),
+                    colour: o.colour,
+                });
             }
             let start = idx.len() as u32;
             idx.extend(o.indices.iter().map(|i| i + base));
             ranges.push(start..idx.len() as u32);
         }
         if verts.is_empty() {
-            verts.push(MeshVertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], colour: [0.0; 4] });
+            verts.push(MeshVertex {
+                position: [0.0; 3],
+                normal: [0.0, 1.0, 0.0],
+                colour: [0.0; 4],
+            });
         }
         if idx.is_empty() {
             idx.extend_from_slice(&[0, 0, 0]);
@@ -58,11 +71,24 @@ impl GpuScene {
                 b
             };
             (
-                make("vertices", bytemuck::cast_slice(&verts), wgpu::BufferUsages::VERTEX),
-                make("indices", bytemuck::cast_slice(&idx), wgpu::BufferUsages::INDEX),
+                make(
+                    "vertices",
+                    bytemuck::cast_slice(&verts),
+                    wgpu::BufferUsages::VERTEX,
+                ),
+                make(
+                    "indices",
+                    bytemuck::cast_slice(&idx),
+                    wgpu::BufferUsages::INDEX,
+                ),
             )
         })?;
-        Ok(GpuScene { scene, vertices, indices, ranges })
+        Ok(GpuScene {
+            scene,
+            vertices,
+            indices,
+            ranges,
+        })
     }
 
     /// Index ranges of the objects whose tags pass the filter: with a non-empty `include`, an

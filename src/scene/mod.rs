@@ -64,13 +64,22 @@ impl Camera {
     /// World → view (right-handed, looking down −Z, +Y up; a straight-down view uses +Z as up).
     pub fn view(&self) -> Mat4 {
         let dir = (self.target - self.position).normalize_or(Vec3::NEG_Z);
-        let up = if dir.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
+        let up = if dir.cross(Vec3::Y).length_squared() < 1e-8 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
         glam::camera::rh::view::look_at_mat4(self.position, self.position + dir, up)
     }
 
     /// View → clip for an image of this aspect ratio (wgpu depth range 0..1).
     pub fn proj(&self, aspect: f32) -> Mat4 {
-        glam::camera::rh::proj::directx::perspective(self.fov_y.to_radians(), aspect.max(1e-6), self.near, self.far)
+        glam::camera::rh::proj::directx::perspective(
+            self.fov_y.to_radians(),
+            aspect.max(1e-6),
+            self.near,
+            self.far,
+        )
     }
 }
 
@@ -97,7 +106,10 @@ impl Sun {
     /// Azimuth and elevation (degrees) of a direction pointing towards the sun.
     pub fn angles_of(to_sun: Vec3) -> (f32, f32) {
         let d = to_sun.normalize_or(Vec3::Y);
-        (d.x.atan2(d.z).to_degrees(), d.y.clamp(-1.0, 1.0).asin().to_degrees())
+        (
+            d.x.atan2(d.z).to_degrees(),
+            d.y.clamp(-1.0, 1.0).asin().to_degrees(),
+        )
     }
 
     /// Colour × intensity.
@@ -149,7 +161,11 @@ pub fn fit_light(to_sun: Vec3, bounds: (Vec3, Vec3)) -> (Mat4, Mat4) {
     let centre = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-3);
     let d = to_sun.normalize_or(Vec3::Y);
-    let up = if d.cross(Vec3::Y).length_squared() < 1e-6 { Vec3::Z } else { Vec3::Y };
+    let up = if d.cross(Vec3::Y).length_squared() < 1e-6 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
     let eye = centre + d * radius * 2.0;
     let view = glam::camera::rh::view::look_at_mat4(eye, centre, up);
     let mut vmin = Vec3::splat(f32::INFINITY);
@@ -166,6 +182,13 @@ pub fn fit_light(to_sun: Vec3, bounds: (Vec3, Vec3)) -> (Mat4, Mat4) {
     }
     // A small margin keeps geometry on the box faces inside the map.
     let m = radius * 1e-3;
-    let proj = glam::camera::rh::proj::directx::orthographic(vmin.x - m, vmax.x + m, vmin.y - m, vmax.y + m, -vmax.z - m, -vmin.z + m);
+    let proj = glam::camera::rh::proj::directx::orthographic(
+        vmin.x - m,
+        vmax.x + m,
+        vmin.y - m,
+        vmax.y + m,
+        -vmax.z - m,
+        -vmin.z + m,
+    );
     (view, proj)
 }

@@ -1,0 +1,220 @@
+//! `Composite`: surfaces lit by the sun (Lambert) and an ambient term, shadowed with the
+//! ORIGINAL shadow map on its own port, seen through the medium, plus the in-scatter (SPEC §1).
+//!
+//! `out = (albedo · (ambient + E · max(0, n·l) · S) or sky) · T + L_scat`, with `E` the sun's
+//! radiance carried by the shadow map, `S` the surface shadow (percentage-closer filtered over
+//! (2·pcf + 1)² texels), `T` the transmittance (1 when unconnected), `L_scat` the in-scatter
+//! (0 when unconnected). Surface shadows always use the unmodified map: only the scattering
+//! sees a manipulated one.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `albedo`, `normal` | in | Image (required, from GBuffer) |
+//! | `depth` | in | Depth (required, from GBuffer) |
+//! | `shadow` | in | ShadowMap (required: the original map) |
+//! | `inscatter` | in | Image (optional) |
+//! | `transmittance` | in | Scalar (optional) |
+//! | `image` | out | Image (linear RGB, alpha 1) |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `ambient` | Colour | (0.04, 0.05, 0.07, 1) | 0…1e6 | ambient light on surfaces |
+//! | `sky` | Colour | (0.2, 0.27, 0.38, 1) | 0…1e6 | radiance of sky pixels behind the medium |
+//! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the surface shadow test |
+//! | `pcf` | Int | 1 | 0…4 texels | radius of the surface shadow filter |
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+use super::util::placeholder;
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+
+/// The `Composite` node kind.
+pub struct Composite;
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "Composite",
+    category: "Scattering",
+    doc: "Lambert + ambient surfaces shadowed with the original shadow map, attenuated by the medium, plus in-scatter.",
+    inputs: &[
+        PortSpec { name: "albedo", types: &[PortType::Image], required: true, doc: "Surface colour (GBuffer)." },
+        PortSpec { name: "normal", types: &[PortType::Image], required: true, doc: "Surface normal (GBuffer)." },
+        PortSpec { name: "depth", types: &[PortType::Depth], required: true, doc: "Camera linear depth (GBuffer)." },
+        PortSpec { name: "shadow", types: &[PortType::ShadowMap], required: true, doc: "The ORIGINAL shadow map, for surface shadows." },
+        PortSpec { name: "inscatter", types: &[PortType::Image], required: false, doc: "In-scattered light added on top." },
+        PortSpec { name: "transmittance", types: &[PortType::Scalar], required: false, doc: "Attenuation of surfaces by the medium." },
+    ],
+    outputs: &[PortSpec { name: "image", types: &[PortType::Image], required: false, doc: "Linear radiance." }],
+    params: &[
+        ParamSpec { name: "ambient", kind: ParamKind::Colour, default: DefaultValue::Colour([0.04, 0.05, 0.07, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Ambient light on surfaces." },
+        ParamSpec { name: "sky", kind: ParamKind::Colour, default: DefaultValue::Colour([0.2, 0.27, 0.38, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Radiance of sky pixels." },
+        ParamSpec { name: "bias", kind: ParamKind::Float, default: DefaultValue::Float(0.002), min: 0.0, max: 0.1, unit: "depth", doc: "Surface shadow bias in light-space depth." },
+        ParamSpec { name: "pcf", kind: ParamKind::Int, default: DefaultValue::Int(1), min: 0.0, max: 4.0, unit: "texels", doc: "Radius of the surface shadow filter." },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "composite",
+    source: include_str!("../shaders/composite.wgsl"),
+};
+
+/// Uniforms of `shaders/composite.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct CompositeParams {
+    /// Camera clip → world.
+    pub inv_view_proj: [[f32; 4]; 4],
+    /// World → light clip.
+    pub light_view_proj: [[f32; 4]; 4],
+    /// Camera position.
+    pub eye: [f32; 3],
+    /// PCF radius.
+    pub pcf: u32,
+    /// Direction to the sun.
+    pub to_sun: [f32; 3],
+    /// Shadow bias.
+    pub bias: f32,
+    /// Sun radiance.
+    pub radiance: [f32; 3],
+    /// 1 when in-scatter is connected.
+    pub has_inscatter: u32,
+    /// Ambient colour.
+    pub ambient: [f32; 4],
+    /// Sky colour.
+    pub sky: [f32; 4],
+    /// 1 when transmittance is connected.
+    pub has_transmittance: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+}
+
+fn image_input(ctx: &RunCtx, port: &str) -> Result<Arc<crate::gpu::GpuTexture>, NodeError> {
+    ctx.require(port)?
+        .texture()
+        .cloned()
+        .ok_or_else(|| NodeError::Input {
+            port: port.into(),
+            message: "is not an image".into(),
+        })
+}
+
+impl NodeKind for Composite {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            CompositeParams,
+            "Params",
+            inv_view_proj,
+            light_view_proj,
+            eye,
+            pcf,
+            to_sun,
+            bias,
+            radiance,
+            has_inscatter,
+            ambient,
+            sky,
+            has_transmittance,
+            _pad0,
+            _pad1,
+            _pad2
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let albedo = image_input(ctx, "albedo")?;
+        let normal = image_input(ctx, "normal")?;
+        let (depth, cam) = match ctx.require("depth")? {
+            PortValue::Depth(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "depth".into(),
+                    message: "is not a depth image".into(),
+                })
+            }
+        };
+        let (shadow, light) = match ctx.require("shadow")? {
+            PortValue::ShadowMap(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "shadow".into(),
+                    message: "is not a shadow map".into(),
+                })
+            }
+        };
+        let (w, h) = (depth.width, depth.height);
+        for (port, t) in [("albedo", &albedo), ("normal", &normal)] {
+            if (t.width, t.height) != (w, h) {
+                return Err(NodeError::Input {
+                    port: port.into(),
+                    message: format!("size {}x{} differs from depth's {w}x{h}", t.width, t.height),
+                });
+            }
+        }
+        let dummy = placeholder(ctx)?;
+        let inscatter = ctx.input("inscatter").and_then(|v| v.texture().cloned());
+        let transmittance = ctx
+            .input("transmittance")
+            .and_then(|v| v.texture().cloned());
+        let view = Mat4::from_cols_array_2d(&cam.view);
+        let vp = Mat4::from_cols_array_2d(&cam.proj) * view;
+        let lview = Mat4::from_cols_array_2d(&light.view);
+        let lvp = Mat4::from_cols_array_2d(&light.proj) * lview;
+        let c = |name: &str| -> Result<[f32; 4], NodeError> { ctx.colour(name) };
+        let u = CompositeParams {
+            inv_view_proj: vp.inverse().to_cols_array_2d(),
+            light_view_proj: lvp.to_cols_array_2d(),
+            eye: view.inverse().transform_point3(Vec3::ZERO).to_array(),
+            pcf: ctx.int("pcf")? as u32,
+            to_sun: lview
+                .inverse()
+                .transform_vector3(Vec3::Z)
+                .normalize_or(Vec3::Y)
+                .to_array(),
+            bias: ctx.f32("bias")?,
+            radiance: light.radiance,
+            has_inscatter: inscatter.is_some() as u32,
+            ambient: c("ambient")?,
+            sky: c("sky")?,
+            has_transmittance: transmittance.is_some() as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+        let ins = inscatter.unwrap_or_else(|| dummy.clone());
+        let tr = transmittance.unwrap_or(dummy);
+        ctx.gpu.dispatch(
+            SHADER,
+            "composite",
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                (1, Bind::Texture(&albedo)),
+                (2, Bind::Texture(&normal)),
+                (3, Bind::Texture(&depth)),
+                (4, Bind::Texture(&shadow)),
+                (5, Bind::Texture(&ins)),
+                (6, Bind::Texture(&tr)),
+                (7, Bind::Storage(&out)),
+            ],
+            w,
+            h,
+        )?;
+        ctx.set("image", PortValue::Image(Arc::new(out)));
+        Ok(())
+    }
+}

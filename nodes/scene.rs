@@ -1,0 +1,155 @@
+//! `Scene`: a built-in procedural scene or a glTF file, with its camera and sun (SPEC §1).
+//!
+//! Without a `path`, the built-in scene `name` is built from `seed` (see [`crate::scene::builtin`]
+//! for the list: torus, tree, window, fence, figure). With a `path`, the glTF file is loaded:
+//! meshes, node transforms, base colours, its first camera and its first directional light
+//! (`KHR_lights_punctual`). `camera = custom` and `light = custom` replace the scene's own
+//! camera and sun with the parameters below (all key-frameable).
+//!
+//! The node uploads vertex and index buffers; it runs no shader pass (so it has no WGSL file).
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `scene` | out | Scene |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `name` | Enum | torus | torus, tree, window, fence, figure | built-in scene |
+//! | `path` | Text | "" | | glTF file (.gltf/.glb); overrides `name` |
+//! | `seed` | Int | 1 | 0…2³¹ | variation of built-in scenes |
+//! | `camera` | Enum | scene | scene, custom | use the scene's camera or the parameters |
+//! | `cam_x`, `cam_y`, `cam_z` | Float | 8, 3, 9 | ±1e5 m | camera position |
+//! | `target_x`, `target_y`, `target_z` | Float | 0, 1.5, 0 | ±1e5 m | point looked at |
+//! | `fov` | Float | 45 | 1…170 ° | vertical field of view |
+//! | `light` | Enum | scene | scene, custom | use the scene's sun or the parameters |
+//! | `sun_azimuth` | Float | 30 | −720…720 ° | clockwise from +Z seen from above |
+//! | `sun_elevation` | Float | 45 | −90…90 ° | above the horizon |
+//! | `sun_colour` | Colour | (1, 0.95, 0.85, 1) | 0…1e6 | linear RGB (alpha unused) |
+//! | `sun_intensity` | Float | 3 | 0…1e6 | multiplies the colour |
+
+use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::Shader;
+use crate::graph::{
+    DefaultValue, NodeSchema, ParamKind, ParamSpec, ParamValue, PortSpec, PortType,
+};
+use crate::scene::{builtin, load_gltf, GpuScene, Sun, BUILTIN_SCENES};
+
+/// The `Scene` node kind.
+pub struct SceneNode;
+
+const SCENE_OR_CUSTOM: &[&str] = &["scene", "custom"];
+
+const fn float(
+    name: &'static str,
+    default: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(default),
+        min,
+        max,
+        unit,
+        doc,
+    }
+}
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "Scene",
+    category: "Scene",
+    doc: "A built-in procedural scene (torus, tree, window, fence, figure) or a glTF file, with camera and sun.",
+    inputs: &[],
+    outputs: &[PortSpec { name: "scene", types: &[PortType::Scene], required: false, doc: "Meshes, camera and sun." }],
+    params: &[
+        ParamSpec { name: "name", kind: ParamKind::Enum(BUILTIN_SCENES), default: DefaultValue::Enum("torus"), min: 0.0, max: 0.0, unit: "", doc: "Built-in scene used when `path` is empty." },
+        ParamSpec { name: "path", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "glTF file (.gltf/.glb); overrides `name`." },
+        ParamSpec { name: "seed", kind: ParamKind::Int, default: DefaultValue::Int(1), min: 0.0, max: 2147483647.0, unit: "", doc: "Variation of the built-in scene." },
+        ParamSpec { name: "camera", kind: ParamKind::Enum(SCENE_OR_CUSTOM), default: DefaultValue::Enum("scene"), min: 0.0, max: 0.0, unit: "", doc: "Use the scene's camera, or the cam_*/target_*/fov parameters." },
+        float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
+        float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
+        float("cam_z", 9.0, -1e5, 1e5, "m", "Camera position z (camera = custom)."),
+        float("target_x", 0.0, -1e5, 1e5, "m", "Point looked at, x (camera = custom)."),
+        float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
+        float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
+        float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
+        ParamSpec { name: "light", kind: ParamKind::Enum(SCENE_OR_CUSTOM), default: DefaultValue::Enum("scene"), min: 0.0, max: 0.0, unit: "", doc: "Use the scene's sun, or the sun_* parameters." },
+        float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
+        float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
+        ParamSpec { name: "sun_colour", kind: ParamKind::Colour, default: DefaultValue::Colour([1.0, 0.95, 0.85, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Sun colour (light = custom)." },
+        float("sun_intensity", 3.0, 0.0, 1e6, "", "Sun intensity multiplying the colour (light = custom)."),
+    ],
+};
+
+impl NodeKind for SceneNode {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        None
+    }
+
+    fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
+        let mut h = std::hash::DefaultHasher::new();
+        if let Some(ParamValue::Text(p)) = params.get("path") {
+            if let Ok(m) = std::fs::metadata(p) {
+                m.len().hash(&mut h);
+                m.modified().ok().hash(&mut h);
+            }
+        }
+        h.finish()
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let path = ctx.text("path")?;
+        let mut scene = if path.is_empty() {
+            builtin(ctx.text("name")?, ctx.int("seed")? as u64)
+        } else {
+            load_gltf(Path::new(path))
+        }
+        .map_err(|e| NodeError::Param {
+            param: if path.is_empty() {
+                "name".into()
+            } else {
+                "path".into()
+            },
+            message: e.to_string(),
+        })?;
+        if ctx.text("camera")? == "custom" {
+            scene.camera.position =
+                Vec3::new(ctx.f32("cam_x")?, ctx.f32("cam_y")?, ctx.f32("cam_z")?);
+            scene.camera.target = Vec3::new(
+                ctx.f32("target_x")?,
+                ctx.f32("target_y")?,
+                ctx.f32("target_z")?,
+            );
+            scene.camera.fov_y = ctx.f32("fov")?;
+        }
+        if ctx.text("light")? == "custom" {
+            let c = ctx.colour("sun_colour")?;
+            scene.sun = Sun {
+                azimuth: ctx.f32("sun_azimuth")?,
+                elevation: ctx.f32("sun_elevation")?,
+                colour: [c[0], c[1], c[2]],
+                intensity: ctx.f32("sun_intensity")?,
+            };
+        }
+        let gpu_scene = GpuScene::upload(ctx.gpu, scene)?;
+        ctx.set(
+            "scene",
+            PortValue::Other(PortType::Scene, Arc::new(gpu_scene)),
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,134 @@
+//! `ShadowMap`: orthographic light-space depth of the scene, fitted to its bounds (SPEC §1–2).
+//!
+//! The sun looks along −`to_sun`; the orthographic box is the light-space bounding box of the
+//! scene, so depth is 0 at the light's near plane and 1 at the far plane, and texels no geometry
+//! covers hold 1 ("no occluder"). With `include`/`exclude` (comma-separated tags) only some
+//! objects are drawn, so tagged objects can get a map of their own.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `scene` | in | Scene (required) |
+//! | `map` | out | ShadowMap (depth + light matrices + sun radiance) |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `resolution` | Int | 2048 | 16…16384 texels | map size (square); beyond the device limit: an error naming the limit |
+//! | `include` | Text | "" | | only objects with one of these tags (empty: all) |
+//! | `exclude` | Text | "" | | leave out objects with any of these tags |
+
+use bytemuck::{Pod, Zeroable};
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::scene::{fit_light, GpuScene};
+
+/// The `ShadowMap` node kind.
+pub struct ShadowMapNode;
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "ShadowMap",
+    category: "Scene",
+    doc: "Orthographic light-space depth of the scene (0 near, 1 far / no occluder), fitted to the scene bounds.",
+    inputs: &[PortSpec { name: "scene", types: &[PortType::Scene], required: true, doc: "The scene to render from the sun." }],
+    outputs: &[PortSpec { name: "map", types: &[PortType::ShadowMap], required: false, doc: "Depth in [0, 1] with the light's matrices." }],
+    params: &[
+        ParamSpec { name: "resolution", kind: ParamKind::Int, default: DefaultValue::Int(2048), min: 16.0, max: 16384.0, unit: "texels", doc: "Width and height of the map." },
+        ParamSpec { name: "include", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "Comma-separated tags: draw only objects with one of them (empty: all)." },
+        ParamSpec { name: "exclude", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "Comma-separated tags: leave out objects with any of them." },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "shadow_map",
+    source: include_str!("../shaders/shadow_map.wgsl"),
+};
+
+/// Uniforms of `shaders/shadow_map.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub struct ShadowMapParams {
+    /// World → light clip.
+    pub light_view_proj: [[f32; 4]; 4],
+}
+
+/// Split a comma-separated tag list.
+pub fn tags(list: &str) -> Vec<String> {
+    list.split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+/// CPU reference of the projection: light-space (u, v, depth) of a world point, u and v in
+/// [0, 1] across the map (v down), depth in [0, 1].
+pub fn project(m: &Matrices, p: glam::Vec3) -> glam::Vec3 {
+    let vp = glam::Mat4::from_cols_array_2d(&m.proj) * glam::Mat4::from_cols_array_2d(&m.view);
+    let c = vp.project_point3(p);
+    glam::Vec3::new(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z)
+}
+
+impl NodeKind for ShadowMapNode {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            ShadowMapParams,
+            "Params",
+            light_view_proj
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let scene =
+            ctx.require("scene")?
+                .payload::<GpuScene>()
+                .ok_or_else(|| NodeError::Input {
+                    port: "scene".into(),
+                    message: "is not a scene".into(),
+                })?;
+        let res = ctx.int("resolution")? as u32;
+        let limit = ctx.gpu.limits.max_texture_dimension_2d;
+        if res > limit {
+            return Err(NodeError::Param {
+                param: "resolution".into(),
+                message: format!("{res} exceeds this device's texture limit of {limit}"),
+            });
+        }
+        let (view, proj) = fit_light(scene.scene.sun.to_sun(), scene.scene.bounds());
+        let u = ShadowMapParams {
+            light_view_proj: (proj * view).to_cols_array_2d(),
+        };
+        let ranges = scene.select(&tags(ctx.text("include")?), &tags(ctx.text("exclude")?));
+        let out = ctx.gpu.texture(res, res, TexFormat::R32F)?;
+        ctx.gpu.raster(
+            SHADER,
+            bytemuck::bytes_of(&u),
+            &[RasterTarget {
+                texture: &out,
+                clear: [1.0, 0.0, 0.0, 0.0],
+            }],
+            &MeshDraw {
+                vertices: &scene.vertices,
+                indices: &scene.indices,
+                ranges: &ranges,
+            },
+        )?;
+        let m = Matrices {
+            view: view.to_cols_array_2d(),
+            proj: proj.to_cols_array_2d(),
+            far: 1.0,
+            radiance: scene.scene.sun.radiance(),
+        };
+        ctx.set("map", PortValue::ShadowMap(Arc::new(out), m));
+        Ok(())
+    }
+}

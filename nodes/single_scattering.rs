@@ -1,0 +1,357 @@
+//! `SingleScattering`: physically based single scattering in a homogeneous medium lit by the
+//! sun (SPEC §3, seed 000 eq. 1–2).
+//!
+//! `L_scat = σt ρ f(θ) · L_i (1 − e^{−sσt})/σt · V̄`, with `V̄ = s⁻¹ ∫₀ˢ V(x_t) dt` the average
+//! visibility of the view ray up to the first surface at distance `s` (sky: the camera's far
+//! distance), found by marching the shadow map, and `f` the Henyey–Greenstein phase function
+//! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun).
+//! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
+//! A sample is lit when it lies outside the map or the light box, or when its light-space depth
+//! is at most the map's depth plus `bias`.
+//!
+//! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
+//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash).
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `shadow` | in | ShadowMap (required) | the map the medium sees (possibly manipulated) |
+//! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
+//! | `light_map` | in | LightMap (optional) | multiplies the incoming light; unconnected: 1 |
+//! | `phase` | in | Phase (optional) | tabulated phase function; unconnected: Henyey–Greenstein `g` |
+//! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
+//! | `depth` | out | Depth | the input depth, passed on for transfer functions |
+//! | `inscatter` | out | Image | L_scat (linear RGB, alpha 1) |
+//! | `transmittance` | out | Scalar | e^{−sσt}, for compositing surfaces behind the medium |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `sigma_t` | Float | 0.08 | 0…1e4 1/m | extinction σt |
+//! | `albedo` | Float | 0.9 | 0…1 | scattering albedo ρ |
+//! | `g` | Float | 0.5 | −0.999…0.999 | Henyey–Greenstein asymmetry |
+//! | `tint` | Colour | (1, 1, 1, 1) | 0…1e6 | multiplies the sun's colour |
+//! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's radiance |
+//! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
+//! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
+//! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
+//! | `method` | Enum | BruteForce | BruteForce | visibility algorithm |
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3, Vec4};
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `SingleScattering` node kind.
+pub struct SingleScattering;
+
+/// Visibility methods.
+pub const METHODS: &[&str] = &["BruteForce"];
+
+const fn float(
+    name: &'static str,
+    default: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(default),
+        min,
+        max,
+        unit,
+        doc,
+    }
+}
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "SingleScattering",
+    category: "Scattering",
+    doc: "Single scattering of the sun in a homogeneous medium: average visibility V̄, in-scatter and transmittance along each view ray.",
+    inputs: &[
+        PortSpec { name: "shadow", types: &[PortType::ShadowMap], required: true, doc: "Shadow map the medium sees." },
+        PortSpec { name: "depth", types: &[PortType::Depth], required: true, doc: "Camera linear depth (from GBuffer)." },
+        PortSpec { name: "light_map", types: &[PortType::LightMap], required: false, doc: "Light map multiplying the incoming light (unconnected: 1)." },
+        PortSpec { name: "phase", types: &[PortType::Phase], required: false, doc: "Tabulated phase function (unconnected: Henyey–Greenstein g)." },
+    ],
+    outputs: &[
+        PortSpec { name: "visibility", types: &[PortType::Scalar], required: false, doc: "Average visibility V̄ of the view ray." },
+        PortSpec { name: "depth", types: &[PortType::Depth], required: false, doc: "The input depth, passed on." },
+        PortSpec { name: "inscatter", types: &[PortType::Image], required: false, doc: "In-scattered radiance (linear RGB)." },
+        PortSpec { name: "transmittance", types: &[PortType::Scalar], required: false, doc: "e^(−s σt) along the view ray." },
+    ],
+    params: &[
+        float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
+        float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
+        float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
+        ParamSpec { name: "tint", kind: ParamKind::Colour, default: DefaultValue::Colour([1.0; 4]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Multiplies the sun's colour." },
+        float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's radiance."),
+        ParamSpec { name: "steps", kind: ParamKind::Int, default: DefaultValue::Int(128), min: 1.0, max: 8192.0, unit: "samples", doc: "Samples per view ray (quality knob)." },
+        float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
+        float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
+        ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("BruteForce"), min: 0.0, max: 0.0, unit: "", doc: "Visibility algorithm." },
+    ],
+};
+
+static SHADER: Shader = Shader {
+    stem: "single_scattering",
+    source: include_str!("../shaders/single_scattering.wgsl"),
+};
+
+/// Uniforms of `shaders/single_scattering.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug)]
+pub struct ScatterParams {
+    /// Camera clip → world.
+    pub inv_view_proj: [[f32; 4]; 4],
+    /// World → light clip.
+    pub light_view_proj: [[f32; 4]; 4],
+    /// Camera position.
+    pub eye: [f32; 3],
+    /// Samples per ray.
+    pub steps: u32,
+    /// Unit direction towards the sun.
+    pub to_sun: [f32; 3],
+    /// σt.
+    pub sigma_t: f32,
+    /// Incoming radiance (sun × tint × intensity).
+    pub radiance: [f32; 3],
+    /// ρ.
+    pub albedo: f32,
+    /// HG g.
+    pub g: f32,
+    /// Jitter in intervals.
+    pub jitter: f32,
+    /// Shadow bias.
+    pub bias: f32,
+    /// Method index.
+    pub method: u32,
+}
+
+impl ScatterParams {
+    /// Build the uniforms from the camera and light metadata.
+    pub fn new(camera: &Matrices, light: &Matrices, p: Medium) -> ScatterParams {
+        let view = Mat4::from_cols_array_2d(&camera.view);
+        let vp = Mat4::from_cols_array_2d(&camera.proj) * view;
+        let lview = Mat4::from_cols_array_2d(&light.view);
+        let lvp = Mat4::from_cols_array_2d(&light.proj) * lview;
+        let eye = view.inverse().transform_point3(Vec3::ZERO);
+        // The light looks down its view −Z: the sun lies along +Z of light view space.
+        let to_sun = lview
+            .inverse()
+            .transform_vector3(Vec3::Z)
+            .normalize_or(Vec3::Y);
+        ScatterParams {
+            inv_view_proj: vp.inverse().to_cols_array_2d(),
+            light_view_proj: lvp.to_cols_array_2d(),
+            eye: eye.to_array(),
+            steps: p.steps,
+            to_sun: to_sun.to_array(),
+            sigma_t: p.sigma_t,
+            radiance: [0, 1, 2].map(|i| light.radiance[i] * p.tint[i] * p.intensity),
+            albedo: p.albedo,
+            g: p.g,
+            jitter: p.jitter,
+            bias: p.bias,
+            method: 0,
+        }
+    }
+}
+
+/// Medium and quality settings (the node's parameters).
+#[derive(Clone, Copy, Debug)]
+pub struct Medium {
+    /// σt.
+    pub sigma_t: f32,
+    /// ρ.
+    pub albedo: f32,
+    /// HG g.
+    pub g: f32,
+    /// Tint.
+    pub tint: [f32; 3],
+    /// Intensity.
+    pub intensity: f32,
+    /// Samples per ray.
+    pub steps: u32,
+    /// Jitter.
+    pub jitter: f32,
+    /// Bias.
+    pub bias: f32,
+}
+
+/// `(1 − e^{−sσt})/σt` without cancellation; exactly `s` at σt = 0.
+pub fn transmittance_integral(s: f32, sigma_t: f32) -> f32 {
+    let x = s * sigma_t;
+    if x < 1e-3 {
+        s * (1.0 - x * 0.5 + x * x / 6.0)
+    } else {
+        (1.0 - (-x).exp()) / sigma_t
+    }
+}
+
+/// Henyey–Greenstein phase function.
+pub fn henyey_greenstein(g: f32, cos_theta: f32) -> f32 {
+    let d = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
+    (1.0 - g * g) / (4.0 * std::f32::consts::PI * d * d.sqrt())
+}
+
+/// The per-pixel jitter hash (PCG), identical to the shader's.
+pub fn hash(x: u32, y: u32) -> f32 {
+    let mut v = x
+        .wrapping_mul(1_973)
+        .wrapping_add(y.wrapping_mul(9_277))
+        .wrapping_add(26_699)
+        | 1;
+    v = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let w = ((v >> ((v >> 28) + 4)) ^ v).wrapping_mul(277_803_737);
+    ((w >> 22) ^ w) as f32 / 4_294_967_296.0
+}
+
+/// Result of one pixel: (V̄, in-scatter RGB, transmittance).
+pub type PixelResult = (f32, [f32; 3], f32);
+
+/// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image.
+pub fn reference_pixel(
+    p: &ScatterParams,
+    shadow: &Raster,
+    s: f32,
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+) -> PixelResult {
+    let inv = Mat4::from_cols_array_2d(&p.inv_view_proj);
+    let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
+    let ndc = Vec4::new(
+        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+        1.0,
+        1.0,
+    );
+    let far = inv * ndc;
+    let eye = Vec3::from(p.eye);
+    let dir = (far.truncate() / far.w - eye).normalize_or(Vec3::NEG_Z);
+    let offset = p.jitter * (hash(x, y) - 0.5);
+    let mut lit = 0u32;
+    for i in 0..p.steps {
+        let t = (i as f32 + 0.5 + offset) / p.steps as f32 * s;
+        let c = lvp * (eye + dir * t).extend(1.0);
+        let (u, v, z) = (c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+        let inside = (0.0..1.0).contains(&u) && (0.0..1.0).contains(&v) && (0.0..=1.0).contains(&z);
+        let visible = if inside {
+            let tx = ((u * shadow.width as f32) as u32).min(shadow.width - 1);
+            let ty = ((v * shadow.height as f32) as u32).min(shadow.height - 1);
+            z <= shadow.pixel(tx, ty)[0] + p.bias
+        } else {
+            true
+        };
+        lit += visible as u32;
+    }
+    let vbar = lit as f32 / p.steps as f32;
+    let cos = dir.dot(Vec3::from(p.to_sun));
+    let k = p.sigma_t
+        * p.albedo
+        * henyey_greenstein(p.g, cos)
+        * transmittance_integral(s, p.sigma_t)
+        * vbar;
+    (vbar, p.radiance.map(|r| r * k), (-s * p.sigma_t).exp())
+}
+
+impl NodeKind for SingleScattering {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            ScatterParams,
+            "Params",
+            inv_view_proj,
+            light_view_proj,
+            eye,
+            steps,
+            to_sun,
+            sigma_t,
+            radiance,
+            albedo,
+            g,
+            jitter,
+            bias,
+            method
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (shadow, light) = match ctx.require("shadow")? {
+            PortValue::ShadowMap(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "shadow".into(),
+                    message: "is not a shadow map".into(),
+                })
+            }
+        };
+        let depth_value = ctx.require("depth")?.clone();
+        let (depth, camera) = match &depth_value {
+            PortValue::Depth(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "depth".into(),
+                    message: "is not a depth image".into(),
+                })
+            }
+        };
+        for port in ["light_map", "phase"] {
+            if ctx.input(port).is_some() {
+                return Err(NodeError::Input {
+                    port: port.into(),
+                    message: "is not supported yet; leave it unconnected".into(),
+                });
+            }
+        }
+        let tint = ctx.colour("tint")?;
+        let medium = Medium {
+            sigma_t: ctx.f32("sigma_t")?,
+            albedo: ctx.f32("albedo")?,
+            g: ctx.f32("g")?,
+            tint: [tint[0], tint[1], tint[2]],
+            intensity: ctx.f32("intensity")?,
+            steps: ctx.int("steps")? as u32,
+            jitter: ctx.f32("jitter")?,
+            bias: ctx.f32("bias")?,
+        };
+        let u = ScatterParams::new(&camera, &light, medium);
+        let (w, h) = (depth.width, depth.height);
+        let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+        let tr = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        ctx.gpu.dispatch(
+            SHADER,
+            "brute_force",
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                (1, Bind::Texture(&shadow)),
+                (2, Bind::Texture(&depth)),
+                (3, Bind::Storage(&vis)),
+                (4, Bind::Storage(&ins)),
+                (5, Bind::Storage(&tr)),
+            ],
+            w,
+            h,
+        )?;
+        ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
+        ctx.set("inscatter", PortValue::Image(Arc::new(ins)));
+        ctx.set("transmittance", PortValue::Scalar(Arc::new(tr)));
+        ctx.set("depth", depth_value);
+        Ok(())
+    }
+}

@@ -1,0 +1,78 @@
+// Composite: Lambert + ambient surfaces shadowed with the original shadow map, attenuated by
+// the medium, plus in-scatter (nodes/composite.rs).
+
+struct Params {
+    inv_view_proj: mat4x4<f32>,
+    light_view_proj: mat4x4<f32>,
+    eye: vec3<f32>,
+    pcf: u32,
+    to_sun: vec3<f32>,
+    bias: f32,
+    radiance: vec3<f32>,
+    has_inscatter: u32,
+    ambient: vec4<f32>,
+    sky: vec4<f32>,
+    has_transmittance: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var albedo: texture_2d<f32>;
+@group(0) @binding(2) var normal: texture_2d<f32>;
+@group(0) @binding(3) var depth: texture_2d<f32>;
+@group(0) @binding(4) var shadow: texture_2d<f32>;
+@group(0) @binding(5) var inscatter: texture_2d<f32>;
+@group(0) @binding(6) var transmittance: texture_2d<f32>;
+@group(0) @binding(7) var out_image: texture_storage_2d<rgba32float, write>;
+
+fn surface_shadow(x: vec3<f32>) -> f32 {
+    let c = P.light_view_proj * vec4<f32>(x, 1.0);
+    let uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    let size = vec2<i32>(textureDimensions(shadow));
+    let centre = vec2<i32>(floor(uvz.xy * vec2<f32>(size)));
+    let r = i32(P.pcf);
+    var lit = 0.0;
+    var n = 0.0;
+    for (var dy = -r; dy <= r; dy++) {
+        for (var dx = -r; dx <= r; dx++) {
+            let t = centre + vec2<i32>(dx, dy);
+            n += 1.0;
+            if t.x < 0 || t.y < 0 || t.x >= size.x || t.y >= size.y {
+                lit += 1.0;
+            } else {
+                lit += select(0.0, 1.0, uvz.z <= textureLoad(shadow, t, 0).r + P.bias);
+            }
+        }
+    }
+    return lit / n;
+}
+
+@compute @workgroup_size(8, 8)
+fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(out_image);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let a = textureLoad(albedo, id.xy, 0);
+    var colour: vec3<f32>;
+    if a.a > 0.5 {
+        let ndc = vec4<f32>((f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0, 1.0, 1.0);
+        let far = P.inv_view_proj * ndc;
+        let dir = normalize(far.xyz / far.w - P.eye);
+        let x = P.eye + dir * textureLoad(depth, id.xy, 0).r;
+        let n = textureLoad(normal, id.xy, 0).xyz;
+        let direct = P.radiance * max(dot(n, P.to_sun), 0.0) * surface_shadow(x);
+        colour = a.rgb * (P.ambient.rgb + direct);
+    } else {
+        colour = P.sky.rgb;
+    }
+    if P.has_transmittance != 0u {
+        colour *= textureLoad(transmittance, id.xy, 0).r;
+    }
+    if P.has_inscatter != 0u {
+        colour += textureLoad(inscatter, id.xy, 0).rgb;
+    }
+    textureStore(out_image, id.xy, vec4<f32>(colour, 1.0));
+}

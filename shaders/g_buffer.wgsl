@@ -1,0 +1,46 @@
+// GBuffer: camera linear depth (distance), world normal and albedo (nodes/g_buffer.rs).
+
+struct Params {
+    view_proj: mat4x4<f32>,
+    eye: vec3<f32>,
+    far: f32,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) colour: vec4<f32>,
+}
+
+struct FsOut {
+    @location(0) depth: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) albedo: vec4<f32>,
+}
+
+@vertex
+fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) colour: vec4<f32>) -> VsOut {
+    var o: VsOut;
+    o.clip = P.view_proj * vec4<f32>(position, 1.0);
+    o.world = position;
+    o.normal = normal;
+    o.colour = colour;
+    return o;
+}
+
+@fragment
+fn fs(v: VsOut) -> FsOut {
+    var o: FsOut;
+    let to_eye = P.eye - v.world;
+    var n = normalize(v.normal);
+    if dot(n, to_eye) < 0.0 {
+        n = -n;
+    }
+    o.depth = vec4<f32>(min(length(to_eye), P.far), 0.0, 0.0, 1.0);
+    o.normal = vec4<f32>(n, 1.0);
+    o.albedo = vec4<f32>(v.colour.rgb, 1.0);
+    return o;
+}
