@@ -134,6 +134,9 @@ impl NodeKind for ImageOutput {
         let (entry, slot) = match tex.format {
             TexFormat::R32F => ("sanitize_scalar", 1),
             TexFormat::Rgba32F => ("sanitize_image", 2),
+            TexFormat::Rg32F => {
+                return Err(NodeError::Input { port: "image".into(), message: "has an internal two-channel format".into() })
+            }
         };
         let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;
         ctx.gpu.dispatch(

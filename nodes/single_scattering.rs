@@ -10,7 +10,15 @@
 //! is at most the map's depth plus `bias`.
 //!
 //! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
-//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash).
+//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
+//! method, in the spirit of Chen et al.'s min-max mip-maps, here as a 2D quadtree over the map
+//! instead of 1D rows of an epipolar rectification) builds a pyramid of per-block minimum and
+//! maximum depth and walks each view ray through it: blocks the ray passes entirely in front of
+//! their minimum are lit, blocks it passes entirely behind their maximum are shadowed, and only
+//! mixed blocks are refined down to texels, where the lit length is solved exactly. It computes
+//! the limit of `BruteForce` as steps → ∞ (the same nearest-texel test and bias), so `steps`
+//! and `jitter` do not apply to it; its cost grows with the number of light/shadow transitions
+//! along a ray, not with the ray's length in texels.
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
@@ -33,14 +41,14 @@
 //! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
-//! | `method` | Enum | BruteForce | BruteForce | visibility algorithm |
+//! | `method` | Enum | BruteForce | BruteForce, MinMax | visibility algorithm |
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
 
 use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
+use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
 use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
@@ -48,7 +56,7 @@ use crate::io::Raster;
 pub struct SingleScattering;
 
 /// Visibility methods.
-pub const METHODS: &[&str] = &["BruteForce"];
+pub const METHODS: &[&str] = &["BruteForce", "MinMax"];
 
 const fn float(
     name: &'static str,
@@ -163,6 +171,58 @@ impl ScatterParams {
     }
 }
 
+/// Uniforms of the MinMax traversal (struct `Levels`): level k ≥ 1 of the pyramid lives in
+/// the atlas at `rect[k] = (x, y, width, height)`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug)]
+pub struct LevelsParams {
+    /// Number of levels above the map (the top one is 1×1).
+    pub count: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+    /// Atlas rectangles; entry 0 unused (level 0 is the map).
+    pub rect: [[u32; 4]; 16],
+}
+
+/// Uniforms of the pyramid build pass (struct `Build`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug)]
+pub struct BuildParams {
+    /// Level being built (≥ 1).
+    pub level: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+    /// Source rectangle (the map for level 1, else level − 1 in the atlas).
+    pub src: [u32; 4],
+    /// Destination rectangle in the atlas.
+    pub dst: [u32; 4],
+}
+
+/// The atlas layout of a min-max pyramid over a `w × h` map: `(levels, atlas width, atlas
+/// height)`. Level k has size ⌈w/2^k⌉ × ⌈h/2^k⌉ and they are stacked vertically.
+pub fn pyramid_layout(w: u32, h: u32) -> (LevelsParams, u32, u32) {
+    let mut p = LevelsParams { count: 0, _pad0: 0, _pad1: 0, _pad2: 0, rect: [[0; 4]; 16] };
+    let (mut lw, mut lh, mut y) = (w, h, 0u32);
+    let mut width = 1;
+    while (lw > 1 || lh > 1) && (p.count as usize) < 15 {
+        lw = lw.div_ceil(2);
+        lh = lh.div_ceil(2);
+        p.count += 1;
+        p.rect[p.count as usize] = [0, y, lw, lh];
+        width = width.max(lw);
+        y += lh;
+    }
+    (p, width, y.max(1))
+}
+
 /// Medium and quality settings (the node's parameters).
 #[derive(Clone, Copy, Debug)]
 pub struct Medium {
@@ -262,6 +322,29 @@ pub fn reference_pixel(
     (vbar, p.radiance.map(|r| r * k), (-s * p.sigma_t).exp())
 }
 
+/// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
+pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTexture), GpuError> {
+    let (levels, aw, ah) = pyramid_layout(map.width, map.height);
+    let front = gpu.texture(aw, ah, TexFormat::Rg32F)?;
+    let back = gpu.texture(aw, ah, TexFormat::Rg32F)?;
+    for k in 1..=levels.count as usize {
+        let dst = levels.rect[k];
+        let src = if k == 1 { [0, 0, map.width, map.height] } else { levels.rect[k - 1] };
+        let b = BuildParams { level: k as u32, _pad0: 0, _pad1: 0, _pad2: 0, src, dst };
+        let source = if k == 1 { map } else { &front };
+        gpu.dispatch(
+            SHADER,
+            "build_level",
+            &[(7, Bind::Uniform(bytemuck::bytes_of(&b))), (8, Bind::Texture(source)), (9, Bind::Storage(&back))],
+            dst[2],
+            dst[3],
+        )?;
+        // The next level reads this one: copy it into the texture that is read.
+        gpu.copy_region(&back, &front, dst[0], dst[1], dst[2], dst[3])?;
+    }
+    Ok((levels, front))
+}
+
 impl NodeKind for SingleScattering {
     fn schema(&self) -> &'static NodeSchema {
         &SCHEMA
@@ -334,20 +417,22 @@ impl NodeKind for SingleScattering {
         let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
         let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let tr = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        ctx.gpu.dispatch(
-            SHADER,
-            "brute_force",
-            &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&shadow)),
-                (2, Bind::Texture(&depth)),
-                (3, Bind::Storage(&vis)),
-                (4, Bind::Storage(&ins)),
-                (5, Bind::Storage(&tr)),
-            ],
-            w,
-            h,
-        )?;
+        let mut binds = vec![
+            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+            (1, Bind::Texture(&shadow)),
+            (2, Bind::Texture(&depth)),
+            (3, Bind::Storage(&vis)),
+            (4, Bind::Storage(&ins)),
+            (5, Bind::Storage(&tr)),
+        ];
+        if ctx.text("method")? == "MinMax" {
+            let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
+            binds.push((6, Bind::Texture(&atlas)));
+            binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
+            ctx.gpu.dispatch(SHADER, "min_max", &binds, w, h)?;
+        } else {
+            ctx.gpu.dispatch(SHADER, "brute_force", &binds, w, h)?;
+        }
         ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
         ctx.set("inscatter", PortValue::Image(Arc::new(ins)));
         ctx.set("transmittance", PortValue::Scalar(Arc::new(tr)));

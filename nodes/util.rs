@@ -21,6 +21,6 @@ pub fn placeholder(ctx: &RunCtx) -> Result<Arc<GpuTexture>, NodeError> {
 pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
     match t.format {
         TexFormat::R32F => PortValue::Scalar(t),
-        TexFormat::Rgba32F => PortValue::Image(t),
+        TexFormat::Rgba32F | TexFormat::Rg32F => PortValue::Image(t),
     }
 }

@@ -345,6 +345,24 @@ impl Gpu {
         Ok(out)
     }
 
+    /// Copy a `width × height` block from `src` at `(x, y)` to the same place in `dst` (same
+    /// format).
+    pub fn copy_region(&self, src: &GpuTexture, dst: &GpuTexture, x: u32, y: u32, width: u32, height: u32) -> Result<(), GpuError> {
+        self.scoped(|| {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+                wgpu::TexelCopyTextureInfo {
+                    texture: t.raw(),
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x, y, z: 0 },
+                    aspect: wgpu::TextureAspect::All,
+                }
+            }
+            enc.copy_texture_to_texture(at(src, x, y), at(dst, x, y), wgpu::Extent3d { width, height, depth_or_array_layers: 1 });
+            self.queue.submit([enc.finish()]);
+        })
+    }
+
     /// Block until all submitted work has finished.
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device
@@ -368,6 +386,7 @@ impl Gpu {
                 Bind::Storage(t) => match t.format {
                     TexFormat::R32F => ":s1",
                     TexFormat::Rgba32F => ":s4",
+                    TexFormat::Rg32F => ":s2",
                 },
             });
         }

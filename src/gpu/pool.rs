@@ -9,6 +9,8 @@ pub enum TexFormat {
     R32F,
     /// Four float channels (`Image`).
     Rgba32F,
+    /// Two float channels (min-max pyramids and other node-internal data).
+    Rg32F,
 }
 
 impl TexFormat {
@@ -17,6 +19,7 @@ impl TexFormat {
         match self {
             TexFormat::R32F => wgpu::TextureFormat::R32Float,
             TexFormat::Rgba32F => wgpu::TextureFormat::Rgba32Float,
+            TexFormat::Rg32F => wgpu::TextureFormat::Rg32Float,
         }
     }
 
@@ -25,6 +28,7 @@ impl TexFormat {
         match self {
             TexFormat::R32F => 4,
             TexFormat::Rgba32F => 16,
+            TexFormat::Rg32F => 8,
         }
     }
 
@@ -33,6 +37,7 @@ impl TexFormat {
         match self {
             TexFormat::R32F => 1,
             TexFormat::Rgba32F => 4,
+            TexFormat::Rg32F => 2,
         }
     }
 }
