@@ -135,7 +135,10 @@ impl NodeKind for ImageOutput {
             TexFormat::R32F => ("sanitize_scalar", 1),
             TexFormat::Rgba32F => ("sanitize_image", 2),
             TexFormat::Rg32F => {
-                return Err(NodeError::Input { port: "image".into(), message: "has an internal two-channel format".into() })
+                return Err(NodeError::Input {
+                    port: "image".into(),
+                    message: "has an internal two-channel format".into(),
+                })
             }
         };
         let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;

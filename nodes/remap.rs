@@ -146,7 +146,10 @@ impl NodeKind for Remap {
             TexFormat::R32F => ("remap_scalar", 2),
             TexFormat::Rgba32F => ("remap_image", 3),
             TexFormat::Rg32F => {
-                return Err(NodeError::Input { port: "in".into(), message: "has an internal two-channel format".into() })
+                return Err(NodeError::Input {
+                    port: "in".into(),
+                    message: "has an internal two-channel format".into(),
+                })
             }
         };
         let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;

@@ -209,7 +209,13 @@ pub struct BuildParams {
 /// The atlas layout of a min-max pyramid over a `w × h` map: `(levels, atlas width, atlas
 /// height)`. Level k has size ⌈w/2^k⌉ × ⌈h/2^k⌉ and they are stacked vertically.
 pub fn pyramid_layout(w: u32, h: u32) -> (LevelsParams, u32, u32) {
-    let mut p = LevelsParams { count: 0, _pad0: 0, _pad1: 0, _pad2: 0, rect: [[0; 4]; 16] };
+    let mut p = LevelsParams {
+        count: 0,
+        _pad0: 0,
+        _pad1: 0,
+        _pad2: 0,
+        rect: [[0; 4]; 16],
+    };
     let (mut lw, mut lh, mut y) = (w, h, 0u32);
     let mut width = 1;
     while (lw > 1 || lh > 1) && (p.count as usize) < 15 {
@@ -329,13 +335,28 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
     let back = gpu.texture(aw, ah, TexFormat::Rg32F)?;
     for k in 1..=levels.count as usize {
         let dst = levels.rect[k];
-        let src = if k == 1 { [0, 0, map.width, map.height] } else { levels.rect[k - 1] };
-        let b = BuildParams { level: k as u32, _pad0: 0, _pad1: 0, _pad2: 0, src, dst };
+        let src = if k == 1 {
+            [0, 0, map.width, map.height]
+        } else {
+            levels.rect[k - 1]
+        };
+        let b = BuildParams {
+            level: k as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+            src,
+            dst,
+        };
         let source = if k == 1 { map } else { &front };
         gpu.dispatch(
             SHADER,
             "build_level",
-            &[(7, Bind::Uniform(bytemuck::bytes_of(&b))), (8, Bind::Texture(source)), (9, Bind::Storage(&back))],
+            &[
+                (7, Bind::Uniform(bytemuck::bytes_of(&b))),
+                (8, Bind::Texture(source)),
+                (9, Bind::Storage(&back)),
+            ],
             dst[2],
             dst[3],
         )?;

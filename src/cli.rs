@@ -43,6 +43,21 @@ pub enum Command {
         /// The graph file.
         graph: PathBuf,
     },
+    /// Measure speed against accuracy of a node's quality settings (suites in benches/).
+    Bench {
+        /// Suite name (`benches/NAME.ron`) or path.
+        #[arg(default_value = "visibility")]
+        suite: String,
+        /// Runs per setting (default: the suite's).
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Evaluation size WIDTHxHEIGHT (default: the suite's).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// CSV file to write (default: out/bench/NAME.csv).
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
     /// List every node kind with its ports and parameters.
     Nodes {
         /// Markdown tables (for docs).
@@ -226,6 +241,12 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Node(a) => run_node(registry, a),
+        Command::Bench {
+            suite,
+            runs,
+            size,
+            csv,
+        } => run_bench(registry, &suite, runs, size, csv),
         Command::Eval(a) => run_eval(registry, a),
         Command::Render(a) => run_render(registry, a),
     }
@@ -560,6 +581,60 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
             print_stats(&result, &v.label);
         }
     }
+    Ok(())
+}
+
+fn run_bench(
+    registry: Arc<Registry>,
+    suite: &str,
+    runs: Option<usize>,
+    size: Option<(u32, u32)>,
+    csv: Option<PathBuf>,
+) -> Result<(), CliError> {
+    let path = if suite.ends_with(".ron") {
+        PathBuf::from(suite)
+    } else {
+        PathBuf::from(format!("benches/{suite}.ron"))
+    };
+    let spec = crate::bench::load_suite(&path).map_err(bad)?;
+    let gpu = gpu()?;
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "bench".into());
+    println!("{}", spec.title);
+    println!("adapter: {}", gpu.describe());
+    let size = size.unwrap_or(spec.size);
+    let runs = runs.unwrap_or(spec.runs);
+    println!(
+        "size {}x{}, {runs} runs per setting, command: tyndall bench {suite}",
+        size.0, size.1
+    );
+    let rows = crate::bench::run(registry, gpu, &path, &spec, runs, size, |line| {
+        eprintln!("bench {name}: {line}")
+    })
+    .map_err(|e| match e {
+        crate::bench::BenchError::Eval(e) => CliError::Eval(e),
+        other => bad(other),
+    })?;
+    print!("{}", crate::bench::table(&rows));
+    match crate::bench::speedup(&spec, &rows) {
+        Some((b, a, f)) => println!(
+            "speed-up at RMSE <= {}: {:.2}x ({} {:.3} ms vs {} {:.3} ms)",
+            spec.target_rmse, f, b.setting, b.median_ms, a.setting, a.median_ms
+        ),
+        None => println!(
+            "speed-up at RMSE <= {}: not measurable (a method never reached it)",
+            spec.target_rmse
+        ),
+    }
+    let csv_path = csv.unwrap_or_else(|| PathBuf::from(format!("out/bench/{name}.csv")));
+    if let Some(dir) = csv_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| bad(format!("{}: {e}", dir.display())))?;
+    }
+    std::fs::write(&csv_path, crate::bench::csv(&rows))
+        .map_err(|e| bad(format!("{}: {e}", csv_path.display())))?;
+    println!("csv: {}", csv_path.display());
     Ok(())
 }
 

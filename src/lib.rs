@@ -5,6 +5,7 @@
 //! line.
 #![deny(missing_docs)]
 
+pub mod bench;
 pub mod cli;
 pub mod eval;
 pub mod gpu;

@@ -239,6 +239,11 @@ impl Evaluator {
         self.cache.len()
     }
 
+    /// Drop the cached result of one node (its next evaluation runs it again).
+    pub fn invalidate(&mut self, id: &str) {
+        self.cache.remove(id);
+    }
+
     /// Drop every cached result.
     pub fn clear(&mut self) {
         self.cache.clear();

@@ -347,7 +347,15 @@ impl Gpu {
 
     /// Copy a `width × height` block from `src` at `(x, y)` to the same place in `dst` (same
     /// format).
-    pub fn copy_region(&self, src: &GpuTexture, dst: &GpuTexture, x: u32, y: u32, width: u32, height: u32) -> Result<(), GpuError> {
+    pub fn copy_region(
+        &self,
+        src: &GpuTexture,
+        dst: &GpuTexture,
+        x: u32,
+        y: u32,
+        width: u32,
+        height: u32,
+    ) -> Result<(), GpuError> {
         self.scoped(|| {
             let mut enc = self.device.create_command_encoder(&Default::default());
             fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
@@ -358,7 +366,15 @@ impl Gpu {
                     aspect: wgpu::TextureAspect::All,
                 }
             }
-            enc.copy_texture_to_texture(at(src, x, y), at(dst, x, y), wgpu::Extent3d { width, height, depth_or_array_layers: 1 });
+            enc.copy_texture_to_texture(
+                at(src, x, y),
+                at(dst, x, y),
+                wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+            );
             self.queue.submit([enc.finish()]);
         })
     }
