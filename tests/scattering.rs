@@ -1,0 +1,707 @@
+//! Scenes, shadow maps, G-buffers and single scattering: GPU against the CPU reference, an
+//! analytic slit, and numerical stability at the extremes (SPEC §3, issue: scattering).
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+use tyndall::eval::{download, EvalOptions, Evaluator, Matrices, PortValue, Target};
+use tyndall::graph::{Graph, ParamValue};
+use tyndall::io::Raster;
+use tyndall::nodes::single_scattering::{
+    reference_pixel, transmittance_integral, Medium, ScatterParams,
+};
+
+/// What a scattering evaluation produced, read back.
+struct Run {
+    shadow: Raster,
+    light: Matrices,
+    depth: Raster,
+    camera: Matrices,
+    vis: Raster,
+    inscatter: Raster,
+    transmittance: Raster,
+}
+
+/// Parameter list of one node.
+type Params = Vec<(&'static str, ParamValue)>;
+
+/// A stability case: name, Scene parameters, SingleScattering parameters.
+type Case = (&'static str, Params, Params);
+
+fn p(v: f64) -> ParamValue {
+    ParamValue::Float(v)
+}
+
+/// Scene → ShadowMap → GBuffer → SingleScattering with the given parameters.
+fn run_scene(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    scene: &[(&str, ParamValue)],
+    map: i64,
+    size: (u32, u32),
+    scatter: &[(&str, ParamValue)],
+) -> Run {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    for (id, kind) in [
+        ("scene", "Scene"),
+        ("shadow", "ShadowMap"),
+        ("gbuffer", "GBuffer"),
+        ("scatter", "SingleScattering"),
+    ] {
+        g.insert_node(
+            &cat,
+            tyndall::graph::Node {
+                id: id.into(),
+                kind: kind.into(),
+                params: BTreeMap::new(),
+                keys: BTreeMap::new(),
+                pos: None,
+                data: None,
+            },
+        )
+        .expect("node");
+    }
+    for (a, b) in [
+        ("scene.scene", "shadow.scene"),
+        ("scene.scene", "gbuffer.scene"),
+        ("shadow.map", "scatter.shadow"),
+        ("gbuffer.depth", "scatter.depth"),
+    ] {
+        g.connect(&cat, a, b).expect("edge");
+    }
+    for (k, v) in scene {
+        g.set_param(&cat, "scene", k, v.clone())
+            .expect("scene param");
+    }
+    g.set_param(&cat, "shadow", "resolution", ParamValue::Int(map))
+        .expect("res");
+    for (k, v) in scatter {
+        g.set_param(&cat, "scatter", k, v.clone())
+            .expect("scatter param");
+    }
+    let targets: Vec<Target> = [
+        ("shadow", "map"),
+        ("gbuffer", "depth"),
+        ("scatter", "visibility"),
+        ("scatter", "inscatter"),
+        ("scatter", "transmittance"),
+    ]
+    .iter()
+    .map(|(n, p)| Target::Port(n.to_string(), p.to_string()))
+    .collect();
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let r = ev
+        .evaluate(
+            &g,
+            &targets,
+            &EvalOptions {
+                size,
+                ..Default::default()
+            },
+        )
+        .expect("evaluate");
+    let get = |n: &str, p: &str| r.outputs[&(n.to_string(), p.to_string())].clone();
+    let (light, camera) = match (get("shadow", "map"), get("gbuffer", "depth")) {
+        (PortValue::ShadowMap(_, l), PortValue::Depth(_, c)) => (l, c),
+        _ => panic!("port types"),
+    };
+    let dl = |v: PortValue| download(gpu, &v).expect("download");
+    Run {
+        shadow: dl(get("shadow", "map")),
+        light,
+        depth: dl(get("gbuffer", "depth")),
+        camera,
+        vis: dl(get("scatter", "visibility")),
+        inscatter: dl(get("scatter", "inscatter")),
+        transmittance: dl(get("scatter", "transmittance")),
+    }
+}
+
+fn medium(steps: u32, jitter: f32) -> Medium {
+    Medium {
+        sigma_t: 0.08,
+        albedo: 0.9,
+        g: 0.5,
+        tint: [1.0; 3],
+        intensity: 1.0,
+        steps,
+        jitter,
+        bias: 0.002,
+    }
+}
+
+fn assert_finite(r: &Run, what: &str) {
+    for (name, img) in [
+        ("visibility", &r.vis),
+        ("inscatter", &r.inscatter),
+        ("transmittance", &r.transmittance),
+    ] {
+        assert!(
+            img.data.iter().all(|v| v.is_finite()),
+            "{what}: non-finite {name}"
+        );
+    }
+    assert!(
+        r.vis.data.iter().all(|v| (0.0..=1.0).contains(v)),
+        "{what}: V̄ outside [0, 1]"
+    );
+}
+
+/// GPU brute force against the CPU reference on the same shadow map and depth. Both evaluate
+/// the same f32 formulas, but matrix products may round differently (fused multiply-adds on the
+/// GPU), so a sample lying within rounding of a texel edge or of the depth test can flip: each
+/// flip changes V̄ by 1/steps. We allow up to 2 flips on a pixel and flips on at most 2% of
+/// pixels; in-scatter must then agree to 1e-4 relative where V̄ agrees.
+#[test]
+fn brute_force_matches_cpu_reference() {
+    let gpu = require_gpu!();
+    let steps = 64;
+    let r = run_scene(
+        &gpu,
+        &[("name", ParamValue::Enum("tree".into()))],
+        256,
+        (64, 36),
+        &[("steps", ParamValue::Int(steps)), ("jitter", p(0.5))],
+    );
+    let params = ScatterParams::new(&r.camera, &r.light, medium(steps as u32, 0.5));
+    let (w, h) = (r.depth.width, r.depth.height);
+    let mut differing = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let (v, ins, t) =
+                reference_pixel(&params, &r.shadow, r.depth.pixel(x, y)[0], x, y, w, h);
+            let gv = r.vis.pixel(x, y)[0];
+            assert!(
+                (gv - v).abs() <= 2.0 / steps as f32 + 1e-6,
+                "V̄ at ({x},{y}): gpu {gv} cpu {v}"
+            );
+            if gv != v {
+                differing += 1;
+            } else {
+                for (g, want) in r.inscatter.pixel(x, y).iter().zip(ins) {
+                    assert!(
+                        (g - want).abs() <= 1e-4 * want.abs() + 1e-7,
+                        "inscatter at ({x},{y}): {g} vs {want}"
+                    );
+                }
+            }
+            assert!((r.transmittance.pixel(x, y)[0] - t).abs() <= 1e-6);
+        }
+    }
+    assert!(
+        differing * 50 <= (w * h) as usize,
+        "{differing} of {} pixels differ",
+        w * h
+    );
+    assert!(
+        r.vis.data.iter().any(|v| *v < 0.95),
+        "the view should cross shadows"
+    );
+}
+
+/// MinMax computes the limit of brute force as steps → ∞: compare with the CPU reference at
+/// 8192 steps, whose own error is at most (number of light/shadow transitions) / 8192 per pixel.
+#[test]
+fn min_max_matches_dense_cpu_reference() {
+    let gpu = require_gpu!();
+    let r = run_scene(
+        &gpu,
+        &[("name", ParamValue::Enum("tree".into()))],
+        256,
+        (48, 27),
+        &[("method", ParamValue::Enum("MinMax".into()))],
+    );
+    let params = ScatterParams::new(&r.camera, &r.light, medium(8192, 0.0));
+    let (w, h) = (r.depth.width, r.depth.height);
+    let mut sum = 0.0;
+    for y in 0..h {
+        for x in 0..w {
+            let (v, _, _) = reference_pixel(&params, &r.shadow, r.depth.pixel(x, y)[0], x, y, w, h);
+            let d = (r.vis.pixel(x, y)[0] - v).abs();
+            assert!(
+                d <= 0.005,
+                "({x},{y}): MinMax {} vs 8192 steps {v}",
+                r.vis.pixel(x, y)[0]
+            );
+            sum += d;
+        }
+    }
+    assert!(
+        sum / ((w * h) as f32) <= 5e-4,
+        "mean error {}",
+        sum / ((w * h) as f32)
+    );
+    assert_finite(&r, "MinMax");
+}
+
+/// Exact V̄ of the slit scene: piecewise-constant visibility between the ray's crossings of the
+/// box faces, the slit edges and the occluder depth.
+fn analytic_slit(eye: Vec3, dir: Vec3, s: f32, bias: f32) -> f32 {
+    let mut cuts = vec![0.0f32, s];
+    for (axis, planes) in [
+        (0usize, vec![-1.0f32, -0.25, 0.25, 1.0]),
+        (1, vec![-1.0, 1.0]),
+        (2, vec![0.0, 0.5 + bias, 1.0]),
+    ] {
+        for plane in planes {
+            if dir[axis].abs() > 1e-9 {
+                let t = (plane - eye[axis]) / dir[axis];
+                if t > 0.0 && t < s {
+                    cuts.push(t);
+                }
+            }
+        }
+    }
+    cuts.sort_by(f32::total_cmp);
+    let lit = |q: Vec3| {
+        let outside =
+            q.x < -1.0 || q.x >= 1.0 || q.y <= -1.0 || q.y > 1.0 || q.z < 0.0 || q.z > 1.0;
+        outside || q.z <= 0.5 + bias || (-0.25..0.25).contains(&q.x)
+    };
+    let mut sum = 0.0;
+    for w in cuts.windows(2) {
+        if lit(eye + dir * (0.5 * (w[0] + w[1]))) {
+            sum += w[1] - w[0];
+        }
+    }
+    sum / s
+}
+
+/// An occluder plane at light depth 0.5 with a slit |x| < 0.25, light matrices identity (light
+/// clip space = world space), seen by a camera whose rays cross the slit's shadow edges.
+#[test]
+fn slit_matches_the_analytic_visibility() {
+    let gpu = require_gpu!();
+    let n = 256;
+    let mut map = Raster::new(n, n, 1, 0.5);
+    for y in 0..n {
+        for x in 96..160 {
+            map.data[(y * n + x) as usize] = 1.0; // u ∈ [0.375, 0.625): world x ∈ [−0.25, 0.25)
+        }
+    }
+    let eye = Vec3::new(-0.8, 0.05, 0.9);
+    let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::new(0.8, 0.1, 0.65), Vec3::Y);
+    let proj = glam::camera::rh::proj::directx::perspective(50f32.to_radians(), 1.0, 0.01, 10.0);
+    let camera = Matrices {
+        view: view.to_cols_array_2d(),
+        proj: proj.to_cols_array_2d(),
+        far: 10.0,
+        radiance: [0.0; 3],
+    };
+    let (w, h) = (16u32, 16u32);
+    let mut depth = Raster::new(w, h, 1, 0.0);
+    for (i, v) in depth.data.iter_mut().enumerate() {
+        *v = 1.2 + 0.3 * (i % 7) as f32 / 7.0;
+    }
+    let light = Matrices::default();
+    let inv = (proj * view).inverse();
+    for (method, steps, tol) in [("MinMax", 1i64, 1e-4f32), ("BruteForce", 4096, 1e-3)] {
+        let out = common::run_node(
+            &gpu,
+            "SingleScattering",
+            &[
+                ("method", ParamValue::Enum(method.into())),
+                ("steps", ParamValue::Int(steps)),
+                ("bias", p(0.0)),
+            ],
+            vec![
+                (
+                    "shadow",
+                    PortValue::ShadowMap(
+                        Arc::new(gpu.upload(n, n, 1, &map.data).expect("map")),
+                        light,
+                    ),
+                ),
+                (
+                    "depth",
+                    PortValue::Depth(
+                        Arc::new(gpu.upload(w, h, 1, &depth.data).expect("depth")),
+                        camera,
+                    ),
+                ),
+            ],
+            &["visibility"],
+            (w, h),
+        )
+        .expect("evaluate");
+        let mut worst = 0.0f32;
+        let mut spread = (1.0f32, 0.0f32);
+        for y in 0..h {
+            for x in 0..w {
+                let ndc = glam::Vec4::new(
+                    (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+                    1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+                    1.0,
+                    1.0,
+                );
+                let far = inv * ndc;
+                let dir = (far.truncate() / far.w - eye).normalize();
+                let s = depth.pixel(x, y)[0];
+                let want = analytic_slit(eye, dir, s, 0.0);
+                let got = out["visibility"].pixel(x, y)[0];
+                worst = worst.max((got - want).abs());
+                spread = (spread.0.min(want), spread.1.max(want));
+            }
+        }
+        assert!(worst <= tol, "{method}: worst error {worst}");
+        assert!(
+            spread.0 < 0.5 && spread.1 > 0.5,
+            "the rays should cross light and shadow: {spread:?}"
+        );
+    }
+}
+
+fn synthetic(gpu: &Arc<tyndall::gpu::Gpu>, fill: f32, method: &str, steps: i64) -> Raster {
+    let n = 64;
+    let map = Raster::new(n, n, 1, fill);
+    let eye = Vec3::new(-0.5, 0.0, 0.2);
+    let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::new(0.5, 0.2, 0.6), Vec3::Y);
+    let proj = glam::camera::rh::proj::directx::perspective(40f32.to_radians(), 1.0, 0.01, 10.0);
+    let camera = Matrices {
+        view: view.to_cols_array_2d(),
+        proj: proj.to_cols_array_2d(),
+        far: 10.0,
+        radiance: [0.0; 3],
+    };
+    let depth = Raster::new(8, 8, 1, 0.6); // every ray stays inside the light box, above depth 0
+    common::run_node(
+        gpu,
+        "SingleScattering",
+        &[
+            ("method", ParamValue::Enum(method.into())),
+            ("steps", ParamValue::Int(steps)),
+            ("bias", p(0.0)),
+        ],
+        vec![
+            (
+                "shadow",
+                PortValue::ShadowMap(
+                    Arc::new(gpu.upload(n, n, 1, &map.data).expect("map")),
+                    Matrices::default(),
+                ),
+            ),
+            (
+                "depth",
+                PortValue::Depth(
+                    Arc::new(gpu.upload(8, 8, 1, &depth.data).expect("depth")),
+                    camera,
+                ),
+            ),
+        ],
+        &["visibility"],
+        (8, 8),
+    )
+    .expect("evaluate")
+    .remove("visibility")
+    .expect("visibility")
+}
+
+#[test]
+fn empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly() {
+    let gpu = require_gpu!();
+    for (method, steps) in [("BruteForce", 1), ("BruteForce", 97), ("MinMax", 1)] {
+        assert!(
+            synthetic(&gpu, 1.0, method, steps)
+                .data
+                .iter()
+                .all(|v| *v == 1.0),
+            "{method} {steps}: empty map"
+        );
+        assert!(
+            synthetic(&gpu, 0.0, method, steps)
+                .data
+                .iter()
+                .all(|v| *v == 0.0),
+            "{method} {steps}: full map"
+        );
+    }
+}
+
+#[test]
+fn scattering_factor_limits() {
+    assert_eq!(
+        transmittance_integral(7.5, 0.0),
+        7.5,
+        "σt = 0: the integral is L·s"
+    );
+    assert!((transmittance_integral(7.5, 1e-9) - 7.5).abs() < 1e-5);
+    assert!((transmittance_integral(2.0, 1e4) - 1e-4).abs() < 1e-9);
+    let mid = transmittance_integral(2.0, 0.5);
+    assert!((mid - (1.0 - (-1.0f32).exp()) / 0.5).abs() < 1e-6);
+}
+
+/// σt at 0 and 1e4, g at ±0.999, light parallel to the view (both ways), camera inside an
+/// occluder, sky pixels, one step: everything finite, V̄ in [0, 1], and MinMax close to brute
+/// force at 2048 steps. Midpoint sampling misjudges at most half an interval per light/shadow
+/// boundary the ray crosses; rays through the tree's canopy cross up to ~16, so the bound is
+/// 16 · 1/(2 · 2048).
+#[test]
+fn extremes_stay_finite_and_methods_agree() {
+    let gpu = require_gpu!();
+    let tree = ("name", ParamValue::Enum("tree".into()));
+    let custom_cam = |pos: Vec3, target: Vec3| -> Vec<(&'static str, ParamValue)> {
+        vec![
+            ("name", ParamValue::Enum("figure".into())),
+            ("camera", ParamValue::Enum("custom".into())),
+            ("cam_x", p(pos.x as f64)),
+            ("cam_y", p(pos.y as f64)),
+            ("cam_z", p(pos.z as f64)),
+            ("target_x", p(target.x as f64)),
+            ("target_y", p(target.y as f64)),
+            ("target_z", p(target.z as f64)),
+        ]
+    };
+    // The figure scene's sun: azimuth 190°, elevation 30°.
+    let to_sun = {
+        let (az, el) = (190f32.to_radians(), 30f32.to_radians());
+        Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
+    };
+    let eye = Vec3::new(0.0, 1.5, 4.0);
+    let cases: Vec<Case> = vec![
+        ("sigma_t = 0", vec![tree.clone()], vec![("sigma_t", p(0.0))]),
+        (
+            "sigma_t = 1e4",
+            vec![tree.clone()],
+            vec![("sigma_t", p(1e4))],
+        ),
+        ("g = 0.999", vec![tree.clone()], vec![("g", p(0.999))]),
+        ("g = -0.999", vec![tree.clone()], vec![("g", p(-0.999))]),
+        ("looking at the sun", custom_cam(eye, eye + to_sun), vec![]),
+        (
+            "sun behind the camera",
+            custom_cam(eye, eye - to_sun),
+            vec![],
+        ),
+        (
+            "camera inside the figure",
+            custom_cam(Vec3::new(0.0, 1.75, 0.0), Vec3::new(0.0, 1.0, 5.0)),
+            vec![],
+        ),
+    ];
+    for (what, scene, extra) in cases {
+        let mut brute = extra.clone();
+        brute.push(("steps", ParamValue::Int(2048)));
+        let mut fast = extra.clone();
+        fast.push(("method", ParamValue::Enum("MinMax".into())));
+        let a = run_scene(&gpu, &scene, 512, (24, 16), &brute);
+        let b = run_scene(&gpu, &scene, 512, (24, 16), &fast);
+        assert_finite(&a, what);
+        assert_finite(&b, what);
+        let d = common::max_abs_diff(&a.vis, &b.vis);
+        assert!(
+            d <= 16.0 / (2.0 * 2048.0),
+            "{what}: MinMax differs from 2048 steps by {d}"
+        );
+        if what == "sigma_t = 0" {
+            assert!(
+                a.inscatter.data.iter().all(|v| *v == 0.0 || *v == 1.0),
+                "σt = 0 scatters nothing"
+            );
+            assert!(a.transmittance.data.iter().all(|v| *v == 1.0));
+        }
+        if what == "sigma_t = 1e4" {
+            assert!(a.transmittance.data.iter().all(|v| *v == 0.0 || *v < 1e-30));
+        }
+        if what == "camera inside the figure" {
+            assert!(a.vis.data.iter().any(|v| *v < 1.0));
+        }
+    }
+    // Sky pixels: the default views of the built-in scenes all show sky (depth = far).
+    let r = run_scene(
+        &gpu,
+        &[tree],
+        256,
+        (24, 16),
+        &[("steps", ParamValue::Int(1))],
+    );
+    assert_finite(&r, "one step");
+    assert!(r.depth.data.contains(&60.0), "no sky pixel in view");
+}
+
+#[test]
+fn largest_allowed_shadow_map() {
+    let gpu = require_gpu!();
+    let largest = gpu.limits.max_texture_dimension_2d.min(16384) as i64;
+    let scene = [("name", ParamValue::Enum("figure".into()))];
+    let a = run_scene(
+        &gpu,
+        &scene,
+        largest,
+        (16, 9),
+        &[("steps", ParamValue::Int(256))],
+    );
+    let b = run_scene(
+        &gpu,
+        &scene,
+        largest,
+        (16, 9),
+        &[("method", ParamValue::Enum("MinMax".into()))],
+    );
+    assert_finite(&a, "largest map, brute force");
+    assert_finite(&b, "largest map, MinMax");
+    assert!(common::max_abs_diff(&a.vis, &b.vis) <= 4.0 / 256.0);
+    // A request beyond the device limit is refused, naming the limit.
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    let s = g.add_node(&cat, "Scene").expect("scene");
+    let m = g.add_node(&cat, "ShadowMap").expect("map");
+    g.connect(&cat, &format!("{s}.scene"), &format!("{m}.scene"))
+        .expect("edge");
+    if gpu.limits.max_texture_dimension_2d < 16384 {
+        g.set_param(&cat, &m, "resolution", ParamValue::Int(16384))
+            .expect("param");
+        let err = Evaluator::new(registry, gpu.clone())
+            .evaluate(
+                &g,
+                &[Target::Port(m.clone(), "map".into())],
+                &EvalOptions::default(),
+            )
+            .expect_err("beyond the limit");
+        assert!(
+            err.to_string()
+                .contains(&gpu.limits.max_texture_dimension_2d.to_string()),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn gltf_fixture_loads_camera_light_tags_and_renders() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/scene.gltf");
+    let scene = tyndall::scene::load_gltf(&path).expect("load");
+    assert_eq!(scene.objects.len(), 3);
+    assert!((scene.camera.fov_y - 50.0).abs() < 1e-3);
+    assert!((scene.camera.position - Vec3::new(1.5, 1.6, 7.0)).length() < 1e-4);
+    let fwd = (scene.camera.target - scene.camera.position).normalize();
+    assert!(
+        (fwd - Vec3::new(-1.5, 0.4, -7.0).normalize()).length() < 1e-4,
+        "{fwd}"
+    );
+    let to_sun = scene.sun.to_sun();
+    assert!(
+        (to_sun + Vec3::new(0.2, -0.55, 1.0).normalize()).length() < 1e-4,
+        "{to_sun}"
+    );
+    assert_eq!(scene.sun.intensity, 3.0);
+    assert!(
+        scene
+            .objects
+            .iter()
+            .filter(|o| o.tags.contains(&"occluder".to_string()))
+            .count()
+            == 2
+    );
+    let err =
+        tyndall::scene::load_gltf(std::path::Path::new("/nonexistent.gltf")).expect_err("missing");
+    assert!(err.to_string().contains("/nonexistent.gltf"));
+}
+
+#[test]
+fn builtin_scenes_are_deterministic_and_distinct_per_seed() {
+    for name in tyndall::scene::BUILTIN_SCENES {
+        let a = tyndall::scene::builtin(name, 7).expect("build");
+        assert_eq!(
+            a,
+            tyndall::scene::builtin(name, 7).expect("build"),
+            "{name} is not deterministic"
+        );
+        assert!(a.triangles() > 0);
+        assert!(a
+            .objects
+            .iter()
+            .all(|o| o.positions.iter().all(|p| p.is_finite())));
+    }
+    let a = tyndall::scene::builtin("tree", 1).expect("tree");
+    let b = tyndall::scene::builtin("tree", 2).expect("tree");
+    assert_ne!(a, b, "the seed should vary the tree");
+    assert!(tyndall::scene::builtin("nope", 1).is_err());
+}
+
+#[test]
+fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
+    let gpu = require_gpu!();
+    let all = run_scene(
+        &gpu,
+        &[("name", ParamValue::Enum("tree".into()))],
+        128,
+        (8, 8),
+        &[],
+    );
+    assert!(all.shadow.data.iter().all(|v| (0.0..=1.0).contains(v)));
+    assert!(
+        all.shadow.data.iter().any(|v| *v < 0.5),
+        "the canopy should be near the light"
+    );
+    // The light box is fitted to the scene's bounds: their corners span depth 0 to 1 (up to
+    // the 1e-3 margin) and the map's extent.
+    let scene = tyndall::scene::builtin("tree", 1).expect("tree");
+    let (view, proj) = tyndall::scene::fit_light(scene.sun.to_sun(), scene.bounds());
+    let (lo, hi) = scene.bounds();
+    let (mut zmin, mut zmax) = (f32::MAX, f32::MIN);
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let q = (proj * view).project_point3(c);
+        assert!(
+            q.x.abs() <= 1.0 && q.y.abs() <= 1.0,
+            "corner {c} outside the map: {q}"
+        );
+        zmin = zmin.min(q.z);
+        zmax = zmax.max(q.z);
+    }
+    assert!(
+        (0.0..0.01).contains(&zmin) && zmax <= 1.0 && zmax > 0.99,
+        "depth span {zmin}..{zmax}"
+    );
+    let m = Mat4::from_cols_array_2d(&all.light.proj) * Mat4::from_cols_array_2d(&all.light.view);
+    assert!(m.is_finite());
+    // Tag filters: only the foliage, or everything but the foliage.
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let map_with = |include: &str, exclude: &str| -> Raster {
+        let mut g = Graph::new();
+        let sc = g.add_node(&cat, "Scene").expect("scene");
+        g.set_param(&cat, &sc, "name", ParamValue::Enum("tree".into()))
+            .expect("name");
+        let sm = g.add_node(&cat, "ShadowMap").expect("map");
+        g.set_param(&cat, &sm, "resolution", ParamValue::Int(128))
+            .expect("res");
+        g.set_param(&cat, &sm, "include", ParamValue::Text(include.into()))
+            .expect("include");
+        g.set_param(&cat, &sm, "exclude", ParamValue::Text(exclude.into()))
+            .expect("exclude");
+        g.connect(&cat, &format!("{sc}.scene"), &format!("{sm}.scene"))
+            .expect("edge");
+        let r = Evaluator::new(registry.clone(), gpu.clone())
+            .evaluate(
+                &g,
+                &[Target::Port(sm.clone(), "map".into())],
+                &EvalOptions::default(),
+            )
+            .expect("map");
+        download(&gpu, &r.outputs[&(sm, "map".to_string())]).expect("download")
+    };
+    let foliage = map_with("foliage", "");
+    let rest = map_with("", "foliage");
+    let empty = |r: &Raster| r.data.iter().filter(|v| **v == 1.0).count();
+    assert!(
+        empty(&foliage) > empty(&all.shadow),
+        "without the ground, more texels stay empty"
+    );
+    for i in 0..all.shadow.data.len() {
+        // Everything = the nearer of the two partial maps.
+        assert_eq!(
+            all.shadow.data[i],
+            foliage.data[i].min(rest.data[i]),
+            "texel {i}"
+        );
+    }
+}
