@@ -42,6 +42,7 @@
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
 //! | `method` | Enum | BruteForce | BruteForce, MinMax | visibility algorithm |
+//! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
@@ -103,6 +104,7 @@ static SCHEMA: NodeSchema = NodeSchema {
         float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
         float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
         ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("BruteForce"), min: 0.0, max: 0.0, unit: "", doc: "Visibility algorithm." },
+        ParamSpec { name: "min_level", kind: ParamKind::Int, default: DefaultValue::Int(0), min: 0.0, max: 14.0, unit: "level", doc: "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)." },
     ],
 };
 
@@ -137,8 +139,9 @@ pub struct ScatterParams {
     pub jitter: f32,
     /// Shadow bias.
     pub bias: f32,
-    /// Method index.
-    pub method: u32,
+    /// MinMax: pyramid level at and below which mixed blocks are estimated, not refined
+    /// (0 = exact).
+    pub min_level: u32,
 }
 
 impl ScatterParams {
@@ -166,7 +169,7 @@ impl ScatterParams {
             g: p.g,
             jitter: p.jitter,
             bias: p.bias,
-            method: 0,
+            min_level: p.min_level,
         }
     }
 }
@@ -248,6 +251,8 @@ pub struct Medium {
     pub jitter: f32,
     /// Bias.
     pub bias: f32,
+    /// MinMax estimate level (0 = exact).
+    pub min_level: u32,
 }
 
 /// `(1 − e^{−sσt})/σt` without cancellation; exactly `s` at σt = 0.
@@ -390,7 +395,7 @@ impl NodeKind for SingleScattering {
             g,
             jitter,
             bias,
-            method
+            min_level
         )]
     }
 
@@ -432,6 +437,7 @@ impl NodeKind for SingleScattering {
             steps: ctx.int("steps")? as u32,
             jitter: ctx.f32("jitter")?,
             bias: ctx.f32("bias")?,
+            min_level: ctx.int("min_level")? as u32,
         };
         let u = ScatterParams::new(&camera, &light, medium);
         let (w, h) = (depth.width, depth.height);

@@ -13,7 +13,7 @@ struct Params {
     g: f32,
     jitter: f32,
     bias: f32,
-    method: u32,
+    min_level: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -246,6 +246,13 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
             } else if level == 0u {
                 lit += lit_part(t, t_exit, z0, z1, mm.x + P.bias);
                 t = t_exit;
+            } else if level <= P.min_level {
+                // Quality knob: estimate a mixed block instead of refining it, taking its
+                // occluder depth as spread evenly over [min, max].
+                let zm = 0.5 * (z0 + z1);
+                lit += (t_exit - t) * clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
+                t = t_exit;
+                level = min(level + 1u, top);
             } else {
                 level -= 1u;
             }

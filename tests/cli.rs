@@ -290,3 +290,37 @@ fn every_graph_in_graphs_validates_and_renders() {
         }
     }
 }
+
+#[test]
+fn bench_visibility_runs_and_writes_its_csv() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("v.csv");
+    let suite = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/visibility.ron");
+    let o = tyndall(&[
+        "bench",
+        &suite.display().to_string(),
+        "--runs",
+        "1",
+        "--size",
+        "16x9",
+        "--csv",
+        &csv.display().to_string(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("method=MinMax") && out.contains("speed-up at RMSE <= 0.005"),
+        "{out}"
+    );
+    let rows = std::fs::read_to_string(&csv).expect("csv");
+    assert_eq!(rows.lines().count(), 15, "{rows}");
+    // The reference setting measured again reproduces the reference exactly.
+    let again = rows
+        .lines()
+        .find(|l| l.contains("steps=4096"))
+        .expect("4096 row");
+    assert!(again.ends_with(",0.00000000,0.00000000"), "{again}");
+}

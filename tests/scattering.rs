@@ -131,6 +131,7 @@ fn medium(steps: u32, jitter: f32) -> Medium {
         steps,
         jitter,
         bias: 0.002,
+        min_level: 0,
     }
 }
 
