@@ -236,13 +236,18 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
             } else {
                 mm = textureLoad(atlas, L.rect[level].xy + cell, 0).rg;
             }
+            // After a block is settled, go up a level only when the ray leaves the parent
+            // block too: the parent of the next block, if it is the same, was found mixed.
+            let next = a.xy + d.xy * t_exit + nudge;
+            let parent_changes = any(vec2<u32>(max(floor(next / (2.0 * scale)), vec2<f32>(0.0))) != (cell >> vec2<u32>(1u)));
+            let up = select(level, min(level + 1u, top), parent_changes);
             if max(z0, z1) <= mm.x + P.bias {
                 lit += t_exit - t;
                 t = t_exit;
-                level = min(level + 1u, top);
+                level = up;
             } else if min(z0, z1) > mm.y + P.bias {
                 t = t_exit;
-                level = min(level + 1u, top);
+                level = up;
             } else if level == 0u {
                 lit += lit_part(t, t_exit, z0, z1, mm.x + P.bias);
                 t = t_exit;
@@ -252,7 +257,7 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
                 let zm = 0.5 * (z0 + z1);
                 lit += (t_exit - t) * clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
                 t = t_exit;
-                level = min(level + 1u, top);
+                level = up;
             } else {
                 level -= 1u;
             }
