@@ -329,3 +329,43 @@ fn bench_visibility_runs_and_writes_its_csv() {
         .expect("4096 row");
     assert!(again.ends_with(",0.00000000,0.00000000"), "{again}");
 }
+
+#[test]
+fn key_framed_sun_animates_across_frames() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let preset = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/torus.ron");
+    let text = std::fs::read_to_string(&preset).expect("preset");
+    // Add a custom sun whose elevation is key-framed from 30° at frame 1 to 80° at frame 3.
+    let text = text
+        .replace(r#""scene": (kind: "Scene", params: {"name": "torus"}"#, r#""scene": (kind: "Scene", params: {"light": "custom", "name": "torus"}"#)
+        .replacen("    ],\n)", "    ],\n    keys: {\"scene.sun_elevation\": [(1.0, 30.0, Linear), (3.0, 80.0, Linear)]},\n)", 1);
+    let graph = dir.path().join("anim.ron");
+    std::fs::write(&graph, text).expect("write");
+    let out = dir.path().join("f.png");
+    let o = tyndall(&[
+        "render",
+        &graph.display().to_string(),
+        "-o",
+        &out.display().to_string(),
+        "--frames",
+        "1-3",
+        "--size",
+        "48x27",
+        "--stats",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames: Vec<_> = (1..=3)
+        .map(|f| {
+            tyndall::io::read_image(&dir.path().join(format!("f_{f:04}.png")), false)
+                .expect("frame")
+        })
+        .collect();
+    assert_ne!(frames[0], frames[1], "the sun moved between frames 1 and 2");
+    assert_ne!(frames[1], frames[2], "the sun moved between frames 2 and 3");
+    // --stats prints one block per frame.
+    let stats = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stats.matches("frame ").count(), 3, "{stats}");
+}
