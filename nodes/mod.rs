@@ -14,6 +14,7 @@ pub mod g_buffer;
 pub mod image_input;
 pub mod image_output;
 pub mod math;
+pub mod morphology2d;
 pub mod remap;
 pub mod scene;
 pub mod shadow_map;
@@ -30,6 +31,15 @@ pub fn registry() -> Registry {
     r.add(Arc::new(image_input::ImageInput));
     r.add(Arc::new(image_output::ImageOutput));
     r.add(Arc::new(math::Math));
+    r.add(Arc::new(morphology2d::Morphology2D(
+        morphology2d::Op::Dilate,
+    )));
+    r.add(Arc::new(morphology2d::Morphology2D(
+        morphology2d::Op::Erode,
+    )));
+    r.add(Arc::new(morphology2d::Morphology2D(
+        morphology2d::Op::Closure,
+    )));
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));
     r.add(Arc::new(shadow_map::ShadowMapNode));
