@@ -11,10 +11,13 @@ use crate::eval::Registry;
 pub mod composite;
 pub mod constant;
 pub mod g_buffer;
+pub mod hole_composite;
+pub mod hole_map;
 pub mod image_input;
 pub mod image_output;
 pub mod math;
 pub mod morphology2d;
+pub mod perlin_noise2d;
 pub mod remap;
 pub mod scene;
 pub mod shadow_map;
@@ -28,6 +31,8 @@ pub fn registry() -> Registry {
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
     r.add(Arc::new(g_buffer::GBufferNode));
+    r.add(Arc::new(hole_composite::HoleComposite));
+    r.add(Arc::new(hole_map::HoleMap));
     r.add(Arc::new(image_input::ImageInput));
     r.add(Arc::new(image_output::ImageOutput));
     r.add(Arc::new(math::Math));
@@ -40,6 +45,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(morphology2d::Morphology2D(
         morphology2d::Op::Closure,
     )));
+    r.add(Arc::new(perlin_noise2d::PerlinNoise2D));
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));
     r.add(Arc::new(shadow_map::ShadowMapNode));

@@ -1,0 +1,115 @@
+//! `HoleComposite`: hole creation (SPEC §4): the tagged objects' own shadow map gets depth 1
+//! ("no occluder") where the hole map says so, then the minimum with the rest of the scene's
+//! map — so light bursts through the objects (foliage) while everything else still occludes.
+//!
+//! `out = min(H > 0.5 ? 1 : object, rest)`. The hole map is sampled at the same normalised
+//! position (nearest texel) when its size differs.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `object` | in | ShadowMap (required): map of the tagged objects only (`ShadowMap include`) |
+//! | `holes` | in | Scalar (required): 1 = hole (`HoleMap`) |
+//! | `rest` | in | ShadowMap (required): map of everything else (`ShadowMap exclude`) |
+//! | `map` | out | ShadowMap (the rest's matrices) |
+
+use std::sync::Arc;
+
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `HoleComposite` node kind.
+pub struct HoleComposite;
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "HoleComposite",
+    category: "Occluders",
+    doc: "Pushes the object-only map to depth 1 in holes, then takes the minimum with the rest of the scene's map.",
+    inputs: &[
+        PortSpec { name: "object", types: &[PortType::ShadowMap], required: true, doc: "Shadow map of the objects to punch holes into." },
+        PortSpec { name: "holes", types: &[PortType::Scalar], required: true, doc: "Hole map (1 = hole)." },
+        PortSpec { name: "rest", types: &[PortType::ShadowMap], required: true, doc: "Shadow map of the rest of the scene." },
+    ],
+    outputs: &[PortSpec { name: "map", types: &[PortType::ShadowMap], required: false, doc: "The combined map." }],
+    params: &[],
+};
+
+static SHADER: Shader = Shader {
+    stem: "hole_composite",
+    source: include_str!("../shaders/hole_composite.wgsl"),
+};
+
+/// CPU reference (hole map of the same size).
+pub fn reference(object: &Raster, holes: &Raster, rest: &Raster) -> Raster {
+    let mut out = rest.clone();
+    for i in 0..out.data.len() {
+        let o = if holes.data[i] > 0.5 {
+            1.0
+        } else {
+            object.data[i]
+        };
+        out.data[i] = o.min(rest.data[i]);
+    }
+    out
+}
+
+fn map(
+    ctx: &RunCtx,
+    port: &str,
+) -> Result<(Arc<crate::gpu::GpuTexture>, crate::eval::Matrices), NodeError> {
+    match ctx.require(port)? {
+        PortValue::ShadowMap(t, m) => Ok((t.clone(), *m)),
+        _ => Err(NodeError::Input {
+            port: port.into(),
+            message: "is not a shadow map".into(),
+        }),
+    }
+}
+
+impl NodeKind for HoleComposite {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (object, _) = map(ctx, "object")?;
+        let (rest, m) = map(ctx, "rest")?;
+        let holes = ctx
+            .require("holes")?
+            .texture()
+            .cloned()
+            .ok_or_else(|| NodeError::Input {
+                port: "holes".into(),
+                message: "is not an image".into(),
+            })?;
+        if (object.width, object.height) != (rest.width, rest.height) {
+            return Err(NodeError::Input {
+                port: "object".into(),
+                message: format!(
+                    "size {}x{} differs from rest's {}x{}",
+                    object.width, object.height, rest.width, rest.height
+                ),
+            });
+        }
+        let out = ctx.gpu.texture(rest.width, rest.height, TexFormat::R32F)?;
+        ctx.gpu.dispatch(
+            SHADER,
+            "composite",
+            &[
+                (0, Bind::Texture(&object)),
+                (1, Bind::Texture(&holes)),
+                (2, Bind::Texture(&rest)),
+                (3, Bind::Storage(&out)),
+            ],
+            rest.width,
+            rest.height,
+        )?;
+        ctx.set("map", PortValue::ShadowMap(Arc::new(out), m));
+        Ok(())
+    }
+}
