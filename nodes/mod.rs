@@ -10,6 +10,7 @@ use crate::eval::Registry;
 
 pub mod composite;
 pub mod constant;
+pub mod epipolar;
 pub mod g_buffer;
 pub mod hole_composite;
 pub mod hole_map;
@@ -30,6 +31,8 @@ pub fn registry() -> Registry {
     let mut r = Registry::new();
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
+    r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Dilation)));
+    r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Closure)));
     r.add(Arc::new(g_buffer::GBufferNode));
     r.add(Arc::new(hole_composite::HoleComposite));
     r.add(Arc::new(hole_map::HoleMap));

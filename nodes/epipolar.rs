@@ -1,0 +1,289 @@
+//! `EpipolarDilation`, `EpipolarClosure`: silhouette enhancement by 1D morphology along
+//! epipolar lines (SPEC §4, seed 000 eq. 3, seed 001 §4.1, Fig. 8).
+//!
+//! The epipole `l` is the camera position projected into the shadow map (texel units, may lie
+//! far outside the map) with light-space depth `z_l` (may lie outside [0, 1]). For texel t at
+//! distance d_t > 0 from l, samples s are taken at i = 1…`length` texels along the unit
+//! direction from t towards l (nearest texel, stopping at the map border and before reaching
+//! l), each giving `d_t/d_s · (z_s − z_l) + z_l`; the dilation is the minimum of these and z_t
+//! (eq. 3). In slope space κ = (z − z_l)/d this is a plain 1D minimum of κ along the ray. The
+//! closure follows with the dual erosion (maximum, samples on the far side from l). A texel at
+//! the epipole is unchanged; samples at the epipole are skipped.
+//!
+//! The epipole comes from the `camera` input (a Depth's camera, projected with the map's light
+//! matrices) when connected, else from the parameters.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `map` | in | ShadowMap (required) |
+//! | `camera` | in | Depth (optional): camera whose position is the epipole |
+//! | `map` | out | ShadowMap (same matrices) |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `length` | Int | 15 | 0…4096 texels | kernel length k; 0 is the identity |
+//! | `epipole_x`, `epipole_y` | Float | 0, 0 | ±1e9 texels | epipole when `camera` is unconnected |
+//! | `epipole_depth` | Float | 0 | ±1e9 | z_l when `camera` is unconnected |
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// Which epipolar operation a kind performs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EpiOp {
+    /// Minimum towards the epipole.
+    Dilation,
+    /// Dilation then the dual erosion.
+    Closure,
+}
+
+/// An epipolar morphology node kind.
+pub struct Epipolar(pub EpiOp);
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "length",
+        kind: ParamKind::Int,
+        default: DefaultValue::Int(15),
+        min: 0.0,
+        max: 4096.0,
+        unit: "texels",
+        doc: "Kernel length k along the epipolar line; 0 is the identity.",
+    },
+    ParamSpec {
+        name: "epipole_x",
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(0.0),
+        min: -1e9,
+        max: 1e9,
+        unit: "texels",
+        doc: "Epipole x (when `camera` is unconnected); may lie outside the map.",
+    },
+    ParamSpec {
+        name: "epipole_y",
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(0.0),
+        min: -1e9,
+        max: 1e9,
+        unit: "texels",
+        doc: "Epipole y (when `camera` is unconnected); may lie outside the map.",
+    },
+    ParamSpec {
+        name: "epipole_depth",
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(0.0),
+        min: -1e9,
+        max: 1e9,
+        unit: "depth",
+        doc:
+            "Epipole light-space depth z_l (when `camera` is unconnected); may lie outside [0, 1].",
+    },
+];
+
+const IN: &[PortSpec] = &[
+    PortSpec {
+        name: "map",
+        types: &[PortType::ShadowMap],
+        required: true,
+        doc: "Shadow map to sharpen.",
+    },
+    PortSpec {
+        name: "camera",
+        types: &[PortType::Depth],
+        required: false,
+        doc: "Camera whose position gives the epipole.",
+    },
+];
+const OUT: &[PortSpec] = &[PortSpec {
+    name: "map",
+    types: &[PortType::ShadowMap],
+    required: false,
+    doc: "The filtered map.",
+}];
+
+static DILATION: NodeSchema = NodeSchema {
+    kind: "EpipolarDilation",
+    category: "Occluders",
+    doc: "1D dilation along epipolar lines (seed eq. 3): silhouettes extrude towards the camera, shafts sharpen.",
+    inputs: IN,
+    outputs: OUT,
+    params: PARAMS,
+};
+static CLOSURE: NodeSchema = NodeSchema {
+    kind: "EpipolarClosure",
+    category: "Occluders",
+    doc: "Epipolar dilation then the dual erosion: occlusion stays behind objects, shaft edges sharpen.",
+    inputs: IN,
+    outputs: OUT,
+    params: PARAMS,
+};
+
+static SHADER: Shader = Shader {
+    stem: "epipolar",
+    source: include_str!("../shaders/epipolar.wgsl"),
+};
+
+/// Uniforms of `shaders/epipolar.wgsl` (struct `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug)]
+pub struct EpiParams {
+    /// Epipole, texel units.
+    pub epipole: [f32; 2],
+    /// z_l.
+    pub z_l: f32,
+    /// k.
+    pub length: i32,
+    /// 0 dilation (min towards l), 1 erosion (max away from l).
+    pub op: u32,
+    /// Padding.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+}
+
+/// CPU reference of one pass (`erode = false`: the dilation of eq. 3), in the same f32 steps as
+/// the shader.
+pub fn reference(map: &Raster, l: [f32; 2], z_l: f32, length: i32, erode: bool) -> Raster {
+    let (w, h) = (map.width as i32, map.height as i32);
+    let mut out = map.clone();
+    for y in 0..h {
+        for x in 0..w {
+            let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+            let z = map.data[(y * w + x) as usize];
+            let (tx, ty) = (l[0] - cx, l[1] - cy);
+            let d_t = (tx * tx + ty * ty).sqrt();
+            if d_t <= 0.0 {
+                continue;
+            }
+            let (dx, dy) = if erode {
+                (-tx / d_t, -ty / d_t)
+            } else {
+                (tx / d_t, ty / d_t)
+            };
+            let mut k = (z - z_l) / d_t;
+            for i in 1..=length {
+                if !erode && i as f32 >= d_t {
+                    break;
+                }
+                let (sx, sy) = (
+                    (cx + dx * i as f32).floor() as i32,
+                    (cy + dy * i as f32).floor() as i32,
+                );
+                if sx < 0 || sy < 0 || sx >= w || sy >= h {
+                    break;
+                }
+                let (ex, ey) = (l[0] - (sx as f32 + 0.5), l[1] - (sy as f32 + 0.5));
+                let d_s = (ex * ex + ey * ey).sqrt();
+                if d_s <= 0.0 {
+                    continue;
+                }
+                let ks = (map.data[(sy * w + sx) as usize] - z_l) / d_s;
+                k = if erode { k.max(ks) } else { k.min(ks) };
+            }
+            out.data[(y * w + x) as usize] = z_l + d_t * k;
+        }
+    }
+    out
+}
+
+/// The epipole (texel units) and its depth: the camera position projected with the light's
+/// matrices into a `w × h` map.
+pub fn epipole(light: &Matrices, camera: &Matrices, w: u32, h: u32) -> ([f32; 2], f32) {
+    let eye = Mat4::from_cols_array_2d(&camera.view)
+        .inverse()
+        .transform_point3(Vec3::ZERO);
+    let lvp = Mat4::from_cols_array_2d(&light.proj) * Mat4::from_cols_array_2d(&light.view);
+    let c = lvp.project_point3(eye);
+    (
+        [(c.x * 0.5 + 0.5) * w as f32, (0.5 - c.y * 0.5) * h as f32],
+        c.z,
+    )
+}
+
+fn pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
+    let out = gpu.texture(src.width, src.height, TexFormat::R32F)?;
+    gpu.dispatch(
+        SHADER,
+        "reference",
+        &[
+            (0, Bind::Uniform(bytemuck::bytes_of(&p))),
+            (1, Bind::Texture(src)),
+            (2, Bind::Storage(&out)),
+        ],
+        src.width,
+        src.height,
+    )?;
+    Ok(out)
+}
+
+impl NodeKind for Epipolar {
+    fn schema(&self) -> &'static NodeSchema {
+        match self.0 {
+            EpiOp::Dilation => &DILATION,
+            EpiOp::Closure => &CLOSURE,
+        }
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn uniform_layouts(&self) -> Vec<UniformLayout> {
+        vec![crate::uniform_layout!(
+            EpiParams, "Params", epipole, z_l, length, op, _pad0, _pad1, _pad2
+        )]
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (tex, light) = match ctx.require("map")? {
+            PortValue::ShadowMap(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "map".into(),
+                    message: "is not a shadow map".into(),
+                })
+            }
+        };
+        let (l, z_l) = match ctx.input("camera") {
+            Some(PortValue::Depth(_, cam)) => epipole(&light, cam, tex.width, tex.height),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "camera".into(),
+                    message: "is not a depth image".into(),
+                })
+            }
+            None => (
+                [ctx.f32("epipole_x")?, ctx.f32("epipole_y")?],
+                ctx.f32("epipole_depth")?,
+            ),
+        };
+        let length = ctx.int("length")? as i32;
+        if length == 0 {
+            ctx.set("map", PortValue::ShadowMap(tex, light));
+            return Ok(());
+        }
+        let p = EpiParams {
+            epipole: l,
+            z_l,
+            length,
+            op: 0,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        let mut out = pass(ctx.gpu, &tex, p)?;
+        if self.0 == EpiOp::Closure {
+            out = pass(ctx.gpu, &out, EpiParams { op: 1, ..p })?;
+        }
+        ctx.set("map", PortValue::ShadowMap(Arc::new(out), light));
+        Ok(())
+    }
+}
