@@ -22,6 +22,7 @@ pub mod perlin_noise2d;
 pub mod remap;
 pub mod scene;
 pub mod shadow_map;
+pub mod side_by_side;
 pub mod single_scattering;
 pub mod tonemap;
 pub mod util;
@@ -52,6 +53,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));
     r.add(Arc::new(shadow_map::ShadowMapNode));
+    r.add(Arc::new(side_by_side::SideBySide));
     r.add(Arc::new(single_scattering::SingleScattering));
     r.add(Arc::new(tonemap::Tonemap));
     r

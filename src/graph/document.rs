@@ -354,6 +354,28 @@ impl Graph {
     /// Refused (document unchanged) when a node or port is missing, the types are incompatible,
     /// the input already has an edge, or the edge would close a cycle; the error names both ends.
     pub fn connect(&mut self, catalog: &Catalog, from: &str, to: &str) -> Result<(), GraphError> {
+        self.connect_impl(catalog, from, to, true)
+    }
+
+    /// Like [`Graph::connect`] but without the type checks, for loading a whole file: a
+    /// polymorphic output's type depends on edges listed later, so the loader adds every edge
+    /// and then calls [`Graph::check_all_types`] once.
+    pub fn connect_deferred(
+        &mut self,
+        catalog: &Catalog,
+        from: &str,
+        to: &str,
+    ) -> Result<(), GraphError> {
+        self.connect_impl(catalog, from, to, false)
+    }
+
+    fn connect_impl(
+        &mut self,
+        catalog: &Catalog,
+        from: &str,
+        to: &str,
+        check_types: bool,
+    ) -> Result<(), GraphError> {
         let (fnode, fport) = split_endpoint(from)?;
         let (tnode, tport) = split_endpoint(to)?;
         let missing = |node: &str| GraphError::EdgeMissingNode {
@@ -402,7 +424,9 @@ impl Graph {
                 to_node: tnode.into(),
             });
         }
-        self.check_edge_type(catalog, fnode, fport, tnode, tport)?;
+        if check_types {
+            self.check_edge_type(catalog, fnode, fport, tnode, tport)?;
+        }
         let e = self.g.add_edge(
             fix,
             tix,
@@ -412,6 +436,9 @@ impl Graph {
             },
         );
         // A polymorphic output may have changed type: re-check every edge downstream.
+        if !check_types {
+            return Ok(());
+        }
         if let Err(err) = self.check_all_types(catalog) {
             self.g.remove_edge(e);
             return Err(err);

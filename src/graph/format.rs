@@ -459,7 +459,7 @@ fn build(
         ));
     }
     for (from, to) in &f.edges {
-        g.connect(catalog, from, to).map_err(|e| {
+        g.connect_deferred(catalog, from, to).map_err(|e| {
             let at = match &e {
                 GraphError::EdgeMissingNode { node, .. }
                 | GraphError::EdgeMissingPort { node, .. }
@@ -472,6 +472,14 @@ fn build(
             (at, e)
         })?;
     }
+    // Types last: polymorphic outputs take their type from edges that may come later.
+    g.check_all_types(catalog).map_err(|e| {
+        let at = match &e {
+            GraphError::TypeMismatch { from, .. } => loc.edge(from),
+            _ => None,
+        };
+        (at, e)
+    })?;
     Ok(g)
 }
 

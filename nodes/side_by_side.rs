@@ -1,0 +1,112 @@
+//! `SideBySide`: two images next to each other (left, then right), for before/after views of a
+//! stylization. The output is as wide as both and as tall as the taller; uncovered texels are
+//! opaque black.
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `left`, `right` | in | Image (required) |
+//! | `image` | out | Image |
+
+use std::sync::Arc;
+
+use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `SideBySide` node kind.
+pub struct SideBySide;
+
+static SCHEMA: NodeSchema = NodeSchema {
+    kind: "SideBySide",
+    category: "Image",
+    doc: "Places two images next to each other (before/after views).",
+    inputs: &[
+        PortSpec {
+            name: "left",
+            types: &[PortType::Image],
+            required: true,
+            doc: "Left image.",
+        },
+        PortSpec {
+            name: "right",
+            types: &[PortType::Image],
+            required: true,
+            doc: "Right image.",
+        },
+    ],
+    outputs: &[PortSpec {
+        name: "image",
+        types: &[PortType::Image],
+        required: false,
+        doc: "Both images, left then right.",
+    }],
+    params: &[],
+};
+
+static SHADER: Shader = Shader {
+    stem: "side_by_side",
+    source: include_str!("../shaders/side_by_side.wgsl"),
+};
+
+/// CPU reference.
+pub fn reference(l: &Raster, r: &Raster) -> Raster {
+    let (w, h) = (l.width + r.width, l.height.max(r.height));
+    let mut out = Raster::new(w, h, 4, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let v: [f32; 4] = if x < l.width {
+                if y < l.height {
+                    l.pixel(x, y).try_into().unwrap_or([0.0; 4])
+                } else {
+                    [0.0, 0.0, 0.0, 1.0]
+                }
+            } else if y < r.height {
+                r.pixel(x - l.width, y).try_into().unwrap_or([0.0; 4])
+            } else {
+                [0.0, 0.0, 0.0, 1.0]
+            };
+            let i = ((y * w + x) * 4) as usize;
+            out.data[i..i + 4].copy_from_slice(&v);
+        }
+    }
+    out
+}
+
+impl NodeKind for SideBySide {
+    fn schema(&self) -> &'static NodeSchema {
+        &SCHEMA
+    }
+
+    fn shader(&self) -> Option<Shader> {
+        Some(SHADER)
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let get = |port: &str| {
+            ctx.require(port)?
+                .texture()
+                .cloned()
+                .ok_or_else(|| NodeError::Input {
+                    port: port.into(),
+                    message: "is not an image".into(),
+                })
+        };
+        let (l, r) = (get("left")?, get("right")?);
+        let (w, h) = (l.width + r.width, l.height.max(r.height));
+        let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+        ctx.gpu.dispatch(
+            SHADER,
+            "join",
+            &[
+                (0, Bind::Texture(&l)),
+                (1, Bind::Texture(&r)),
+                (2, Bind::Storage(&out)),
+            ],
+            w,
+            h,
+        )?;
+        ctx.set("image", PortValue::Image(Arc::new(out)));
+        Ok(())
+    }
+}
