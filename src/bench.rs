@@ -1,11 +1,14 @@
 //! `tyndall bench`: speed against accuracy for a node's quality settings, measured in one run on
 //! one input against a high-quality reference.
 //!
-//! A suite is a RON file (`benches/<name>.ron`) naming a graph, the node to vary, the output to
-//! compare, a reference setting and the settings to measure. For each setting the node runs
-//! `runs` times (its cached result dropped each time, its inputs kept); the table reports the
-//! median and minimum wall-clock time of the node (GPU work included: the evaluator waits for
-//! completion) and the RMSE and maximum error of the output against the reference.
+//! A suite is a RON file (`benches/<name>.ron`) naming a graph, the node to measure, the output
+//! to compare, an optional reference setting and the settings to measure. In a setting, plain
+//! keys are parameters of the measured node, `node.param` keys set other nodes (e.g. the map
+//! resolution) and the key `node` measures another node. Each setting runs `runs` times (the
+//! measured node's cached result dropped each time, its inputs kept); the table reports the
+//! median and minimum wall-clock time of that node (GPU work included: the evaluator waits for
+//! completion), the RMSE and maximum error against the reference, and optionally the ratio to
+//! the first setting of its group (same settings but the kernel parameter) and hole counts.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -15,7 +18,7 @@ use serde::Deserialize;
 
 use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
 use crate::gpu::Gpu;
-use crate::graph::{load_file, Graph};
+use crate::graph::{load_file, split_endpoint, Graph};
 use crate::io::Raster;
 
 /// A benchmark suite file.
@@ -26,40 +29,55 @@ pub struct Suite {
     pub title: String,
     /// The graph, relative to the suite file.
     pub graph: String,
-    /// Node whose settings vary.
+    /// Node measured (a setting's `node` key overrides it).
     pub node: String,
-    /// Output port of that node compared with the reference.
+    /// Output port of the measured node.
     pub output: String,
     /// Evaluation size.
     pub size: (u32, u32),
     /// Runs per setting (the median is reported).
     pub runs: usize,
-    /// Parameter values of the reference.
-    pub reference: BTreeMap<String, String>,
-    /// Parameter values of each measured setting.
+    /// Setting of the reference output (none: no error columns).
+    #[serde(default)]
+    pub reference: Option<BTreeMap<String, String>>,
+    /// The measured settings.
     pub configs: Vec<BTreeMap<String, String>>,
     /// Error bound for the speed-up comparison.
+    #[serde(default)]
     pub target_rmse: f64,
     /// `(parameter, baseline value, accelerated value)`: the speed-up reported is the time of the
     /// fastest baseline setting within `target_rmse` over that of the fastest accelerated one.
-    pub compare: (String, String, String),
+    #[serde(default)]
+    pub compare: Option<(String, String, String)>,
+    /// Kernel-size parameters: rows equal in every other key form a group, and each row's time
+    /// is also given relative to its group's first row (cost growth with kernel size).
+    #[serde(default)]
+    pub kernel: Vec<String>,
+    /// Count connected holes (4-connected texels ≥ `threshold`) in `before` (`node.port`) and in
+    /// the measured output: `(before, threshold)`.
+    #[serde(default)]
+    pub holes: Option<(String, f32)>,
 }
 
 /// One measured row.
 #[derive(Debug, Clone)]
 pub struct Row {
-    /// `name=value` pairs of the setting.
+    /// `key=value` pairs of the setting.
     pub setting: String,
-    /// The setting's parameters.
+    /// The setting.
     pub params: BTreeMap<String, String>,
     /// Median time, ms.
     pub median_ms: f64,
     /// Minimum time, ms.
     pub min_ms: f64,
-    /// RMSE against the reference.
+    /// RMSE against the reference (NaN without one).
     pub rmse: f64,
-    /// Maximum absolute error against the reference.
+    /// Maximum absolute error against the reference (NaN without one).
     pub max_err: f64,
+    /// Median time over the group's first row's (1 for that row; NaN without `kernel`).
+    pub growth: f64,
+    /// Holes in the `before` map and in the output (when `holes` is set).
+    pub holes: Option<(usize, usize)>,
 }
 
 /// Errors of the bench runner.
@@ -73,11 +91,12 @@ pub enum BenchError {
     Eval(#[from] Box<crate::eval::EvalError>),
 }
 
-fn set(
+fn set_one(
     registry: &Registry,
     g: &mut Graph,
     node: &str,
-    params: &BTreeMap<String, String>,
+    name: &str,
+    value: &str,
 ) -> Result<(), BenchError> {
     let kind = g
         .node(node)
@@ -87,23 +106,46 @@ fn set(
         .catalog()
         .get(&kind)
         .ok_or_else(|| BenchError::Input(format!("unknown kind {kind}")))?;
-    for (name, value) in params {
-        let spec = schema
-            .param(name)
-            .ok_or_else(|| BenchError::Input(format!("{kind} has no parameter '{name}'")))?;
-        let v = spec.parse_str(value).map_err(|_| {
-            BenchError::Input(format!(
-                "{node}.{name}: '{value}' is not {}",
-                spec.expected()
-            ))
-        })?;
-        g.set_param(registry.catalog(), node, name, v)
-            .map_err(|e| BenchError::Input(e.to_string()))?;
+    let spec = schema
+        .param(name)
+        .ok_or_else(|| BenchError::Input(format!("{kind} has no parameter '{name}'")))?;
+    let v = spec.parse_str(value).map_err(|_| {
+        BenchError::Input(format!(
+            "{node}.{name}: '{value}' is not {}",
+            spec.expected()
+        ))
+    })?;
+    g.set_param(registry.catalog(), node, name, v)
+        .map_err(|e| BenchError::Input(e.to_string()))
+}
+
+/// Apply a setting; returns the measured node.
+fn apply(
+    registry: &Registry,
+    g: &mut Graph,
+    default_node: &str,
+    setting: &BTreeMap<String, String>,
+) -> Result<String, BenchError> {
+    let node = setting
+        .get("node")
+        .cloned()
+        .unwrap_or_else(|| default_node.to_string());
+    for (key, value) in setting {
+        if key == "node" {
+            continue;
+        }
+        match split_endpoint(key) {
+            Ok((n, p)) => set_one(registry, g, n, p, value)?,
+            Err(_) => set_one(registry, g, &node, key, value)?,
+        }
     }
-    Ok(())
+    Ok(node)
 }
 
 fn errors(a: &Raster, b: &Raster) -> (f64, f64) {
+    if a.data.len() != b.data.len() {
+        return (f64::NAN, f64::NAN);
+    }
     let n = a.data.len().max(1) as f64;
     let mut sq = 0.0;
     let mut mx = 0.0f64;
@@ -115,11 +157,52 @@ fn errors(a: &Raster, b: &Raster) -> (f64, f64) {
     ((sq / n).sqrt(), mx)
 }
 
+/// Number of 4-connected components of texels ≥ `threshold` in a one-channel raster.
+pub fn count_components(r: &Raster, threshold: f32) -> usize {
+    let (w, h) = (r.width as usize, r.height as usize);
+    let on = |i: usize| r.data[i * r.channels as usize] >= threshold;
+    let mut seen = vec![false; w * h];
+    let mut count = 0;
+    let mut stack = Vec::new();
+    for start in 0..w * h {
+        if seen[start] || !on(start) {
+            continue;
+        }
+        count += 1;
+        seen[start] = true;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            let (x, y) = (i % w, i / w);
+            let mut visit = |j: usize| {
+                if !seen[j] && on(j) {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < w {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - w);
+            }
+            if y + 1 < h {
+                visit(i + w);
+            }
+        }
+    }
+    count
+}
+
 /// Load a suite file.
 pub fn load_suite(path: &Path) -> Result<Suite, BenchError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| BenchError::Input(format!("{}: {e}", path.display())))?;
-    ron::from_str(&text)
+    ron::Options::default()
+        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .from_str(&text)
         .map_err(|e| BenchError::Input(format!("{}:{}: {}", path.display(), e.span.start, e.code)))
 }
 
@@ -144,57 +227,100 @@ pub fn run(
         size,
         ..Default::default()
     };
-    let target = [Target::Port(suite.node.clone(), suite.output.clone())];
-    let eval_output = |ev: &mut Evaluator, g: &Graph| -> Result<(Raster, f64), BenchError> {
-        let r = ev.evaluate(g, &target, &opts).map_err(Box::new)?;
+    let read = |ev: &mut Evaluator,
+                g: &Graph,
+                node: &str,
+                port: &str|
+     -> Result<(Raster, f64), BenchError> {
+        let r = ev
+            .evaluate(
+                g,
+                &[Target::Port(node.to_string(), port.to_string())],
+                &opts,
+            )
+            .map_err(Box::new)?;
         let ms = r
             .stats
             .nodes
             .iter()
-            .find(|n| n.id == suite.node)
+            .find(|n| n.id == node)
             .map_or(0.0, |n| n.time.as_secs_f64() * 1e3);
         let v = r
             .outputs
-            .get(&(suite.node.clone(), suite.output.clone()))
-            .ok_or_else(|| {
-                BenchError::Input(format!("{}.{} produced nothing", suite.node, suite.output))
-            })?;
-        let raster = download(&gpu, v).map_err(|e| BenchError::Input(e.to_string()))?;
-        Ok((raster, ms))
+            .get(&(node.to_string(), port.to_string()))
+            .ok_or_else(|| BenchError::Input(format!("{node}.{port} produced nothing")))?;
+        Ok((
+            download(&gpu, v).map_err(|e| BenchError::Input(e.to_string()))?,
+            ms,
+        ))
     };
-    let mut g = base.clone();
-    set(&registry, &mut g, &suite.node, &suite.reference)?;
-    progress(&format!("reference {}", describe(&suite.reference)));
-    let (reference, _) = eval_output(&mut ev, &g)?;
-    let mut rows = Vec::new();
-    for (i, cfg) in suite.configs.iter().enumerate() {
+    let reference = match &suite.reference {
+        Some(setting) => {
+            let mut g = base.clone();
+            let node = apply(&registry, &mut g, &suite.node, setting)?;
+            progress(&format!("reference {}", describe(setting)));
+            Some(read(&mut ev, &g, &node, &suite.output)?.0)
+        }
+        None => None,
+    };
+    let mut rows: Vec<Row> = Vec::new();
+    for (i, setting) in suite.configs.iter().enumerate() {
         progress(&format!(
             "[{}/{}] {}",
             i + 1,
             suite.configs.len(),
-            describe(cfg)
+            describe(setting)
         ));
         let mut g = base.clone();
-        set(&registry, &mut g, &suite.node, cfg)?;
+        let node = apply(&registry, &mut g, &suite.node, setting)?;
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..runs.max(1) {
-            ev.invalidate(&suite.node);
-            let (raster, ms) = eval_output(&mut ev, &g)?;
+            ev.invalidate(&node);
+            let (raster, ms) = read(&mut ev, &g, &node, &suite.output)?;
             times.push(ms);
             last = Some(raster);
         }
         times.sort_by(f64::total_cmp);
-        let (rmse, max_err) = last
+        let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
+        let (rmse, max_err) = reference
             .as_ref()
-            .map_or((f64::NAN, f64::NAN), |r| errors(r, &reference));
+            .map_or((f64::NAN, f64::NAN), |r| errors(&out, r));
+        let holes = match &suite.holes {
+            Some((before, threshold)) => {
+                let (n, p) =
+                    split_endpoint(before).map_err(|e| BenchError::Input(e.to_string()))?;
+                let (b, _) = read(&mut ev, &g, n, p)?;
+                Some((
+                    count_components(&b, *threshold),
+                    count_components(&out, *threshold),
+                ))
+            }
+            None => None,
+        };
+        let median = times[times.len() / 2];
+        let group_of = |p: &BTreeMap<String, String>| -> BTreeMap<String, String> {
+            p.iter()
+                .filter(|(k, _)| !suite.kernel.contains(k))
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect()
+        };
+        let growth = if suite.kernel.is_empty() {
+            f64::NAN
+        } else {
+            rows.iter()
+                .find(|r| group_of(&r.params) == group_of(setting))
+                .map_or(1.0, |first| median / first.median_ms.max(1e-9))
+        };
         rows.push(Row {
-            setting: describe(cfg),
-            params: cfg.clone(),
-            median_ms: times[times.len() / 2],
+            setting: describe(setting),
+            params: setting.clone(),
+            median_ms: median,
             min_ms: times[0],
             rmse,
             max_err,
+            growth,
+            holes,
         });
     }
     Ok(rows)
@@ -210,7 +336,7 @@ fn describe(p: &BTreeMap<String, String>) -> String {
 /// The speed-up of the fastest accelerated setting over the fastest baseline setting, both within
 /// the suite's RMSE bound: `(baseline row, accelerated row, factor)`.
 pub fn speedup<'a>(suite: &Suite, rows: &'a [Row]) -> Option<(&'a Row, &'a Row, f64)> {
-    let (param, base, acc) = &suite.compare;
+    let (param, base, acc) = suite.compare.as_ref()?;
     let best = |value: &str| {
         rows.iter()
             .filter(|r| {
@@ -223,6 +349,14 @@ pub fn speedup<'a>(suite: &Suite, rows: &'a [Row]) -> Option<(&'a Row, &'a Row, 
     Some((b, a, b.median_ms / a.median_ms.max(1e-9)))
 }
 
+fn cell(v: f64, digits: usize) -> String {
+    if v.is_nan() {
+        "-".into()
+    } else {
+        format!("{v:.digits$}")
+    }
+}
+
 /// The table as text.
 pub fn table(rows: &[Row]) -> String {
     let w = rows
@@ -232,13 +366,20 @@ pub fn table(rows: &[Row]) -> String {
         .unwrap_or(7)
         .max(7);
     let mut s = format!(
-        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}\n",
-        "setting", "median ms", "min ms", "RMSE", "max err"
+        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}\n",
+        "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
     );
     for r in rows {
+        let holes = r.holes.map_or("-".to_string(), |(a, b)| format!("{a}>{b}"));
         s.push_str(&format!(
-            "{:<w$}  {:>10.3}  {:>10.3}  {:>10.6}  {:>10.6}\n",
-            r.setting, r.median_ms, r.min_ms, r.rmse, r.max_err
+            "{:<w$}  {:>10.3}  {:>10.3}  {:>10}  {:>10}  {:>8}  {:>13}\n",
+            r.setting,
+            r.median_ms,
+            r.min_ms,
+            cell(r.rmse, 6),
+            cell(r.max_err, 6),
+            cell(r.growth, 2),
+            holes
         ));
     }
     s
@@ -246,11 +387,20 @@ pub fn table(rows: &[Row]) -> String {
 
 /// The table as CSV.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from("setting,median_ms,min_ms,rmse,max_err\n");
+    let mut s =
+        String::from("setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after\n");
     for r in rows {
+        let (a, b) = r.holes.map_or((String::new(), String::new()), |(a, b)| {
+            (a.to_string(), b.to_string())
+        });
         s.push_str(&format!(
-            "\"{}\",{:.4},{:.4},{:.8},{:.8}\n",
-            r.setting, r.median_ms, r.min_ms, r.rmse, r.max_err
+            "\"{}\",{:.4},{:.4},{},{},{},{a},{b}\n",
+            r.setting,
+            r.median_ms,
+            r.min_ms,
+            cell(r.rmse, 8),
+            cell(r.max_err, 8),
+            cell(r.growth, 4)
         ));
     }
     s

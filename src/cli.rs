@@ -618,15 +618,17 @@ fn run_bench(
         other => bad(other),
     })?;
     print!("{}", crate::bench::table(&rows));
-    match crate::bench::speedup(&spec, &rows) {
-        Some((b, a, f)) => println!(
-            "speed-up at RMSE <= {}: {:.2}x ({} {:.3} ms vs {} {:.3} ms)",
-            spec.target_rmse, f, b.setting, b.median_ms, a.setting, a.median_ms
-        ),
-        None => println!(
-            "speed-up at RMSE <= {}: not measurable (a method never reached it)",
-            spec.target_rmse
-        ),
+    if spec.compare.is_some() {
+        match crate::bench::speedup(&spec, &rows) {
+            Some((b, a, f)) => println!(
+                "speed-up at RMSE <= {}: {:.2}x ({} {:.3} ms vs {} {:.3} ms)",
+                spec.target_rmse, f, b.setting, b.median_ms, a.setting, a.median_ms
+            ),
+            None => println!(
+                "speed-up at RMSE <= {}: not measurable (a method never reached it)",
+                spec.target_rmse
+            ),
+        }
     }
     let csv_path = csv.unwrap_or_else(|| PathBuf::from(format!("out/bench/{name}.csv")));
     if let Some(dir) = csv_path.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -194,3 +194,21 @@ fn chords_and_units() {
     assert_eq!(radius_texels(6.4, "texels", None, 1024).expect("t"), 6);
     assert!(radius_texels(1.0, "metres", None, 1024).is_err());
 }
+
+#[test]
+fn hole_components_are_counted_four_connected() {
+    let mut r = Raster::new(5, 4, 1, 0.0);
+    // Two separate holes and one diagonal pair (two components under 4-connectivity).
+    for (x, y) in [(0, 0), (1, 0), (3, 1), (3, 2), (0, 3), (1, 2)] {
+        r.data[y * 5 + x] = 1.0;
+    }
+    assert_eq!(tyndall::bench::count_components(&r, 1.0), 4);
+    assert_eq!(
+        tyndall::bench::count_components(&Raster::new(3, 3, 1, 0.5), 1.0),
+        0
+    );
+    assert_eq!(
+        tyndall::bench::count_components(&Raster::new(3, 3, 1, 1.0), 1.0),
+        1
+    );
+}
