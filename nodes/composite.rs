@@ -24,7 +24,6 @@
 //! | `pcf` | Int | 1 | 0…4 texels | radius of the surface shadow filter |
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
 use super::util::placeholder;
@@ -170,21 +169,14 @@ impl NodeKind for Composite {
         let transmittance = ctx
             .input("transmittance")
             .and_then(|v| v.texture().cloned());
-        let view = Mat4::from_cols_array_2d(&cam.view);
-        let vp = Mat4::from_cols_array_2d(&cam.proj) * view;
-        let lview = Mat4::from_cols_array_2d(&light.view);
-        let lvp = Mat4::from_cols_array_2d(&light.proj) * lview;
+        let (vp, lvp) = (cam.view_proj(), light.view_proj());
         let c = |name: &str| -> Result<[f32; 4], NodeError> { ctx.colour(name) };
         let u = CompositeParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
             light_view_proj: lvp.to_cols_array_2d(),
-            eye: view.inverse().transform_point3(Vec3::ZERO).to_array(),
+            eye: cam.eye().to_array(),
             pcf: ctx.int("pcf")? as u32,
-            to_sun: lview
-                .inverse()
-                .transform_vector3(Vec3::Z)
-                .normalize_or(Vec3::Y)
-                .to_array(),
+            to_sun: light.backward().to_array(),
             bias: ctx.f32("bias")?,
             radiance: light.radiance,
             has_inscatter: inscatter.is_some() as u32,

@@ -36,7 +36,6 @@
 //! short of the 99 % we aim for, which is why `Reference` is the default.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
 use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
@@ -211,11 +210,7 @@ pub fn reference(map: &Raster, l: [f32; 2], z_l: f32, length: i32, erode: bool) 
 /// The epipole (texel units) and its depth: the camera position projected with the light's
 /// matrices into a `w × h` map.
 pub fn epipole(light: &Matrices, camera: &Matrices, w: u32, h: u32) -> ([f32; 2], f32) {
-    let eye = Mat4::from_cols_array_2d(&camera.view)
-        .inverse()
-        .transform_point3(Vec3::ZERO);
-    let lvp = Mat4::from_cols_array_2d(&light.proj) * Mat4::from_cols_array_2d(&light.view);
-    let c = lvp.project_point3(eye);
+    let c = light.view_proj().project_point3(camera.eye());
     (
         [(c.x * 0.5 + 0.5) * w as f32, (0.5 - c.y * 0.5) * h as f32],
         c.z,

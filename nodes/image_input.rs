@@ -23,7 +23,6 @@
 
 use bytemuck::{Pod, Zeroable};
 use std::collections::BTreeMap;
-use std::hash::{Hash, Hasher};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -171,14 +170,7 @@ impl NodeKind for ImageInput {
     }
 
     fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
-        let mut h = std::hash::DefaultHasher::new();
-        if let Some(ParamValue::Text(p)) = params.get("path") {
-            if let Ok(m) = std::fs::metadata(p) {
-                m.len().hash(&mut h);
-                m.modified().ok().hash(&mut h);
-            }
-        }
-        h.finish()
+        super::util::file_stamp(params, "path")
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -27,6 +27,7 @@
 use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
+use super::util::float;
 use super::util::size_or_default;
 use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
@@ -38,25 +39,6 @@ pub struct PerlinNoise2D;
 
 /// Octave schemes.
 pub const MODES: &[&str] = &["seed", "fbm"];
-
-const fn float(
-    name: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    unit: &'static str,
-    doc: &'static str,
-) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(default),
-        min,
-        max,
-        unit,
-        doc,
-    }
-}
 
 static SCHEMA: NodeSchema = NodeSchema {
     kind: "PerlinNoise2D",

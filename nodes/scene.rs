@@ -28,12 +28,12 @@
 //! | `sun_intensity` | Float | 3 | 0…1e6 | multiplies the colour |
 
 use std::collections::BTreeMap;
-use std::hash::{Hash, Hasher};
 use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::util::float;
 use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::Shader;
 use crate::graph::{
@@ -45,25 +45,6 @@ use crate::scene::{builtin, load_gltf, GpuScene, Sun, BUILTIN_SCENES};
 pub struct SceneNode;
 
 const SCENE_OR_CUSTOM: &[&str] = &["scene", "custom"];
-
-const fn float(
-    name: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    unit: &'static str,
-    doc: &'static str,
-) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(default),
-        min,
-        max,
-        unit,
-        doc,
-    }
-}
 
 static SCHEMA: NodeSchema = NodeSchema {
     kind: "Scene",
@@ -101,14 +82,7 @@ impl NodeKind for SceneNode {
     }
 
     fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
-        let mut h = std::hash::DefaultHasher::new();
-        if let Some(ParamValue::Text(p)) = params.get("path") {
-            if let Ok(m) = std::fs::metadata(p) {
-                m.len().hash(&mut h);
-                m.modified().ok().hash(&mut h);
-            }
-        }
-        h.finish()
+        super::util::file_stamp(params, "path")
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -48,6 +48,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
 
+use super::util::float;
 use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
 use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
@@ -58,25 +59,6 @@ pub struct SingleScattering;
 
 /// Visibility methods.
 pub const METHODS: &[&str] = &["BruteForce", "MinMax"];
-
-const fn float(
-    name: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    unit: &'static str,
-    doc: &'static str,
-) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(default),
-        min,
-        max,
-        unit,
-        doc,
-    }
-}
 
 static SCHEMA: NodeSchema = NodeSchema {
     kind: "SingleScattering",
@@ -147,16 +129,8 @@ pub struct ScatterParams {
 impl ScatterParams {
     /// Build the uniforms from the camera and light metadata.
     pub fn new(camera: &Matrices, light: &Matrices, p: Medium) -> ScatterParams {
-        let view = Mat4::from_cols_array_2d(&camera.view);
-        let vp = Mat4::from_cols_array_2d(&camera.proj) * view;
-        let lview = Mat4::from_cols_array_2d(&light.view);
-        let lvp = Mat4::from_cols_array_2d(&light.proj) * lview;
-        let eye = view.inverse().transform_point3(Vec3::ZERO);
-        // The light looks down its view −Z: the sun lies along +Z of light view space.
-        let to_sun = lview
-            .inverse()
-            .transform_vector3(Vec3::Z)
-            .normalize_or(Vec3::Y);
+        let (vp, lvp) = (camera.view_proj(), light.view_proj());
+        let (eye, to_sun) = (camera.eye(), light.backward());
         ScatterParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
             light_view_proj: lvp.to_cols_array_2d(),

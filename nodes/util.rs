@@ -1,9 +1,12 @@
 //! Small helpers shared by node files (no node kind lives here).
 
+use std::collections::BTreeMap;
+use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
 use crate::eval::{NodeError, PortValue, RunCtx};
 use crate::gpu::{GpuTexture, TexFormat};
+use crate::graph::{DefaultValue, ParamKind, ParamSpec, ParamValue};
 
 /// Resolve a `width`/`height` pair of parameters where 0 means "the evaluation size".
 pub fn size_or_default(ctx: &RunCtx, w: &str, h: &str) -> Result<(u32, u32), NodeError> {
@@ -23,4 +26,37 @@ pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
         TexFormat::R32F => PortValue::Scalar(t),
         TexFormat::Rgba32F | TexFormat::Rg32F => PortValue::Image(t),
     }
+}
+
+/// A `Float` parameter spec, for node tables.
+pub const fn float(
+    name: &'static str,
+    default: f64,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        kind: ParamKind::Float,
+        default: DefaultValue::Float(default),
+        min,
+        max,
+        unit,
+        doc,
+    }
+}
+
+/// Cache-key material for a file named by a `Text` parameter: its size and modification time
+/// (so editing the file on disk re-runs the node).
+pub fn file_stamp(params: &BTreeMap<String, ParamValue>, param: &str) -> u64 {
+    let mut h = std::hash::DefaultHasher::new();
+    if let Some(ParamValue::Text(p)) = params.get(param) {
+        if let Ok(m) = std::fs::metadata(p) {
+            m.len().hash(&mut h);
+            m.modified().ok().hash(&mut h);
+        }
+    }
+    h.finish()
 }

@@ -56,21 +56,26 @@ fn visible(x: vec3<f32>) -> f32 {
     return select(0.0, 1.0, uvz.z <= textureLoad(shadow, texel, 0).r + P.bias);
 }
 
+// Unit direction of the view ray through the centre of pixel `p` of a `size` image.
+fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
+    let ndc = vec4<f32>(
+        (f32(p.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
+        1.0 - (f32(p.y) + 0.5) / f32(size.y) * 2.0,
+        1.0,
+        1.0,
+    );
+    let far = P.inv_view_proj * ndc;
+    let dir = far.xyz / far.w - P.eye;
+    return select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
+}
+
 @compute @workgroup_size(8, 8)
 fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(depth);
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    let ndc = vec4<f32>(
-        (f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
-        1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0,
-        1.0,
-        1.0,
-    );
-    let far = P.inv_view_proj * ndc;
-    var dir = far.xyz / far.w - P.eye;
-    dir = select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
+    let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
     let offset = P.jitter * (hash(id.x, id.y) - 0.5);
     var lit = 0.0;
@@ -166,15 +171,7 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    let ndc = vec4<f32>(
-        (f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
-        1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0,
-        1.0,
-        1.0,
-    );
-    let far = P.inv_view_proj * ndc;
-    var dir = far.xyz / far.w - P.eye;
-    dir = select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
+    let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
     let msize = vec2<f32>(textureDimensions(shadow));
     // The ray in level-0 texel units and light depth: p(t) = a + d t.

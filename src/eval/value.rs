@@ -43,6 +43,29 @@ impl Default for Matrices {
     }
 }
 
+impl Matrices {
+    /// Projection × view (world → clip).
+    pub fn view_proj(&self) -> glam::Mat4 {
+        glam::Mat4::from_cols_array_2d(&self.proj) * glam::Mat4::from_cols_array_2d(&self.view)
+    }
+
+    /// The viewpoint in world space (the camera's position).
+    pub fn eye(&self) -> glam::Vec3 {
+        glam::Mat4::from_cols_array_2d(&self.view)
+            .inverse()
+            .transform_point3(glam::Vec3::ZERO)
+    }
+
+    /// The unit world direction of view-space +Z, i.e. opposite to where the view looks: for a
+    /// light, the direction towards the light.
+    pub fn backward(&self) -> glam::Vec3 {
+        glam::Mat4::from_cols_array_2d(&self.view)
+            .inverse()
+            .transform_vector3(glam::Vec3::Z)
+            .normalize_or(glam::Vec3::Y)
+    }
+}
+
 /// A value on a port.
 #[derive(Clone, Debug)]
 pub enum PortValue {
