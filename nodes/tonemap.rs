@@ -2,7 +2,8 @@
 //!
 //! `x = in · 2^exposure`, then per RGB channel: `filmic` — the ACES fit of Narkowicz (2015),
 //! `x(2.51x + 0.03) / (x(2.43x + 0.59) + 0.14)` clamped to [0, 1]; `reinhard` — `x / (1 + x)`;
-//! `linear` — `x` clamped to [0, 1]. Negative inputs become 0; alpha is kept.
+//! `linear` — `x` clamped to [0, 1]. Inputs are first clamped to [0, 65504] (negative → 0, huge
+//! or infinite → the curve's ceiling, never NaN); alpha is kept.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -86,7 +87,8 @@ pub struct TonemapParams {
 
 /// CPU reference for one channel value.
 pub fn curve(op: &str, x: f32) -> f32 {
-    let x = x.max(0.0);
+    // Clamp first: beyond 65504 every curve is at its ceiling, and x² must not overflow.
+    let x = x.clamp(0.0, 65504.0);
     match op {
         "filmic" => ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0),
         "reinhard" => x / (1.0 + x),

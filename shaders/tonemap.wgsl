@@ -12,7 +12,8 @@ struct Params {
 @group(0) @binding(2) var out_image: texture_storage_2d<rgba32float, write>;
 
 fn curve(v: vec3<f32>) -> vec3<f32> {
-    let x = max(v, vec3<f32>(0.0));
+    // Clamp first: beyond 65504 every curve is at its ceiling, and x² must not overflow.
+    let x = clamp(v, vec3<f32>(0.0), vec3<f32>(65504.0));
     switch P.op {
         case 0u: { return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), vec3<f32>(0.0), vec3<f32>(1.0)); }
         case 1u: { return x / (1.0 + x); }

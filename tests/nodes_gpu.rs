@@ -400,3 +400,164 @@ fn image_output_replaces_non_finite_samples_and_writes_every_precision() {
         assert!(common::max_abs_diff(&back, &clean) <= tol, "{name}");
     }
 }
+
+#[test]
+fn tonemap_matches_reference_curves() {
+    let gpu = require_gpu!();
+    let mut im = common::random_raster(9, 7, 4, -0.5, 8.0, 21);
+    im.data[0] = 1e30; // huge stays finite and clamps
+    for op in tyndall::nodes::tonemap::OPERATORS {
+        for exposure in [-3.0f64, 0.0, 2.5] {
+            let out = common::run_node(
+                &gpu,
+                "Tonemap",
+                &[
+                    ("operator", ParamValue::Enum(op.to_string())),
+                    ("exposure", ParamValue::Float(exposure)),
+                ],
+                vec![("image", common::upload(&gpu, &im, PortType::Image))],
+                &["out"],
+                (1, 1),
+            )
+            .expect("tonemap");
+            let scale = 2f32.powf(exposure as f32);
+            for (i, (g, x)) in out["out"].data.iter().zip(&im.data).enumerate() {
+                // Alpha passes through; colour follows the curve (a rational function: a few
+                // ULP of fused multiply-add and division apart, within 1e-6 of values ≤ 1).
+                let want = if i % 4 == 3 {
+                    *x
+                } else {
+                    tyndall::nodes::tonemap::curve(op, x * scale)
+                };
+                assert!(
+                    g.is_finite() && (g - want).abs() <= 1e-6,
+                    "{op} {exposure}: {g} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn side_by_side_matches_reference() {
+    let gpu = require_gpu!();
+    let l = common::random_raster(5, 3, 4, 0.0, 1.0, 22);
+    let r = common::random_raster(4, 6, 4, 0.0, 1.0, 23);
+    let out = common::run_node(
+        &gpu,
+        "SideBySide",
+        &[],
+        vec![
+            ("left", common::upload(&gpu, &l, PortType::Image)),
+            ("right", common::upload(&gpu, &r, PortType::Image)),
+        ],
+        &["image"],
+        (1, 1),
+    )
+    .expect("join");
+    assert_eq!(
+        out["image"],
+        tyndall::nodes::side_by_side::reference(&l, &r)
+    );
+}
+
+/// Composite on uniform inputs has a closed form: albedo·(ambient + E·max(0, n·l))·T + L_scat
+/// with an empty shadow map (no surface shadow), sky colour·T where albedo alpha is 0.
+#[test]
+fn composite_follows_its_formula() {
+    let gpu = require_gpu!();
+    let (w, h) = (6u32, 4u32);
+    let mut albedo = Raster::new(w, h, 4, 0.0);
+    let mut normal = Raster::new(w, h, 4, 0.0);
+    for i in 0..(w * h) as usize {
+        let geometry = i % 3 != 0;
+        albedo.data[i * 4..i * 4 + 4].copy_from_slice(&[0.5, 0.25, 1.0, geometry as u8 as f32]);
+        normal.data[i * 4..i * 4 + 4].copy_from_slice(&[0.0, 1.0, 0.0, 1.0]);
+    }
+    let depth = Raster::new(w, h, 1, 2.0);
+    let inscatter = Raster::new(w, h, 4, 0.125);
+    let transmittance = Raster::new(w, h, 1, 0.5);
+    let map = Raster::new(8, 8, 1, 1.0);
+    // The light looks straight down (−Y): its view's +Z is world +Y, so n·l = 1.
+    let light_view = glam::camera::rh::view::look_at_mat4(
+        glam::Vec3::new(0.0, 10.0, 0.0),
+        glam::Vec3::ZERO,
+        glam::Vec3::Z,
+    );
+    let light = tyndall::eval::Matrices {
+        view: light_view.to_cols_array_2d(),
+        radiance: [2.0, 2.0, 2.0],
+        ..Default::default()
+    };
+    let cam_view = glam::camera::rh::view::look_at_mat4(
+        glam::Vec3::new(0.0, 1.0, 5.0),
+        glam::Vec3::ZERO,
+        glam::Vec3::Y,
+    );
+    let cam_proj = glam::camera::rh::proj::directx::perspective(0.8, 1.5, 0.1, 50.0);
+    let camera = tyndall::eval::Matrices {
+        view: cam_view.to_cols_array_2d(),
+        proj: cam_proj.to_cols_array_2d(),
+        far: 50.0,
+        radiance: [0.0; 3],
+    };
+    let ambient = [0.1, 0.2, 0.3];
+    let sky = [0.7, 0.8, 0.9];
+    let out = common::run_node(
+        &gpu,
+        "Composite",
+        &[
+            (
+                "ambient",
+                ParamValue::Colour([ambient[0], ambient[1], ambient[2], 1.0]),
+            ),
+            ("sky", ParamValue::Colour([sky[0], sky[1], sky[2], 1.0])),
+        ],
+        vec![
+            ("albedo", common::upload(&gpu, &albedo, PortType::Image)),
+            ("normal", common::upload(&gpu, &normal, PortType::Image)),
+            (
+                "depth",
+                tyndall::eval::PortValue::Depth(
+                    std::sync::Arc::new(gpu.upload(w, h, 1, &depth.data).expect("d")),
+                    camera,
+                ),
+            ),
+            (
+                "shadow",
+                tyndall::eval::PortValue::ShadowMap(
+                    std::sync::Arc::new(gpu.upload(8, 8, 1, &map.data).expect("m")),
+                    light,
+                ),
+            ),
+            (
+                "inscatter",
+                common::upload(&gpu, &inscatter, PortType::Image),
+            ),
+            (
+                "transmittance",
+                common::upload(&gpu, &transmittance, PortType::Scalar),
+            ),
+        ],
+        &["image"],
+        (1, 1),
+    )
+    .expect("composite");
+    for i in 0..(w * h) as usize {
+        let geometry = i % 3 != 0;
+        for c in 0..3 {
+            let a = albedo.data[i * 4 + c];
+            let surface = if geometry {
+                a * (ambient[c] as f32 + 2.0)
+            } else {
+                sky[c] as f32
+            };
+            let want = surface * 0.5 + 0.125;
+            let got = out["image"].data[i * 4 + c];
+            assert!(
+                (got - want).abs() <= 1e-5,
+                "texel {i} channel {c}: {got} vs {want}"
+            );
+        }
+    }
+}

@@ -53,7 +53,7 @@ pub struct TexturePool {
 
 /// A pooled 2D texture with its view; returns to the pool when dropped.
 pub struct GpuTexture {
-    tex: Option<wgpu::Texture>,
+    tex: wgpu::Texture,
     view: wgpu::TextureView,
     /// Width in texels.
     pub width: u32,
@@ -78,10 +78,7 @@ impl std::fmt::Debug for GpuTexture {
 impl GpuTexture {
     /// The wgpu texture.
     pub fn raw(&self) -> &wgpu::Texture {
-        // `tex` is only taken in `drop`.
-        self.tex
-            .as_ref()
-            .unwrap_or_else(|| unreachable!("texture used after drop"))
+        &self.tex
     }
 
     /// A view of the whole texture.
@@ -97,10 +94,11 @@ impl GpuTexture {
 
 impl Drop for GpuTexture {
     fn drop(&mut self) {
-        if let (Some(tex), Some(home)) = (self.tex.take(), self.home.upgrade()) {
+        // wgpu textures are reference-counted handles: the pool keeps a clone of this one.
+        if let Some(home) = self.home.upgrade() {
             if let Ok(mut free) = home.lock() {
                 if free.len() < self.capacity {
-                    free.push((self.width, self.height, self.format, tex));
+                    free.push((self.width, self.height, self.format, self.tex.clone()));
                 }
             }
         }
@@ -147,7 +145,7 @@ impl TexturePool {
         });
         let view = tex.create_view(&Default::default());
         GpuTexture {
-            tex: Some(tex),
+            tex,
             view,
             width,
             height,
