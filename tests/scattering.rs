@@ -706,3 +706,89 @@ fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
         );
     }
 }
+
+/// Rasterisation against CPU maths: in the torus scene every shadow-map texel holds the ground
+/// plane's light-space depth (computed on the CPU from the light matrices) unless the torus is
+/// nearer, and likewise every G-buffer pixel holds the analytic distance to the ground unless
+/// the torus or the sky is seen. Rasterisation interpolates depth in f32 across large triangles,
+/// so values agree within 1e-4 (light depth) and 1e-3 m (distance, about 10 m away).
+#[test]
+fn shadow_map_and_gbuffer_match_the_ground_plane_analytically() {
+    let gpu = require_gpu!();
+    let r = run_scene(
+        &gpu,
+        &[("name", ParamValue::Enum("torus".into()))],
+        128,
+        (64, 36),
+        &[],
+    );
+    let lvp = r.light.view_proj();
+    let inv = lvp.inverse();
+    let (mut ground, mut nearer) = (0, 0);
+    for y in 0..128u32 {
+        for x in 0..128u32 {
+            let (nx, ny) = (
+                (x as f32 + 0.5) / 128.0 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / 128.0 * 2.0,
+            );
+            let a = inv.project_point3(Vec3::new(nx, ny, 0.0));
+            let b = inv.project_point3(Vec3::new(nx, ny, 1.0));
+            // Where the light ray through the texel meets y = 0; orthographic depth runs linearly
+            // from 0 at a to 1 at b, so t is also the expected depth.
+            let t = a.y / (a.y - b.y);
+            let p = a + (b - a) * t;
+            // Outside the 20 m ground square nothing is drawn unless the torus is: depth 1.
+            let want = if p.x.abs() <= 10.0 && p.z.abs() <= 10.0 {
+                t
+            } else {
+                1.0
+            };
+            let got = r.shadow.pixel(x, y)[0];
+            assert!(
+                got <= want + 1e-4,
+                "texel ({x},{y}): {got} behind the ground {want}"
+            );
+            if (got - want).abs() <= 1e-4 {
+                ground += 1;
+            } else {
+                nearer += 1;
+            }
+        }
+    }
+    assert!(
+        ground > 128 * 128 * 3 / 4 && nearer > 100,
+        "ground {ground}, torus {nearer}"
+    );
+    let vp = r.camera.view_proj();
+    let inv = vp.inverse();
+    let eye = r.camera.eye();
+    let (mut hits, mut other) = (0, 0);
+    for y in 0..36u32 {
+        for x in 0..64u32 {
+            let ndc = Vec3::new(
+                (x as f32 + 0.5) / 64.0 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / 36.0 * 2.0,
+                1.0,
+            );
+            let dir = (inv.project_point3(ndc) - eye).normalize();
+            let got = r.depth.pixel(x, y)[0];
+            let t = -eye.y / dir.y;
+            let p = eye + dir * t;
+            let on_ground =
+                dir.y < 0.0 && p.x.abs() <= 10.0 && p.z.abs() <= 10.0 && t < r.camera.far;
+            if on_ground && (got - t).abs() <= 1e-3 {
+                hits += 1;
+            } else {
+                assert!(
+                    !on_ground || got < t,
+                    "pixel ({x},{y}): {got} beyond the ground at {t}"
+                );
+                other += 1;
+            }
+        }
+    }
+    assert!(
+        hits > 64 * 36 / 3 && other > 0,
+        "ground pixels {hits}, others {other}"
+    );
+}
