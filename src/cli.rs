@@ -385,6 +385,7 @@ fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliError> {
     let gpu = gpu()?;
     let mut opts = EvalOptions {
         time: a.time,
+        gpu_timings: a.stats,
         ..Default::default()
     };
     if let Some(s) = a.size {
@@ -569,6 +570,7 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
             time: a.time,
             size: a.common.size.unwrap_or((512, 512)),
             output_suffix: v.suffix.clone(),
+            gpu_timings: a.common.stats,
             inject: BTreeMap::new(),
         };
         let result = ev.evaluate(&v.graph, &targets, &opts)?;
@@ -680,6 +682,7 @@ fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
                 time: f.map_or(0.0, |f| f as f64),
                 size: a.common.size.unwrap_or((960, 540)),
                 output_suffix: format!("{}{frame_suffix}", v.suffix),
+                gpu_timings: a.common.stats,
                 inject: BTreeMap::new(),
             };
             let result = ev.evaluate(&v.graph, &targets, &opts)?;

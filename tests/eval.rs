@@ -322,3 +322,45 @@ fn evaluation_errors_name_node_and_parameter() {
         .expect_err("port");
     assert!(err.to_string().contains("no output port 'nope'"), "{err}");
 }
+
+#[test]
+fn gpu_timings_come_from_timestamp_queries_when_asked() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let g = two_branches(dir.path());
+    let mut ev = evaluator(gpu.clone());
+    let target = [Target::Port("m1".into(), "out".into())];
+    let plain = ev
+        .evaluate(&g, &target, &EvalOptions::default())
+        .expect("plain");
+    assert!(
+        plain.stats.nodes.iter().all(|n| n.gpu_time.is_none()),
+        "timings are off by default"
+    );
+    ev.clear();
+    let timed = ev
+        .evaluate(
+            &g,
+            &target,
+            &EvalOptions {
+                gpu_timings: true,
+                ..Default::default()
+            },
+        )
+        .expect("timed");
+    let m1 = timed.stats.nodes.iter().find(|n| n.id == "m1").expect("m1");
+    if gpu
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY)
+    {
+        let t = m1.gpu_time.expect("gpu time");
+        assert!(
+            t <= m1.time,
+            "GPU time {t:?} exceeds the wall time {:?}",
+            m1.time
+        );
+    } else {
+        assert!(m1.gpu_time.is_none());
+    }
+}

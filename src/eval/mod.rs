@@ -71,6 +71,9 @@ pub struct EvalOptions {
     pub size: (u32, u32),
     /// Suffix inserted before the extension of every file a sink writes.
     pub output_suffix: String,
+    /// Measure each node's GPU time with timestamp queries (when the adapter has them); this
+    /// waits for every pass, so it is meant for statistics and benchmarks.
+    pub gpu_timings: bool,
     /// Values injected on unconnected input ports, by (node, port) — how `tyndall node` feeds
     /// files to a node. Each carries its own cache key.
     pub inject: BTreeMap<(String, String), (PortValue, u64)>,
@@ -82,6 +85,7 @@ impl Default for EvalOptions {
             time: 0.0,
             size: (512, 512),
             output_suffix: String::new(),
+            gpu_timings: false,
             inject: BTreeMap::new(),
         }
     }
@@ -119,6 +123,8 @@ pub struct NodeStat {
     pub status: Status,
     /// Wall-clock time of its GPU work including completion (zero unless it ran).
     pub time: Duration,
+    /// GPU time of its passes from timestamp queries (with `gpu_timings`, when supported).
+    pub gpu_time: Option<Duration>,
 }
 
 /// Statistics of one evaluation, one entry per node of the document in topological order.
@@ -162,22 +168,24 @@ impl fmt::Display for Stats {
             .max(4);
         writeln!(
             f,
-            "{:<w$}  {:<k$}  {:<10}  {:>10}",
-            "node", "kind", "status", "time ms"
+            "{:<w$}  {:<k$}  {:<10}  {:>10}  {:>10}",
+            "node", "kind", "status", "wall ms", "gpu ms"
         )?;
+        let ms = |d: Duration| format!("{:.3}", d.as_secs_f64() * 1e3);
         for n in &self.nodes {
-            let t = if n.status == Status::Ran {
-                format!("{:.3}", n.time.as_secs_f64() * 1e3)
+            let (wall, gpu) = if n.status == Status::Ran {
+                (ms(n.time), n.gpu_time.map_or("-".into(), ms))
             } else {
-                "-".into()
+                ("-".into(), "-".into())
             };
             writeln!(
                 f,
-                "{:<w$}  {:<k$}  {:<10}  {:>10}",
+                "{:<w$}  {:<k$}  {:<10}  {:>10}  {:>10}",
                 n.id,
                 n.kind,
                 n.status.to_string(),
-                t
+                wall,
+                gpu
             )?;
         }
         Ok(())
@@ -343,7 +351,7 @@ impl Evaluator {
         let order = graph.topo_order();
         let mut keys: BTreeMap<String, u64> = BTreeMap::new();
         let mut results: BTreeMap<String, BTreeMap<String, PortValue>> = BTreeMap::new();
-        let mut stats: BTreeMap<String, (Status, Duration)> = BTreeMap::new();
+        let mut stats: BTreeMap<String, (Status, Duration, Option<Duration>)> = BTreeMap::new();
         let empty = BTreeSet::new();
         for id in order.iter().filter(|id| needed.contains(*id)) {
             let (k, kind) = self.kind_of(graph, id)?;
@@ -411,14 +419,17 @@ impl Evaluator {
                 .filter(|e| e.key == key && want.iter().all(|p| e.outputs.contains_key(p)));
             let outputs = if let Some(e) = cached {
                 e.last_used = self.clock;
-                stats.insert(id.clone(), (Status::Reused, Duration::ZERO));
+                stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None));
                 e.outputs.clone()
             } else {
+                self.gpu.set_timing(opts.gpu_timings);
                 let start = Instant::now();
                 k.run(&mut ctx).map_err(node_err)?;
                 self.gpu.wait().map_err(|e| node_err(e.into()))?;
                 self.gpu.take_errors().map_err(|e| node_err(e.into()))?;
                 let elapsed = start.elapsed();
+                let gpu_time = self.gpu.take_gpu_time();
+                self.gpu.set_timing(false);
                 for p in want {
                     if !ctx.outputs.contains_key(p) {
                         return Err(node_err(NodeError::Other(format!(
@@ -437,7 +448,7 @@ impl Evaluator {
                         last_used: self.clock,
                     },
                 );
-                stats.insert(id.clone(), (Status::Ran, elapsed));
+                stats.insert(id.clone(), (Status::Ran, elapsed, gpu_time));
                 outputs
             };
             if sinks.contains(id) {
@@ -460,15 +471,17 @@ impl Evaluator {
                 .iter()
                 .filter_map(|id| {
                     let node = graph.node(id)?;
-                    let (status, time) = stats
-                        .get(id)
-                        .copied()
-                        .unwrap_or((Status::NotNeeded, Duration::ZERO));
+                    let (status, time, gpu_time) =
+                        stats
+                            .get(id)
+                            .copied()
+                            .unwrap_or((Status::NotNeeded, Duration::ZERO, None));
                     Some(NodeStat {
                         id: id.clone(),
                         kind: node.kind.clone(),
                         status,
                         time,
+                        gpu_time,
                     })
                 })
                 .collect(),

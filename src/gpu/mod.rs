@@ -4,6 +4,7 @@
 mod layout;
 mod pool;
 mod raster;
+mod timer;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -13,6 +14,7 @@ use thiserror::Error;
 pub use layout::{check_uniform_layout, UniformLayout};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{MeshDraw, MeshVertex, RasterTarget};
+pub use timer::PassTimer;
 
 /// Errors from the GPU layer.
 #[derive(Debug, Error, Clone)]
@@ -73,6 +75,7 @@ pub struct Gpu {
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
+    timing: std::sync::atomic::AtomicBool,
     errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -165,6 +168,7 @@ impl Gpu {
             limits,
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
+            timing: std::sync::atomic::AtomicBool::new(false),
             errors,
         })
     }
@@ -547,17 +551,28 @@ impl Gpu {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
+        let timer = self.pass_timer();
         let mut enc = self.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(shader.stem),
-                timestamp_writes: None,
+                timestamp_writes: timer.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.query,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
         }
+        if let Some(t) = &timer {
+            self.resolve_timer(t, &mut enc);
+        }
         self.queue.submit([enc.finish()]);
+        if let Some(t) = timer {
+            self.read_timer(t)?;
+        }
         Ok(())
     }
 }

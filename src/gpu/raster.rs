@@ -181,6 +181,7 @@ impl Gpu {
                     })
                 })
                 .collect();
+            let timer = self.pass_timer();
             let mut enc = self.device.create_command_encoder(&Default::default());
             {
                 let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -194,7 +195,11 @@ impl Gpu {
                         }),
                         stencil_ops: None,
                     }),
-                    timestamp_writes: None,
+                    timestamp_writes: timer.as_ref().map(|t| wgpu::RenderPassTimestampWrites {
+                        query_set: &t.query,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    }),
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
@@ -208,7 +213,11 @@ impl Gpu {
                     }
                 }
             }
+            if let Some(t) = &timer {
+                self.resolve_timer(t, &mut enc);
+            }
             self.queue.submit([enc.finish()]);
-        })
+            timer.map_or(Ok(()), |t| self.read_timer(t))
+        })?
     }
 }

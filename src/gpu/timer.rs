@@ -1,0 +1,94 @@
+//! GPU timestamp queries around passes, summed per thread, for per-node GPU timings.
+
+use std::cell::Cell;
+
+use super::{Gpu, GpuError};
+
+thread_local! {
+    static GPU_NS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// The queries of one pass: two timestamps resolved into a buffer and copied for reading.
+pub struct PassTimer {
+    /// Two timestamps: beginning and end of the pass.
+    pub query: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+}
+
+impl Gpu {
+    /// Start timing passes on this thread (when the adapter has timestamp queries).
+    pub fn set_timing(&self, on: bool) {
+        self.timing.store(on, std::sync::atomic::Ordering::Relaxed);
+        GPU_NS.with(|c| c.set(0));
+    }
+
+    /// GPU time of this thread's passes since the last call, or `None` without timestamp
+    /// queries (or with timing off).
+    pub fn take_gpu_time(&self) -> Option<std::time::Duration> {
+        let ns = GPU_NS.with(|c| c.replace(0));
+        self.timing_active()
+            .then(|| std::time::Duration::from_nanos(ns))
+    }
+
+    fn timing_active(&self) -> bool {
+        self.timing.load(std::sync::atomic::Ordering::Relaxed)
+            && self
+                .device
+                .features()
+                .contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// Queries for one pass, when timing.
+    pub(crate) fn pass_timer(&self) -> Option<PassTimer> {
+        if !self.timing_active() {
+            return None;
+        }
+        let buffer = |usage| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Some(PassTimer {
+            query: self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: buffer(wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
+            read: buffer(wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+        })
+    }
+
+    /// Record the resolve of a pass's timestamps (after the pass, before `submit`).
+    pub(crate) fn resolve_timer(&self, t: &PassTimer, enc: &mut wgpu::CommandEncoder) {
+        enc.resolve_query_set(&t.query, 0..2, &t.resolve, 0);
+        enc.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
+    }
+
+    /// After `submit`: wait for the pass and add its duration to this thread's total.
+    pub(crate) fn read_timer(&self, t: PassTimer) -> Result<(), GpuError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        t.read.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let view = t
+            .read
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let stamps: &[u64] = bytemuck::cast_slice(&view);
+        let ticks = stamps[1].saturating_sub(stamps[0]);
+        let ns = (ticks as f64 * self.queue.get_timestamp_period() as f64) as u64;
+        drop(view);
+        t.read.unmap();
+        GPU_NS.with(|c| c.set(c.get() + ns));
+        Ok(())
+    }
+}
