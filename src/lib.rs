@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod cli;
+pub mod editor;
 pub mod eval;
 pub mod gpu;
 pub mod graph;

@@ -147,15 +147,7 @@ impl Graph {
     /// Add a node of `kind` with a fresh id derived from the kind (`math1`, `math2`, ...); ids of
     /// removed nodes are never handed out again by this document.
     pub fn add_node(&mut self, catalog: &Catalog, kind: &str) -> Result<String, GraphError> {
-        let stem: String = kind.to_lowercase();
-        let mut n = 1;
-        let id = loop {
-            let id = format!("{stem}{n}");
-            if !self.index.contains_key(&id) && !self.retired.contains(&id) {
-                break id;
-            }
-            n += 1;
-        };
+        let id = self.fresh_id(kind);
         self.insert_node(
             catalog,
             Node {
@@ -168,6 +160,20 @@ impl Graph {
             },
         )?;
         Ok(id)
+    }
+
+    /// The id [`Graph::add_node`] would give the next node of `kind`: the kind in lower case
+    /// and the smallest number not used by a present or removed node.
+    pub fn fresh_id(&self, kind: &str) -> String {
+        let stem: String = kind.to_lowercase();
+        let mut n = 1;
+        loop {
+            let id = format!("{stem}{n}");
+            if !self.index.contains_key(&id) && !self.retired.contains(&id) {
+                return id;
+            }
+            n += 1;
+        }
     }
 
     /// Insert a fully described node, checking its kind, parameters and key-frames.

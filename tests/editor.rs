@@ -1,0 +1,223 @@
+//! The editor's document core: undo/redo, refused connections, copy/paste, saving, autosave
+//! and recovery, and saves that survive being killed.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use tyndall::editor::{autosave_path, list_presets, EditorState, UNDO_LIMIT};
+use tyndall::graph::{load_file, save_string, ParamValue};
+
+fn state() -> EditorState {
+    EditorState::new(tyndall::nodes::registry().catalog().clone())
+}
+
+#[test]
+fn undo_and_redo_restore_the_exact_document_over_many_steps() {
+    let mut s = state();
+    let mut history = vec![save_string(s.graph())];
+    let c = s.add_node("Constant", [0.0, 0.0]).expect("add");
+    history.push(save_string(s.graph()));
+    let m = s.add_node("Math", [200.0, 0.0]).expect("add");
+    history.push(save_string(s.graph()));
+    s.connect(&format!("{c}.value"), &format!("{m}.a"))
+        .expect("connect");
+    history.push(save_string(s.graph()));
+    for i in 0..120 {
+        s.set_param(&m, "b", ParamValue::Float(i as f64 * 0.5))
+            .expect("param");
+        history.push(save_string(s.graph()));
+    }
+    assert_eq!(s.undo_depth(), 123);
+    // Undo walks back through every state exactly.
+    for want in history.iter().rev().skip(1) {
+        assert!(s.undo());
+        assert_eq!(&save_string(s.graph()), want);
+    }
+    assert!(!s.undo(), "nothing left to undo");
+    for want in history.iter().skip(1) {
+        assert!(s.redo());
+        assert_eq!(&save_string(s.graph()), want);
+    }
+    // History is bounded.
+    for i in 0..(UNDO_LIMIT + 20) {
+        s.set_param(&m, "a", ParamValue::Float(i as f64))
+            .expect("param");
+    }
+    assert_eq!(s.undo_depth(), UNDO_LIMIT);
+}
+
+#[test]
+fn refused_connections_say_why_and_change_nothing() {
+    let mut s = state();
+    let input = s.add_node("ImageInput", [0.0, 0.0]).expect("add");
+    let m1 = s.add_node("Math", [0.0, 0.0]).expect("add");
+    let m2 = s.add_node("Math", [0.0, 0.0]).expect("add");
+    s.connect(&format!("{m1}.out"), &format!("{m2}.a"))
+        .expect("ok");
+    let before = save_string(s.graph());
+    let depth = s.undo_depth();
+    let err = s
+        .connect(&format!("{input}.shadow"), &format!("{m1}.a"))
+        .expect_err("type mismatch");
+    assert!(err.to_string().contains("port type mismatch"), "{err}");
+    let err = s
+        .connect(&format!("{m2}.out"), &format!("{m1}.b"))
+        .expect_err("cycle");
+    assert!(err.to_string().contains("cycle"), "{err}");
+    assert_eq!(save_string(s.graph()), before);
+    assert_eq!(s.undo_depth(), depth);
+}
+
+#[test]
+fn copy_paste_between_graphs_and_duplicate() {
+    let mut a = state();
+    let c = a.add_node("Constant", [10.0, 10.0]).expect("add");
+    let m = a.add_node("Math", [100.0, 10.0]).expect("add");
+    let r = a.add_node("Remap", [200.0, 10.0]).expect("add");
+    a.connect(&format!("{c}.value"), &format!("{m}.a"))
+        .expect("edge");
+    a.connect(&format!("{m}.out"), &format!("{r}.in"))
+        .expect("edge");
+    a.set_param(&m, "op", ParamValue::Enum("mul".into()))
+        .expect("param");
+    let clip = a.copy(&[c.clone(), m.clone()]);
+    let mut b = state();
+    let existing = b.add_node("Constant", [0.0, 0.0]).expect("add");
+    let new = b.paste(&clip, [5.0, 5.0]).expect("paste");
+    assert_eq!(new.len(), 2);
+    assert!(!new.contains(&existing), "pasted nodes get fresh ids");
+    let edges = b.graph().edges();
+    assert_eq!(
+        edges.len(),
+        1,
+        "the edge between the copied nodes comes along, the one to Remap does not"
+    );
+    let pasted_math = new
+        .iter()
+        .find(|id| b.graph().node(id).is_some_and(|n| n.kind == "Math"))
+        .expect("math");
+    assert_eq!(
+        b.graph().node(pasted_math).and_then(|n| n.params.get("op")),
+        Some(&ParamValue::Enum("mul".into()))
+    );
+    assert_eq!(
+        b.graph().node(pasted_math).and_then(|n| n.pos),
+        Some([105.0, 15.0])
+    );
+    // One paste is one undo step.
+    assert!(b.undo());
+    assert_eq!(b.graph().len(), 1);
+    let dup = a.duplicate(&[m.clone(), r.clone()]).expect("duplicate");
+    assert_eq!(a.graph().len(), 5);
+    assert_eq!(dup.len(), 2);
+}
+
+#[test]
+fn save_reopen_dirty_and_autosave_recovery() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("g.ron");
+    let mut s = state();
+    assert!(s.save().is_err(), "untitled: save needs save as");
+    let c = s.add_node("Constant", [1.0, 2.0]).expect("add");
+    assert!(s.is_dirty());
+    s.save_as(&path).expect("save");
+    assert!(!s.is_dirty());
+    let reopened = EditorState::open(s.catalog().clone(), &path).expect("open");
+    assert_eq!(save_string(reopened.graph()), save_string(s.graph()));
+    // Autosave writes a side file only when there are unsaved changes and the period passed.
+    s.set_autosave_period(Duration::ZERO);
+    assert!(
+        !s.tick_autosave(Instant::now()).expect("tick"),
+        "nothing to autosave"
+    );
+    s.set_param(&c, "value", ParamValue::Float(4.0))
+        .expect("param");
+    assert!(s.tick_autosave(Instant::now()).expect("tick"));
+    let side = autosave_path(&path);
+    assert!(side.exists());
+    // A crash now: the next start finds the autosave, newer than the file, and recovers it.
+    std::thread::sleep(Duration::from_millis(20));
+    let found = EditorState::recoverable(&path).expect("offer recovery");
+    let mut next = EditorState::open(s.catalog().clone(), &path).expect("open");
+    next.recover(&found).expect("recover");
+    assert_eq!(save_string(next.graph()), save_string(s.graph()));
+    assert!(next.is_dirty(), "recovered changes are not saved yet");
+    next.save().expect("save");
+    assert!(!side.exists(), "saving removes the autosave");
+    assert!(EditorState::recoverable(&path).is_none());
+}
+
+#[test]
+fn preset_library_lists_and_merges() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs");
+    let presets = list_presets(&[root]);
+    assert!(
+        presets.iter().any(|p| p.name == "physical/window"),
+        "{presets:?}"
+    );
+    assert!(presets
+        .iter()
+        .any(|p| p.name == "stylize/tree_hole_filling"));
+    let mut s = state();
+    let text = std::fs::read_to_string(&presets[0].path).expect("read");
+    let merged = s.paste(&text, [0.0, 0.0]).expect("merge");
+    assert_eq!(merged.len(), s.graph().len());
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("sel.ron");
+    s.save_preset(&merged[..2], &out).expect("save preset");
+    assert_eq!(load_file(&out, s.catalog()).expect("load").len(), 2);
+}
+
+/// Child side of the kill test: save alternating documents to `TYNDALL_SAVE_LOOP` forever.
+#[test]
+fn save_loop_child() {
+    let Ok(target) = std::env::var("TYNDALL_SAVE_LOOP") else {
+        return;
+    };
+    let mut s = state();
+    let m = s.add_node("Math", [0.0, 0.0]).expect("add");
+    for i in 0..400 {
+        s.add_node("Constant", [i as f32, 0.0]).expect("add"); // a file of a few tens of kB
+    }
+    let mut i = 0u64;
+    loop {
+        s.set_param(&m, "a", ParamValue::Float(i as f64))
+            .expect("param");
+        s.save_as(Path::new(&target)).expect("save");
+        i += 1;
+    }
+}
+
+/// Killing the process in the middle of saves never leaves a truncated or missing file.
+#[test]
+fn killing_during_save_leaves_a_whole_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let target = dir.path().join("killed.ron");
+    let exe = std::env::current_exe().expect("test binary");
+    let catalog = tyndall::nodes::registry().catalog().clone();
+    for round in 0..12 {
+        let mut child = std::process::Command::new(&exe)
+            .args([
+                "--exact",
+                "save_loop_child",
+                "--nocapture",
+                "--test-threads",
+                "1",
+            ])
+            .env("TYNDALL_SAVE_LOOP", &target)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("spawn");
+        // Let it get going (the first save creates the file), then kill it at a varying moment.
+        let wait = Instant::now();
+        while !target.exists() && wait.elapsed() < Duration::from_secs(20) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(7 + 13 * round));
+        child.kill().expect("kill");
+        let _ = child.wait();
+        let g = load_file(&target, &catalog).unwrap_or_else(|e| panic!("round {round}: {e}"));
+        assert_eq!(g.len(), 401, "round {round}");
+    }
+}
