@@ -75,7 +75,6 @@ pub struct Gpu {
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
-    timing: std::sync::atomic::AtomicBool,
     errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -168,7 +167,6 @@ impl Gpu {
             limits,
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
-            timing: std::sync::atomic::AtomicBool::new(false),
             errors,
         })
     }

@@ -5,6 +5,9 @@ use std::cell::Cell;
 use super::{Gpu, GpuError};
 
 thread_local! {
+    // Per thread, like wgpu's error scopes: evaluations on other threads neither switch this
+    // thread's timing on or off nor add to its total.
+    static TIMING: Cell<bool> = const { Cell::new(false) };
     static GPU_NS: Cell<u64> = const { Cell::new(0) };
 }
 
@@ -17,9 +20,9 @@ pub struct PassTimer {
 }
 
 impl Gpu {
-    /// Start timing passes on this thread (when the adapter has timestamp queries).
+    /// Start (or stop) timing passes on this thread (when the adapter has timestamp queries).
     pub fn set_timing(&self, on: bool) {
-        self.timing.store(on, std::sync::atomic::Ordering::Relaxed);
+        TIMING.with(|t| t.set(on));
         GPU_NS.with(|c| c.set(0));
     }
 
@@ -32,7 +35,7 @@ impl Gpu {
     }
 
     fn timing_active(&self) -> bool {
-        self.timing.load(std::sync::atomic::Ordering::Relaxed)
+        TIMING.with(|t| t.get())
             && self
                 .device
                 .features()
