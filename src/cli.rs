@@ -58,6 +58,11 @@ pub enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
+    /// Open the editor window (early version: canvas, parameters, viewer).
+    Edit {
+        /// Graph to open (an empty graph when left out).
+        graph: Option<PathBuf>,
+    },
     /// List every node kind with its ports and parameters.
     Nodes {
         /// Markdown tables (for docs).
@@ -241,6 +246,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Node(a) => run_node(registry, a),
+        Command::Edit { graph } => crate::editor::run(graph).map_err(bad),
         Command::Bench {
             suite,
             runs,
