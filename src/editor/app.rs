@@ -473,7 +473,8 @@ impl eframe::App for EditorApp {
                 let title = self
                     .state
                     .path()
-                    .map(|p| p.display().to_string())
+                    .and_then(|p| p.file_name())
+                    .map(|n| n.to_string_lossy().into_owned())
                     .unwrap_or_else(|| "untitled".into());
                 ui.strong(format!(
                     "Tyndall — {title}{}",

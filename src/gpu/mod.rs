@@ -92,6 +92,9 @@ thread_local! {
     /// Error records logged on this thread (the validation layer reports synchronously on the
     /// thread that made the offending call, so per-thread lists attribute errors correctly).
     static LOGGED_ERRORS: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Depth of `Gpu::scoped` calls on this thread: only messages logged inside our own GPU
+    /// calls are ours (an egui renderer on the same thread logs through the same logger).
+    static CAPTURING: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
 }
 
 impl log::Log for ValidationLogger {
@@ -107,7 +110,9 @@ impl log::Log for ValidationLogger {
         if r.level() == log::Level::Warn {
             eprintln!("warning: {line}");
         } else {
-            LOGGED_ERRORS.with(|v| v.borrow_mut().push(line));
+            if CAPTURING.with(|c| c.get()) > 0 {
+                LOGGED_ERRORS.with(|v| v.borrow_mut().push(line));
+            }
         }
     }
 
@@ -214,7 +219,9 @@ impl Gpu {
     pub fn scoped<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuError> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        CAPTURING.with(|c| c.set(c.get() + 1));
         let out = f();
+        CAPTURING.with(|c| c.set(c.get().saturating_sub(1)));
         let v = pollster::block_on(validation.pop());
         let o = pollster::block_on(oom.pop());
         let mut msgs: Vec<String> = [v, o]
