@@ -78,3 +78,62 @@ fn selecting_a_node_shows_its_parameters_and_picture() {
         &egui_kittest::SnapshotOptions::new().max_failed_pixels(1500),
     );
 }
+
+#[test]
+fn autosave_recovery_is_offered_and_restores_the_changes() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("g.ron");
+    let registry = Arc::new(tyndall::nodes::registry());
+    // A session edits, autosaves, and dies without saving.
+    let mut crashed = EditorState::new(registry.catalog().clone());
+    crashed.add_node("Constant", [0.0, 0.0]).expect("add");
+    crashed.save_as(&path).expect("save");
+    crashed.add_node("Math", [100.0, 0.0]).expect("add");
+    crashed.set_autosave_period(std::time::Duration::ZERO);
+    assert!(crashed
+        .tick_autosave(std::time::Instant::now())
+        .expect("autosave"));
+    let wanted = save_string(crashed.graph());
+    drop(crashed);
+    // The next start offers recovery.
+    let state = EditorState::open(registry.catalog().clone(), &path).expect("open");
+    let side = EditorState::recoverable(&path).expect("autosave found");
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1000.0, 700.0))
+        .wgpu()
+        .build_eframe(move |_cc| {
+            let mut app = EditorApp::new(state, registry);
+            app.recovery = Some(side);
+            app
+        });
+    h.run_steps(3);
+    assert_eq!(h.state().state.graph().len(), 1);
+    h.get_by_label("Recover").click();
+    h.run_steps(3);
+    assert_eq!(save_string(h.state().state.graph()), wanted);
+    assert!(h.state().state.is_dirty(), "recovered, not yet saved");
+    assert!(h.query_by_label("Recover").is_none(), "the offer is gone");
+}
+
+#[test]
+fn unsaved_changes_prompt_can_be_cancelled() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(1.0))
+        .expect("param");
+    h.state_mut().confirm_quit = true;
+    h.run_steps(2);
+    let _ = h.get_by_label("Save and quit");
+    let _ = h.get_by_label("Discard and quit");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(!h.state().confirm_quit);
+    assert!(h.state().state.is_dirty(), "cancel keeps the changes");
+}

@@ -43,6 +43,11 @@ pub struct EditorApp {
     preview: Option<egui::TextureHandle>,
     preview_key: String,
     time: f64,
+    /// An autosave left by a session that did not save, offered for recovery at start.
+    pub recovery: Option<PathBuf>,
+    /// The window was asked to close with unsaved changes: the save/discard/cancel prompt.
+    pub confirm_quit: bool,
+    allow_close: bool,
 }
 
 impl EditorApp {
@@ -61,6 +66,9 @@ impl EditorApp {
             preview: None,
             preview_key: String::new(),
             time: 0.0,
+            recovery: None,
+            confirm_quit: false,
+            allow_close: false,
         }
     }
 
@@ -249,6 +257,70 @@ impl EditorApp {
                     self.status = e.to_string();
                 }
             }
+        }
+    }
+}
+
+impl EditorApp {
+    /// The recovery offer and the unsaved-changes prompt.
+    fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some(side) = self.recovery.clone() {
+            egui::Window::new("Recover unsaved changes?")
+                .collapsible(false)
+                .resizable(false)
+                .show(ctx, |ui| {
+                    ui.label(format!(
+                        "An autosave newer than the graph was found: {}",
+                        side.display()
+                    ));
+                    ui.horizontal(|ui| {
+                        if ui.button("Recover").clicked() {
+                            self.status = match self.state.recover(&side) {
+                                Ok(()) => "recovered the autosave (not saved yet)".into(),
+                                Err(e) => e.to_string(),
+                            };
+                            self.recovery = None;
+                        }
+                        if ui.button("Ignore").clicked() {
+                            self.recovery = None;
+                        }
+                    });
+                });
+        }
+        if ctx.input(|i| i.viewport().close_requested())
+            && self.state.is_dirty()
+            && !self.allow_close
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.confirm_quit = true;
+        }
+        if self.confirm_quit {
+            egui::Window::new("Unsaved changes")
+                .collapsible(false)
+                .resizable(false)
+                .show(ctx, |ui| {
+                    ui.label("The graph has changes that are not saved.");
+                    ui.horizontal(|ui| {
+                        if ui.button("Save and quit").clicked() {
+                            match self.state.save() {
+                                Ok(()) => {
+                                    self.allow_close = true;
+                                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                                }
+                                Err(e) => self.status = e.to_string(),
+                            }
+                            self.confirm_quit = false;
+                        }
+                        if ui.button("Discard and quit").clicked() {
+                            self.allow_close = true;
+                            self.confirm_quit = false;
+                            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                        }
+                        if ui.button("Cancel").clicked() {
+                            self.confirm_quit = false;
+                        }
+                    });
+                });
         }
     }
 }
@@ -443,6 +515,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
 impl eframe::App for EditorApp {
     fn ui(&mut self, root: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = root.ctx().clone();
+        self.dialogs(&ctx);
         self.sync();
         let (undo, redo, save) = ctx.input(|i| {
             let cmd = i.modifiers.command;
@@ -559,6 +632,7 @@ pub fn run(path: Option<PathBuf>) -> Result<(), String> {
         None => EditorState::new(registry.catalog().clone()),
     };
     let mut app = EditorApp::new(state, registry.clone());
+    app.recovery = path.as_deref().and_then(EditorState::recoverable);
     // Start on the picture: the node feeding the graph's first output, else the last node.
     let g = app.state.graph();
     let sink = g
