@@ -94,16 +94,6 @@ pub struct CompositeParams {
     pub _pad2: u32,
 }
 
-fn image_input(ctx: &RunCtx, port: &str) -> Result<Arc<crate::gpu::GpuTexture>, NodeError> {
-    ctx.require(port)?
-        .texture()
-        .cloned()
-        .ok_or_else(|| NodeError::Input {
-            port: port.into(),
-            message: "is not an image".into(),
-        })
-}
-
 impl NodeKind for Composite {
     fn schema(&self) -> &'static NodeSchema {
         &SCHEMA
@@ -135,8 +125,8 @@ impl NodeKind for Composite {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let albedo = image_input(ctx, "albedo")?;
-        let normal = image_input(ctx, "normal")?;
+        let albedo = ctx.require_texture("albedo")?;
+        let normal = ctx.require_texture("normal")?;
         let (depth, cam) = match ctx.require("depth")? {
             PortValue::Depth(t, m) => (t.clone(), *m),
             _ => {

@@ -79,14 +79,7 @@ impl NodeKind for HoleComposite {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let (object, _) = map(ctx, "object")?;
         let (rest, m) = map(ctx, "rest")?;
-        let holes = ctx
-            .require("holes")?
-            .texture()
-            .cloned()
-            .ok_or_else(|| NodeError::Input {
-                port: "holes".into(),
-                message: "is not an image".into(),
-            })?;
+        let holes = ctx.require_texture("holes")?;
         if (object.width, object.height) != (rest.width, rest.height) {
             return Err(NodeError::Input {
                 port: "object".into(),

@@ -128,10 +128,7 @@ impl NodeKind for HoleMap {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let input = ctx.require("noise")?.clone();
-        let tex = input.texture().cloned().ok_or_else(|| NodeError::Input {
-            port: "noise".into(),
-            message: "is not an image".into(),
-        })?;
+        let tex = ctx.require_texture("noise")?;
         let h = ctx.f64("probability")?;
         let threshold = if ctx.bool("calibrated")? {
             calibrated_threshold(&download(ctx.gpu, &input)?.data, h)

@@ -123,14 +123,7 @@ impl NodeKind for ImageOutput {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let tex = ctx
-            .require("image")?
-            .texture()
-            .cloned()
-            .ok_or_else(|| NodeError::Input {
-                port: "image".into(),
-                message: "is not an image".into(),
-            })?;
+        let tex = ctx.require_texture("image")?;
         let (entry, slot) = match tex.format {
             TexFormat::R32F => ("sanitize_scalar", 1),
             TexFormat::Rgba32F => ("sanitize_image", 2),

@@ -127,11 +127,7 @@ impl NodeKind for Remap {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let input = ctx.require("in")?;
-        let tex = input.texture().cloned().ok_or_else(|| NodeError::Input {
-            port: "in".into(),
-            message: "is not an image".into(),
-        })?;
+        let tex = ctx.require_texture("in")?;
         let u = RemapParams {
             from_min: ctx.f32("from_min")?,
             from_max: ctx.f32("from_max")?,

@@ -83,16 +83,7 @@ impl NodeKind for SideBySide {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let get = |port: &str| {
-            ctx.require(port)?
-                .texture()
-                .cloned()
-                .ok_or_else(|| NodeError::Input {
-                    port: port.into(),
-                    message: "is not an image".into(),
-                })
-        };
-        let (l, r) = (get("left")?, get("right")?);
+        let (l, r) = (ctx.require_texture("left")?, ctx.require_texture("right")?);
         let (w, h) = (l.width + r.width, l.height.max(r.height));
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         ctx.gpu.dispatch(

@@ -117,14 +117,7 @@ impl NodeKind for Tonemap {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let tex = ctx
-            .require("image")?
-            .texture()
-            .cloned()
-            .ok_or_else(|| NodeError::Input {
-                port: "image".into(),
-                message: "is not an image".into(),
-            })?;
+        let tex = ctx.require_texture("image")?;
         let op = ctx.text("operator")?;
         let u = TonemapParams {
             scale: 2f32.powf(ctx.f32("exposure")?),

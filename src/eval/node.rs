@@ -145,6 +145,20 @@ impl RunCtx<'_> {
         })
     }
 
+    /// The texture on a required image-like input `port` (Scalar, Image, Depth, ShadowMap).
+    pub fn require_texture(
+        &self,
+        port: &str,
+    ) -> Result<std::sync::Arc<crate::gpu::GpuTexture>, NodeError> {
+        self.require(port)?
+            .texture()
+            .cloned()
+            .ok_or_else(|| NodeError::Input {
+                port: port.to_string(),
+                message: "is not an image".into(),
+            })
+    }
+
     /// Whether output `port` is needed downstream.
     pub fn wants(&self, port: &str) -> bool {
         self.wanted.contains(port)
