@@ -16,6 +16,9 @@ use tyndall::nodes::{constant, image_input, image_output, math, remap};
 
 const F32_EPS: f32 = f32::EPSILON;
 
+/// A raster fed to a Math input, with the port type it is uploaded as.
+type Operand<'a> = (&'a Raster, PortType);
+
 #[test]
 fn constant_matches_reference_exactly() {
     let gpu = require_gpu!();
@@ -91,79 +94,36 @@ fn math_matches_reference_for_every_op_and_operand_kind() {
             ("hi", ParamValue::Float(0.75)),
             ("b", ParamValue::Float(1.5)),
         ];
-        // Scalar × Scalar (with zeros in both operands).
-        let got = common::run_node(
-            &gpu,
-            "Math",
-            &params,
-            vec![
-                ("a", common::upload(&gpu, &sa_zero, PortType::Scalar)),
-                ("b", common::upload(&gpu, &sb_zero, PortType::Scalar)),
-            ],
-            &["out"],
-            (4, 4),
-        )
-        .expect("scalar×scalar");
-        check_math(
-            op,
-            math::Operand::Raster(&sa_zero),
-            math::Operand::Raster(&sb_zero),
-            &got["out"],
-        );
-        // Image × Scalar broadcast.
-        let got = common::run_node(
-            &gpu,
-            "Math",
-            &params,
-            vec![
-                ("a", common::upload(&gpu, &ia, PortType::Image)),
-                ("b", common::upload(&gpu, &sb, PortType::Scalar)),
-            ],
-            &["out"],
-            (4, 4),
-        )
-        .expect("image×scalar");
-        check_math(
-            op,
-            math::Operand::Raster(&ia),
-            math::Operand::Raster(&sb),
-            &got["out"],
-        );
-        // 1×1 Image × Scalar: the 1×1 operand broadcasts over the other's size.
-        let got = common::run_node(
-            &gpu,
-            "Math",
-            &params,
-            vec![
-                ("a", common::upload(&gpu, &one, PortType::Image)),
-                ("b", common::upload(&gpu, &sb, PortType::Scalar)),
-            ],
-            &["out"],
-            (4, 4),
-        )
-        .expect("1x1×scalar");
-        check_math(
-            op,
-            math::Operand::Raster(&one),
-            math::Operand::Raster(&sb),
-            &got["out"],
-        );
-        // Scalar × constant parameter b.
-        let got = common::run_node(
-            &gpu,
-            "Math",
-            &params,
-            vec![("a", common::upload(&gpu, &sa, PortType::Scalar))],
-            &["out"],
-            (4, 4),
-        )
-        .expect("scalar×const");
-        check_math(
-            op,
-            math::Operand::Raster(&sa),
-            math::Operand::Const(1.5),
-            &got["out"],
-        );
+        // (case, a, b): Scalar × Scalar with zeros in both operands, Image × Scalar broadcast,
+        // a 1×1 Image broadcast over the other operand's size, Scalar × the `b` parameter.
+        let cases: [(&str, Operand, Option<Operand>); 4] = [
+            (
+                "scalar×scalar",
+                (&sa_zero, PortType::Scalar),
+                Some((&sb_zero, PortType::Scalar)),
+            ),
+            (
+                "image×scalar",
+                (&ia, PortType::Image),
+                Some((&sb, PortType::Scalar)),
+            ),
+            (
+                "1x1×scalar",
+                (&one, PortType::Image),
+                Some((&sb, PortType::Scalar)),
+            ),
+            ("scalar×const", (&sa, PortType::Scalar), None),
+        ];
+        for (case, (a, ta), b) in cases {
+            let mut inputs = vec![("a", common::upload(&gpu, a, ta))];
+            if let Some((b, tb)) = b {
+                inputs.push(("b", common::upload(&gpu, b, tb)));
+            }
+            let got =
+                common::run_node(&gpu, "Math", &params, inputs, &["out"], (4, 4)).expect(case);
+            let b_operand = b.map_or(math::Operand::Const(1.5), |(r, _)| math::Operand::Raster(r));
+            check_math(op, math::Operand::Raster(a), b_operand, &got["out"]);
+        }
     }
 }
 
