@@ -27,13 +27,20 @@
 //! | `method` | Enum | Reference | Reference, Fast | algorithm |
 //!
 //! `method = Reference` runs the definition above on the GPU, O(length) per texel. `Fast`
-//! rectifies the map into a grid of epipolar rays (rows: angles one texel apart at the far
-//! edge; columns: unit steps in distance), takes the one-sided 1D min (or max) of κ along each
-//! row with van Herk / Gil–Werman (constant cost per texel whatever the length), and reads it
-//! back at each texel's nearest row and sample column. Its samples sit on the grid rather than
-//! exactly at `c_t + i·dir`, so some texels differ from the definition: on shadow maps of the
-//! built-in scenes 86–99 % of texels agree within 1e-4 (worst with the epipole inside the map),
-//! short of the 99 % we aim for, which is why `Reference` is the default.
+//! gives the same result on every texel with a cost that does not grow with `length` on shadow
+//! maps: each texel takes its first and last [`ENDS`] samples exactly and bounds the samples in
+//! between with a rectified grid of epipolar rays (rows one texel of arc apart at the far edge,
+//! columns one texel of distance apart; each cell holds the min, or max, of κ over the 3×3
+//! texels around its point, then a van Herk / Gil–Werman 1D filter runs along each row). When
+//! the ends already beat the bound, they are the definition's answer; otherwise, or when the
+//! texel's samples stray further from the grid points than a block covers (epipoles ~1e7
+//! texels away, where f32 angles are too coarse), that texel runs the exact loop. How many
+//! texels fall back depends on the map (measured on the tree's foliage map, the closure's
+//! erosion pass: 3 % at length 15 and 18 % at 60 at 1024², 2 % and 10 % at 2048²; most texels
+//! on noise); only their share of the work grows with `length`. The grid costs several texels' worth of
+//! work per texel (its disc around the epipole is larger than the map), so on lavapipe `Fast`
+//! is slower than `Reference` at lengths up to 60 (BENCHMARKS.md), which is why `Reference`
+//! stays the default.
 
 use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
@@ -59,7 +66,7 @@ pub struct Epipolar(pub EpiOp);
 pub const METHODS: &[&str] = &["Reference", "Fast"];
 
 const PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("Reference"), min: 0.0, max: 0.0, unit: "", doc: "Reference (the definition, O(length)) or Fast (rectified grid + van Herk, cost flat in length; 86–99 % of texels within 1e-4 of Reference)." },
+    ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("Reference"), min: 0.0, max: 0.0, unit: "", doc: "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)." },
     ParamSpec {
         name: "length",
         kind: ParamKind::Int,
@@ -233,7 +240,7 @@ pub struct RectParams {
     pub d0: f32,
     /// z_l.
     pub z_l: f32,
-    /// Window reaches this many columns towards the epipole…
+    /// The grid window reaches this many samples towards the epipole…
     pub lo: i32,
     /// …and this many away from it.
     pub hi: i32,
@@ -245,21 +252,45 @@ pub struct RectParams {
     pub cols: u32,
     /// Columns per texel of distance.
     pub stride: u32,
+    /// Samples taken exactly at each end of a texel's window ([`ENDS`]).
+    pub ends: i32,
+    /// Side of the texel block each grid cell bounds (2 or 3).
+    pub block: i32,
+    /// Kernel length k.
+    pub length: i32,
     /// Padding.
     pub _pad0: u32,
     /// Padding.
     pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
 }
 
-/// Rows per texel of arc at the map's far edge (at most; see [`rect_params`]).
-pub const ANGULAR: u32 = 8;
+/// The fast path's grid and its row table (per row: direction and the point at distance d0,
+/// computed in f64 so far epipoles keep map-local precision).
+pub struct Rectified {
+    /// Uniforms.
+    pub params: RectParams,
+    /// `rows × 4` floats: dir.x, dir.y, base.x, base.y.
+    pub table: Vec<f32>,
+}
+
+/// Rows per texel of arc at the map's far edge (at most; see [`rect_params`]). Oversampling
+/// would allow 2×2 blocks (tighter bounds, fewer fall-backs) but costs 4× the grid cells,
+/// which measured slower overall on lavapipe.
+pub const ANGULAR: u32 = 1;
 /// Columns per texel of distance (at most).
-pub const RADIAL: u32 = 8;
-/// Cell budget of the rectified grid (64 Mi cells, 256 MiB per grid texture).
-pub const GRID_CELLS: u64 = 1 << 26;
+pub const RADIAL: u32 = 1;
+/// Cell budget of the rectified grid (32 Mi cells, 128 MiB per grid texture).
+pub const GRID_CELLS: u64 = 1 << 25;
+/// Samples at each end of a window that the fast path always takes exactly: on smooth
+/// stretches of a map the extreme lies at an end, where the grid's bound would be too loose.
+pub const ENDS: i32 = 3;
 
 /// The rectified grid covering a `w × h` map seen from `l`, for a window of `k` samples
-/// (dilation: towards l; erosion: away from it), rows and columns capped at `limit`.
+/// (dilation: towards l; erosion: away from it), rows and columns capped at `limit`. `None`
+/// when the fast path has nothing to gain (k ≤ 2·[`ENDS`]: every sample is taken exactly) or
+/// the device cannot hold a grid fine enough for a 3×3 block to cover the samples.
 pub fn rect_params(
     w: u32,
     h: u32,
@@ -268,13 +299,17 @@ pub fn rect_params(
     k: i32,
     erode: bool,
     limit: u32,
-) -> RectParams {
+) -> Option<Rectified> {
+    if k <= 2 * ENDS {
+        return None;
+    }
     let (lx, ly) = (l[0] as f64, l[1] as f64);
     let (wf, hf) = (w as f64, h as f64);
     let (cx, cy) = (wf / 2.0 - lx, hf / 2.0 - ly);
     let dist = cx.hypot(cy);
+    // The shader measures angles from the f32 u_c; use the same rounded vector here.
     let (ux, uy) = if dist > 0.0 {
-        (cx / dist, cy / dist)
+        ((cx / dist) as f32 as f64, (cy / dist) as f32 as f64)
     } else {
         (1.0, 0.0)
     };
@@ -307,7 +342,7 @@ pub fn rect_params(
     let base_rows = (span * d_hi).ceil().max(0.0) as u64 + 1;
     let base_cols = (d_hi - d0).ceil().max(0.0) as u64 + 2;
     // Oversample angles and distances, halving the larger factor until the grid fits the device
-    // and the cell budget (each of the four grid textures holds at most GRID_CELLS floats).
+    // and the cell budget.
     let (mut angular, mut radial) = (ANGULAR as u64, RADIAL as u64);
     while (base_rows * angular > limit as u64
         || base_cols * radial > limit as u64
@@ -320,35 +355,64 @@ pub fn rect_params(
             angular /= 2;
         }
     }
-    let rows = (base_rows * angular).clamp(1, limit as u64) as u32;
+    let rows = (base_rows * angular).clamp(2, limit as u64) as u32;
     let stride = radial as u32;
     let cols = (base_cols * radial).clamp(1, limit as u64) as u32;
-    let (lo, hi) = if erode { (0, k - 1) } else { (k - 1, 0) };
-    RectParams {
-        u_c: [ux as f32, uy as f32],
-        phi0: phi0 as f32,
-        dphi: if rows > 1 {
-            (span / (rows - 1) as f64) as f32
-        } else {
-            0.0
+    let phi0 = phi0 as f32 as f64;
+    let dphi = (span / (rows - 1) as f64) as f32 as f64;
+    // A texel's samples lie within half a row spacing (at the far edge) and half a column of
+    // the grid points it reads; the block must cover that with room for rounding.
+    let reach = (0.5 * dphi * d_hi).hypot(0.5 / stride as f64);
+    let block = if reach <= 0.45 {
+        2
+    } else if reach <= 0.9 {
+        3
+    } else {
+        return None;
+    };
+    let n = k - 2 * ENDS;
+    let (lo, hi) = if erode { (0, n - 1) } else { (n - 1, 0) };
+    let table = (0..rows)
+        .flat_map(|j| {
+            let phi = phi0 + j as f64 * dphi;
+            let (s, c) = phi.sin_cos();
+            let (dx, dy) = (ux * c - uy * s, ux * s + uy * c);
+            [
+                dx as f32,
+                dy as f32,
+                (lx + dx * d0) as f32,
+                (ly + dy * d0) as f32,
+            ]
+        })
+        .collect();
+    Some(Rectified {
+        params: RectParams {
+            u_c: [ux as f32, uy as f32],
+            phi0: phi0 as f32,
+            dphi: dphi as f32,
+            epipole: l,
+            d0: d0 as f32,
+            z_l,
+            lo,
+            hi,
+            op: erode as u32,
+            rows,
+            cols,
+            stride,
+            ends: ENDS,
+            block,
+            length: k,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         },
-        epipole: l,
-        d0: d0 as f32,
-        z_l,
-        lo,
-        hi,
-        op: erode as u32,
-        rows,
-        cols,
-        stride,
-        _pad0: 0,
-        _pad1: 0,
-    }
+        table,
+    })
 }
 
 fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
     let limit = gpu.limits.max_texture_dimension_2d;
-    let r = rect_params(
+    let Some(rect) = rect_params(
         src.width,
         src.height,
         p.epipole,
@@ -356,23 +420,40 @@ fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, Gp
         p.length,
         p.op == 1,
         limit,
-    );
+    ) else {
+        return pass(gpu, src, p);
+    };
+    let r = rect.params;
     let rb = bytemuck::bytes_of(&r);
+    let table = gpu.upload(r.rows, 1, 4, &rect.table)?;
+    let kappa = gpu.texture(src.width, src.height, TexFormat::R32F)?;
+    gpu.dispatch(
+        SHADER,
+        "kappa",
+        &[
+            (1, Bind::Texture(src)),
+            (3, Bind::Uniform(rb)),
+            (5, Bind::Storage(&kappa)),
+        ],
+        src.width,
+        src.height,
+    )?;
     let grid = gpu.texture(r.cols, r.rows, TexFormat::R32F)?;
     gpu.dispatch(
         SHADER,
         "rectify",
         &[
-            (1, Bind::Texture(src)),
             (3, Bind::Uniform(rb)),
             (5, Bind::Storage(&grid)),
+            (10, Bind::Texture(&kappa)),
+            (11, Bind::Texture(&table)),
         ],
         r.cols,
         r.rows,
     )?;
     let prefix = gpu.texture(r.cols, r.rows, TexFormat::R32F)?;
     let suffix = gpu.texture(r.cols, r.rows, TexFormat::R32F)?;
-    let k = p.length.max(1) as u32;
+    let n = (r.lo + r.hi + 1) as u32;
     gpu.dispatch(
         SHADER,
         "grid_blocks",
@@ -382,9 +463,11 @@ fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, Gp
             (6, Bind::Storage(&prefix)),
             (7, Bind::Storage(&suffix)),
         ],
-        r.cols.div_ceil(r.stride).div_ceil(k),
+        r.cols.div_ceil(r.stride).div_ceil(n),
         r.rows * r.stride,
     )?;
+    // The window texture reuses the grid's cells: the grid is not read after the blocks.
+    drop(grid);
     let window = gpu.texture(r.cols, r.rows, TexFormat::R32F)?;
     gpu.dispatch(
         SHADER,
@@ -407,6 +490,8 @@ fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, Gp
             (2, Bind::Storage(&out)),
             (3, Bind::Uniform(rb)),
             (4, Bind::Texture(&window)),
+            (10, Bind::Texture(&kappa)),
+            (11, Bind::Texture(&table)),
         ],
         src.width,
         src.height,
@@ -443,9 +528,15 @@ impl NodeKind for Epipolar {
     }
 
     fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            EpiParams, "Params", epipole, z_l, length, op, _pad0, _pad1, _pad2
-        )]
+        vec![
+            crate::uniform_layout!(
+                EpiParams, "Params", epipole, z_l, length, op, _pad0, _pad1, _pad2
+            ),
+            crate::uniform_layout!(
+                RectParams, "Rect", u_c, phi0, dphi, epipole, d0, z_l, lo, hi, op, rows, cols,
+                stride, ends, block, length, _pad0, _pad1, _pad2
+            ),
+        ]
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

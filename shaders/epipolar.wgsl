@@ -24,6 +24,11 @@ fn slope(texel: vec2<i32>, d: f32) -> f32 {
     return (textureLoad(src, texel, 0).r - P.z_l) / d;
 }
 
+// The texel a sample lands on: the reference's exact f32 steps, shared by both methods.
+fn sample_texel(c: vec2<f32>, dir: vec2<f32>, i: i32) -> vec2<i32> {
+    return vec2<i32>(floor(c + dir * f32(i)));
+}
+
 // The reference definition: `length` nearest-texel samples along the exact line, O(length).
 @compute @workgroup_size(8, 8)
 fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -47,7 +52,7 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
         if P.op == 0u && f32(i) >= d_t {
             break;
         }
-        let s = vec2<i32>(floor(c + dir * f32(i)));
+        let s = sample_texel(c, dir, i);
         if s.x < 0 || s.y < 0 || s.x >= size.x || s.y >= size.y {
             break;
         }
@@ -61,15 +66,26 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(out_map, id.xy, vec4<f32>(P.z_l + d_t * k, 0.0, 0.0, 1.0));
 }
 
-// ---- Fast path: rectify along epipolar lines, 1D van Herk on κ, project back ----------------
+// ---- Fast path: exact, with a cost flat in `length` on shadow maps -------------------------
 //
-// Row j of the rectified grid is the ray from l at angle phi0 + j · dphi measured from the unit
-// direction u_c (towards the map's centre, so far epipoles keep precise small angles); column m
-// is the point at distance d0 + m from l (unit spacing). R[j][m] = κ of the nearest texel there
-// (the operation's identity outside the map or at l). A one-sided window of k samples is a van
-// Herk min/max with blocks of k: W[j][m] = ⊕ R[j][m − lo .. m + hi], lo + hi + 1 = k. Texel t
-// reads W at its own row (nearest angle) and the column of its nearest sample, so the cost per
-// texel does not depend on k.
+// A texel's samples do not lie on a shared grid (each texel rounds its own line), so no
+// rectification reproduces the definition sample for sample. The fast path therefore proves
+// each texel's answer instead of approximating it:
+//
+// 1. `kappa`: κ of every texel (the operation's identity at the epipole's own texel centre).
+// 2. `rectify`: a grid of epipolar rays from l (row j: direction dir_j from a table computed in
+//    f64 on the CPU; column m: distance d0 + m / stride). Each cell holds the min (max) of κ
+//    over the 2×2 (or 3×3) block of texels around its point g: a bound on κ of any texel that
+//    a sample within 0.5 (1.0) texel of g can land on.
+// 3. `grid_blocks` + `grid_combine`: van Herk / Gil–Werman along each row over the interior
+//    samples E+1 … length−E (constant cost per cell whatever the length).
+// 4. `project_back`: per texel, the samples 1…E and last−E+1…last exactly (last = the final
+//    sample before the border or l, found by bisection), then the interior's bound from the
+//    grid. When the exact ends already beat the bound, the ends' value IS the definition's
+//    (no interior sample can be lower); otherwise — or when the texel's samples stray further
+//    from the grid points than the block covers — the texel runs the exact O(length) loop.
+// The result equals `reference` on every texel; only the share of texels that fall back (a few
+// % on shadow maps, more on noise) depends on the map, and with it the cost.
 
 struct Rect {
     u_c: vec2<f32>,
@@ -84,8 +100,12 @@ struct Rect {
     rows: u32,
     cols: u32,
     stride: u32,
+    ends: i32,
+    block: i32,
+    length: i32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(3) var<uniform> R: Rect;
@@ -95,6 +115,8 @@ struct Rect {
 @group(0) @binding(7) var suffix_out: texture_storage_2d<r32float, write>;
 @group(0) @binding(8) var prefix_in: texture_2d<f32>;
 @group(0) @binding(9) var suffix_in: texture_2d<f32>;
+@group(0) @binding(10) var kappa_in: texture_2d<f32>;
+@group(0) @binding(11) var rows_in: texture_2d<f32>;
 
 const BIG: f32 = 3.4028235e38;
 
@@ -107,30 +129,54 @@ fn pick_r(a: f32, b: f32) -> f32 {
 }
 
 @compute @workgroup_size(8, 8)
+fn kappa(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = vec2<i32>(textureDimensions(src));
+    if i32(id.x) >= size.x || i32(id.y) >= size.y {
+        return;
+    }
+    let s = vec2<i32>(id.xy);
+    let d_s = length(R.epipole - (vec2<f32>(s) + 0.5));
+    var v = identity_r();
+    if d_s > 0.0 {
+        v = (textureLoad(src, s, 0).r - R.z_l) / d_s;
+    }
+    textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
+}
+
+// Point of grid cell (column m, row j): the row's base point (distance d0) plus m / stride
+// along its direction. `rectify` and `project_back` share it so both see the same f32 value.
+fn grid_point(m: i32, row: vec4<f32>) -> vec2<f32> {
+    return row.zw + row.xy * (f32(m) / f32(R.stride));
+}
+
+// The block of texels a point within half a block of g can land on: its first texel.
+fn block_origin(g: vec2<f32>) -> vec2<i32> {
+    return select(vec2<i32>(floor(g)) - 1, vec2<i32>(floor(g - 0.5)), R.block == 2);
+}
+
+@compute @workgroup_size(8, 8)
 fn rectify(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= R.cols || id.y >= R.rows {
         return;
     }
-    let phi = R.phi0 + f32(id.y) * R.dphi;
-    let c = cos(phi);
-    let s = sin(phi);
-    let dir = vec2<f32>(R.u_c.x * c - R.u_c.y * s, R.u_c.x * s + R.u_c.y * c);
-    let p = R.epipole + dir * (R.d0 + f32(id.x) / f32(R.stride));
-    let size = vec2<i32>(textureDimensions(src));
-    let t = vec2<i32>(floor(p));
+    let row = textureLoad(rows_in, vec2<u32>(id.y, 0u), 0);
+    let o = block_origin(grid_point(i32(id.x), row));
+    let size = vec2<i32>(textureDimensions(kappa_in));
     var v = identity_r();
-    if t.x >= 0 && t.y >= 0 && t.x < size.x && t.y < size.y {
-        let d_s = length(R.epipole - (vec2<f32>(t) + 0.5));
-        if d_s > 0.0 {
-            v = (textureLoad(src, t, 0).r - R.z_l) / d_s;
+    for (var by = 0; by < R.block; by++) {
+        for (var bx = 0; bx < R.block; bx++) {
+            let t = o + vec2<i32>(bx, by);
+            if t.x >= 0 && t.y >= 0 && t.x < size.x && t.y < size.y {
+                v = pick_r(v, textureLoad(kappa_in, t, 0).r);
+            }
         }
     }
     textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
 
-// Columns are `stride` sub-steps per texel; a window of k samples one texel apart takes every
+// Columns are `stride` sub-steps per texel; a window of samples one texel apart takes every
 // stride-th column, so each row splits into `stride` interleaved sequences (residue r: columns
-// r, r + stride, …), filtered separately in blocks of k aligned at their first element.
+// r, r + stride, …), filtered separately in blocks of n = lo + hi + 1 aligned at their start.
 fn seq_len(r: u32) -> u32 {
     return (R.cols + R.stride - 1u - r) / R.stride;
 }
@@ -160,8 +206,8 @@ fn grid_blocks(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// W[m] = ⊕ R[m − lo .. m + hi] = suffix(m − lo) ⊕ prefix(m + hi); columns outside the grid
-// are outside the map (identity).
+// W[m] = ⊕ G[m − lo .. m + hi] = suffix(m − lo) ⊕ prefix(m + hi); columns outside the grid
+// contribute nothing (identity).
 @compute @workgroup_size(8, 8)
 fn grid_combine(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= R.cols || id.y >= R.rows {
@@ -186,7 +232,55 @@ fn grid_combine(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(grid_out, id.xy, vec4<f32>(pick_r(s, p), 0.0, 0.0, 1.0));
 }
 
-// Back to the map: z' = z_l + d_t · (κ_t ⊕ W[row(t)][column of the nearest sample]).
+// atan for x ≥ 0 (Cephes atanf: range reduction to |x| ≤ tan(π/8), then a degree-9 odd
+// polynomial; ~2e-7 relative), so row look-ups do not depend on the driver's atan precision.
+fn atan_pos(x0: f32) -> f32 {
+    var x = x0;
+    var y = 0.0;
+    if x > 2.4142135 {
+        y = 1.5707964;
+        x = -1.0 / x;
+    } else if x > 0.41421357 {
+        y = 0.7853982;
+        x = (x - 1.0) / (x + 1.0);
+    }
+    let z = x * x;
+    return y + ((((0.080537446 * z - 0.13877685) * z + 0.19977711) * z - 0.33332950) * z * x + x);
+}
+
+fn atan2_precise(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    var a: f32;
+    if ay > ax {
+        a = 1.5707964 - atan_pos(ax / ay);
+    } else {
+        a = atan_pos(ay / ax);
+    }
+    if x < 0.0 {
+        a = 3.1415927 - a;
+    }
+    return select(a, -a, y < 0.0);
+}
+
+// Is sample i of the texel at c valid (before the border and, for dilation, before l)? The
+// valid samples are 1 … last: each coordinate of c + dir·i is monotone in i.
+fn valid_sample(c: vec2<f32>, dir: vec2<f32>, d_t: f32, i: i32, size: vec2<i32>) -> bool {
+    if R.op == 0u && f32(i) >= d_t {
+        return false;
+    }
+    let s = sample_texel(c, dir, i);
+    return s.x >= 0 && s.y >= 0 && s.x < size.x && s.y < size.y;
+}
+
+// Does the grid point of column m on `row` cover the exact sample point p (every coordinate
+// within half a block, less a margin for f32 rounding)?
+fn covered(p: vec2<f32>, m: i32, row: vec4<f32>) -> bool {
+    let reach = select(1.0, 0.5, R.block == 2) - 0.01;
+    let off = abs(p - grid_point(m, row));
+    return m >= 0 && m < i32(R.cols) && off.x <= reach && off.y <= reach;
+}
+
 @compute @workgroup_size(8, 8)
 fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = vec2<i32>(textureDimensions(src));
@@ -195,20 +289,59 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let c = vec2<f32>(id.xy) + 0.5;
     let z = textureLoad(src, id.xy, 0).r;
-    let v = c - R.epipole;
-    let d_t = length(v);
+    let to_l = R.epipole - c;
+    let d_t = length(to_l);
     if d_t <= 0.0 {
         textureStore(out_map, id.xy, vec4<f32>(z, 0.0, 0.0, 1.0));
         return;
     }
-    let phi = atan2(R.u_c.x * v.y - R.u_c.y * v.x, dot(R.u_c, v));
-    let row = clamp(i32(round((phi - R.phi0) / R.dphi)), 0, i32(R.rows) - 1);
-    // Dilation: samples at d_t − 1 … d_t − k (window ending at the first); erosion: d_t + 1 ….
-    let first = select(d_t - 1.0, d_t + 1.0, R.op == 1u);
-    let col = i32(round((first - R.d0) * f32(R.stride)));
-    var k = (z - R.z_l) / d_t;
-    if col >= 0 && col < i32(R.cols) {
-        k = pick_r(k, textureLoad(grid, vec2<i32>(col, row), 0).r);
+    let erode = R.op == 1u;
+    let dir = select(to_l / d_t, -to_l / d_t, erode);
+    // last valid sample by bisection: valid(lo) holds, valid(hi + 1) does not.
+    var lo = 0;
+    var hi = R.length;
+    if !valid_sample(c, dir, d_t, hi, size) {
+        hi -= 1;
+        while lo < hi {
+            let mid = (lo + hi + 1) / 2;
+            if valid_sample(c, dir, d_t, mid, size) {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
     }
-    textureStore(out_map, id.xy, vec4<f32>(R.z_l + d_t * k, 0.0, 0.0, 1.0));
+    let last = hi;
+    let e = R.ends;
+    var acc = (z - R.z_l) / d_t;
+    for (var i = 1; i <= min(e, last); i++) {
+        acc = pick_r(acc, textureLoad(kappa_in, sample_texel(c, dir, i), 0).r);
+    }
+    for (var i = max(e + 1, last - e + 1); i <= last; i++) {
+        acc = pick_r(acc, textureLoad(kappa_in, sample_texel(c, dir, i), 0).r);
+    }
+    if last > 2 * e {
+        // Interior samples e+1 … last−e: bounded by the grid window starting at sample e+1.
+        var proven = false;
+        let v = -to_l;
+        let phi = atan2_precise(R.u_c.x * v.y - R.u_c.y * v.x, dot(R.u_c, v));
+        let j = i32(round((phi - R.phi0) / R.dphi));
+        if j >= 0 && j < i32(R.rows) {
+            let row = textureLoad(rows_in, vec2<i32>(j, 0), 0);
+            let step = select(-i32(R.stride), i32(R.stride), erode);
+            let first = select(d_t - 1.0, d_t + 1.0, erode);
+            let m = i32(round((first - R.d0) * f32(R.stride))) + e * step;
+            let m_last = m + (last - 2 * e - 1) * step;
+            if covered(c + dir * f32(e + 1), m, row) && covered(c + dir * f32(last - e), m_last, row) {
+                let bound = textureLoad(grid, vec2<i32>(m, j), 0).r;
+                proven = pick_r(acc, bound) == acc;
+            }
+        }
+        if !proven {
+            for (var i = e + 1; i <= last - e; i++) {
+                acc = pick_r(acc, textureLoad(kappa_in, sample_texel(c, dir, i), 0).r);
+            }
+        }
+    }
+    textureStore(out_map, id.xy, vec4<f32>(R.z_l + d_t * acc, 0.0, 0.0, 1.0));
 }
