@@ -22,6 +22,21 @@ fn harness(graph: &str) -> Harness<'static, EditorApp> {
     h
 }
 
+/// Run frames until the evaluation worker has delivered everything asked for.
+fn settle(h: &mut Harness<'static, EditorApp>) {
+    for _ in 0..3000 {
+        h.run_steps(1);
+        if h.state().idle() {
+            h.run_steps(2);
+            if h.state().idle() {
+                return;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    panic!("the evaluation worker did not finish");
+}
+
 #[test]
 fn canvas_shows_the_document_and_undo_button_restores_it() {
     if common::gpu().is_none() {
@@ -61,16 +76,27 @@ fn selecting_a_node_shows_its_parameters_and_picture() {
     }
     let mut h = harness("graphs/physical/window.ron");
     h.state_mut().selected = Some("tonemap".into());
-    h.run_steps(4);
+    settle(&mut h);
     // The node's title on the canvas and the parameters panel's heading.
     assert_eq!(h.query_all_by_label("tonemap - Tonemap").count(), 2);
-    let _ = h.get_by_label("exposure");
     let _ = h.get_by_label("operator");
-    // Snapshot of the whole editor (1200×760 = 912 000 pixels). The status line is cleared (it
-    // counts evaluated nodes, which depends on frame timing); the wires' anti-aliased edges
-    // differ from run to run in a few hundred pixels even on lavapipe (measured 449–592 at
-    // threshold 0.6), so up to 1 500 pixels (0.16 %) may differ: a missing panel, node or
-    // picture changes tens of thousands.
+    // The parameter and the viewer's exposure.
+    assert_eq!(h.query_all_by_label("exposure").count(), 2);
+    let pictures = &h
+        .state()
+        .pictures
+        .as_ref()
+        .expect("the viewer has a picture")
+        .1;
+    assert_eq!(pictures.len(), 1, "the tonemap's one output");
+    // Every node with a picture output has a thumbnail report, none failed.
+    assert!(h.state().reports.values().all(|r| r.error.is_none()));
+    // Snapshot of the whole editor (1200×760 = 912 000 pixels). The status line (it counts
+    // evaluated nodes and milliseconds) and the per-node timings are hidden; the wires'
+    // anti-aliased edges differ from run to run in a few hundred pixels even on lavapipe
+    // (measured 449–592 at threshold 0.6), so up to 1 500 pixels (0.16 %) may differ: a
+    // missing panel, node, thumbnail or picture changes thousands.
+    h.state_mut().show_timings = false;
     h.state_mut().status.clear();
     h.run_steps(4);
     h.snapshot_options(
@@ -136,4 +162,234 @@ fn unsaved_changes_prompt_can_be_cancelled() {
     h.run_steps(2);
     assert!(!h.state().confirm_quit);
     assert!(h.state().state.is_dirty(), "cancel keeps the changes");
+}
+
+#[test]
+fn adding_from_the_catalog_and_connecting_changes_the_document() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    let before = h.state().state.graph().len();
+    h.get_by_label("Find").click();
+    h.run_steps(1);
+    h.get_by_label("Find").type_text("constant");
+    h.run_steps(2);
+    h.get_by_label("Constant").click();
+    h.run_steps(2);
+    let g = h.state().state.graph();
+    assert_eq!(g.len(), before + 1, "the catalog button added a node");
+    let id = g
+        .nodes()
+        .find(|n| n.kind == "Constant")
+        .map(|n| n.id.clone())
+        .expect("constant");
+    assert_eq!(h.state().selected.as_deref(), Some(id.as_str()));
+    // Connect it where a scalar goes; the document gains the edge and the canvas redraws it.
+    let math = h
+        .state_mut()
+        .state
+        .add_node("Math", [0.0, 0.0])
+        .expect("math");
+    assert!(h
+        .state_mut()
+        .connect_ports(&format!("{id}.value"), &format!("{math}.a")));
+    h.run_steps(2);
+    assert_eq!(
+        h.state().state.graph().source_of(&math, "a"),
+        Some((id.as_str(), "value"))
+    );
+    // A refused connection leaves the document alone and says why on screen.
+    let text = save_string(h.state().state.graph());
+    assert!(!h
+        .state_mut()
+        .connect_ports("scatter.inscatter", "shadow.scene"));
+    h.run_steps(2);
+    assert_eq!(save_string(h.state().state.graph()), text);
+    let status = h.state().status.clone();
+    assert!(status.starts_with("refused:"), "{status}");
+    let _ = h.get_by_label(&status);
+    // A cycle is refused too.
+    assert!(!h
+        .state_mut()
+        .connect_ports("tonemap.image", "composite.scattering"));
+    assert!(h.state().status.starts_with("refused:"));
+}
+
+#[test]
+fn a_parameter_change_reruns_only_the_nodes_below_it() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    settle(&mut h);
+    let ran = |h: &Harness<'static, EditorApp>| -> Vec<String> {
+        let mut v: Vec<String> = h
+            .state()
+            .reports
+            .iter()
+            .filter(|(_, r)| r.status == tyndall::eval::Status::Ran)
+            .map(|(id, _)| id.clone())
+            .collect();
+        v.sort();
+        v
+    };
+    assert!(
+        ran(&h).contains(&"scatter".to_string()),
+        "first evaluation runs the chain"
+    );
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(0.7))
+        .expect("param");
+    settle(&mut h);
+    assert_eq!(
+        ran(&h),
+        vec!["tonemap".to_string()],
+        "only the tonemap is dirty"
+    );
+    for up in ["scene", "shadow", "gbuffer", "scatter", "composite"] {
+        assert_eq!(
+            h.state().reports[up].status,
+            tyndall::eval::Status::Reused,
+            "{up} is reused"
+        );
+    }
+    // Upstream change: the scattering and everything below it run, the scene does not.
+    h.state_mut()
+        .state
+        .set_param("scatter", "steps", ParamValue::Int(48))
+        .expect("param");
+    settle(&mut h);
+    assert_eq!(
+        ran(&h),
+        vec![
+            "composite".to_string(),
+            "scatter".to_string(),
+            "tonemap".to_string()
+        ]
+    );
+}
+
+#[test]
+fn save_then_reopen_gives_the_same_document() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("window.ron");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron"),
+        &path,
+    )
+    .expect("copy");
+    let mut h = harness(path.to_str().expect("utf-8"));
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(2.5))
+        .expect("param");
+    h.run_steps(2);
+    h.get_by_label("Save").click();
+    h.run_steps(2);
+    assert!(!h.state().state.is_dirty());
+    let shown = save_string(h.state().state.graph());
+    let registry = tyndall::nodes::registry();
+    let reopened = EditorState::open(registry.catalog().clone(), &path).expect("reopen");
+    assert_eq!(save_string(reopened.graph()), shown);
+}
+
+#[test]
+fn viewer_pins_keys_and_timeline() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    // Shift+1 pins the selected scattering node; with another node selected, 1 shows the pin.
+    h.state_mut().selected = Some("scatter".into());
+    h.run_steps(2);
+    h.key_press_modifiers(egui::Modifiers::SHIFT, egui::Key::Num1);
+    h.run_steps(2);
+    assert_eq!(h.state().pins[0].as_deref(), Some("scatter"));
+    h.state_mut().selected = Some("tonemap".into());
+    h.state_mut().active_pin = None;
+    h.run_steps(1);
+    h.key_press(egui::Key::Num1);
+    h.run_steps(1);
+    assert_eq!(h.state().viewed().as_deref(), Some("scatter"));
+    settle(&mut h);
+    // The probe's pictures for a scattering node: V̄ and linear depth among them.
+    let ports: Vec<String> = h
+        .state()
+        .pictures
+        .as_ref()
+        .expect("pictures")
+        .1
+        .iter()
+        .map(|(p, _)| p.clone())
+        .collect();
+    assert!(ports.contains(&"visibility".to_string()) && ports.contains(&"depth".to_string()));
+    // The key toggle next to a numeric parameter keys it at the current frame; moving the
+    // timeline and editing the value adds a second key.
+    let before = h
+        .state()
+        .state
+        .graph()
+        .node("tonemap")
+        .expect("n")
+        .keys
+        .len();
+    h.get_all_by_label("○")
+        .next()
+        .expect("a key toggle")
+        .click();
+    h.run_steps(2);
+    let keys = &h.state().state.graph().node("tonemap").expect("n").keys;
+    assert_eq!(keys.len(), before + 1, "one parameter became animated");
+    let (name, track) = keys
+        .iter()
+        .next()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .expect("k");
+    assert_eq!(track.len(), 1);
+    assert_eq!(track[0].t, 0.0);
+    h.state_mut().time = 12.0;
+    h.run_steps(2);
+    h.get_by_label("◇").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().state.graph().node("tonemap").expect("n").keys[&name].len(),
+        2
+    );
+    // Undo removes that key again.
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().state.graph().node("tonemap").expect("n").keys[&name].len(),
+        1
+    );
+}
+
+#[test]
+fn presets_merge_and_clipboard_paste() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    let before = h.state().state.graph().len();
+    // The browser lists graphs/ with thumbnails from docs/; merging adds its nodes.
+    let _ = h.get_by_label("physical/tree");
+    let merge = h.get_all_by_label("Merge").next().expect("a preset");
+    merge.click();
+    h.run_steps(2);
+    let merged = h.state().state.graph().len();
+    assert!(merged > before, "merge added nodes");
+    // Pasting copied text (from this or another graph) adds nodes with fresh ids.
+    let copied = h.state().state.copy(&["tonemap".to_string()]);
+    h.event(egui::Event::Paste(copied));
+    h.run_steps(2);
+    assert_eq!(h.state().state.graph().len(), merged + 1);
+    assert!(h.state().status.starts_with("pasted 1"));
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.graph().len(), merged);
 }

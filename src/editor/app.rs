@@ -1,18 +1,25 @@
-//! The editor window: node canvas (egui-snarl, a view of the document), parameters panel and
-//! a viewer of the selected node's output. Early state: see the module notes in `mod.rs`.
+//! The editor window: a node canvas (egui-snarl, a view of the document) with per-node
+//! thumbnails and timings, a viewer (pins 1–9, channel, exposure, fit/1:1, pixel probe), the
+//! parameters panel with key-frame toggles, a timeline, a preset browser and the add-node
+//! catalog. Evaluation runs on a worker thread ([`super::worker`]); the window never waits.
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use eframe::egui;
-use egui_snarl::ui::{get_selected_nodes, PinInfo, SnarlViewer, SnarlWidget};
-use egui_snarl::{InPin, NodeId, OutPin, Snarl};
+use egui_snarl::ui::{get_selected_nodes, SnarlWidget};
+use egui_snarl::{NodeId, Snarl};
 
-use super::EditorState;
-use crate::eval::{download, EvalOptions, Evaluator, PortValue, Registry, Target};
+use super::canvas::CanvasView;
+use super::view::{probe, to_srgb8, Channel};
+use super::worker::{NodeReport, Request, Worker};
+use super::{list_presets, EditorState, PresetEntry};
+use crate::eval::Registry;
 use crate::gpu::Gpu;
-use crate::graph::{save_string, Graph, ParamKind, ParamValue, PortType};
+use crate::graph::{save_string, Interp, Key, ParamKind, ParamValue, PortType};
+use crate::io::Raster;
 
 /// Colour of a port type's pins and wires.
 pub fn port_colour(t: PortType) -> egui::Color32 {
@@ -29,20 +36,69 @@ pub fn port_colour(t: PortType) -> egui::Color32 {
     }
 }
 
+/// Viewer zoom.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Zoom {
+    /// Fit the panel.
+    Fit,
+    /// One picture pixel per screen pixel (scrolls).
+    One,
+}
+
+/// Size of pictures made from nothing (scattering, composites) in the editor.
+pub const VIEW_SIZE: (u32, u32) = (480, 270);
+
 /// The editor application.
 pub struct EditorApp {
     /// The document and its history.
     pub state: EditorState,
     snarl: Snarl<String>,
     synced: Option<String>,
-    /// Id of the node shown in the viewer and the parameters panel.
+    /// Id of the node shown in the parameters panel (and the viewer unless a pin is active).
     pub selected: Option<String>,
     /// Last message (refused connection, save result…).
     pub status: String,
-    evaluator: Option<Evaluator>,
-    preview: Option<egui::TextureHandle>,
-    preview_key: String,
-    time: f64,
+    worker: Option<Worker>,
+    requested: String,
+    /// The worker's last report per node: ran / cached, time, error.
+    pub reports: BTreeMap<String, NodeReport>,
+    thumbs: BTreeMap<String, egui::TextureHandle>,
+    /// The viewed node's picture outputs, by port.
+    pub pictures: Option<(String, Vec<(String, Raster)>)>,
+    view_port: Option<String>,
+    view_tex: Option<(String, egui::TextureHandle)>,
+    /// Viewer channel.
+    pub channel: Channel,
+    /// Viewer exposure in stops.
+    pub exposure: f32,
+    /// Viewer zoom.
+    pub zoom: Zoom,
+    /// The probe's last line.
+    pub probe: String,
+    /// Pinned viewers: keys 1–9 show them, Shift+1–9 pin the selected node.
+    pub pins: [Option<String>; 9],
+    /// The pin being shown (None: the selected node).
+    pub active_pin: Option<usize>,
+    /// Current time (frames).
+    pub time: f64,
+    /// Timeline range (frames, inclusive).
+    pub range: (f64, f64),
+    /// Frames per second of playback.
+    pub fps: f64,
+    /// Playing.
+    pub playing: bool,
+    /// Folders the preset browser lists.
+    pub preset_folders: Vec<PathBuf>,
+    presets: Vec<PresetEntry>,
+    preset_thumbs: BTreeMap<PathBuf, Option<egui::TextureHandle>>,
+    preset_name: String,
+    search: String,
+    save_as: Option<String>,
+    rects: BTreeMap<NodeId, egui::Rect>,
+    frame_all: bool,
+    clipboard: String,
+    /// Show per-node timings on the canvas (off for reproducible screenshots).
+    pub show_timings: bool,
     /// An autosave left by a session that did not save, offered for recovery at start.
     pub recovery: Option<PathBuf>,
     /// The window was asked to close with unsaved changes: the save/discard/cancel prompt.
@@ -50,26 +106,90 @@ pub struct EditorApp {
     allow_close: bool,
 }
 
+/// The user preset folder: `$TYNDALL_PRESETS`, else `~/.config/tyndall/presets`.
+pub fn user_preset_folder() -> Option<PathBuf> {
+    std::env::var_os("TYNDALL_PRESETS")
+        .map(PathBuf::from)
+        .or_else(|| {
+            std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config/tyndall/presets"))
+        })
+}
+
 impl EditorApp {
-    /// An editor on `state`.
+    /// An editor on `state`; evaluation starts on a worker thread when a GPU adapter is found.
     pub fn new(state: EditorState, registry: Arc<Registry>) -> Self {
-        let evaluator = Gpu::shared()
+        let worker = Gpu::shared()
             .ok()
-            .map(|g| Evaluator::new(registry.clone(), g));
+            .map(|g| Worker::start(registry.clone(), g));
+        let mut preset_folders = vec![PathBuf::from("graphs")];
+        preset_folders.extend(user_preset_folder());
+        let range = key_range(&state).unwrap_or((0.0, 48.0));
         Self {
             state,
             snarl: Snarl::new(),
             synced: None,
             selected: None,
-            status: String::new(),
-            evaluator,
-            preview: None,
-            preview_key: String::new(),
+            status: if worker.is_none() {
+                "no GPU adapter: pictures are off".into()
+            } else {
+                String::new()
+            },
+            worker,
+            requested: String::new(),
+            reports: BTreeMap::new(),
+            thumbs: BTreeMap::new(),
+            pictures: None,
+            view_port: None,
+            view_tex: None,
+            channel: Channel::Rgb,
+            exposure: 0.0,
+            zoom: Zoom::Fit,
+            probe: String::new(),
+            pins: Default::default(),
+            active_pin: None,
             time: 0.0,
+            range,
+            fps: 24.0,
+            playing: false,
+            preset_folders,
+            presets: Vec::new(),
+            preset_thumbs: BTreeMap::new(),
+            preset_name: String::new(),
+            search: String::new(),
+            save_as: None,
+            rects: BTreeMap::new(),
+            frame_all: true,
+            clipboard: String::new(),
+            show_timings: true,
             recovery: None,
             confirm_quit: false,
             allow_close: false,
         }
+    }
+
+    /// The node the viewer shows: the active pin's, else the selected one.
+    pub fn viewed(&self) -> Option<String> {
+        self.active_pin
+            .and_then(|i| self.pins[i].clone())
+            .filter(|id| self.state.graph().node(id).is_some())
+            .or_else(|| self.selected.clone())
+    }
+
+    /// Connect output `from` (`node.port`) to input `to`, replacing the input's edge as other
+    /// compositors do; a refusal (type mismatch, cycle, unknown port) lands in the status line
+    /// with its reason. The canvas's wire drops come here.
+    pub fn connect_ports(&mut self, from: &str, to: &str) -> bool {
+        let res = connect_replacing(&mut self.state, from, to);
+        self.status = match &res {
+            Ok(()) => String::new(),
+            Err(e) => format!("refused: {e}"),
+        };
+        res.is_ok()
+    }
+
+    /// Every evaluation asked for has landed (or there is no GPU).
+    pub fn idle(&self) -> bool {
+        self.worker.as_ref().is_none_or(|w| w.idle())
     }
 
     /// Rebuild the canvas from the document when the document changed.
@@ -80,7 +200,7 @@ impl EditorApp {
         }
         let g = self.state.graph();
         let mut snarl = Snarl::new();
-        let mut ids = std::collections::BTreeMap::new();
+        let mut ids = BTreeMap::new();
         for (i, n) in g.nodes().enumerate() {
             let pos = n.pos.unwrap_or([i as f32 * 40.0, i as f32 * 30.0]);
             ids.insert(
@@ -112,60 +232,229 @@ impl EditorApp {
             }
         }
         self.snarl = snarl;
+        self.rects.clear();
         self.synced = Some(text);
+        let g = self.state.graph();
+        self.thumbs.retain(|id, _| g.node(id).is_some());
+        self.reports.retain(|id, _| g.node(id).is_some());
     }
 
-    fn viewer_image(&mut self, ctx: &egui::Context) {
-        let Some(id) = self.selected.clone() else {
+    /// Send the worker a request when the document, the time or the viewed node changed, and
+    /// take in what it finished.
+    fn pump(&mut self, ctx: &egui::Context) {
+        let view = self.viewed();
+        let Some(worker) = self.worker.as_mut() else {
             return;
         };
         let key = format!(
-            "{id}@{}:{}",
+            "{:?}@{}:{}",
+            view,
             self.time,
             self.synced.as_deref().unwrap_or("")
         );
-        if key == self.preview_key {
-            return;
+        if key != self.requested {
+            self.requested = key;
+            worker.request(Request {
+                generation: 0,
+                graph: self.state.graph().clone(),
+                time: self.time,
+                size: VIEW_SIZE,
+                view,
+            });
         }
-        self.preview_key = key;
-        self.preview = None;
-        let (Some(ev), Some(node)) = (self.evaluator.as_mut(), self.state.graph().node(&id)) else {
-            return;
-        };
-        let Some(schema) = self.state.catalog().get(&node.kind) else {
-            return;
-        };
-        let Some(port) = schema
-            .outputs
-            .iter()
-            .find(|p| !matches!(p.types[0], PortType::Scene))
-        else {
-            return;
-        };
-        let opts = EvalOptions {
-            time: self.time,
-            size: (320, 180),
-            ..Default::default()
-        };
-        match ev.evaluate(
-            self.state.graph(),
-            &[Target::Port(id.clone(), port.name.to_string())],
-            &opts,
-        ) {
-            Ok(r) => {
-                if let Some(v) = r.outputs.get(&(id.clone(), port.name.to_string())) {
-                    if let Some(image) = to_colour_image(ev.gpu(), v) {
-                        self.preview =
-                            Some(ctx.load_texture("viewer", image, egui::TextureOptions::NEAREST));
-                    }
+        if let Some(out) = worker.poll() {
+            for (id, rep) in out.nodes {
+                if let Some(t) = &rep.thumb {
+                    let image = colour_image(t, Channel::Rgb, 0.0);
+                    self.thumbs.insert(
+                        id.clone(),
+                        ctx.load_texture(
+                            format!("thumb-{id}"),
+                            image,
+                            egui::TextureOptions::LINEAR,
+                        ),
+                    );
                 }
-                self.status = format!(
-                    "{} ran",
-                    r.stats.with_status(crate::eval::Status::Ran).len()
-                );
+                self.reports.insert(id, NodeReport { thumb: None, ..rep });
             }
-            Err(e) => self.status = e.to_string(),
+            if out.view.is_some() {
+                self.pictures = out.view;
+                self.view_tex = None;
+            }
+            let ran = self
+                .reports
+                .values()
+                .filter(|r| r.status == crate::eval::Status::Ran)
+                .count();
+            let errors = self.reports.values().filter(|r| r.error.is_some()).count();
+            self.status = match errors {
+                0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),
+                n => format!("{n} node(s) failed; see the canvas"),
+            };
         }
+        if !worker.idle() {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+}
+
+/// Connect `from` to `to` in one undo step, first removing the edge `to` already has.
+pub(super) fn connect_replacing(
+    state: &mut EditorState,
+    from: &str,
+    to: &str,
+) -> Result<(), super::EditorError> {
+    let (to_node, to_port) = to.split_once('.').unwrap_or((to, ""));
+    let (to_node, to_port) = (to_node.to_string(), to_port.to_string());
+    state.apply(|g, c| {
+        g.disconnect(&to_node, &to_port);
+        g.connect(c, from, to)
+    })
+}
+
+/// The first and last key-frame times of the document, when it has keys.
+fn key_range(state: &EditorState) -> Option<(f64, f64)> {
+    let ts: Vec<f64> = state
+        .graph()
+        .nodes()
+        .flat_map(|n| n.keys.values().flatten().map(|k| k.t))
+        .collect();
+    let lo = ts.iter().cloned().reduce(f64::min)?;
+    let hi = ts.iter().cloned().reduce(f64::max)?;
+    Some((lo.min(0.0), if hi > lo { hi } else { lo + 48.0 }))
+}
+
+/// An egui picture of `r` as the viewer shows it.
+fn colour_image(r: &Raster, channel: Channel, stops: f32) -> egui::ColorImage {
+    let pixels = to_srgb8(r, channel, stops)
+        .into_iter()
+        .map(|p| egui::Color32::from_rgb(p[0], p[1], p[2]))
+        .collect();
+    egui::ColorImage::new([r.width as usize, r.height as usize], pixels)
+}
+
+impl EditorApp {
+    fn viewer(&mut self, ui: &mut egui::Ui) {
+        let viewed = self.viewed();
+        ui.horizontal(|ui| {
+            ui.heading("Viewer");
+            ui.label(viewed.as_deref().unwrap_or("(nothing selected)"));
+        });
+        ui.horizontal(|ui| {
+            for i in 0..9 {
+                let label = format!("{}", i + 1);
+                let text = match &self.pins[i] {
+                    Some(id) => format!("pin {} → {id} (key {})", i + 1, i + 1),
+                    None => format!("pin {}: Shift+{} pins the selected node", i + 1, i + 1),
+                };
+                let on = self.active_pin == Some(i);
+                let b = ui
+                    .add_enabled(self.pins[i].is_some(), egui::Button::selectable(on, label))
+                    .on_hover_text(text);
+                if b.clicked() {
+                    self.active_pin = if on { None } else { Some(i) };
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            let ports: Vec<String> = self
+                .pictures
+                .as_ref()
+                .map(|(_, p)| p.iter().map(|(n, _)| n.clone()).collect())
+                .unwrap_or_default();
+            let current = self
+                .view_port
+                .clone()
+                .filter(|p| ports.contains(p))
+                .or_else(|| ports.first().cloned());
+            egui::ComboBox::from_id_salt("view-port")
+                .selected_text(current.clone().unwrap_or_else(|| "-".into()))
+                .show_ui(ui, |ui| {
+                    for p in &ports {
+                        if ui
+                            .selectable_label(current.as_ref() == Some(p), p)
+                            .clicked()
+                        {
+                            self.view_port = Some(p.clone());
+                            self.view_tex = None;
+                        }
+                    }
+                });
+            egui::ComboBox::from_id_salt("view-channel")
+                .selected_text(self.channel.label())
+                .show_ui(ui, |ui| {
+                    for c in Channel::ALL {
+                        if ui.selectable_label(self.channel == c, c.label()).clicked() {
+                            self.channel = c;
+                            self.view_tex = None;
+                        }
+                    }
+                });
+            ui.label("exposure");
+            if ui
+                .add(
+                    egui::DragValue::new(&mut self.exposure)
+                        .range(-16.0..=16.0)
+                        .speed(0.05)
+                        .suffix(" stops"),
+                )
+                .changed()
+            {
+                self.view_tex = None;
+            }
+            ui.selectable_value(&mut self.zoom, Zoom::Fit, "Fit");
+            ui.selectable_value(&mut self.zoom, Zoom::One, "1:1");
+        });
+        let Some((node, pictures)) = self.pictures.clone() else {
+            ui.label("(no picture yet)");
+            return;
+        };
+        let port = self
+            .view_port
+            .clone()
+            .filter(|p| pictures.iter().any(|(n, _)| n == p))
+            .or_else(|| pictures.first().map(|(n, _)| n.clone()));
+        let Some((port, raster)) =
+            port.and_then(|p| pictures.iter().find(|(n, _)| *n == p).cloned())
+        else {
+            ui.label("(this node has no picture output)");
+            return;
+        };
+        let tex_key = format!("{node}.{port}:{:?}:{}", self.channel, self.exposure);
+        if self.view_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
+            let image = colour_image(&raster, self.channel, self.exposure);
+            let tex = ui
+                .ctx()
+                .load_texture("viewer", image, egui::TextureOptions::NEAREST);
+            self.view_tex = Some((tex_key, tex));
+        }
+        let Some((_, tex)) = &self.view_tex else {
+            return;
+        };
+        let size = egui::vec2(raster.width as f32, raster.height as f32);
+        let shown = match self.zoom {
+            Zoom::Fit => size * (ui.available_width() / size.x).min(300.0 / size.y),
+            Zoom::One => size,
+        };
+        let image = egui::Image::new(tex)
+            .fit_to_exact_size(shown)
+            .sense(egui::Sense::hover());
+        let response = match self.zoom {
+            Zoom::Fit => ui.add(image),
+            Zoom::One => {
+                egui::ScrollArea::both()
+                    .max_height(300.0)
+                    .show(ui, |ui| ui.add(image))
+                    .inner
+            }
+        };
+        if let Some(pos) = response.hover_pos() {
+            let rel = (pos - response.rect.min) / response.rect.size();
+            let x = (rel.x * raster.width as f32).floor().max(0.0) as u32;
+            let y = (rel.y * raster.height as f32).floor().max(0.0) as u32;
+            self.probe = probe(&pictures, x, y);
+        }
+        ui.label(egui::RichText::new(&self.probe).monospace().small());
     }
 
     fn parameters(&mut self, ui: &mut egui::Ui) {
@@ -181,6 +470,9 @@ impl EditorApp {
         };
         ui.heading(format!("{id} - {}", node.kind));
         ui.label(schema.doc);
+        if let Some(err) = self.reports.get(&id).and_then(|r| r.error.clone()) {
+            ui.colored_label(egui::Color32::from_rgb(240, 90, 80), err);
+        }
         ui.separator();
         for p in schema.params {
             let current = self
@@ -189,18 +481,21 @@ impl EditorApp {
                 .param_at(self.state.catalog(), &id, p.name, self.time)
                 .unwrap_or(p.default.value());
             let mut changed: Option<ParamValue> = None;
+            let mut toggle_key = false;
             ui.horizontal(|ui| {
                 ui.label(p.name)
                     .on_hover_text(format!("{} ({})", p.doc, p.expected()));
                 match (&p.kind, &current) {
                     (ParamKind::Float, ParamValue::Float(v)) => {
                         let mut x = *v;
+                        let speed = ((p.max - p.min) / 500.0).clamp(1e-4, 1.0);
                         if ui
                             .add(
                                 egui::DragValue::new(&mut x)
                                     .range(p.min..=p.max)
-                                    .speed(0.01),
+                                    .speed(speed),
                             )
+                            .on_hover_text(p.doc)
                             .changed()
                         {
                             changed = Some(ParamValue::Float(x));
@@ -210,6 +505,7 @@ impl EditorApp {
                         let mut x = *v;
                         if ui
                             .add(egui::DragValue::new(&mut x).range(p.min as i64..=p.max as i64))
+                            .on_hover_text(p.doc)
                             .changed()
                         {
                             changed = Some(ParamValue::Int(x));
@@ -217,7 +513,7 @@ impl EditorApp {
                     }
                     (ParamKind::Bool, ParamValue::Bool(v)) => {
                         let mut x = *v;
-                        if ui.checkbox(&mut x, "").changed() {
+                        if ui.checkbox(&mut x, "").on_hover_text(p.doc).changed() {
                             changed = Some(ParamValue::Bool(x));
                         }
                     }
@@ -248,22 +544,480 @@ impl EditorApp {
                         ui.label(current.to_string());
                     }
                 }
-                if node.keys.contains_key(p.name) {
-                    ui.label("◆").on_hover_text("key-framed");
+                if matches!(p.kind, ParamKind::Float | ParamKind::Int) {
+                    let keys = node.keys.get(p.name);
+                    let here = keys.is_some_and(|k| k.iter().any(|k| k.t == self.time));
+                    let (mark, tip) = match (keys.is_some(), here) {
+                        (_, true) => ("◆", "key at this frame: click to remove it"),
+                        (true, false) => ("◇", "animated: click to add a key at this frame"),
+                        (false, _) => ("○", "click to key this parameter at this frame"),
+                    };
+                    if ui
+                        .add(egui::Button::new(mark).small())
+                        .on_hover_text(tip)
+                        .clicked()
+                    {
+                        toggle_key = true;
+                    }
                 }
             });
-            if let Some(v) = changed {
-                if let Err(e) = self.state.set_param(&id, p.name, v) {
-                    self.status = e.to_string();
+            let keys = node.keys.get(p.name).cloned();
+            let numeric = |v: &ParamValue| match v {
+                ParamValue::Float(x) => Some(*x),
+                ParamValue::Int(x) => Some(*x as f64),
+                _ => None,
+            };
+            let result = if toggle_key {
+                let mut k = keys.unwrap_or_default();
+                if let Some(i) = k.iter().position(|k| k.t == self.time) {
+                    k.remove(i);
+                } else if let Some(v) = numeric(&current) {
+                    k.push(Key {
+                        t: self.time,
+                        v,
+                        interp: Interp::Linear,
+                    });
                 }
+                Some(self.state.set_keys(&id, p.name, k))
+            } else if let Some(v) = changed {
+                // A keyed parameter edits (or adds) its key at this frame, as in Blender.
+                match (keys, numeric(&v)) {
+                    (Some(mut k), Some(x)) => {
+                        match k.iter_mut().find(|k| k.t == self.time) {
+                            Some(key) => key.v = x,
+                            None => k.push(Key {
+                                t: self.time,
+                                v: x,
+                                interp: Interp::Linear,
+                            }),
+                        }
+                        Some(self.state.set_keys(&id, p.name, k))
+                    }
+                    _ => Some(self.state.set_param(&id, p.name, v)),
+                }
+            } else {
+                None
+            };
+            if let Some(Err(e)) = result {
+                self.status = e.to_string();
             }
         }
+    }
+
+    fn timeline(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            let play = if self.playing { "⏸" } else { "▶" };
+            if ui
+                .button(play)
+                .on_hover_text("play / pause (Space)")
+                .clicked()
+            {
+                self.playing = !self.playing;
+            }
+            ui.label("frame");
+            ui.add(egui::DragValue::new(&mut self.time).speed(0.25));
+            ui.label("range");
+            ui.add(egui::DragValue::new(&mut self.range.0).speed(1.0));
+            ui.add(egui::DragValue::new(&mut self.range.1).speed(1.0));
+            ui.label("fps");
+            ui.add(egui::DragValue::new(&mut self.fps).range(1.0..=120.0));
+            if self.range.1 <= self.range.0 {
+                self.range.1 = self.range.0 + 1.0;
+            }
+            // The scrub bar with key-frame marks of the selected node (all nodes when none).
+            let (rect, response) = ui.allocate_exact_size(
+                egui::vec2(ui.available_width().max(100.0), 22.0),
+                egui::Sense::click_and_drag(),
+            );
+            let span = (self.range.1 - self.range.0) as f32;
+            let x_of = |t: f64| rect.left() + ((t - self.range.0) as f32 / span) * rect.width();
+            let painter = ui.painter_at(rect);
+            painter.rect_filled(rect, 3.0, ui.visuals().extreme_bg_color);
+            for n in self.state.graph().nodes() {
+                if self.selected.as_ref().is_some_and(|s| *s != n.id) {
+                    continue;
+                }
+                for k in n.keys.values().flatten() {
+                    let x = x_of(k.t);
+                    painter.line_segment(
+                        [
+                            egui::pos2(x, rect.top() + 3.0),
+                            egui::pos2(x, rect.bottom() - 3.0),
+                        ],
+                        egui::Stroke::new(2.0, egui::Color32::from_rgb(240, 200, 60)),
+                    );
+                }
+            }
+            let x = x_of(self.time);
+            painter.line_segment(
+                [egui::pos2(x, rect.top()), egui::pos2(x, rect.bottom())],
+                egui::Stroke::new(2.0, egui::Color32::from_rgb(90, 170, 255)),
+            );
+            if let Some(pos) = response.interact_pointer_pos() {
+                let f = ((pos.x - rect.left()) / rect.width()).clamp(0.0, 1.0) as f64;
+                self.time = (self.range.0 + f * span as f64).round();
+            }
+        });
+    }
+
+    fn play(&mut self, ctx: &egui::Context) {
+        if !self.playing {
+            return;
+        }
+        let dt = ctx.input(|i| i.stable_dt).min(0.1) as f64;
+        self.time += dt * self.fps;
+        if self.time > self.range.1 {
+            self.time = self.range.0;
+        }
+        ctx.request_repaint();
+    }
+}
+
+impl EditorApp {
+    /// Ids of the nodes selected on the canvas.
+    fn selection(&self, ctx: &egui::Context) -> Vec<String> {
+        get_selected_nodes(egui::Id::new("tyndall-canvas"), ctx)
+            .into_iter()
+            .filter_map(|n| self.snarl.get_node(n).cloned())
+            .collect()
+    }
+
+    /// The add-node catalog: a search field and the kinds by category; a click adds the node
+    /// near the canvas's top-left and selects it.
+    fn catalog(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Add node");
+        ui.horizontal(|ui| {
+            let label = ui.label("Find");
+            ui.add(egui::TextEdit::singleline(&mut self.search).hint_text("node or category"))
+                .labelled_by(label.id);
+        });
+        let needle = self.search.to_lowercase();
+        let mut by_category: BTreeMap<&str, Vec<(&str, &str)>> = BTreeMap::new();
+        for s in self.state.catalog().iter() {
+            if needle.is_empty()
+                || s.kind.to_lowercase().contains(&needle)
+                || s.category.to_lowercase().contains(&needle)
+            {
+                by_category
+                    .entry(s.category)
+                    .or_default()
+                    .push((s.kind, s.doc));
+            }
+        }
+        for (category, kinds) in by_category {
+            egui::CollapsingHeader::new(category)
+                .open((!needle.is_empty()).then_some(true))
+                .show(ui, |ui| {
+                    for (kind, doc) in kinds {
+                        if ui.button(kind).on_hover_text(doc).clicked() {
+                            let n = self.state.graph().nodes().count() as f32;
+                            match self
+                                .state
+                                .add_node(kind, [40.0 + 20.0 * n, 40.0 + 10.0 * n])
+                            {
+                                Ok(id) => self.selected = Some(id),
+                                Err(e) => self.status = e.to_string(),
+                            }
+                        }
+                    }
+                });
+        }
+    }
+
+    /// The preset browser: `graphs/` and the user folder, with thumbnails (the preset's
+    /// `NAME.png` beside it, else its render under `docs/`), load / merge, save.
+    fn presets_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Presets");
+        if self.presets.is_empty() || ui.small_button("refresh").clicked() {
+            self.presets = list_presets(&self.preset_folders);
+        }
+        ui.horizontal(|ui| {
+            ui.add(
+                egui::TextEdit::singleline(&mut self.preset_name)
+                    .hint_text("name")
+                    .desired_width(110.0),
+            );
+            let selection = self.selection(ui.ctx());
+            let folder = user_preset_folder();
+            let save = |ids: &[String], what: &str| {
+                let Some(dir) = folder.clone() else {
+                    return "no user preset folder (set TYNDALL_PRESETS)".to_string();
+                };
+                let name = self.preset_name.trim();
+                if name.is_empty() || name.contains(['/', '\\']) {
+                    return "give the preset a name (no slashes)".to_string();
+                }
+                let path = dir.join(format!("{name}.ron"));
+                let res = std::fs::create_dir_all(&dir)
+                    .map_err(|e| e.to_string())
+                    .and_then(|()| {
+                        self.state
+                            .save_preset(ids, &path)
+                            .map_err(|e| e.to_string())
+                    });
+                match res {
+                    Ok(()) => format!("saved {what} as {}", path.display()),
+                    Err(e) => e,
+                }
+            };
+            if ui
+                .button("Save graph")
+                .on_hover_text("save the whole graph as a preset in the user folder")
+                .clicked()
+            {
+                let all: Vec<String> = self.state.graph().nodes().map(|n| n.id.clone()).collect();
+                self.status = save(&all, "the graph");
+                self.presets.clear();
+            }
+            if ui
+                .add_enabled(!selection.is_empty(), egui::Button::new("Save selection"))
+                .clicked()
+            {
+                self.status = save(&selection, "the selection");
+                self.presets.clear();
+            }
+        });
+        let entries = self.presets.clone();
+        egui::ScrollArea::vertical()
+            .id_salt("presets")
+            .show(ui, |ui| {
+                for p in entries {
+                    ui.horizontal(|ui| {
+                        match self.preset_thumb(ui.ctx(), &p.path) {
+                            Some(t) => {
+                                ui.add(
+                                    egui::Image::new(&t).fit_to_exact_size(egui::vec2(64.0, 36.0)),
+                                );
+                            }
+                            None => {
+                                let (r, _) = ui.allocate_exact_size(
+                                    egui::vec2(64.0, 36.0),
+                                    egui::Sense::hover(),
+                                );
+                                ui.painter()
+                                    .rect_filled(r, 2.0, ui.visuals().faint_bg_color);
+                            }
+                        }
+                        ui.vertical(|ui| {
+                            ui.label(&p.name);
+                            ui.horizontal(|ui| {
+                                if ui.small_button("Load").clicked() {
+                                    self.load_preset(&p.path);
+                                }
+                                if ui.small_button("Merge").clicked() {
+                                    self.merge_preset(&p.path);
+                                }
+                            });
+                        });
+                    });
+                }
+            });
+    }
+
+    fn preset_thumb(&mut self, ctx: &egui::Context, path: &Path) -> Option<egui::TextureHandle> {
+        if let Some(t) = self.preset_thumbs.get(path) {
+            return t.clone();
+        }
+        let beside = path.with_extension("png");
+        let docs = path
+            .strip_prefix("graphs")
+            .ok()
+            .map(|rel| Path::new("docs").join(rel).with_extension("png"));
+        let tex = [Some(beside), docs]
+            .into_iter()
+            .flatten()
+            .find(|p| p.exists())
+            .and_then(|p| image::open(p).ok())
+            .map(|img| {
+                let img = img.thumbnail(128, 72).to_rgba8();
+                let size = [img.width() as usize, img.height() as usize];
+                let image = egui::ColorImage::from_rgba_unmultiplied(size, img.as_raw());
+                ctx.load_texture(
+                    format!("preset-{}", path.display()),
+                    image,
+                    egui::TextureOptions::LINEAR,
+                )
+            });
+        self.preset_thumbs.insert(path.to_path_buf(), tex.clone());
+        tex
+    }
+
+    /// Replace the document with a preset (undoable; the file path stays the current one).
+    pub fn load_preset(&mut self, path: &Path) {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) => {
+                self.status = format!("{}: {e}", path.display());
+                return;
+            }
+        };
+        let res = crate::graph::load_str(&text, path, self.state.catalog())
+            .map_err(|e| e.to_string())
+            .and_then(|fresh| {
+                self.state
+                    .apply(|g, _| {
+                        *g = fresh;
+                        Ok(())
+                    })
+                    .map_err(|e| e.to_string())
+            });
+        self.status = match res {
+            Ok(()) => format!("loaded {}", path.display()),
+            Err(e) => e,
+        };
+        self.frame_all = true;
+    }
+
+    /// Add a preset's nodes to the document with fresh ids (one undo step).
+    pub fn merge_preset(&mut self, path: &Path) {
+        let res = std::fs::read_to_string(path)
+            .map_err(|e| e.to_string())
+            .and_then(|t| {
+                self.state
+                    .paste(&t, [60.0, 60.0])
+                    .map_err(|e| e.to_string())
+            });
+        self.status = match res {
+            Ok(ids) => format!("merged {} node(s) from {}", ids.len(), path.display()),
+            Err(e) => e,
+        };
+    }
+
+    /// Keyboard shortcuts (when no text field has the keyboard) and clipboard events.
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        let typing = ctx.egui_wants_keyboard_input();
+        let events = ctx.input(|i| i.events.clone());
+        let selection = self.selection(ctx);
+        for e in &events {
+            match e {
+                egui::Event::Copy | egui::Event::Cut if !typing && !selection.is_empty() => {
+                    self.clipboard = self.state.copy(&selection);
+                    ctx.copy_text(self.clipboard.clone());
+                    if matches!(e, egui::Event::Cut) {
+                        let _ = self.state.delete(&selection);
+                    }
+                    self.status = format!("copied {} node(s)", selection.len());
+                }
+                egui::Event::Paste(text) if !typing => {
+                    let text = if text.trim_start().starts_with('(') {
+                        text.clone()
+                    } else {
+                        self.clipboard.clone()
+                    };
+                    self.status = match self.state.paste(&text, [40.0, 40.0]) {
+                        Ok(ids) => format!("pasted {} node(s)", ids.len()),
+                        Err(e) => format!("nothing to paste: {e}"),
+                    };
+                }
+                _ => {}
+            }
+        }
+        let (undo, redo, save) = ctx.input(|i| {
+            let cmd = i.modifiers.command;
+            (
+                cmd && i.key_pressed(egui::Key::Z) && !i.modifiers.shift,
+                cmd && (i.key_pressed(egui::Key::Y)
+                    || (i.modifiers.shift && i.key_pressed(egui::Key::Z))),
+                cmd && i.key_pressed(egui::Key::S),
+            )
+        });
+        if undo && !typing {
+            self.state.undo();
+        }
+        if redo && !typing {
+            self.state.redo();
+        }
+        if save {
+            self.save();
+        }
+        if typing {
+            return;
+        }
+        let keys = [
+            egui::Key::Num1,
+            egui::Key::Num2,
+            egui::Key::Num3,
+            egui::Key::Num4,
+            egui::Key::Num5,
+            egui::Key::Num6,
+            egui::Key::Num7,
+            egui::Key::Num8,
+            egui::Key::Num9,
+        ];
+        ctx.input(|i| {
+            for (slot, k) in keys.iter().enumerate() {
+                if i.key_pressed(*k) && !i.modifiers.command {
+                    if i.modifiers.shift {
+                        if let Some(id) = self.selected.clone() {
+                            self.pins[slot] = Some(id);
+                            self.active_pin = Some(slot);
+                        }
+                    } else if self.pins[slot].is_some() {
+                        self.active_pin = if self.active_pin == Some(slot) {
+                            None
+                        } else {
+                            Some(slot)
+                        };
+                    }
+                }
+            }
+            if i.key_pressed(egui::Key::F) && !i.modifiers.command {
+                self.frame_all = true;
+            }
+            if i.key_pressed(egui::Key::Space) {
+                self.playing = !self.playing;
+            }
+            if i.key_pressed(egui::Key::D) && i.modifiers.command && !selection.is_empty() {
+                let _ = self.state.duplicate(&selection);
+            }
+            if (i.key_pressed(egui::Key::Delete) || i.key_pressed(egui::Key::Backspace))
+                && !selection.is_empty()
+            {
+                let _ = self.state.delete(&selection);
+            }
+        });
+    }
+
+    /// Save to the document's file, or ask for one.
+    pub fn save(&mut self) {
+        if self.state.path().is_none() {
+            self.save_as = Some("graphs/untitled.ron".into());
+            return;
+        }
+        self.status = match self.state.save() {
+            Ok(()) => "saved".into(),
+            Err(e) => e.to_string(),
+        };
     }
 }
 
 impl EditorApp {
     /// The recovery offer and the unsaved-changes prompt.
     fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some(mut path) = self.save_as.take() {
+            let mut keep = true;
+            egui::Window::new("Save as")
+                .collapsible(false)
+                .resizable(false)
+                .show(ctx, |ui| {
+                    ui.text_edit_singleline(&mut path);
+                    ui.horizontal(|ui| {
+                        if ui.button("Save").clicked() {
+                            self.status = match self.state.save_as(Path::new(&path)) {
+                                Ok(()) => format!("saved {path}"),
+                                Err(e) => e.to_string(),
+                            };
+                            keep = false;
+                        }
+                        if ui.button("Cancel").clicked() {
+                            keep = false;
+                        }
+                    });
+                });
+            if keep {
+                self.save_as = Some(path);
+            }
+        }
         if let Some(side) = self.recovery.clone() {
             egui::Window::new("Recover unsaved changes?")
                 .collapsible(false)
@@ -325,219 +1079,14 @@ impl EditorApp {
     }
 }
 
-/// Read a 2D value back as an 8-bit sRGB picture for the viewer.
-fn to_colour_image(gpu: &Gpu, v: &PortValue) -> Option<egui::ColorImage> {
-    let r = download(gpu, v).ok()?;
-    let enc = |x: f32| (crate::io::linear_to_srgb(x) * 255.0).round() as u8;
-    let pixels: Vec<egui::Color32> = (0..(r.width * r.height) as usize)
-        .map(|i| {
-            if r.channels == 1 {
-                let g = enc(r.data[i]);
-                egui::Color32::from_rgb(g, g, g)
-            } else {
-                let p = &r.data[i * 4..i * 4 + 4];
-                egui::Color32::from_rgb(enc(p[0]), enc(p[1]), enc(p[2]))
-            }
-        })
-        .collect();
-    Some(egui::ColorImage::new(
-        [r.width as usize, r.height as usize],
-        pixels,
-    ))
-}
-
-/// The canvas's view of the document: every edit goes through [`EditorState`].
-struct CanvasView<'a> {
-    state: &'a mut EditorState,
-    status: &'a mut String,
-}
-
-impl CanvasView<'_> {
-    fn port(&self, node: &str, input: bool, index: usize) -> Option<(String, PortType)> {
-        let kind = &self.state.graph().node(node)?.kind;
-        let schema = self.state.catalog().get(kind)?;
-        let p = if input {
-            schema.inputs.get(index)?
-        } else {
-            schema.outputs.get(index)?
-        };
-        let ty = if input {
-            p.types[0]
-        } else {
-            self.state
-                .graph()
-                .output_type(self.state.catalog(), node, p.name)
-                .unwrap_or(p.types[0])
-        };
-        Some((p.name.to_string(), ty))
-    }
-
-    fn counts(&self, node: &str) -> (usize, usize) {
-        let g: &Graph = self.state.graph();
-        g.node(node)
-            .and_then(|n| self.state.catalog().get(&n.kind))
-            .map_or((0, 0), |s| (s.inputs.len(), s.outputs.len()))
-    }
-}
-
-impl SnarlViewer<String> for CanvasView<'_> {
-    fn title(&mut self, node: &String) -> String {
-        let kind = self
-            .state
-            .graph()
-            .node(node)
-            .map(|n| n.kind.clone())
-            .unwrap_or_default();
-        format!("{node} - {kind}")
-    }
-
-    fn inputs(&mut self, node: &String) -> usize {
-        self.counts(node).0
-    }
-
-    fn outputs(&mut self, node: &String) -> usize {
-        self.counts(node).1
-    }
-
-    fn show_input(
-        &mut self,
-        pin: &InPin,
-        ui: &mut egui::Ui,
-        snarl: &mut Snarl<String>,
-    ) -> impl egui_snarl::ui::SnarlPin + 'static {
-        let (name, ty) = self
-            .port(&snarl[pin.id.node], true, pin.id.input)
-            .unwrap_or(("?".into(), PortType::Scalar));
-        ui.label(name).on_hover_text(ty.name());
-        PinInfo::circle().with_fill(port_colour(ty))
-    }
-
-    fn show_output(
-        &mut self,
-        pin: &OutPin,
-        ui: &mut egui::Ui,
-        snarl: &mut Snarl<String>,
-    ) -> impl egui_snarl::ui::SnarlPin + 'static {
-        let (name, ty) = self
-            .port(&snarl[pin.id.node], false, pin.id.output)
-            .unwrap_or(("?".into(), PortType::Scalar));
-        ui.label(name).on_hover_text(ty.name());
-        PinInfo::circle().with_fill(port_colour(ty))
-    }
-
-    fn connect(&mut self, from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
-        let (a, b) = (snarl[from.id.node].clone(), snarl[to.id.node].clone());
-        if let (Some((fp, _)), Some((tp, _))) = (
-            self.port(&a, false, from.id.output),
-            self.port(&b, true, to.id.input),
-        ) {
-            // Connecting to a taken input replaces its edge, as in other compositors.
-            let res = self.state.apply(|g, c| {
-                g.disconnect(&b, &tp);
-                g.connect(c, &format!("{a}.{fp}"), &format!("{b}.{tp}"))
-            });
-            *self.status = match res {
-                Ok(()) => String::new(),
-                Err(e) => format!("refused: {e}"),
-            };
-        }
-    }
-
-    fn disconnect(&mut self, _from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
-        let b = snarl[to.id.node].clone();
-        if let Some((tp, _)) = self.port(&b, true, to.id.input) {
-            let _ = self.state.apply(|g, _| {
-                g.disconnect(&b, &tp);
-                Ok(())
-            });
-        }
-    }
-
-    fn drop_inputs(&mut self, pin: &InPin, snarl: &mut Snarl<String>) {
-        let b = snarl[pin.id.node].clone();
-        if let Some((tp, _)) = self.port(&b, true, pin.id.input) {
-            let _ = self.state.apply(|g, _| {
-                g.disconnect(&b, &tp);
-                Ok(())
-            });
-        }
-    }
-
-    fn has_graph_menu(&mut self, _pos: egui::Pos2, _snarl: &mut Snarl<String>) -> bool {
-        true
-    }
-
-    fn show_graph_menu(&mut self, pos: egui::Pos2, ui: &mut egui::Ui, _snarl: &mut Snarl<String>) {
-        ui.label("Add node");
-        let mut by_category: std::collections::BTreeMap<&str, Vec<&str>> =
-            std::collections::BTreeMap::new();
-        for s in self.state.catalog().iter() {
-            by_category.entry(s.category).or_default().push(s.kind);
-        }
-        for (category, kinds) in by_category {
-            ui.menu_button(category, |ui| {
-                for kind in kinds {
-                    if ui.button(kind).clicked() {
-                        if let Err(e) = self.state.add_node(kind, [pos.x, pos.y]) {
-                            *self.status = e.to_string();
-                        }
-                        ui.close();
-                    }
-                }
-            });
-        }
-    }
-
-    fn has_node_menu(&mut self, _node: &String) -> bool {
-        true
-    }
-
-    fn show_node_menu(
-        &mut self,
-        node: NodeId,
-        _inputs: &[InPin],
-        _outputs: &[OutPin],
-        ui: &mut egui::Ui,
-        snarl: &mut Snarl<String>,
-    ) {
-        let id = snarl[node].clone();
-        if ui.button("Duplicate").clicked() {
-            let _ = self.state.duplicate(std::slice::from_ref(&id));
-            ui.close();
-        }
-        if ui.button("Delete").clicked() {
-            let _ = self.state.delete(std::slice::from_ref(&id));
-            ui.close();
-        }
-    }
-}
-
 impl eframe::App for EditorApp {
     fn ui(&mut self, root: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = root.ctx().clone();
         self.dialogs(&ctx);
+        self.shortcuts(&ctx);
         self.sync();
-        let (undo, redo, save) = ctx.input(|i| {
-            let cmd = i.modifiers.command;
-            (
-                cmd && i.key_pressed(egui::Key::Z) && !i.modifiers.shift,
-                cmd && (i.key_pressed(egui::Key::Y)
-                    || (i.modifiers.shift && i.key_pressed(egui::Key::Z))),
-                cmd && i.key_pressed(egui::Key::S),
-            )
-        });
-        if undo {
-            self.state.undo();
-        }
-        if redo {
-            self.state.redo();
-        }
-        if save {
-            self.status = match self.state.save() {
-                Ok(()) => "saved".into(),
-                Err(e) => e.to_string(),
-            };
-        }
+        self.play(&ctx);
+        self.pump(&ctx);
         if let Err(e) = self.state.tick_autosave(Instant::now()) {
             self.status = e.to_string();
         }
@@ -553,46 +1102,81 @@ impl eframe::App for EditorApp {
                     "Tyndall — {title}{}",
                     if self.state.is_dirty() { " •" } else { "" }
                 ));
-                if ui.button("Undo").clicked() {
+                if ui.button("Undo").on_hover_text("Ctrl+Z").clicked() {
                     self.state.undo();
                 }
-                if ui.button("Redo").clicked() {
+                if ui
+                    .button("Redo")
+                    .on_hover_text("Ctrl+Y / Ctrl+Shift+Z")
+                    .clicked()
+                {
                     self.state.redo();
                 }
-                if ui.button("Save").clicked() {
-                    self.status = match self.state.save() {
-                        Ok(()) => "saved".into(),
-                        Err(e) => e.to_string(),
-                    };
+                if ui.button("Save").on_hover_text("Ctrl+S").clicked() {
+                    self.save();
+                }
+                if ui.button("Save as…").clicked() {
+                    self.save_as = Some(
+                        self.state
+                            .path()
+                            .map(|p| p.display().to_string())
+                            .unwrap_or_else(|| "graphs/untitled.ron".into()),
+                    );
+                }
+                if ui
+                    .button("Frame all")
+                    .on_hover_text("F, or double-click the canvas")
+                    .clicked()
+                {
+                    self.frame_all = true;
                 }
                 ui.separator();
-                ui.label("time");
-                ui.add(egui::DragValue::new(&mut self.time).speed(0.1));
-                ui.separator();
+                if !self.idle() {
+                    ui.spinner();
+                }
                 ui.label(&self.status);
             });
         });
-        egui::Panel::right("params")
-            .default_size(320.0)
+        egui::Panel::bottom("timeline").show(root, |ui| self.timeline(ui));
+        egui::Panel::left("library")
+            .default_size(230.0)
             .show(root, |ui| {
-                ui.heading("Viewer");
-                self.viewer_image(&ctx);
-                match &self.preview {
-                    Some(t) => {
-                        ui.add(egui::Image::new(t).fit_to_exact_size(egui::vec2(300.0, 169.0)));
-                    }
-                    None => {
-                        ui.label("(no image)");
-                    }
-                }
+                egui::ScrollArea::vertical()
+                    .id_salt("catalog")
+                    .max_height(ui.available_height() * 0.45)
+                    .show(ui, |ui| self.catalog(ui));
                 ui.separator();
-                self.parameters(ui);
+                self.presets_panel(ui);
+            });
+        egui::Panel::right("params")
+            .default_size(380.0)
+            .show(root, |ui| {
+                self.viewer(ui);
+                ui.separator();
+                egui::ScrollArea::vertical()
+                    .id_salt("parameters")
+                    .show(ui, |ui| self.parameters(ui));
             });
         egui::CentralPanel::default().show(root, |ui| {
             let canvas = egui::Id::new("tyndall-canvas");
+            let frame = if self.frame_all && !self.rects.is_empty() {
+                self.frame_all = false;
+                let bb = self
+                    .rects
+                    .values()
+                    .fold(egui::Rect::NOTHING, |a, r| a.union(*r));
+                Some((bb, ui.max_rect()))
+            } else {
+                None
+            };
             let mut view = CanvasView {
                 state: &mut self.state,
                 status: &mut self.status,
+                reports: &self.reports,
+                show_timings: self.show_timings,
+                thumbs: &self.thumbs,
+                rects: &mut self.rects,
+                frame,
             };
             SnarlWidget::new()
                 .id(canvas)

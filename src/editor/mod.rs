@@ -1,10 +1,14 @@
 //! The editor (`tyndall edit`). This module holds the document-side core the egui window is a
 //! view of: every change as an undoable command on the petgraph document, copy/paste and
 //! duplicate with fresh ids, preset libraries, atomic save and autosave with recovery.
-//! The window (`app`) is an early version: canvas, parameters and a viewer.
+//! The window (`app`) draws the canvas (`canvas`), viewer (`view`), parameters, timeline and
+//! preset browser; evaluation runs on a worker thread (`worker`).
 
 mod app;
+mod canvas;
 mod state;
+pub mod view;
+pub mod worker;
 
-pub use app::{port_colour, run, EditorApp};
+pub use app::{port_colour, run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
 pub use state::{autosave_path, list_presets, EditorError, EditorState, PresetEntry, UNDO_LIMIT};

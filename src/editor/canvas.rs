@@ -1,0 +1,261 @@
+//! The node canvas: egui-snarl drawing the document, every edit sent to [`EditorState`].
+
+use std::collections::BTreeMap;
+
+use eframe::egui;
+use eframe::egui::emath;
+use egui_snarl::ui::{PinInfo, SnarlViewer};
+use egui_snarl::{InPin, NodeId, OutPin, Snarl};
+
+use super::worker::NodeReport;
+use super::{port_colour, EditorState};
+use crate::eval::Status;
+use crate::graph::{Graph, PortType};
+
+/// The canvas's view of the document: every edit goes through [`EditorState`]; bodies show
+/// the worker's thumbnails, timings and errors.
+pub(super) struct CanvasView<'a> {
+    pub state: &'a mut EditorState,
+    pub status: &'a mut String,
+    pub reports: &'a BTreeMap<String, NodeReport>,
+    pub show_timings: bool,
+    pub thumbs: &'a BTreeMap<String, egui::TextureHandle>,
+    /// Node rectangles in graph space as last drawn (for "frame all").
+    pub rects: &'a mut BTreeMap<NodeId, egui::Rect>,
+    /// When set, the view is moved so this graph-space rectangle fills the canvas.
+    pub frame: Option<(egui::Rect, egui::Rect)>,
+}
+
+impl CanvasView<'_> {
+    fn port(&self, node: &str, input: bool, index: usize) -> Option<(String, PortType)> {
+        let kind = &self.state.graph().node(node)?.kind;
+        let schema = self.state.catalog().get(kind)?;
+        let p = if input {
+            schema.inputs.get(index)?
+        } else {
+            schema.outputs.get(index)?
+        };
+        let ty = if input {
+            p.types[0]
+        } else {
+            self.state
+                .graph()
+                .output_type(self.state.catalog(), node, p.name)
+                .unwrap_or(p.types[0])
+        };
+        Some((p.name.to_string(), ty))
+    }
+
+    fn counts(&self, node: &str) -> (usize, usize) {
+        let g: &Graph = self.state.graph();
+        g.node(node)
+            .and_then(|n| self.state.catalog().get(&n.kind))
+            .map_or((0, 0), |s| (s.inputs.len(), s.outputs.len()))
+    }
+}
+
+impl SnarlViewer<String> for CanvasView<'_> {
+    fn title(&mut self, node: &String) -> String {
+        let kind = self
+            .state
+            .graph()
+            .node(node)
+            .map(|n| n.kind.clone())
+            .unwrap_or_default();
+        format!("{node} - {kind}")
+    }
+
+    fn inputs(&mut self, node: &String) -> usize {
+        self.counts(node).0
+    }
+
+    fn outputs(&mut self, node: &String) -> usize {
+        self.counts(node).1
+    }
+
+    fn show_input(
+        &mut self,
+        pin: &InPin,
+        ui: &mut egui::Ui,
+        snarl: &mut Snarl<String>,
+    ) -> impl egui_snarl::ui::SnarlPin + 'static {
+        let (name, ty) = self
+            .port(&snarl[pin.id.node], true, pin.id.input)
+            .unwrap_or(("?".into(), PortType::Scalar));
+        ui.label(name).on_hover_text(ty.name());
+        PinInfo::circle().with_fill(port_colour(ty))
+    }
+
+    fn show_output(
+        &mut self,
+        pin: &OutPin,
+        ui: &mut egui::Ui,
+        snarl: &mut Snarl<String>,
+    ) -> impl egui_snarl::ui::SnarlPin + 'static {
+        let (name, ty) = self
+            .port(&snarl[pin.id.node], false, pin.id.output)
+            .unwrap_or(("?".into(), PortType::Scalar));
+        ui.label(name).on_hover_text(ty.name());
+        PinInfo::circle().with_fill(port_colour(ty))
+    }
+
+    fn connect(&mut self, from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
+        let (a, b) = (snarl[from.id.node].clone(), snarl[to.id.node].clone());
+        if let (Some((fp, _)), Some((tp, _))) = (
+            self.port(&a, false, from.id.output),
+            self.port(&b, true, to.id.input),
+        ) {
+            // Connecting to a taken input replaces its edge, as in other compositors.
+            let res = super::app::connect_replacing(
+                self.state,
+                &format!("{a}.{fp}"),
+                &format!("{b}.{tp}"),
+            );
+            *self.status = match res {
+                Ok(()) => String::new(),
+                Err(e) => format!("refused: {e}"),
+            };
+        }
+    }
+
+    fn disconnect(&mut self, _from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
+        let b = snarl[to.id.node].clone();
+        if let Some((tp, _)) = self.port(&b, true, to.id.input) {
+            let _ = self.state.apply(|g, _| {
+                g.disconnect(&b, &tp);
+                Ok(())
+            });
+        }
+    }
+
+    fn drop_inputs(&mut self, pin: &InPin, snarl: &mut Snarl<String>) {
+        let b = snarl[pin.id.node].clone();
+        if let Some((tp, _)) = self.port(&b, true, pin.id.input) {
+            let _ = self.state.apply(|g, _| {
+                g.disconnect(&b, &tp);
+                Ok(())
+            });
+        }
+    }
+
+    fn has_body(&mut self, _node: &String) -> bool {
+        true
+    }
+
+    fn show_body(
+        &mut self,
+        node: NodeId,
+        _inputs: &[InPin],
+        _outputs: &[OutPin],
+        ui: &mut egui::Ui,
+        snarl: &mut Snarl<String>,
+    ) {
+        let id = &snarl[node];
+        ui.vertical(|ui| {
+            if let Some(t) = self.thumbs.get(id) {
+                let size = t.size_vec2();
+                let scale = (96.0 / size.x.max(size.y)).min(1.0);
+                ui.add(egui::Image::new(t).fit_to_exact_size(size * scale));
+            }
+            match self.reports.get(id) {
+                Some(r) if r.error.is_some() => {
+                    let msg = r.error.clone().unwrap_or_default();
+                    ui.add(
+                        egui::Label::new(
+                            egui::RichText::new(msg)
+                                .color(egui::Color32::from_rgb(240, 90, 80))
+                                .small(),
+                        )
+                        .wrap(),
+                    );
+                }
+                Some(r) if self.show_timings => {
+                    let text = match r.status {
+                        Status::Ran => format!("{:.1} ms", r.time.as_secs_f64() * 1e3),
+                        Status::Reused => format!("{:.1} ms (cached)", r.time.as_secs_f64() * 1e3),
+                        Status::NotNeeded => String::new(),
+                    };
+                    if !text.is_empty() {
+                        ui.small(text);
+                    }
+                }
+                _ => {}
+            }
+        });
+    }
+
+    fn final_node_rect(
+        &mut self,
+        node: NodeId,
+        rect: egui::Rect,
+        _ui: &mut egui::Ui,
+        _snarl: &mut Snarl<String>,
+    ) {
+        self.rects.insert(node, rect);
+    }
+
+    fn current_transform(
+        &mut self,
+        to_global: &mut emath::TSTransform,
+        _snarl: &mut Snarl<String>,
+    ) {
+        if let Some((bb, canvas)) = self.frame.take() {
+            let bb = bb.expand(40.0);
+            let scale = (canvas.width() / bb.width())
+                .min(canvas.height() / bb.height())
+                .clamp(0.4, 1.2);
+            *to_global = emath::TSTransform::new(
+                canvas.center().to_vec2() - bb.center().to_vec2() * scale,
+                scale,
+            );
+        }
+    }
+
+    fn has_graph_menu(&mut self, _pos: egui::Pos2, _snarl: &mut Snarl<String>) -> bool {
+        true
+    }
+
+    fn show_graph_menu(&mut self, pos: egui::Pos2, ui: &mut egui::Ui, _snarl: &mut Snarl<String>) {
+        ui.label("Add node");
+        let mut by_category: std::collections::BTreeMap<&str, Vec<&str>> =
+            std::collections::BTreeMap::new();
+        for s in self.state.catalog().iter() {
+            by_category.entry(s.category).or_default().push(s.kind);
+        }
+        for (category, kinds) in by_category {
+            ui.menu_button(category, |ui| {
+                for kind in kinds {
+                    if ui.button(kind).clicked() {
+                        if let Err(e) = self.state.add_node(kind, [pos.x, pos.y]) {
+                            *self.status = e.to_string();
+                        }
+                        ui.close();
+                    }
+                }
+            });
+        }
+    }
+
+    fn has_node_menu(&mut self, _node: &String) -> bool {
+        true
+    }
+
+    fn show_node_menu(
+        &mut self,
+        node: NodeId,
+        _inputs: &[InPin],
+        _outputs: &[OutPin],
+        ui: &mut egui::Ui,
+        snarl: &mut Snarl<String>,
+    ) {
+        let id = snarl[node].clone();
+        if ui.button("Duplicate").clicked() {
+            let _ = self.state.duplicate(std::slice::from_ref(&id));
+            ui.close();
+        }
+        if ui.button("Delete").clicked() {
+            let _ = self.state.delete(std::slice::from_ref(&id));
+            ui.close();
+        }
+    }
+}

@@ -1,0 +1,122 @@
+//! The viewer's picture maths, kept apart from egui so it can be tested: which channel to show,
+//! exposure in stops, the 8-bit sRGB picture, and the pixel probe's text.
+
+use crate::io::{linear_to_srgb, Raster};
+
+/// Which channel(s) the viewer shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Channel {
+    /// Colour (a one-channel picture shows as grey).
+    #[default]
+    Rgb,
+    /// Red only, as grey.
+    R,
+    /// Green only, as grey.
+    G,
+    /// Blue only, as grey.
+    B,
+    /// Alpha only, as grey.
+    A,
+    /// Rec. 709 luminance, as grey.
+    Luma,
+}
+
+impl Channel {
+    /// All, in menu order.
+    pub const ALL: [Channel; 6] = [
+        Channel::Rgb,
+        Channel::R,
+        Channel::G,
+        Channel::B,
+        Channel::A,
+        Channel::Luma,
+    ];
+
+    /// Menu label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Channel::Rgb => "RGB",
+            Channel::R => "R",
+            Channel::G => "G",
+            Channel::B => "B",
+            Channel::A => "A",
+            Channel::Luma => "Luma",
+        }
+    }
+}
+
+/// The displayed linear RGB of pixel `i` of `r` (before exposure).
+pub fn shown_rgb(r: &Raster, i: usize, channel: Channel) -> [f32; 3] {
+    if r.channels == 1 {
+        let v = r.data[i];
+        return [v, v, v];
+    }
+    let p = &r.data[i * 4..i * 4 + 4];
+    let grey = |v: f32| [v, v, v];
+    match channel {
+        Channel::Rgb => [p[0], p[1], p[2]],
+        Channel::R => grey(p[0]),
+        Channel::G => grey(p[1]),
+        Channel::B => grey(p[2]),
+        Channel::A => grey(p[3]),
+        Channel::Luma => grey(0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]),
+    }
+}
+
+/// 8-bit sRGB pixels (RGBA, opaque) of `r` with `channel` shown and `stops` of exposure
+/// (multiplied by 2^stops). Non-finite values show as magenta so they cannot hide.
+pub fn to_srgb8(r: &Raster, channel: Channel, stops: f32) -> Vec<[u8; 4]> {
+    let gain = 2f32.powf(stops);
+    let enc = |x: f32| (linear_to_srgb((x * gain).clamp(0.0, 1.0)) * 255.0).round() as u8;
+    (0..(r.width * r.height) as usize)
+        .map(|i| {
+            let c = shown_rgb(r, i, channel);
+            if c.iter().any(|v| !v.is_finite()) {
+                [255, 0, 255, 255]
+            } else {
+                [enc(c[0]), enc(c[1]), enc(c[2]), 255]
+            }
+        })
+        .collect()
+}
+
+/// The probe's line for pixel (x, y): every picture's value there, by port name (`visibility
+/// 0.412  depth 12.7 …` for a scattering node: V̄ and linear depth).
+pub fn probe(pictures: &[(String, Raster)], x: u32, y: u32) -> String {
+    let mut parts = vec![format!("({x}, {y})")];
+    for (port, r) in pictures {
+        if x >= r.width || y >= r.height {
+            continue;
+        }
+        let i = (y * r.width + x) as usize * r.channels as usize;
+        let v = &r.data[i..i + r.channels as usize];
+        let text = if v.len() == 1 {
+            format!("{:.4}", v[0])
+        } else {
+            format!("({:.4}, {:.4}, {:.4}, {:.4})", v[0], v[1], v[2], v[3])
+        };
+        parts.push(format!("{port} {text}"));
+    }
+    parts.join("   ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposure_channel_and_bad_values() {
+        let r = Raster {
+            width: 2,
+            height: 1,
+            channels: 4,
+            data: vec![0.25, 0.5, 1.0, 0.0, f32::NAN, 0.0, 0.0, 1.0],
+        };
+        let px = to_srgb8(&r, Channel::R, 1.0);
+        // 0.25 · 2 = 0.5 linear → 188 in sRGB.
+        assert_eq!(px[0], [188, 188, 188, 255]);
+        assert_eq!(px[1], [255, 0, 255, 255], "NaN shows as magenta");
+        assert_eq!(to_srgb8(&r, Channel::A, 0.0)[0], [0, 0, 0, 255]);
+        assert!(probe(&[("image".into(), r)], 0, 0).contains("(0.2500, 0.5000, 1.0000"));
+    }
+}

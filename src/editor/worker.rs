@@ -1,0 +1,338 @@
+//! Evaluation off the UI thread: a worker owns the [`Evaluator`] (and with it the cache of
+//! every node's last result), takes the newest request, evaluates it and sends back per-node
+//! thumbnails, statistics and errors plus the viewed port's full picture. Only nodes whose
+//! inputs or parameters changed run again (the evaluator's cache), so dragging a slider
+//! re-runs the chain below it while the window keeps drawing.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use crate::eval::{
+    download, EvalError, EvalOptions, Evaluator, PortValue, Registry, Status, Target,
+};
+use crate::gpu::Gpu;
+use crate::graph::{Graph, PortType};
+use crate::io::Raster;
+
+/// Longest side of a node's thumbnail on the canvas, in pixels.
+pub const THUMB: u32 = 96;
+
+/// What to evaluate.
+#[derive(Clone)]
+pub struct Request {
+    /// Increasing number; results carry the request's.
+    pub generation: u64,
+    /// The document as it is now.
+    pub graph: Graph,
+    /// Time at which key-frames are sampled.
+    pub time: f64,
+    /// Image size for nodes that make images from nothing.
+    pub size: (u32, u32),
+    /// The node shown in the viewer: all its picture outputs are read back at full size.
+    pub view: Option<String>,
+}
+
+/// One node's part of a result.
+#[derive(Clone, Debug)]
+pub struct NodeReport {
+    /// Ran, reused or not needed in this evaluation.
+    pub status: Status,
+    /// Time of its last run.
+    pub time: Duration,
+    /// Its error, or the upstream node whose error stopped it.
+    pub error: Option<String>,
+    /// A small picture of its first picture output, when it ran (or was never sent); keep the
+    /// previous one when `None`.
+    pub thumb: Option<Raster>,
+}
+
+/// A finished evaluation.
+pub struct Outcome {
+    /// The request's generation.
+    pub generation: u64,
+    /// Per node id.
+    pub nodes: BTreeMap<String, NodeReport>,
+    /// The viewed node and its picture outputs by port name.
+    pub view: Option<(String, Vec<(String, Raster)>)>,
+    /// Wall-clock time of the whole evaluation.
+    pub elapsed: Duration,
+}
+
+/// The evaluation thread and its channels.
+pub struct Worker {
+    tx: Option<Sender<Request>>,
+    rx: Receiver<Outcome>,
+    thread: Option<JoinHandle<()>>,
+    /// Generation of the newest request sent.
+    pub sent: u64,
+    /// Generation of the newest outcome received.
+    pub done: u64,
+}
+
+impl Worker {
+    /// Start a worker evaluating with `registry` on `gpu`.
+    pub fn start(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
+        let (tx, requests) = channel::<Request>();
+        let (results, rx) = channel::<Outcome>();
+        let thread = std::thread::Builder::new()
+            .name("tyndall-eval".into())
+            .spawn(move || {
+                let mut ev = Evaluator::new(registry, gpu);
+                let mut thumbed = BTreeSet::new();
+                while let Ok(mut req) = requests.recv() {
+                    // Only the newest request matters.
+                    loop {
+                        match requests.try_recv() {
+                            Ok(newer) => req = newer,
+                            Err(TryRecvError::Empty) => break,
+                            Err(TryRecvError::Disconnected) => return,
+                        }
+                    }
+                    if results.send(evaluate(&mut ev, &req, &mut thumbed)).is_err() {
+                        return;
+                    }
+                }
+            })
+            .ok();
+        Self {
+            tx: thread.as_ref().map(|_| tx),
+            rx,
+            thread,
+            sent: 0,
+            done: 0,
+        }
+    }
+
+    /// Ask for an evaluation; returns its generation.
+    pub fn request(&mut self, mut req: Request) -> u64 {
+        self.sent += 1;
+        req.generation = self.sent;
+        if let Some(tx) = &self.tx {
+            if tx.send(req).is_err() {
+                self.tx = None;
+            }
+        }
+        self.sent
+    }
+
+    /// The newest finished outcome, if any arrived since the last call.
+    pub fn poll(&mut self) -> Option<Outcome> {
+        let mut last = None;
+        while let Ok(o) = self.rx.try_recv() {
+            self.done = o.generation;
+            last = Some(o);
+        }
+        last
+    }
+
+    /// Every request sent has its outcome (or the worker is gone).
+    pub fn idle(&self) -> bool {
+        self.tx.is_none() || self.done >= self.sent
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// A node's outputs that are pictures (not a scene or a phase function), in schema order;
+/// none for sinks (evaluating them writes files).
+pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String> {
+    let Some(kind) = graph.node(id).and_then(|n| registry.get(&n.kind)) else {
+        return Vec::new();
+    };
+    if kind.is_sink() {
+        return Vec::new();
+    }
+    let cat = registry.catalog();
+    kind.schema()
+        .outputs
+        .iter()
+        .filter(|p| {
+            let t = graph.output_type(cat, id, p.name).unwrap_or(p.types[0]);
+            !matches!(t, PortType::Scene | PortType::Phase)
+        })
+        .map(|p| p.name.to_string())
+        .collect()
+}
+
+fn evaluate(ev: &mut Evaluator, req: &Request, thumbed: &mut BTreeSet<String>) -> Outcome {
+    let start = std::time::Instant::now();
+    let opts = EvalOptions {
+        time: req.time,
+        size: req.size,
+        ..Default::default()
+    };
+    let registry = ev.registry().clone();
+    let mut nodes: BTreeMap<String, NodeReport> = req
+        .graph
+        .nodes()
+        .map(|n| {
+            (
+                n.id.clone(),
+                NodeReport {
+                    status: Status::NotNeeded,
+                    time: Duration::ZERO,
+                    error: None,
+                    thumb: None,
+                },
+            )
+        })
+        .collect();
+    // The viewed node first (what the artist waits for), then every node's thumbnail; the
+    // cache makes the later calls cheap.
+    let mut jobs: Vec<(String, Vec<String>, bool)> = Vec::new();
+    if let Some(id) = &req.view {
+        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), true));
+    }
+    for id in req.graph.topo_order() {
+        if let Some(port) = picture_ports(&req.graph, &registry, &id).into_iter().next() {
+            jobs.push((id, vec![port], false));
+        }
+    }
+    let mut view = None;
+    for (id, ports, full) in jobs {
+        if ports.is_empty() || nodes.get(&id).is_some_and(|r| r.error.is_some()) {
+            continue;
+        }
+        let targets: Vec<Target> = ports
+            .iter()
+            .map(|p| Target::Port(id.clone(), p.clone()))
+            .collect();
+        match ev.evaluate(&req.graph, &targets, &opts) {
+            Ok(r) => {
+                for s in &r.stats.nodes {
+                    let Some(rep) = nodes.get_mut(&s.id) else {
+                        continue;
+                    };
+                    if s.status == Status::Ran {
+                        rep.status = Status::Ran;
+                        rep.time = s.time;
+                        thumbed.remove(&s.id);
+                    } else if s.status == Status::Reused && rep.status != Status::Ran {
+                        rep.status = Status::Reused;
+                    }
+                }
+                if full {
+                    let pictures = ports
+                        .iter()
+                        .filter_map(|p| {
+                            let v = r.outputs.get(&(id.clone(), p.clone()))?;
+                            Some((p.clone(), download(ev.gpu(), v).ok()?))
+                        })
+                        .collect();
+                    view = Some((id.clone(), pictures));
+                } else if !thumbed.contains(&id) {
+                    if let (Some(v), Some(rep)) = (
+                        r.outputs.get(&(id.clone(), ports[0].clone())),
+                        nodes.get_mut(&id),
+                    ) {
+                        rep.thumb = thumbnail(ev.gpu(), v);
+                        thumbed.insert(id.clone());
+                    }
+                }
+            }
+            Err(e) => {
+                let culprit = match &e {
+                    EvalError::Node { node, .. } => node.clone(),
+                    _ => id.clone(),
+                };
+                thumbed.remove(&culprit);
+                if let Some(rep) = nodes.get_mut(&culprit) {
+                    rep.error = Some(e.to_string());
+                }
+                if culprit != id {
+                    if let Some(rep) = nodes.get_mut(&id) {
+                        rep.error = Some(format!("input failed: node '{culprit}'"));
+                    }
+                }
+            }
+        }
+    }
+    Outcome {
+        generation: req.generation,
+        nodes,
+        view,
+        elapsed: start.elapsed(),
+    }
+}
+
+/// A picture-like value read back and shrunk (box filter) to at most [`THUMB`] pixels wide or
+/// high; `None` for values that are not 2D pictures.
+/// One-channel values beyond 1 (depths in metres) are divided by their largest finite value so
+/// the thumbnail shows their shape instead of white.
+fn thumbnail(gpu: &Gpu, value: &PortValue) -> Option<Raster> {
+    let mut r = shrink(&download(gpu, value).ok()?, THUMB);
+    if r.channels == 1 {
+        let top = r
+            .data
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f32, |a, v| a.max(*v));
+        if top > 1.0 {
+            r.data.iter_mut().for_each(|v| *v /= top);
+        }
+    }
+    Some(r)
+}
+
+/// Shrink `r` by an integer box filter so its longer side is at most `side` pixels.
+pub fn shrink(r: &Raster, side: u32) -> Raster {
+    let f = r.width.max(r.height).div_ceil(side.max(1)).max(1);
+    let (w, h) = (r.width.div_ceil(f), r.height.div_ceil(f));
+    let c = r.channels as usize;
+    let mut data = vec![0.0f32; (w * h) as usize * c];
+    for y in 0..h {
+        for x in 0..w {
+            let mut n = 0.0f32;
+            let mut acc = [0.0f32; 4];
+            for sy in y * f..((y + 1) * f).min(r.height) {
+                for sx in x * f..((x + 1) * f).min(r.width) {
+                    let i = (sy * r.width + sx) as usize * c;
+                    for (a, v) in acc.iter_mut().zip(&r.data[i..i + c]) {
+                        *a += v;
+                    }
+                    n += 1.0;
+                }
+            }
+            let o = (y * w + x) as usize * c;
+            for (d, a) in data[o..o + c].iter_mut().zip(acc) {
+                *d = a / n.max(1.0);
+            }
+        }
+    }
+    Raster {
+        width: w,
+        height: h,
+        channels: r.channels,
+        data,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shrink_averages_blocks_and_keeps_channels() {
+        let r = Raster {
+            width: 4,
+            height: 2,
+            channels: 1,
+            data: vec![0.0, 2.0, 4.0, 6.0, 2.0, 4.0, 6.0, 8.0],
+        };
+        let s = shrink(&r, 2);
+        assert_eq!((s.width, s.height, s.channels), (2, 1, 1));
+        assert_eq!(s.data, vec![2.0, 6.0]);
+        // Already small: unchanged.
+        assert_eq!(shrink(&r, 96), r);
+    }
+}
