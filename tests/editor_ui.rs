@@ -96,8 +96,11 @@ fn selecting_a_node_shows_its_parameters_and_picture() {
     // anti-aliased edges differ from run to run in a few hundred pixels even on lavapipe
     // (measured 449–592 at threshold 0.6), so up to 1 500 pixels (0.16 %) may differ: a
     // missing panel, node, thumbnail or picture changes thousands.
+    // The view is framed once the thumbnails have landed (they change the nodes' sizes, and the
+    // first framing happens before, at a time that depends on the worker).
     h.state_mut().show_timings = false;
     h.state_mut().status.clear();
+    h.state_mut().request_frame_all();
     h.run_steps(4);
     h.snapshot_options(
         "editor_window",

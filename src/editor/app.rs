@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 use egui_snarl::ui::{get_selected_nodes, SnarlWidget};
-use egui_snarl::{NodeId, Snarl};
+use egui_snarl::Snarl;
 
 use super::canvas::CanvasView;
 use super::view::{probe, to_srgb8, Channel};
@@ -94,7 +94,6 @@ pub struct EditorApp {
     preset_name: String,
     search: String,
     save_as: Option<String>,
-    rects: BTreeMap<NodeId, egui::Rect>,
     frame_all: bool,
     clipboard: String,
     /// Show per-node timings on the canvas (off for reproducible screenshots).
@@ -157,7 +156,6 @@ impl EditorApp {
             preset_name: String::new(),
             search: String::new(),
             save_as: None,
-            rects: BTreeMap::new(),
             frame_all: true,
             clipboard: String::new(),
             show_timings: true,
@@ -185,6 +183,11 @@ impl EditorApp {
             Err(e) => format!("refused: {e}"),
         };
         res.is_ok()
+    }
+
+    /// Fit the canvas view to all nodes on the next frame (F, "Frame all").
+    pub fn request_frame_all(&mut self) {
+        self.frame_all = true;
     }
 
     /// Every evaluation asked for has landed (or there is no GPU).
@@ -232,7 +235,6 @@ impl EditorApp {
             }
         }
         self.snarl = snarl;
-        self.rects.clear();
         self.synced = Some(text);
         let g = self.state.graph();
         self.thumbs.retain(|id, _| g.node(id).is_some());
@@ -405,24 +407,28 @@ impl EditorApp {
             ui.selectable_value(&mut self.zoom, Zoom::Fit, "Fit");
             ui.selectable_value(&mut self.zoom, Zoom::One, "1:1");
         });
-        let Some((node, pictures)) = self.pictures.clone() else {
+        // Borrow the pictures out for the frame instead of copying them.
+        let Some((node, pictures)) = self.pictures.take() else {
             ui.label("(no picture yet)");
             return;
         };
+        self.show_picture(ui, &node, &pictures);
+        self.pictures = Some((node, pictures));
+    }
+
+    fn show_picture(&mut self, ui: &mut egui::Ui, node: &str, pictures: &[(String, Raster)]) {
         let port = self
             .view_port
             .clone()
             .filter(|p| pictures.iter().any(|(n, _)| n == p))
             .or_else(|| pictures.first().map(|(n, _)| n.clone()));
-        let Some((port, raster)) =
-            port.and_then(|p| pictures.iter().find(|(n, _)| *n == p).cloned())
-        else {
+        let Some((port, raster)) = port.and_then(|p| pictures.iter().find(|(n, _)| *n == p)) else {
             ui.label("(this node has no picture output)");
             return;
         };
         let tex_key = format!("{node}.{port}:{:?}:{}", self.channel, self.exposure);
         if self.view_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
-            let image = colour_image(&raster, self.channel, self.exposure);
+            let image = colour_image(raster, self.channel, self.exposure);
             let tex = ui
                 .ctx()
                 .load_texture("viewer", image, egui::TextureOptions::NEAREST);
@@ -452,7 +458,7 @@ impl EditorApp {
             let rel = (pos - response.rect.min) / response.rect.size();
             let x = (rel.x * raster.width as f32).floor().max(0.0) as u32;
             let y = (rel.y * raster.height as f32).floor().max(0.0) as u32;
-            self.probe = probe(&pictures, x, y);
+            self.probe = probe(pictures, x, y);
         }
         ui.label(egui::RichText::new(&self.probe).monospace().small());
     }
@@ -1159,12 +1165,15 @@ impl eframe::App for EditorApp {
             });
         egui::CentralPanel::default().show(root, |ui| {
             let canvas = egui::Id::new("tyndall-canvas");
-            let frame = if self.frame_all && !self.rects.is_empty() {
+            // Frame from the document's positions with a nominal node size, so the framing does
+            // not depend on when thumbnails (which change node sizes) arrive.
+            let frame = if self.frame_all && self.snarl.nodes_pos_ids().next().is_some() {
                 self.frame_all = false;
                 let bb = self
-                    .rects
-                    .values()
-                    .fold(egui::Rect::NOTHING, |a, r| a.union(*r));
+                    .snarl
+                    .nodes_pos_ids()
+                    .map(|(_, pos, _)| egui::Rect::from_min_size(pos, egui::vec2(220.0, 140.0)))
+                    .fold(egui::Rect::NOTHING, |a, r| a.union(r));
                 Some((bb, ui.max_rect()))
             } else {
                 None
@@ -1175,7 +1184,6 @@ impl eframe::App for EditorApp {
                 reports: &self.reports,
                 show_timings: self.show_timings,
                 thumbs: &self.thumbs,
-                rects: &mut self.rects,
                 frame,
             };
             SnarlWidget::new()

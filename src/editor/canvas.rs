@@ -20,8 +20,6 @@ pub(super) struct CanvasView<'a> {
     pub reports: &'a BTreeMap<String, NodeReport>,
     pub show_timings: bool,
     pub thumbs: &'a BTreeMap<String, egui::TextureHandle>,
-    /// Node rectangles in graph space as last drawn (for "frame all").
-    pub rects: &'a mut BTreeMap<NodeId, egui::Rect>,
     /// When set, the view is moved so this graph-space rectangle fills the canvas.
     pub frame: Option<(egui::Rect, egui::Rect)>,
 }
@@ -182,16 +180,6 @@ impl SnarlViewer<String> for CanvasView<'_> {
                 _ => {}
             }
         });
-    }
-
-    fn final_node_rect(
-        &mut self,
-        node: NodeId,
-        rect: egui::Rect,
-        _ui: &mut egui::Ui,
-        _snarl: &mut Snarl<String>,
-    ) {
-        self.rects.insert(node, rect);
     }
 
     fn current_transform(
