@@ -35,9 +35,9 @@
 //! the ends already beat the bound, they are the definition's answer; otherwise, or when the
 //! texel's samples stray further from the grid points than a block covers (epipoles ~1e7
 //! texels away, where f32 angles are too coarse), that texel runs the exact loop. How many
-//! texels fall back depends on the map (measured on the tree's foliage map, the closure's
-//! erosion pass: 3 % at length 15 and 18 % at 60 at 1024², 2 % and 10 % at 2048²; most texels
-//! on noise); only their share of the work grows with `length`. The grid costs several texels' worth of
+//! texels fall back depends on the map (a small share on the built-in scenes' shadow maps,
+//! growing with `length`; most texels on noise); only their share of the work grows with
+//! `length`. The grid costs several texels' worth of
 //! work per texel (its disc around the epipole is larger than the map), so on lavapipe `Fast`
 //! is slower than `Reference` at lengths up to 60 (BENCHMARKS.md), which is why `Reference`
 //! stays the default.
