@@ -44,6 +44,25 @@ impl CanvasView<'_> {
         Some((p.name.to_string(), ty))
     }
 
+    /// A pin's label (type as tooltip) and its circle in the type's colour.
+    fn pin(&self, ui: &mut egui::Ui, node: &str, input: bool, index: usize) -> PinInfo {
+        let (name, ty) = self
+            .port(node, input, index)
+            .unwrap_or(("?".into(), PortType::Scalar));
+        ui.label(name).on_hover_text(ty.name());
+        PinInfo::circle().with_fill(port_colour(ty))
+    }
+
+    /// Remove the edge into input `index` of `node` (one undo step).
+    fn clear_input(&mut self, node: &str, index: usize) {
+        if let Some((port, _)) = self.port(node, true, index) {
+            let _ = self.state.apply(|g, _| {
+                g.disconnect(node, &port);
+                Ok(())
+            });
+        }
+    }
+
     fn counts(&self, node: &str) -> (usize, usize) {
         let g: &Graph = self.state.graph();
         g.node(node)
@@ -77,11 +96,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
         ui: &mut egui::Ui,
         snarl: &mut Snarl<String>,
     ) -> impl egui_snarl::ui::SnarlPin + 'static {
-        let (name, ty) = self
-            .port(&snarl[pin.id.node], true, pin.id.input)
-            .unwrap_or(("?".into(), PortType::Scalar));
-        ui.label(name).on_hover_text(ty.name());
-        PinInfo::circle().with_fill(port_colour(ty))
+        self.pin(ui, &snarl[pin.id.node], true, pin.id.input)
     }
 
     fn show_output(
@@ -90,11 +105,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
         ui: &mut egui::Ui,
         snarl: &mut Snarl<String>,
     ) -> impl egui_snarl::ui::SnarlPin + 'static {
-        let (name, ty) = self
-            .port(&snarl[pin.id.node], false, pin.id.output)
-            .unwrap_or(("?".into(), PortType::Scalar));
-        ui.label(name).on_hover_text(ty.name());
-        PinInfo::circle().with_fill(port_colour(ty))
+        self.pin(ui, &snarl[pin.id.node], false, pin.id.output)
     }
 
     fn connect(&mut self, from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
@@ -117,23 +128,11 @@ impl SnarlViewer<String> for CanvasView<'_> {
     }
 
     fn disconnect(&mut self, _from: &OutPin, to: &InPin, snarl: &mut Snarl<String>) {
-        let b = snarl[to.id.node].clone();
-        if let Some((tp, _)) = self.port(&b, true, to.id.input) {
-            let _ = self.state.apply(|g, _| {
-                g.disconnect(&b, &tp);
-                Ok(())
-            });
-        }
+        self.clear_input(&snarl[to.id.node].clone(), to.id.input);
     }
 
     fn drop_inputs(&mut self, pin: &InPin, snarl: &mut Snarl<String>) {
-        let b = snarl[pin.id.node].clone();
-        if let Some((tp, _)) = self.port(&b, true, pin.id.input) {
-            let _ = self.state.apply(|g, _| {
-                g.disconnect(&b, &tp);
-                Ok(())
-            });
-        }
+        self.clear_input(&snarl[pin.id.node].clone(), pin.id.input);
     }
 
     fn has_body(&mut self, _node: &String) -> bool {
