@@ -23,105 +23,79 @@
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the surface shadow test |
 //! | `pcf` | Int | 1 | 0…4 texels | radius of the surface shadow filter |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 use super::util::placeholder;
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 /// The `Composite` node kind.
 pub struct Composite;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Composite",
     category: "Scattering",
     doc: "Lambert + ambient surfaces shadowed with the original shadow map, attenuated by the medium, plus in-scatter.",
     inputs: &[
-        PortSpec { name: "albedo", types: &[PortType::Image], required: true, doc: "Surface colour (GBuffer)." },
-        PortSpec { name: "normal", types: &[PortType::Image], required: true, doc: "Surface normal (GBuffer)." },
-        PortSpec { name: "depth", types: &[PortType::Depth], required: true, doc: "Camera linear depth (GBuffer)." },
-        PortSpec { name: "shadow", types: &[PortType::ShadowMap], required: true, doc: "The ORIGINAL shadow map, for surface shadows." },
-        PortSpec { name: "inscatter", types: &[PortType::Image], required: false, doc: "In-scattered light added on top." },
-        PortSpec { name: "transmittance", types: &[PortType::Scalar], required: false, doc: "Attenuation of surfaces by the medium." },
+        PortSpec::required("albedo", &[PortType::Image], "Surface colour (GBuffer)."),
+        PortSpec::required("normal", &[PortType::Image], "Surface normal (GBuffer)."),
+        PortSpec::required("depth", &[PortType::Depth], "Camera linear depth (GBuffer)."),
+        PortSpec::required("shadow", &[PortType::ShadowMap], "The ORIGINAL shadow map, for surface shadows."),
+        PortSpec::input("inscatter", &[PortType::Image], "In-scattered light added on top."),
+        PortSpec::input("transmittance", &[PortType::Scalar], "Attenuation of surfaces by the medium."),
     ],
-    outputs: &[PortSpec { name: "image", types: &[PortType::Image], required: false, doc: "Linear radiance." }],
+    outputs: &[PortSpec::output("image", &[PortType::Image], "Linear radiance.")],
     params: &[
-        ParamSpec { name: "ambient", kind: ParamKind::Colour, default: DefaultValue::Colour([0.04, 0.05, 0.07, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Ambient light on surfaces." },
-        ParamSpec { name: "sky", kind: ParamKind::Colour, default: DefaultValue::Colour([0.2, 0.27, 0.38, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Radiance of sky pixels." },
-        ParamSpec { name: "bias", kind: ParamKind::Float, default: DefaultValue::Float(0.002), min: 0.0, max: 0.1, unit: "depth", doc: "Surface shadow bias in light-space depth." },
-        ParamSpec { name: "pcf", kind: ParamKind::Int, default: DefaultValue::Int(1), min: 0.0, max: 4.0, unit: "texels", doc: "Radius of the surface shadow filter." },
+        ParamSpec::colour("ambient", [0.04, 0.05, 0.07, 1.0], 0.0, 1e6, "linear RGB", "Ambient light on surfaces."),
+        ParamSpec::colour("sky", [0.2, 0.27, 0.38, 1.0], 0.0, 1e6, "linear RGB", "Radiance of sky pixels."),
+        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Surface shadow bias in light-space depth."),
+        ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[CompositeParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "composite",
-    source: include_str!("../shaders/composite.wgsl"),
-};
+const SHADER: Shader = Shader::new("composite", include_str!("../shaders/composite.wgsl"));
 
-/// Uniforms of `shaders/composite.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct CompositeParams {
-    /// Camera clip → world.
-    pub inv_view_proj: [[f32; 4]; 4],
-    /// World → light clip.
-    pub light_view_proj: [[f32; 4]; 4],
-    /// Camera position.
-    pub eye: [f32; 3],
-    /// PCF radius.
-    pub pcf: u32,
-    /// Direction to the sun.
-    pub to_sun: [f32; 3],
-    /// Shadow bias.
-    pub bias: f32,
-    /// Sun radiance.
-    pub radiance: [f32; 3],
-    /// 1 when in-scatter is connected.
-    pub has_inscatter: u32,
-    /// Ambient colour.
-    pub ambient: [f32; 4],
-    /// Sky colour.
-    pub sky: [f32; 4],
-    /// 1 when transmittance is connected.
-    pub has_transmittance: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/composite.wgsl` (struct `Params`).
+    pub struct CompositeParams as "Params" {
+        /// Camera clip → world.
+        pub inv_view_proj: [[f32; 4]; 4],
+        /// World → light clip.
+        pub light_view_proj: [[f32; 4]; 4],
+        /// Camera position.
+        pub eye: [f32; 3],
+        /// PCF radius.
+        pub pcf: u32,
+        /// Direction to the sun.
+        pub to_sun: [f32; 3],
+        /// Shadow bias.
+        pub bias: f32,
+        /// Sun radiance.
+        pub radiance: [f32; 3],
+        /// 1 when in-scatter is connected.
+        pub has_inscatter: u32,
+        /// Ambient colour.
+        pub ambient: [f32; 4],
+        /// Sky colour.
+        pub sky: [f32; 4],
+        /// 1 when transmittance is connected.
+        pub has_transmittance: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
 }
 
 impl NodeKind for Composite {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            CompositeParams,
-            "Params",
-            inv_view_proj,
-            light_view_proj,
-            eye,
-            pcf,
-            to_sun,
-            bias,
-            radiance,
-            has_inscatter,
-            ambient,
-            sky,
-            has_transmittance,
-            _pad0,
-            _pad1,
-            _pad2
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -13,96 +13,53 @@
 //!
 //! Only the outputs some consumer needs are computed.
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 use super::util::size_or_default;
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `Constant` node kind.
 pub struct Constant;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Constant",
     category: "Input",
     doc: "A flat Scalar value and a flat RGBA colour, at a given size or the evaluation size.",
     inputs: &[],
     outputs: &[
-        PortSpec {
-            name: "value",
-            types: &[PortType::Scalar],
-            required: false,
-            doc: "Every texel equals `value`.",
-        },
-        PortSpec {
-            name: "colour",
-            types: &[PortType::Image],
-            required: false,
-            doc: "Every texel equals `colour`.",
-        },
+        PortSpec::output("value", &[PortType::Scalar], "Every texel equals `value`."),
+        PortSpec::output("colour", &[PortType::Image], "Every texel equals `colour`."),
     ],
     params: &[
-        ParamSpec {
-            name: "value",
-            kind: ParamKind::Float,
-            default: DefaultValue::Float(0.0),
-            min: -1e30,
-            max: 1e30,
-            unit: "",
-            doc: "Value of the Scalar output.",
-        },
-        ParamSpec {
-            name: "colour",
-            kind: ParamKind::Colour,
-            default: DefaultValue::Colour([1.0, 1.0, 1.0, 1.0]),
-            min: -1e30,
-            max: 1e30,
-            unit: "linear RGBA",
-            doc: "Colour of the Image output.",
-        },
-        ParamSpec {
-            name: "width",
-            kind: ParamKind::Int,
-            default: DefaultValue::Int(0),
-            min: 0.0,
-            max: 16384.0,
-            unit: "texels",
-            doc: "Width; 0 uses the evaluation size.",
-        },
-        ParamSpec {
-            name: "height",
-            kind: ParamKind::Int,
-            default: DefaultValue::Int(0),
-            min: 0.0,
-            max: 16384.0,
-            unit: "texels",
-            doc: "Height; 0 uses the evaluation size.",
-        },
+        ParamSpec::float("value", 0.0, -1e30, 1e30, "", "Value of the Scalar output."),
+        ParamSpec::colour("colour", [1.0, 1.0, 1.0, 1.0], -1e30, 1e30, "linear RGBA", "Colour of the Image output."),
+        ParamSpec::int("width", 0, 0, 16384, "texels", "Width; 0 uses the evaluation size."),
+        ParamSpec::int("height", 0, 0, 16384, "texels", "Height; 0 uses the evaluation size."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[ConstantParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "constant",
-    source: include_str!("../shaders/constant.wgsl"),
-};
+const SHADER: Shader = Shader::new("constant", include_str!("../shaders/constant.wgsl"));
 
-/// Uniforms of `shaders/constant.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct ConstantParams {
-    /// Colour of the Image output.
-    pub colour: [f32; 4],
-    /// Value of the Scalar output.
-    pub value: f32,
-    /// Padding.
-    pub _pad0: f32,
-    /// Padding.
-    pub _pad1: f32,
-    /// Padding.
-    pub _pad2: f32,
+crate::uniforms! {
+    /// Uniforms of `shaders/constant.wgsl` (struct `Params`).
+    pub struct ConstantParams as "Params" {
+        /// Colour of the Image output.
+        pub colour: [f32; 4],
+        /// Value of the Scalar output.
+        pub value: f32,
+        /// Padding.
+        pub _pad0: f32,
+        /// Padding.
+        pub _pad1: f32,
+        /// Padding.
+        pub _pad2: f32,
+    }
 }
 
 /// CPU reference: the `value` raster (one channel) and the `colour` raster (RGBA).
@@ -116,24 +73,8 @@ pub fn reference(width: u32, height: u32, value: f32, colour: [f32; 4]) -> (Rast
 }
 
 impl NodeKind for Constant {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            ConstantParams,
-            "Params",
-            colour,
-            value,
-            _pad0,
-            _pad1,
-            _pad2
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -42,12 +42,11 @@
 //! is slower than `Reference` at lengths up to 60 (BENCHMARKS.md), which is why `Reference`
 //! stays the default.
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// Which epipolar operation a kind performs.
@@ -62,111 +61,70 @@ pub enum EpiOp {
 /// An epipolar morphology node kind.
 pub struct Epipolar(pub EpiOp);
 
-/// Algorithms.
-pub const METHODS: &[&str] = &["Reference", "Fast"];
+crate::choice_enum! {
+    /// Algorithms (same result).
+    pub enum Method { Reference = "Reference", Fast = "Fast" }
+}
 
+#[rustfmt::skip]
 const PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("Reference"), min: 0.0, max: 0.0, unit: "", doc: "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)." },
-    ParamSpec {
-        name: "length",
-        kind: ParamKind::Int,
-        default: DefaultValue::Int(15),
-        min: 0.0,
-        max: 4096.0,
-        unit: "texels",
-        doc: "Kernel length k along the epipolar line; 0 is the identity.",
-    },
-    ParamSpec {
-        name: "epipole_x",
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(0.0),
-        min: -1e9,
-        max: 1e9,
-        unit: "texels",
-        doc: "Epipole x (when `camera` is unconnected); may lie outside the map.",
-    },
-    ParamSpec {
-        name: "epipole_y",
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(0.0),
-        min: -1e9,
-        max: 1e9,
-        unit: "texels",
-        doc: "Epipole y (when `camera` is unconnected); may lie outside the map.",
-    },
-    ParamSpec {
-        name: "epipole_depth",
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(0.0),
-        min: -1e9,
-        max: 1e9,
-        unit: "depth",
-        doc:
-            "Epipole light-space depth z_l (when `camera` is unconnected); may lie outside [0, 1].",
-    },
+    ParamSpec::choice("method", Method::NAMES, "Reference", "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)."),
+    ParamSpec::int("length", 15, 0, 4096, "texels", "Kernel length k along the epipolar line; 0 is the identity."),
+    ParamSpec::float("epipole_x", 0.0, -1e9, 1e9, "texels", "Epipole x (when `camera` is unconnected); may lie outside the map."),
+    ParamSpec::float("epipole_y", 0.0, -1e9, 1e9, "texels", "Epipole y (when `camera` is unconnected); may lie outside the map."),
+    ParamSpec::float("epipole_depth", 0.0, -1e9, 1e9, "depth", "Epipole light-space depth z_l (when `camera` is unconnected); may lie outside [0, 1]."),
 ];
 
+#[rustfmt::skip]
 const IN: &[PortSpec] = &[
-    PortSpec {
-        name: "map",
-        types: &[PortType::ShadowMap],
-        required: true,
-        doc: "Shadow map to sharpen.",
-    },
-    PortSpec {
-        name: "camera",
-        types: &[PortType::Depth],
-        required: false,
-        doc: "Camera whose position gives the epipole.",
-    },
+    PortSpec::required("map", &[PortType::ShadowMap], "Shadow map to sharpen."),
+    PortSpec::input("camera", &[PortType::Depth], "Camera whose position gives the epipole."),
 ];
-const OUT: &[PortSpec] = &[PortSpec {
-    name: "map",
-    types: &[PortType::ShadowMap],
-    required: false,
-    doc: "The filtered map.",
-}];
+#[rustfmt::skip]
+const OUT: &[PortSpec] = &[PortSpec::output("map", &[PortType::ShadowMap], "The filtered map.")];
 
-static DILATION: NodeSchema = NodeSchema {
-    kind: "EpipolarDilation",
-    category: "Occluders",
-    doc: "1D dilation along epipolar lines (seed eq. 3): silhouettes extrude towards the camera, shafts sharpen.",
-    inputs: IN,
-    outputs: OUT,
-    params: PARAMS,
-};
-static CLOSURE: NodeSchema = NodeSchema {
-    kind: "EpipolarClosure",
-    category: "Occluders",
-    doc: "Epipolar dilation then the dual erosion: occlusion stays behind objects, shaft edges sharpen.",
-    inputs: IN,
-    outputs: OUT,
-    params: PARAMS,
-};
+const SHADER: Shader = Shader::new("epipolar", include_str!("../shaders/epipolar.wgsl"));
 
-static SHADER: Shader = Shader {
-    stem: "epipolar",
-    source: include_str!("../shaders/epipolar.wgsl"),
-};
+const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
+    let schema = NodeSchema {
+        kind,
+        category: "Occluders",
+        doc,
+        inputs: IN,
+        outputs: OUT,
+        params: PARAMS,
+    };
+    NodeDecl::new(schema).shader(SHADER).uniforms(UNIFORMS)
+}
+const UNIFORMS: &[UniformLayout] = &[EpiParams::LAYOUT, RectParams::LAYOUT];
 
-/// Uniforms of `shaders/epipolar.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct EpiParams {
-    /// Epipole, texel units.
-    pub epipole: [f32; 2],
-    /// z_l.
-    pub z_l: f32,
-    /// k.
-    pub length: i32,
-    /// 0 dilation (min towards l), 1 erosion (max away from l).
-    pub op: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+static DILATION: NodeDecl = decl(
+    "EpipolarDilation",
+    "1D dilation along epipolar lines (seed eq. 3): silhouettes extrude towards the camera, shafts sharpen.",
+);
+static CLOSURE: NodeDecl = decl(
+    "EpipolarClosure",
+    "Epipolar dilation then the dual erosion: occlusion stays behind objects, shaft edges sharpen.",
+);
+
+crate::uniforms! {
+    /// Uniforms of `shaders/epipolar.wgsl` (struct `Params`).
+    pub struct EpiParams as "Params" {
+        /// Epipole, texel units.
+        pub epipole: [f32; 2],
+        /// z_l.
+        pub z_l: f32,
+        /// k.
+        pub length: i32,
+        /// 0 dilation (min towards l), 1 erosion (max away from l).
+        pub op: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
 }
 
 /// CPU reference of one pass (`erode = false`: the dilation of eq. 3), in the same f32 steps as
@@ -224,46 +182,38 @@ pub fn epipole(light: &Matrices, camera: &Matrices, w: u32, h: u32) -> ([f32; 2]
     )
 }
 
-/// Uniforms of the fast path (struct `Rect` of `shaders/epipolar.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct RectParams {
-    /// Unit direction from the epipole towards the map's centre; angles are measured from it.
-    pub u_c: [f32; 2],
-    /// Angle of row 0.
-    pub phi0: f32,
-    /// Angle step between rows.
-    pub dphi: f32,
-    /// Epipole, texels.
-    pub epipole: [f32; 2],
-    /// Distance of column 0 from the epipole.
-    pub d0: f32,
-    /// z_l.
-    pub z_l: f32,
-    /// The grid window reaches this many samples towards the epipole…
-    pub lo: i32,
-    /// …and this many away from it.
-    pub hi: i32,
-    /// 0 min, 1 max.
-    pub op: u32,
-    /// Grid rows (angles).
-    pub rows: u32,
-    /// Grid columns (distances).
-    pub cols: u32,
-    /// Columns per texel of distance.
-    pub stride: u32,
-    /// Samples taken exactly at each end of a texel's window ([`ENDS`]).
-    pub ends: i32,
-    /// Side of the texel block each grid cell bounds (2 or 3).
-    pub block: i32,
-    /// Kernel length k.
-    pub length: i32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+crate::uniforms! {
+    /// Uniforms of the fast path (struct `Rect` of `shaders/epipolar.wgsl`).
+    pub struct RectParams as "Rect" {
+        /// Unit direction from the epipole towards the map's centre; angles are measured from it.
+        pub u_c: [f32; 2],
+        /// Angle of row 0.
+        pub phi0: f32,
+        /// Angle step between rows.
+        pub dphi: f32,
+        /// Epipole, texels.
+        pub epipole: [f32; 2],
+        /// Distance of column 0 from the epipole.
+        pub d0: f32,
+        /// z_l.
+        pub z_l: f32,
+        /// The grid window reaches this many samples towards the epipole…
+        pub lo: i32,
+        /// …and this many away from it.
+        pub hi: i32,
+        /// 0 min, 1 max.
+        pub op: u32,
+        /// Grid rows (angles).
+        pub rows: u32,
+        /// Grid columns (distances, one per texel).
+        pub cols: u32,
+        /// Samples taken exactly at each end of a texel's window ([`ENDS`]).
+        pub ends: i32,
+        /// Kernel length k.
+        pub length: i32,
+        /// Padding.
+        pub _pad0: u32,
+    }
 }
 
 /// The fast path's grid and its row table (per row: direction and the point at distance d0,
@@ -275,22 +225,18 @@ pub struct Rectified {
     pub table: Vec<f32>,
 }
 
-/// Rows per texel of arc at the map's far edge (at most; see [`rect_params`]). Oversampling
-/// would allow 2×2 blocks (tighter bounds, fewer fall-backs) but costs 4× the grid cells,
-/// which measured slower overall on lavapipe.
-pub const ANGULAR: u32 = 1;
-/// Columns per texel of distance (at most).
-pub const RADIAL: u32 = 1;
-/// Cell budget of the rectified grid (32 Mi cells, 128 MiB per grid texture).
-pub const GRID_CELLS: u64 = 1 << 25;
 /// Samples at each end of a window that the fast path always takes exactly: on smooth
 /// stretches of a map the extreme lies at an end, where the grid's bound would be too loose.
 pub const ENDS: i32 = 3;
 
 /// The rectified grid covering a `w × h` map seen from `l`, for a window of `k` samples
-/// (dilation: towards l; erosion: away from it), rows and columns capped at `limit`. `None`
-/// when the fast path has nothing to gain (k ≤ 2·[`ENDS`]: every sample is taken exactly) or
-/// the device cannot hold a grid fine enough for a 3×3 block to cover the samples.
+/// (dilation: towards l; erosion: away from it): one row per texel of arc at the map's far
+/// edge, one column per texel of distance, each capped at `limit`. `None` when the fast path has
+/// nothing to gain (k ≤ 2·[`ENDS`]: every sample is taken exactly) or the device cannot hold a
+/// grid fine enough for a 3×3 block to cover the samples.
+///
+/// (Finer grids — 2×2 blocks on an oversampled grid — give tighter bounds and fewer fall-backs
+/// but cost 4× the cells, which measured slower overall on lavapipe; that variant was removed.)
 pub fn rect_params(
     w: u32,
     h: u32,
@@ -339,37 +285,15 @@ pub fn rect_params(
         (lo, hi - lo)
     };
     let d0 = (d_lo.floor() - 1.0).max(0.0);
-    let base_rows = (span * d_hi).ceil().max(0.0) as u64 + 1;
-    let base_cols = (d_hi - d0).ceil().max(0.0) as u64 + 2;
-    // Oversample angles and distances, halving the larger factor until the grid fits the device
-    // and the cell budget.
-    let (mut angular, mut radial) = (ANGULAR as u64, RADIAL as u64);
-    while (base_rows * angular > limit as u64
-        || base_cols * radial > limit as u64
-        || base_rows * angular * base_cols * radial > GRID_CELLS)
-        && (angular > 1 || radial > 1)
-    {
-        if radial >= angular {
-            radial /= 2;
-        } else {
-            angular /= 2;
-        }
-    }
-    let rows = (base_rows * angular).clamp(2, limit as u64) as u32;
-    let stride = radial as u32;
-    let cols = (base_cols * radial).clamp(1, limit as u64) as u32;
+    let rows = ((span * d_hi).ceil().max(0.0) as u64 + 1).clamp(2, limit as u64) as u32;
+    let cols = ((d_hi - d0).ceil().max(0.0) as u64 + 2).clamp(1, limit as u64) as u32;
     let phi0 = phi0 as f32 as f64;
     let dphi = (span / (rows - 1) as f64) as f32 as f64;
     // A texel's samples lie within half a row spacing (at the far edge) and half a column of
-    // the grid points it reads; the block must cover that with room for rounding.
-    let reach = (0.5 * dphi * d_hi).hypot(0.5 / stride as f64);
-    let block = if reach <= 0.45 {
-        2
-    } else if reach <= 0.9 {
-        3
-    } else {
+    // the grid points it reads; the 3×3 block covers one texel, with room for rounding.
+    if (0.5 * dphi * d_hi).hypot(0.5) > 0.9 {
         return None;
-    };
+    }
     let n = k - 2 * ENDS;
     let (lo, hi) = if erode { (0, n - 1) } else { (n - 1, 0) };
     let table = (0..rows)
@@ -398,13 +322,9 @@ pub fn rect_params(
             op: erode as u32,
             rows,
             cols,
-            stride,
             ends: ENDS,
-            block,
             length: k,
             _pad0: 0,
-            _pad1: 0,
-            _pad2: 0,
         },
         table,
     })
@@ -463,8 +383,8 @@ fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, Gp
             (6, Bind::Storage(&prefix)),
             (7, Bind::Storage(&suffix)),
         ],
-        r.cols.div_ceil(r.stride).div_ceil(n),
-        r.rows * r.stride,
+        r.cols.div_ceil(n),
+        r.rows,
     )?;
     // The window texture reuses the grid's cells: the grid is not read after the blocks.
     drop(grid);
@@ -516,27 +436,11 @@ fn pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuErro
 }
 
 impl NodeKind for Epipolar {
-    fn schema(&self) -> &'static NodeSchema {
+    fn decl(&self) -> &'static NodeDecl {
         match self.0 {
             EpiOp::Dilation => &DILATION,
             EpiOp::Closure => &CLOSURE,
         }
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![
-            crate::uniform_layout!(
-                EpiParams, "Params", epipole, z_l, length, op, _pad0, _pad1, _pad2
-            ),
-            crate::uniform_layout!(
-                RectParams, "Rect", u_c, phi0, dphi, epipole, d0, z_l, lo, hi, op, rows, cols,
-                stride, ends, block, length, _pad0, _pad1, _pad2
-            ),
-        ]
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
@@ -576,7 +480,7 @@ impl NodeKind for Epipolar {
             _pad1: 0,
             _pad2: 0,
         };
-        let run_pass = if ctx.text("method")? == "Fast" {
+        let run_pass = if ctx.choice::<Method>("method")? == Method::Fast {
             fast_pass
         } else {
             pass

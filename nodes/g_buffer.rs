@@ -14,104 +14,53 @@
 //! |---|---|---|---|---|
 //! | `width`, `height` | Int | 0 | 0…16384 px | output size; 0 = the evaluation size (`--size`) |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 use super::util::size_or_default;
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::scene::GpuScene;
 
 /// The `GBuffer` node kind.
 pub struct GBufferNode;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "GBuffer",
     category: "Scene",
     doc: "Camera linear depth (sky: far distance), world normals and albedo of the scene.",
-    inputs: &[PortSpec {
-        name: "scene",
-        types: &[PortType::Scene],
-        required: true,
-        doc: "The scene seen by its camera.",
-    }],
+    inputs: &[PortSpec::required("scene", &[PortType::Scene], "The scene seen by its camera.")],
     outputs: &[
-        PortSpec {
-            name: "depth",
-            types: &[PortType::Depth],
-            required: false,
-            doc: "Distance to the first surface (sky: far).",
-        },
-        PortSpec {
-            name: "normal",
-            types: &[PortType::Image],
-            required: false,
-            doc: "World normal facing the camera; alpha 1 on geometry.",
-        },
-        PortSpec {
-            name: "albedo",
-            types: &[PortType::Image],
-            required: false,
-            doc: "Base colour; alpha 1 on geometry, 0 on sky.",
-        },
+        PortSpec::output("depth", &[PortType::Depth], "Distance to the first surface (sky: far)."),
+        PortSpec::output("normal", &[PortType::Image], "World normal facing the camera; alpha 1 on geometry."),
+        PortSpec::output("albedo", &[PortType::Image], "Base colour; alpha 1 on geometry, 0 on sky."),
     ],
     params: &[
-        ParamSpec {
-            name: "width",
-            kind: ParamKind::Int,
-            default: DefaultValue::Int(0),
-            min: 0.0,
-            max: 16384.0,
-            unit: "px",
-            doc: "Width; 0 uses the evaluation size.",
-        },
-        ParamSpec {
-            name: "height",
-            kind: ParamKind::Int,
-            default: DefaultValue::Int(0),
-            min: 0.0,
-            max: 16384.0,
-            unit: "px",
-            doc: "Height; 0 uses the evaluation size.",
-        },
+        ParamSpec::int("width", 0, 0, 16384, "px", "Width; 0 uses the evaluation size."),
+        ParamSpec::int("height", 0, 0, 16384, "px", "Height; 0 uses the evaluation size."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[GBufferParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "g_buffer",
-    source: include_str!("../shaders/g_buffer.wgsl"),
-};
+const SHADER: Shader = Shader::new("g_buffer", include_str!("../shaders/g_buffer.wgsl"));
 
-/// Uniforms of `shaders/g_buffer.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct GBufferParams {
-    /// World → camera clip.
-    pub view_proj: [[f32; 4]; 4],
-    /// Camera position.
-    pub eye: [f32; 3],
-    /// Far distance.
-    pub far: f32,
+crate::uniforms! {
+    /// Uniforms of `shaders/g_buffer.wgsl` (struct `Params`).
+    pub struct GBufferParams as "Params" {
+        /// World → camera clip.
+        pub view_proj: [[f32; 4]; 4],
+        /// Camera position.
+        pub eye: [f32; 3],
+        /// Far distance.
+        pub far: f32,
+    }
 }
 
 impl NodeKind for GBufferNode {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            GBufferParams,
-            "Params",
-            view_proj,
-            eye,
-            far
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, PortSpec, PortType};
 use crate::io::Raster;
@@ -22,23 +22,25 @@ use crate::io::Raster;
 /// The `HoleComposite` node kind.
 pub struct HoleComposite;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "HoleComposite",
     category: "Occluders",
     doc: "Pushes the object-only map to depth 1 in holes, then takes the minimum with the rest of the scene's map.",
     inputs: &[
-        PortSpec { name: "object", types: &[PortType::ShadowMap], required: true, doc: "Shadow map of the objects to punch holes into." },
-        PortSpec { name: "holes", types: &[PortType::Scalar], required: true, doc: "Hole map (1 = hole)." },
-        PortSpec { name: "rest", types: &[PortType::ShadowMap], required: true, doc: "Shadow map of the rest of the scene." },
+        PortSpec::required("object", &[PortType::ShadowMap], "Shadow map of the objects to punch holes into."),
+        PortSpec::required("holes", &[PortType::Scalar], "Hole map (1 = hole)."),
+        PortSpec::required("rest", &[PortType::ShadowMap], "Shadow map of the rest of the scene."),
     ],
-    outputs: &[PortSpec { name: "map", types: &[PortType::ShadowMap], required: false, doc: "The combined map." }],
+    outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "The combined map.")],
     params: &[],
-};
+})
+.shader(SHADER);
 
-static SHADER: Shader = Shader {
-    stem: "hole_composite",
-    source: include_str!("../shaders/hole_composite.wgsl"),
-};
+const SHADER: Shader = Shader::new(
+    "hole_composite",
+    include_str!("../shaders/hole_composite.wgsl"),
+);
 
 /// CPU reference (hole map of the same size).
 pub fn reference(object: &Raster, holes: &Raster, rest: &Raster) -> Raster {
@@ -68,12 +70,8 @@ fn map(
 }
 
 impl NodeKind for HoleComposite {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

@@ -18,72 +18,45 @@
 //! | `probability` | Float | 0.3 | 0…1 | h |
 //! | `calibrated` | Bool | true | | h is the hole fraction (threshold = h-quantile of the input) |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use crate::eval::{download, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `HoleMap` node kind.
 pub struct HoleMap;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "HoleMap",
     category: "Occluders",
     doc: "Holes where noise < h; calibrated: h is the fraction of hole texels.",
-    inputs: &[PortSpec {
-        name: "noise",
-        types: &[PortType::Scalar],
-        required: true,
-        doc: "Noise in [0, 1] (PerlinNoise2D).",
-    }],
-    outputs: &[PortSpec {
-        name: "holes",
-        types: &[PortType::Scalar],
-        required: false,
-        doc: "1 where a hole is punched, else 0.",
-    }],
+    inputs: &[PortSpec::required("noise", &[PortType::Scalar], "Noise in [0, 1] (PerlinNoise2D).")],
+    outputs: &[PortSpec::output("holes", &[PortType::Scalar], "1 where a hole is punched, else 0.")],
     params: &[
-        ParamSpec {
-            name: "probability",
-            kind: ParamKind::Float,
-            default: DefaultValue::Float(0.3),
-            min: 0.0,
-            max: 1.0,
-            unit: "",
-            doc: "Hole probability h.",
-        },
-        ParamSpec {
-            name: "calibrated",
-            kind: ParamKind::Bool,
-            default: DefaultValue::Bool(true),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Make the fraction of hole texels equal h (threshold at the h-quantile).",
-        },
+        ParamSpec::float("probability", 0.3, 0.0, 1.0, "", "Hole probability h."),
+        ParamSpec::flag("calibrated", true, "Make the fraction of hole texels equal h (threshold at the h-quantile)."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[HoleParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "hole_map",
-    source: include_str!("../shaders/hole_map.wgsl"),
-};
+const SHADER: Shader = Shader::new("hole_map", include_str!("../shaders/hole_map.wgsl"));
 
-/// Uniforms of `shaders/hole_map.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct HoleParams {
-    /// Values below this are holes.
-    pub threshold: f32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/hole_map.wgsl` (struct `Params`).
+    pub struct HoleParams as "Params" {
+        /// Values below this are holes.
+        pub threshold: f32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
 }
 
 /// The threshold giving a hole fraction of `h` on these values: with values sorted, the
@@ -112,18 +85,8 @@ pub fn reference(noise: &Raster, threshold: f32) -> Raster {
 }
 
 impl NodeKind for HoleMap {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            HoleParams, "Params", threshold, _pad0, _pad1, _pad2
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

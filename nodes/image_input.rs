@@ -21,114 +21,72 @@
 //! The cache key includes the file's size and modification time, so editing the file on disk
 //! re-runs the node.
 
-use bytemuck::{Pod, Zeroable};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{
-    DefaultValue, NodeSchema, ParamKind, ParamSpec, ParamValue, PortSpec, PortType,
-};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `ImageInput` node kind.
 pub struct ImageInput;
 
 /// Names of the `channel` parameter, in the shader's order.
-pub const CHANNELS: &[&str] = &["luminance", "r", "g", "b", "a"];
+pub const CHANNELS: &[&str] = Channel::NAMES;
 
-static SCHEMA: NodeSchema = NodeSchema {
+crate::choice_enum! {
+    /// Which channel the one-channel outputs carry, in the shader's order.
+    pub enum Channel { Luminance = "luminance", R = "r", G = "g", B = "b", A = "a" }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ImageInput",
     category: "Input/Output",
     doc: "Reads an EXR or PNG file as Image, Scalar, ShadowMap or Depth.",
     inputs: &[],
     outputs: &[
-        PortSpec {
-            name: "image",
-            types: &[PortType::Image],
-            required: false,
-            doc: "RGBA (grey files: value in R, G, B, alpha 1).",
-        },
-        PortSpec {
-            name: "scalar",
-            types: &[PortType::Scalar],
-            required: false,
-            doc: "One channel (see `channel`).",
-        },
-        PortSpec {
-            name: "shadow",
-            types: &[PortType::ShadowMap],
-            required: false,
-            doc: "The one channel as a shadow map with identity matrices.",
-        },
-        PortSpec {
-            name: "depth",
-            types: &[PortType::Depth],
-            required: false,
-            doc: "The one channel as linear depth with identity matrices.",
-        },
+        PortSpec::output("image", &[PortType::Image], "RGBA (grey files: value in R, G, B, alpha 1)."),
+        PortSpec::output("scalar", &[PortType::Scalar], "One channel (see `channel`)."),
+        PortSpec::output("shadow", &[PortType::ShadowMap], "The one channel as a shadow map with identity matrices."),
+        PortSpec::output("depth", &[PortType::Depth], "The one channel as linear depth with identity matrices."),
     ],
     params: &[
-        ParamSpec {
-            name: "path",
-            kind: ParamKind::Text,
-            default: DefaultValue::Text(""),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "File to read (.exr or .png).",
-        },
-        ParamSpec {
-            name: "channel",
-            kind: ParamKind::Enum(CHANNELS),
-            default: DefaultValue::Enum("luminance"),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Which channel of an RGBA file the one-channel outputs carry.",
-        },
-        ParamSpec {
-            name: "srgb",
-            kind: ParamKind::Bool,
-            default: DefaultValue::Bool(true),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear).",
-        },
+        ParamSpec::text("path", "", "File to read (.exr or .png)."),
+        ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
+        ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[ImageInputParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "image_input",
-    source: include_str!("../shaders/image_input.wgsl"),
-};
+const SHADER: Shader = Shader::new("image_input", include_str!("../shaders/image_input.wgsl"));
 
-/// Uniforms of `shaders/image_input.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct ImageInputParams {
-    /// Channels in the uploaded file data (1 or 4).
-    pub channels: u32,
-    /// Index into [`CHANNELS`].
-    pub channel: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/image_input.wgsl` (struct `Params`).
+    pub struct ImageInputParams as "Params" {
+        /// Channels in the uploaded file data (1 or 4).
+        pub channels: u32,
+        /// [`Channel`] code.
+        pub channel: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+    }
 }
 
 /// Rec. 709 luminance weights.
 pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// CPU reference: the (image, scalar) pair produced from a file's raster.
-pub fn reference(file: &Raster, channel: &str) -> (Raster, Raster) {
+pub fn reference(file: &Raster, channel: Channel) -> (Raster, Raster) {
     let n = (file.width * file.height) as usize;
     let mut image = Raster::new(file.width, file.height, 4, 0.0);
     let mut scalar = Raster::new(file.width, file.height, 1, 0.0);
-    let ch = CHANNELS.iter().position(|c| *c == channel).unwrap_or(0);
+    let ch = channel as usize;
     for i in 0..n {
         let px: [f32; 4] = if file.channels == 1 {
             let v = file.data[i];
@@ -150,23 +108,8 @@ pub fn reference(file: &Raster, channel: &str) -> (Raster, Raster) {
 }
 
 impl NodeKind for ImageInput {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            ImageInputParams,
-            "Params",
-            channels,
-            channel,
-            _pad0,
-            _pad1
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
@@ -182,10 +125,7 @@ impl NodeKind for ImageInput {
             });
         }
         let file = crate::io::read_image(Path::new(path), ctx.bool("srgb")?)?;
-        let channel = CHANNELS
-            .iter()
-            .position(|c| *c == ctx.text("channel").unwrap_or("luminance"))
-            .unwrap_or(0);
+        let channel = ctx.choice::<Channel>("channel")?;
         let src = ctx
             .gpu
             .upload(file.width, file.height, file.channels, &file.data)?;

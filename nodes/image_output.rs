@@ -20,68 +20,47 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::eval::{download, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::{file_kind, write_image, FileKind, Precision, Raster};
 
 /// The `ImageOutput` node kind.
 pub struct ImageOutput;
 
 /// Names of the `precision` parameter.
-pub const PRECISIONS: &[&str] = &["auto", "f32", "f16", "u8", "u16"];
+pub const PRECISIONS: &[&str] = Storage::NAMES;
 
-static SCHEMA: NodeSchema = NodeSchema {
+crate::choice_enum! {
+    /// The `precision` parameter: how samples are stored.
+    pub enum Storage { Auto = "auto", F32 = "f32", F16 = "f16", U8 = "u8", U16 = "u16" }
+}
+
+const ANY: &[PortType] = &[
+    PortType::Image,
+    PortType::Scalar,
+    PortType::ShadowMap,
+    PortType::Depth,
+];
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ImageOutput",
     category: "Input/Output",
     doc: "Writes its input to an EXR (f32/f16) or PNG (8/16-bit) file; NaN/Inf become 0.",
-    inputs: &[PortSpec {
-        name: "image",
-        types: &[
-            PortType::Image,
-            PortType::Scalar,
-            PortType::ShadowMap,
-            PortType::Depth,
-        ],
-        required: true,
-        doc: "What to write.",
-    }],
+    inputs: &[PortSpec::required("image", ANY, "What to write.")],
     outputs: &[],
     params: &[
-        ParamSpec {
-            name: "path",
-            kind: ParamKind::Text,
-            default: DefaultValue::Text("out.exr"),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "File to write (.exr or .png).",
-        },
-        ParamSpec {
-            name: "precision",
-            kind: ParamKind::Enum(PRECISIONS),
-            default: DefaultValue::Enum("auto"),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Sample storage: auto (EXR f32, PNG u8), f32, f16, u8, u16.",
-        },
-        ParamSpec {
-            name: "srgb",
-            kind: ParamKind::Bool,
-            default: DefaultValue::Bool(true),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Encode PNG colour to sRGB; turn off for data maps.",
-        },
+        ParamSpec::text("path", "out.exr", "File to write (.exr or .png)."),
+        ParamSpec::choice("precision", Storage::NAMES, "auto", "Sample storage: auto (EXR f32, PNG u8), f32, f16, u8, u16."),
+        ParamSpec::flag("srgb", true, "Encode PNG colour to sRGB; turn off for data maps."),
     ],
-};
+})
+.shader(SHADER)
+.key_exempt(&["path", "precision", "srgb"])
+.sink();
 
-static SHADER: Shader = Shader {
-    stem: "image_output",
-    source: include_str!("../shaders/image_output.wgsl"),
-};
+const SHADER: Shader = Shader::new("image_output", include_str!("../shaders/image_output.wgsl"));
 
 /// CPU reference of the GPU pass: non-finite samples become 0.
 pub fn reference(input: &Raster) -> Raster {
@@ -95,31 +74,19 @@ pub fn reference(input: &Raster) -> Raster {
 }
 
 /// The storage precision for `path` given the `precision` parameter.
-pub fn resolve_precision(path: &std::path::Path, name: &str) -> Result<Precision, NodeError> {
+pub fn resolve_precision(path: &std::path::Path, storage: Storage) -> Result<Precision, NodeError> {
     let kind = file_kind(path)?;
-    Ok(match (name, kind) {
-        ("f32", _) | ("auto", FileKind::Exr) => Precision::F32,
-        ("f16", _) => Precision::F16,
-        ("u16", _) => Precision::U16,
-        _ => Precision::U8,
+    Ok(match (storage, kind) {
+        (Storage::F32, _) | (Storage::Auto, FileKind::Exr) => Precision::F32,
+        (Storage::F16, _) => Precision::F16,
+        (Storage::U16, _) => Precision::U16,
+        (Storage::U8, _) | (Storage::Auto, FileKind::Png) => Precision::U8,
     })
 }
 
 impl NodeKind for ImageOutput {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn key_exempt(&self) -> &'static [&'static str] {
-        &["path", "precision", "srgb"]
-    }
-
-    fn is_sink(&self) -> bool {
-        true
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
@@ -155,7 +122,7 @@ impl NodeKind for ImageOutput {
             });
         }
         let path = ctx.suffixed(path);
-        let precision = resolve_precision(&path, ctx.text("precision")?)?;
+        let precision = resolve_precision(&path, ctx.choice("precision")?)?;
         let value = outputs
             .get("written")
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;

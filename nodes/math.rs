@@ -26,98 +26,103 @@
 //! | `factor` | Float | 0.5 | −1e6…1e6 | `mix` weight of b |
 //! | `lo`, `hi` | Float | 0, 1 | ±1e30 | `clamp` bounds |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 use super::util::{image_like, placeholder};
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, GpuTexture, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `Math` node kind.
 pub struct Math;
 
-/// Operation names, in the order of the shader's `op` codes.
-pub const OPS: &[&str] = &[
-    "add", "sub", "mul", "div", "min", "max", "mix", "clamp", "pow",
-];
+crate::choice_enum! {
+    /// Operations, in the order of the shader's `op` codes.
+    pub enum Op {
+        Add = "add", Sub = "sub", Mul = "mul", Div = "div", Min = "min", Max = "max",
+        Mix = "mix", Clamp = "clamp", Pow = "pow",
+    }
+}
+
+/// Operation names (`Op::NAMES`).
+pub const OPS: &[&str] = Op::NAMES;
 
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Math",
     category: "Image",
     doc: "Element-wise add, sub, mul, safe div, min, max, mix, clamp or pow of two Scalar/Image inputs or constants.",
     inputs: &[
-        PortSpec { name: "a", types: IMG, required: false, doc: "First operand (the `a` parameter when unconnected)." },
-        PortSpec { name: "b", types: IMG, required: false, doc: "Second operand (the `b` parameter when unconnected)." },
+        PortSpec::input("a", IMG, "First operand (the `a` parameter when unconnected)."),
+        PortSpec::input("b", IMG, "Second operand (the `b` parameter when unconnected)."),
     ],
-    outputs: &[PortSpec { name: "out", types: IMG, required: false, doc: "Image if either input is an Image, else Scalar." }],
+    outputs: &[PortSpec::output("out", IMG, "Image if either input is an Image, else Scalar.")],
     params: &[
-        ParamSpec { name: "op", kind: ParamKind::Enum(OPS), default: DefaultValue::Enum("add"), min: 0.0, max: 0.0, unit: "", doc: "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)." },
-        ParamSpec { name: "a", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Value of a when input a is unconnected." },
-        ParamSpec { name: "b", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Value of b when input b is unconnected." },
-        ParamSpec { name: "factor", kind: ParamKind::Float, default: DefaultValue::Float(0.5), min: -1e6, max: 1e6, unit: "", doc: "Weight of b for mix (0 = a, 1 = b)." },
-        ParamSpec { name: "lo", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Lower bound for clamp." },
-        ParamSpec { name: "hi", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Upper bound for clamp (wins when lo > hi)." },
+        ParamSpec::choice("op", Op::NAMES, "add", "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)."),
+        ParamSpec::float("a", 0.0, -1e30, 1e30, "", "Value of a when input a is unconnected."),
+        ParamSpec::float("b", 0.0, -1e30, 1e30, "", "Value of b when input b is unconnected."),
+        ParamSpec::float("factor", 0.5, -1e6, 1e6, "", "Weight of b for mix (0 = a, 1 = b)."),
+        ParamSpec::float("lo", 0.0, -1e30, 1e30, "", "Lower bound for clamp."),
+        ParamSpec::float("hi", 1.0, -1e30, 1e30, "", "Upper bound for clamp (wins when lo > hi)."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[MathParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "math",
-    source: include_str!("../shaders/math.wgsl"),
-};
+const SHADER: Shader = Shader::new("math", include_str!("../shaders/math.wgsl"));
 
-/// Uniforms of `shaders/math.wgsl` (struct `Params`). Modes: 0 constant, 1 Scalar texture
-/// (broadcast), 2 Image texture.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct MathParams {
-    /// Index into [`OPS`].
-    pub op: u32,
-    /// How a is read.
-    pub a_mode: u32,
-    /// How b is read.
-    pub b_mode: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Constant a.
-    pub a_const: f32,
-    /// Constant b.
-    pub b_const: f32,
-    /// Mix weight.
-    pub factor: f32,
-    /// Clamp low.
-    pub lo: f32,
-    /// Clamp high.
-    pub hi: f32,
-    /// Padding.
-    pub _pad1: f32,
-    /// Padding.
-    pub _pad2: f32,
-    /// Padding.
-    pub _pad3: f32,
+crate::uniforms! {
+    /// Uniforms of `shaders/math.wgsl` (struct `Params`). Modes: 0 constant, 1 Scalar texture
+    /// (broadcast), 2 Image texture.
+    pub struct MathParams as "Params" {
+        /// [`Op`] code.
+        pub op: u32,
+        /// How a is read.
+        pub a_mode: u32,
+        /// How b is read.
+        pub b_mode: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Constant a.
+        pub a_const: f32,
+        /// Constant b.
+        pub b_const: f32,
+        /// Mix weight.
+        pub factor: f32,
+        /// Clamp low.
+        pub lo: f32,
+        /// Clamp high.
+        pub hi: f32,
+        /// Padding.
+        pub _pad1: f32,
+        /// Padding.
+        pub _pad2: f32,
+        /// Padding.
+        pub _pad3: f32,
+    }
 }
 
 /// CPU reference of one operation on one channel value (f32, same formulas as the shader).
-pub fn apply(op: &str, a: f32, b: f32, factor: f32, lo: f32, hi: f32) -> f32 {
+pub fn apply(op: Op, a: f32, b: f32, factor: f32, lo: f32, hi: f32) -> f32 {
     match op {
-        "add" => a + b,
-        "sub" => a - b,
-        "mul" => a * b,
-        "div" => {
+        Op::Add => a + b,
+        Op::Sub => a - b,
+        Op::Mul => a * b,
+        Op::Div => {
             if b == 0.0 {
                 0.0
             } else {
                 a / b
             }
         }
-        "min" => a.min(b),
-        "max" => a.max(b),
-        "mix" => a + (b - a) * factor,
-        "clamp" => a.max(lo).min(hi),
-        "pow" => {
+        Op::Min => a.min(b),
+        Op::Max => a.max(b),
+        Op::Mix => a + (b - a) * factor,
+        Op::Clamp => a.max(lo).min(hi),
+        Op::Pow => {
             let m = a.abs();
             if m == 0.0 {
                 if b == 0.0 {
@@ -129,7 +134,6 @@ pub fn apply(op: &str, a: f32, b: f32, factor: f32, lo: f32, hi: f32) -> f32 {
                 a.signum() * m.powf(b)
             }
         }
-        _ => a,
     }
 }
 
@@ -142,14 +146,7 @@ pub enum Operand<'a> {
 }
 
 /// CPU reference of the whole node. `None` when neither operand is a raster or the sizes clash.
-pub fn reference(
-    op: &str,
-    a: Operand,
-    b: Operand,
-    factor: f32,
-    lo: f32,
-    hi: f32,
-) -> Option<Raster> {
+pub fn reference(op: Op, a: Operand, b: Operand, factor: f32, lo: f32, hi: f32) -> Option<Raster> {
     let size = |o: &Operand| match o {
         Operand::Raster(r) => Some((r.width, r.height, r.channels)),
         Operand::Const(_) => None,
@@ -203,24 +200,12 @@ fn operand<'a>(ctx: &'a RunCtx, port: &str) -> (u32, Option<&'a Arc<GpuTexture>>
 }
 
 impl NodeKind for Math {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            MathParams, "Params", op, a_mode, b_mode, _pad0, a_const, b_const, factor, lo, hi,
-            _pad1, _pad2, _pad3
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let op = ctx.text("op")?;
-        let op_code = OPS.iter().position(|o| *o == op).unwrap_or(0) as u32;
+        let op_code = ctx.choice::<Op>("op")? as u32;
         let (a_mode, ta) = operand(ctx, "a");
         let (b_mode, tb) = operand(ctx, "b");
         let (w, h) = match (ta, tb) {

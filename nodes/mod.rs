@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use crate::eval::Registry;
 
+pub mod blur;
 pub mod composite;
 pub mod constant;
 pub mod epipolar;
@@ -30,6 +31,7 @@ pub mod util;
 /// Every node kind Tyndall ships.
 pub fn registry() -> Registry {
     let mut r = Registry::new();
+    r.add(Arc::new(blur::Blur));
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
     r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Dilation)));

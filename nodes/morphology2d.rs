@@ -24,12 +24,11 @@
 //! | `unit` | Enum | texels | texels, metres | metres: r is a world size, converted with the map's light matrices, so a preset keeps its look at any map resolution |
 //! | `method` | Enum | Fast | Fast, BruteForce | algorithm (same result) |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// Which morphological operation a kind performs.
@@ -46,117 +45,82 @@ pub enum Op {
 /// A 2D morphology node kind.
 pub struct Morphology2D(pub Op);
 
-/// Footprint shapes.
-pub const SHAPES: &[&str] = &["Circle", "Square"];
-/// Radius units.
-pub const UNITS: &[&str] = &["texels", "metres"];
-/// Algorithms.
-pub const METHODS: &[&str] = &["Fast", "BruteForce"];
+crate::choice_enum! {
+    /// Footprint shapes.
+    pub enum Shape { Circle = "Circle", Square = "Square" }
+}
+crate::choice_enum! {
+    /// Radius units.
+    pub enum Unit { Texels = "texels", Metres = "metres" }
+}
+crate::choice_enum! {
+    /// Algorithms (same result).
+    pub enum Method { Fast = "Fast", BruteForce = "BruteForce" }
+}
 
 const MAPS: &[PortType] = &[PortType::Scalar, PortType::ShadowMap];
 
+#[rustfmt::skip]
 const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "shape",
-        kind: ParamKind::Enum(SHAPES),
-        default: DefaultValue::Enum("Circle"),
-        min: 0.0,
-        max: 0.0,
-        unit: "",
-        doc: "Footprint: Circle (dx² + dy² ≤ r²) or Square.",
-    },
-    ParamSpec {
-        name: "radius",
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(4.0),
-        min: 0.0,
-        max: 4096.0,
-        unit: "texels or m",
-        doc: "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity.",
-    },
-    ParamSpec {
-        name: "unit",
-        kind: ParamKind::Enum(UNITS),
-        default: DefaultValue::Enum("texels"),
-        min: 0.0,
-        max: 0.0,
-        unit: "",
-        doc: "texels, or metres (converted with the shadow map's light matrices).",
-    },
-    ParamSpec {
-        name: "method",
-        kind: ParamKind::Enum(METHODS),
-        default: DefaultValue::Enum("Fast"),
-        min: 0.0,
-        max: 0.0,
-        unit: "",
-        doc: "Fast (van Herk / Gil–Werman, chords) or BruteForce (whole footprint); same result.",
-    },
+    ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
+    ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity."),
+    ParamSpec::choice("unit", Unit::NAMES, "texels", "texels, or metres (converted with the shadow map's light matrices)."),
+    ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (van Herk / Gil–Werman, chords) or BruteForce (whole footprint); same result."),
 ];
 
-const IN: &[PortSpec] = &[PortSpec {
-    name: "map",
-    types: MAPS,
-    required: true,
-    doc: "Shadow map (or any one-channel image).",
-}];
-const OUT: &[PortSpec] = &[PortSpec {
-    name: "map",
-    types: MAPS,
-    required: false,
-    doc: "The filtered map, same type as the input.",
-}];
+#[rustfmt::skip]
+const IN: &[PortSpec] = &[PortSpec::required("map", MAPS, "Shadow map (or any one-channel image).")];
+#[rustfmt::skip]
+const OUT: &[PortSpec] = &[PortSpec::output("map", MAPS, "The filtered map, same type as the input.")];
 
-static DILATE: NodeSchema = NodeSchema {
-    kind: "Dilate2D",
-    category: "Occluders",
-    doc: "Per-texel minimum over a circle or square: occluders in the shadow map grow.",
-    inputs: IN,
-    outputs: OUT,
-    params: PARAMS,
-};
-static ERODE: NodeSchema = NodeSchema {
-    kind: "Erode2D",
-    category: "Occluders",
-    doc: "Per-texel maximum over a circle or square: occluders in the shadow map shrink.",
-    inputs: IN,
-    outputs: OUT,
-    params: PARAMS,
-};
-static CLOSURE: NodeSchema = NodeSchema {
-    kind: "Closure2D",
-    category: "Occluders",
-    doc: "Dilation then erosion (seed 000 hole filling): holes smaller than the kernel close, shafts simplify.",
-    inputs: IN,
-    outputs: OUT,
-    params: PARAMS,
-};
+const SHADER: Shader = Shader::new("morphology2d", include_str!("../shaders/morphology2d.wgsl"));
 
-static SHADER: Shader = Shader {
-    stem: "morphology2d",
-    source: include_str!("../shaders/morphology2d.wgsl"),
-};
+const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
+    let schema = NodeSchema {
+        kind,
+        category: "Occluders",
+        doc,
+        inputs: IN,
+        outputs: OUT,
+        params: PARAMS,
+    };
+    NodeDecl::new(schema).shader(SHADER).uniforms(UNIFORMS)
+}
+const UNIFORMS: &[UniformLayout] = &[MorphParams::LAYOUT];
 
-/// Uniforms of `shaders/morphology2d.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct MorphParams {
-    /// Radius in texels.
-    pub r: i32,
-    /// 0 min, 1 max.
-    pub op: u32,
-    /// 0 rows, 1 columns.
-    pub axis: u32,
-    /// 0 circle, 1 square.
-    pub shape: u32,
-    /// Accumulate: first |dy|.
-    pub dy_lo: i32,
-    /// Accumulate: last |dy|.
-    pub dy_hi: i32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+static DILATE: NodeDecl = decl(
+    "Dilate2D",
+    "Per-texel minimum over a circle or square: occluders in the shadow map grow.",
+);
+static ERODE: NodeDecl = decl(
+    "Erode2D",
+    "Per-texel maximum over a circle or square: occluders in the shadow map shrink.",
+);
+static CLOSURE: NodeDecl = decl(
+    "Closure2D",
+    "Dilation then erosion (seed 000 hole filling): holes smaller than the kernel close, shafts simplify.",
+);
+
+crate::uniforms! {
+    /// Uniforms of `shaders/morphology2d.wgsl` (struct `Params`).
+    pub struct MorphParams as "Params" {
+        /// Radius in texels.
+        pub r: i32,
+        /// 0 min, 1 max.
+        pub op: u32,
+        /// 0 rows, 1 columns.
+        pub axis: u32,
+        /// 0 circle, 1 square.
+        pub shape: u32,
+        /// Accumulate: first |dy|.
+        pub dy_lo: i32,
+        /// Accumulate: last |dy|.
+        pub dy_hi: i32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+    }
 }
 
 /// CPU reference: min (`max = false`) or max over the footprint, texels outside ignored.
@@ -205,23 +169,23 @@ pub fn chord(r: i32, dy: i32) -> i32 {
 /// Radius in texels for `radius` in `unit` on a map with these matrices and width.
 pub fn radius_texels(
     radius: f64,
-    unit: &str,
+    unit: Unit,
     m: Option<&Matrices>,
     width: u32,
 ) -> Result<i32, NodeError> {
     let texels = match (unit, m) {
-        ("metres", Some(m)) => {
+        (Unit::Metres, Some(m)) => {
             // Orthographic: clip x = proj[0][0] · view x, over 2 clip units = width texels.
             let sx = m.proj[0][0].abs() as f64;
             radius * sx * width as f64 / 2.0
         }
-        ("metres", None) => {
+        (Unit::Metres, None) => {
             return Err(NodeError::Param {
                 param: "unit".into(),
                 message: "metres needs a ShadowMap input (a Scalar has no light matrices)".into(),
             })
         }
-        _ => radius,
+        (Unit::Texels, _) => radius,
     };
     Ok(texels.round().clamp(0.0, 1e6) as i32)
 }
@@ -371,31 +335,12 @@ pub fn filter(
 }
 
 impl NodeKind for Morphology2D {
-    fn schema(&self) -> &'static NodeSchema {
+    fn decl(&self) -> &'static NodeDecl {
         match self.0 {
             Op::Dilate => &DILATE,
             Op::Erode => &ERODE,
             Op::Closure => &CLOSURE,
         }
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            MorphParams,
-            "Params",
-            r,
-            op,
-            axis,
-            shape,
-            dy_lo,
-            dy_hi,
-            _pad0,
-            _pad1
-        )]
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
@@ -410,9 +355,14 @@ impl NodeKind for Morphology2D {
                 })
             }
         };
-        let r = radius_texels(ctx.f64("radius")?, ctx.text("unit")?, m.as_ref(), tex.width)?;
-        let circle = ctx.text("shape")? == "Circle";
-        let brute = ctx.text("method")? == "BruteForce";
+        let r = radius_texels(
+            ctx.f64("radius")?,
+            ctx.choice("unit")?,
+            m.as_ref(),
+            tex.width,
+        )?;
+        let circle = ctx.choice::<Shape>("shape")? == Shape::Circle;
+        let brute = ctx.choice::<Method>("method")? == Method::BruteForce;
         let out = match self.0 {
             Op::Dilate => filter(ctx.gpu, &tex, r, circle, false, brute)?,
             Op::Erode => filter(ctx.gpu, &tex, r, circle, true, brute)?,

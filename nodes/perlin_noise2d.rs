@@ -24,67 +24,73 @@
 //! | `speed` | Float | 0 | ±1e3 rad per unit time | rotation speed of the two-step lookup; 0 = static |
 //! | `width`, `height` | Int | 0 | 0…16384 | size when `like` is unconnected; 0 = evaluation size |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use super::util::float;
 use super::util::size_or_default;
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `PerlinNoise2D` node kind.
 pub struct PerlinNoise2D;
 
 /// Octave schemes.
-pub const MODES: &[&str] = &["seed", "fbm"];
+pub const MODES: &[&str] = Mode::NAMES;
 
-static SCHEMA: NodeSchema = NodeSchema {
+crate::choice_enum! {
+    /// Octave sums, in the shader's order.
+    pub enum Mode { Seed = "seed", Fbm = "fbm" }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "PerlinNoise2D",
     category: "Occluders",
     doc: "2D Perlin noise in [0, 1] (seed eq. 5 octaves or fBm), optionally animated by the two-step rotated lookup.",
-    inputs: &[PortSpec { name: "like", types: &[PortType::ShadowMap, PortType::Scalar], required: false, doc: "Take the output size from this map." }],
-    outputs: &[PortSpec { name: "noise", types: &[PortType::Scalar], required: false, doc: "Noise N in [0, 1]." }],
+    inputs: &[PortSpec::input("like", &[PortType::ShadowMap, PortType::Scalar], "Take the output size from this map.")],
+    outputs: &[PortSpec::output("noise", &[PortType::Scalar], "Noise N in [0, 1].")],
     params: &[
-        float("frequency", 1.0, 0.0, 1e4, "", "Frequency f (lookup point t·g·f); 0 gives a constant map."),
-        float("grid", 16.0, 0.0, 4096.0, "cells", "Gradient grid size g across the map."),
-        ParamSpec { name: "octaves", kind: ParamKind::Int, default: DefaultValue::Int(4), min: 1.0, max: 8.0, unit: "", doc: "Number of octaves o." },
-        float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio p between octaves."),
-        ParamSpec { name: "seed", kind: ParamKind::Int, default: DefaultValue::Int(0), min: 0.0, max: 2147483647.0, unit: "", doc: "Lattice hash seed." },
-        ParamSpec { name: "mode", kind: ParamKind::Enum(MODES), default: DefaultValue::Enum("seed"), min: 0.0, max: 0.0, unit: "", doc: "seed: eq. 5 as read in SPEC §4; fbm: classic fBm (lacunarity 2)." },
-        float("time", 0.0, -1e6, 1e6, "", "Animation time (key-frame it)."),
-        float("speed", 0.0, -1e3, 1e3, "rad/unit", "Rotation speed of the two-step lookup; 0 = static."),
-        ParamSpec { name: "width", kind: ParamKind::Int, default: DefaultValue::Int(0), min: 0.0, max: 16384.0, unit: "texels", doc: "Width when `like` is unconnected; 0 = evaluation size." },
-        ParamSpec { name: "height", kind: ParamKind::Int, default: DefaultValue::Int(0), min: 0.0, max: 16384.0, unit: "texels", doc: "Height when `like` is unconnected; 0 = evaluation size." },
+        ParamSpec::float("frequency", 1.0, 0.0, 1e4, "", "Frequency f (lookup point t·g·f); 0 gives a constant map."),
+        ParamSpec::float("grid", 16.0, 0.0, 4096.0, "cells", "Gradient grid size g across the map."),
+        ParamSpec::int("octaves", 4, 1, 8, "", "Number of octaves o."),
+        ParamSpec::float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio p between octaves."),
+        ParamSpec::int("seed", 0, 0, 2147483647, "", "Lattice hash seed."),
+        ParamSpec::choice("mode", Mode::NAMES, "seed", "seed: eq. 5 as read in SPEC §4; fbm: classic fBm (lacunarity 2)."),
+        ParamSpec::float("time", 0.0, -1e6, 1e6, "", "Animation time (key-frame it)."),
+        ParamSpec::float("speed", 0.0, -1e3, 1e3, "rad/unit", "Rotation speed of the two-step lookup; 0 = static."),
+        ParamSpec::int("width", 0, 0, 16384, "texels", "Width when `like` is unconnected; 0 = evaluation size."),
+        ParamSpec::int("height", 0, 0, 16384, "texels", "Height when `like` is unconnected; 0 = evaluation size."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[NoiseParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "perlin_noise2d",
-    source: include_str!("../shaders/perlin_noise2d.wgsl"),
-};
+const SHADER: Shader = Shader::new(
+    "perlin_noise2d",
+    include_str!("../shaders/perlin_noise2d.wgsl"),
+);
 
-/// Uniforms of `shaders/perlin_noise2d.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct NoiseParams {
-    /// g · f.
-    pub scale: f32,
-    /// p.
-    pub persistence: f32,
-    /// o.
-    pub octaves: u32,
-    /// 0 seed, 1 fbm.
-    pub mode: u32,
-    /// Seed.
-    pub seed: u32,
-    /// time · speed (radians).
-    pub angle: f32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/perlin_noise2d.wgsl` (struct `Params`).
+    pub struct NoiseParams as "Params" {
+        /// g · f.
+        pub scale: f32,
+        /// p.
+        pub persistence: f32,
+        /// o.
+        pub octaves: u32,
+        /// 0 seed, 1 fbm.
+        pub mode: u32,
+        /// Seed.
+        pub seed: u32,
+        /// time · speed (radians).
+        pub angle: f32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+    }
 }
 
 fn hash(x: i32, y: i32, s: u32) -> u32 {
@@ -165,27 +171,8 @@ pub fn reference(p: &NoiseParams, w: u32, h: u32) -> Raster {
 }
 
 impl NodeKind for PerlinNoise2D {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            NoiseParams,
-            "Params",
-            scale,
-            persistence,
-            octaves,
-            mode,
-            seed,
-            angle,
-            _pad0,
-            _pad1
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
@@ -193,12 +180,11 @@ impl NodeKind for PerlinNoise2D {
             Some(t) => (t.width, t.height),
             None => size_or_default(ctx, "width", "height")?,
         };
-        let mode = ctx.text("mode")?;
         let u = NoiseParams {
             scale: (ctx.f64("grid")? * ctx.f64("frequency")?) as f32,
             persistence: ctx.f32("persistence")?,
             octaves: ctx.int("octaves")? as u32,
-            mode: MODES.iter().position(|m| *m == mode).unwrap_or(0) as u32,
+            mode: ctx.choice::<Mode>("mode")? as u32,
             seed: ctx.int("seed")? as u32,
             angle: (ctx.f64("time")? * ctx.f64("speed")?) as f32,
             _pad0: 0,

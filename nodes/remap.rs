@@ -16,13 +16,12 @@
 //! | `to_min`, `to_max` | Float | 0, 1 | ±1e30 |
 //! | `clamp` | Bool | false | |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 use super::util::image_like;
-use crate::eval::{NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `Remap` node kind.
@@ -30,46 +29,46 @@ pub struct Remap;
 
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Remap",
     category: "Image",
     doc: "Linearly maps values from [from_min, from_max] to [to_min, to_max], optionally clamped; alpha is kept.",
-    inputs: &[PortSpec { name: "in", types: IMG, required: true, doc: "Values to remap." }],
-    outputs: &[PortSpec { name: "out", types: IMG, required: false, doc: "Remapped values, same type and size as `in`." }],
+    inputs: &[PortSpec::required("in", IMG, "Values to remap.")],
+    outputs: &[PortSpec::output("out", IMG, "Remapped values, same type and size as `in`.")],
     params: &[
-        ParamSpec { name: "from_min", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Source value mapped to to_min." },
-        ParamSpec { name: "from_max", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Source value mapped to to_max (equal to from_min: a step)." },
-        ParamSpec { name: "to_min", kind: ParamKind::Float, default: DefaultValue::Float(0.0), min: -1e30, max: 1e30, unit: "", doc: "Target of from_min." },
-        ParamSpec { name: "to_max", kind: ParamKind::Float, default: DefaultValue::Float(1.0), min: -1e30, max: 1e30, unit: "", doc: "Target of from_max." },
-        ParamSpec { name: "clamp", kind: ParamKind::Bool, default: DefaultValue::Bool(false), min: 0.0, max: 0.0, unit: "", doc: "Clamp the result to the target range." },
+        ParamSpec::float("from_min", 0.0, -1e30, 1e30, "", "Source value mapped to to_min."),
+        ParamSpec::float("from_max", 1.0, -1e30, 1e30, "", "Source value mapped to to_max (equal to from_min: a step)."),
+        ParamSpec::float("to_min", 0.0, -1e30, 1e30, "", "Target of from_min."),
+        ParamSpec::float("to_max", 1.0, -1e30, 1e30, "", "Target of from_max."),
+        ParamSpec::flag("clamp", false, "Clamp the result to the target range."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[RemapParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "remap",
-    source: include_str!("../shaders/remap.wgsl"),
-};
+const SHADER: Shader = Shader::new("remap", include_str!("../shaders/remap.wgsl"));
 
-/// Uniforms of `shaders/remap.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct RemapParams {
-    /// Source low.
-    pub from_min: f32,
-    /// Source high.
-    pub from_max: f32,
-    /// Target low.
-    pub to_min: f32,
-    /// Target high.
-    pub to_max: f32,
-    /// 1 to clamp.
-    pub clamp: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/remap.wgsl` (struct `Params`).
+    pub struct RemapParams as "Params" {
+        /// Source low.
+        pub from_min: f32,
+        /// Source high.
+        pub from_max: f32,
+        /// Target low.
+        pub to_min: f32,
+        /// Target high.
+        pub to_max: f32,
+        /// 1 to clamp.
+        pub clamp: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
 }
 
 /// CPU reference for one value (same f32 formula as the shader).
@@ -103,27 +102,8 @@ pub fn reference(input: &Raster, p: &RemapParams) -> Raster {
 }
 
 impl NodeKind for Remap {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            RemapParams,
-            "Params",
-            from_min,
-            from_max,
-            to_min,
-            to_max,
-            clamp,
-            _pad0,
-            _pad1,
-            _pad2
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

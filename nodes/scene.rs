@@ -33,52 +33,48 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::util::float;
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::Shader;
-use crate::graph::{
-    DefaultValue, NodeSchema, ParamKind, ParamSpec, ParamValue, PortSpec, PortType,
-};
-use crate::scene::{builtin, load_gltf, GpuScene, Sun, BUILTIN_SCENES};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use crate::scene::{builtin, load_gltf, Builtin, GpuScene, Sun};
 
 /// The `Scene` node kind.
 pub struct SceneNode;
 
-const SCENE_OR_CUSTOM: &[&str] = &["scene", "custom"];
+crate::choice_enum! {
+    /// Where the camera (or the sun) comes from.
+    pub enum Source { Scene = "scene", Custom = "custom" }
+}
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Scene",
     category: "Scene",
     doc: "A built-in procedural scene (torus, tree, window, fence, figure) or a glTF file, with camera and sun.",
     inputs: &[],
-    outputs: &[PortSpec { name: "scene", types: &[PortType::Scene], required: false, doc: "Meshes, camera and sun." }],
+    outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and sun.")],
     params: &[
-        ParamSpec { name: "name", kind: ParamKind::Enum(BUILTIN_SCENES), default: DefaultValue::Enum("torus"), min: 0.0, max: 0.0, unit: "", doc: "Built-in scene used when `path` is empty." },
-        ParamSpec { name: "path", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "glTF file (.gltf/.glb); overrides `name`." },
-        ParamSpec { name: "seed", kind: ParamKind::Int, default: DefaultValue::Int(1), min: 0.0, max: 2147483647.0, unit: "", doc: "Variation of the built-in scene." },
-        ParamSpec { name: "camera", kind: ParamKind::Enum(SCENE_OR_CUSTOM), default: DefaultValue::Enum("scene"), min: 0.0, max: 0.0, unit: "", doc: "Use the scene's camera, or the cam_*/target_*/fov parameters." },
-        float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
-        float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
-        float("cam_z", 9.0, -1e5, 1e5, "m", "Camera position z (camera = custom)."),
-        float("target_x", 0.0, -1e5, 1e5, "m", "Point looked at, x (camera = custom)."),
-        float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
-        float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
-        float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
-        ParamSpec { name: "light", kind: ParamKind::Enum(SCENE_OR_CUSTOM), default: DefaultValue::Enum("scene"), min: 0.0, max: 0.0, unit: "", doc: "Use the scene's sun, or the sun_* parameters." },
-        float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
-        float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
-        ParamSpec { name: "sun_colour", kind: ParamKind::Colour, default: DefaultValue::Colour([1.0, 0.95, 0.85, 1.0]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Sun colour (light = custom)." },
-        float("sun_intensity", 3.0, 0.0, 1e6, "", "Sun intensity multiplying the colour (light = custom)."),
+        ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
+        ParamSpec::text("path", "", "glTF file (.gltf/.glb); overrides `name`."),
+        ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation of the built-in scene."),
+        ParamSpec::choice("camera", Source::NAMES, "scene", "Use the scene's camera, or the cam_*/target_*/fov parameters."),
+        ParamSpec::float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
+        ParamSpec::float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
+        ParamSpec::float("cam_z", 9.0, -1e5, 1e5, "m", "Camera position z (camera = custom)."),
+        ParamSpec::float("target_x", 0.0, -1e5, 1e5, "m", "Point looked at, x (camera = custom)."),
+        ParamSpec::float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
+        ParamSpec::float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
+        ParamSpec::float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
+        ParamSpec::choice("light", Source::NAMES, "scene", "Use the scene's sun, or the sun_* parameters."),
+        ParamSpec::float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
+        ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
+        ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
+        ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "", "Sun intensity multiplying the colour (light = custom)."),
     ],
-};
+});
 
 impl NodeKind for SceneNode {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        None
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
@@ -88,7 +84,10 @@ impl NodeKind for SceneNode {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let path = ctx.text("path")?;
         let mut scene = if path.is_empty() {
-            builtin(ctx.text("name")?, ctx.int("seed")? as u64)
+            builtin(
+                ctx.choice::<Builtin>("name")?.name(),
+                ctx.int("seed")? as u64,
+            )
         } else {
             load_gltf(Path::new(path))
         }
@@ -100,7 +99,7 @@ impl NodeKind for SceneNode {
             },
             message: e.to_string(),
         })?;
-        if ctx.text("camera")? == "custom" {
+        if ctx.choice::<Source>("camera")? == Source::Custom {
             scene.camera.position =
                 Vec3::new(ctx.f32("cam_x")?, ctx.f32("cam_y")?, ctx.f32("cam_z")?);
             scene.camera.target = Vec3::new(
@@ -110,7 +109,7 @@ impl NodeKind for SceneNode {
             );
             scene.camera.fov_y = ctx.f32("fov")?;
         }
-        if ctx.text("light")? == "custom" {
+        if ctx.choice::<Source>("light")? == Source::Custom {
             let c = ctx.colour("sun_colour")?;
             scene.sun = Sun {
                 azimuth: ctx.f32("sun_azimuth")?,

@@ -16,41 +16,40 @@
 //! | `include` | Text | "" | | only objects with one of these tags (empty: all) |
 //! | `exclude` | Text | "" | | leave out objects with any of these tags |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::scene::{fit_light, GpuScene};
 
 /// The `ShadowMap` node kind.
 pub struct ShadowMapNode;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ShadowMap",
     category: "Scene",
     doc: "Orthographic light-space depth of the scene (0 near, 1 far / no occluder), fitted to the scene bounds.",
-    inputs: &[PortSpec { name: "scene", types: &[PortType::Scene], required: true, doc: "The scene to render from the sun." }],
-    outputs: &[PortSpec { name: "map", types: &[PortType::ShadowMap], required: false, doc: "Depth in [0, 1] with the light's matrices." }],
+    inputs: &[PortSpec::required("scene", &[PortType::Scene], "The scene to render from the sun.")],
+    outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "Depth in [0, 1] with the light's matrices.")],
     params: &[
-        ParamSpec { name: "resolution", kind: ParamKind::Int, default: DefaultValue::Int(2048), min: 16.0, max: 16384.0, unit: "texels", doc: "Width and height of the map." },
-        ParamSpec { name: "include", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "Comma-separated tags: draw only objects with one of them (empty: all)." },
-        ParamSpec { name: "exclude", kind: ParamKind::Text, default: DefaultValue::Text(""), min: 0.0, max: 0.0, unit: "", doc: "Comma-separated tags: leave out objects with any of them." },
+        ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map."),
+        ParamSpec::text("include", "", "Comma-separated tags: draw only objects with one of them (empty: all)."),
+        ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[ShadowMapParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "shadow_map",
-    source: include_str!("../shaders/shadow_map.wgsl"),
-};
+const SHADER: Shader = Shader::new("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
 
-/// Uniforms of `shaders/shadow_map.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct ShadowMapParams {
-    /// World → light clip.
-    pub light_view_proj: [[f32; 4]; 4],
+crate::uniforms! {
+    /// Uniforms of `shaders/shadow_map.wgsl` (struct `Params`).
+    pub struct ShadowMapParams as "Params" {
+        /// World → light clip.
+        pub light_view_proj: [[f32; 4]; 4],
+    }
 }
 
 /// Split a comma-separated tag list.
@@ -71,20 +70,8 @@ pub fn project(m: &Matrices, p: glam::Vec3) -> glam::Vec3 {
 }
 
 impl NodeKind for ShadowMapNode {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            ShadowMapParams,
-            "Params",
-            light_view_proj
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

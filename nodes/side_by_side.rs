@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, PortSpec, PortType};
 use crate::io::Raster;
@@ -17,37 +17,21 @@ use crate::io::Raster;
 /// The `SideBySide` node kind.
 pub struct SideBySide;
 
-static SCHEMA: NodeSchema = NodeSchema {
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SideBySide",
     category: "Image",
     doc: "Places two images next to each other (before/after views).",
     inputs: &[
-        PortSpec {
-            name: "left",
-            types: &[PortType::Image],
-            required: true,
-            doc: "Left image.",
-        },
-        PortSpec {
-            name: "right",
-            types: &[PortType::Image],
-            required: true,
-            doc: "Right image.",
-        },
+        PortSpec::required("left", &[PortType::Image], "Left image."),
+        PortSpec::required("right", &[PortType::Image], "Right image."),
     ],
-    outputs: &[PortSpec {
-        name: "image",
-        types: &[PortType::Image],
-        required: false,
-        doc: "Both images, left then right.",
-    }],
+    outputs: &[PortSpec::output("image", &[PortType::Image], "Both images, left then right.")],
     params: &[],
-};
+})
+.shader(SHADER);
 
-static SHADER: Shader = Shader {
-    stem: "side_by_side",
-    source: include_str!("../shaders/side_by_side.wgsl"),
-};
+const SHADER: Shader = Shader::new("side_by_side", include_str!("../shaders/side_by_side.wgsl"));
 
 /// CPU reference.
 pub fn reference(l: &Raster, r: &Raster) -> Raster {
@@ -74,12 +58,8 @@ pub fn reference(l: &Raster, r: &Raster) -> Raster {
 }
 
 impl NodeKind for SideBySide {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {

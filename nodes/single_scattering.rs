@@ -44,86 +44,92 @@
 //! | `method` | Enum | BruteForce | BruteForce, MinMax | visibility algorithm |
 //! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
 
-use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
 
-use super::util::float;
-use crate::eval::{Matrices, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `SingleScattering` node kind.
 pub struct SingleScattering;
 
 /// Visibility methods.
-pub const METHODS: &[&str] = &["BruteForce", "MinMax"];
+pub const METHODS: &[&str] = Method::NAMES;
 
-static SCHEMA: NodeSchema = NodeSchema {
+crate::choice_enum! {
+    /// Visibility algorithms.
+    pub enum Method { BruteForce = "BruteForce", MinMax = "MinMax" }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SingleScattering",
     category: "Scattering",
     doc: "Single scattering of the sun in a homogeneous medium: average visibility V̄, in-scatter and transmittance along each view ray.",
     inputs: &[
-        PortSpec { name: "shadow", types: &[PortType::ShadowMap], required: true, doc: "Shadow map the medium sees." },
-        PortSpec { name: "depth", types: &[PortType::Depth], required: true, doc: "Camera linear depth (from GBuffer)." },
-        PortSpec { name: "light_map", types: &[PortType::LightMap], required: false, doc: "Light map multiplying the incoming light (unconnected: 1)." },
-        PortSpec { name: "phase", types: &[PortType::Phase], required: false, doc: "Tabulated phase function (unconnected: Henyey–Greenstein g)." },
+        PortSpec::required("shadow", &[PortType::ShadowMap], "Shadow map the medium sees."),
+        PortSpec::required("depth", &[PortType::Depth], "Camera linear depth (from GBuffer)."),
+        PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the incoming light (unconnected: 1)."),
+        PortSpec::input("phase", &[PortType::Phase], "Tabulated phase function (unconnected: Henyey–Greenstein g)."),
     ],
     outputs: &[
-        PortSpec { name: "visibility", types: &[PortType::Scalar], required: false, doc: "Average visibility V̄ of the view ray." },
-        PortSpec { name: "depth", types: &[PortType::Depth], required: false, doc: "The input depth, passed on." },
-        PortSpec { name: "inscatter", types: &[PortType::Image], required: false, doc: "In-scattered radiance (linear RGB)." },
-        PortSpec { name: "transmittance", types: &[PortType::Scalar], required: false, doc: "e^(−s σt) along the view ray." },
+        PortSpec::output("visibility", &[PortType::Scalar], "Average visibility V̄ of the view ray."),
+        PortSpec::output("depth", &[PortType::Depth], "The input depth, passed on."),
+        PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance (linear RGB)."),
+        PortSpec::output("transmittance", &[PortType::Scalar], "e^(−s σt) along the view ray."),
     ],
     params: &[
-        float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
-        float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
-        float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
-        ParamSpec { name: "tint", kind: ParamKind::Colour, default: DefaultValue::Colour([1.0; 4]), min: 0.0, max: 1e6, unit: "linear RGB", doc: "Multiplies the sun's colour." },
-        float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's radiance."),
-        ParamSpec { name: "steps", kind: ParamKind::Int, default: DefaultValue::Int(128), min: 1.0, max: 8192.0, unit: "samples", doc: "Samples per view ray (quality knob)." },
-        float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
-        float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
-        ParamSpec { name: "method", kind: ParamKind::Enum(METHODS), default: DefaultValue::Enum("BruteForce"), min: 0.0, max: 0.0, unit: "", doc: "Visibility algorithm." },
-        ParamSpec { name: "min_level", kind: ParamKind::Int, default: DefaultValue::Int(0), min: 0.0, max: 14.0, unit: "level", doc: "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)." },
+        ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
+        ParamSpec::float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
+        ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
+        ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
+        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's radiance."),
+        ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
+        ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
+        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
+        ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
+        ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[ScatterParams::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "single_scattering",
-    source: include_str!("../shaders/single_scattering.wgsl"),
-};
+const SHADER: Shader = Shader::new(
+    "single_scattering",
+    include_str!("../shaders/single_scattering.wgsl"),
+);
 
-/// Uniforms of `shaders/single_scattering.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct ScatterParams {
-    /// Camera clip → world.
-    pub inv_view_proj: [[f32; 4]; 4],
-    /// World → light clip.
-    pub light_view_proj: [[f32; 4]; 4],
-    /// Camera position.
-    pub eye: [f32; 3],
-    /// Samples per ray.
-    pub steps: u32,
-    /// Unit direction towards the sun.
-    pub to_sun: [f32; 3],
-    /// σt.
-    pub sigma_t: f32,
-    /// Incoming radiance (sun × tint × intensity).
-    pub radiance: [f32; 3],
-    /// ρ.
-    pub albedo: f32,
-    /// HG g.
-    pub g: f32,
-    /// Jitter in intervals.
-    pub jitter: f32,
-    /// Shadow bias.
-    pub bias: f32,
-    /// MinMax: pyramid level at and below which mixed blocks are estimated, not refined
-    /// (0 = exact).
-    pub min_level: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/single_scattering.wgsl` (struct `Params`).
+    pub struct ScatterParams as "Params" {
+        /// Camera clip → world.
+        pub inv_view_proj: [[f32; 4]; 4],
+        /// World → light clip.
+        pub light_view_proj: [[f32; 4]; 4],
+        /// Camera position.
+        pub eye: [f32; 3],
+        /// Samples per ray.
+        pub steps: u32,
+        /// Unit direction towards the sun.
+        pub to_sun: [f32; 3],
+        /// σt.
+        pub sigma_t: f32,
+        /// Incoming radiance (sun × tint × intensity).
+        pub radiance: [f32; 3],
+        /// ρ.
+        pub albedo: f32,
+        /// HG g.
+        pub g: f32,
+        /// Jitter in intervals.
+        pub jitter: f32,
+        /// Shadow bias.
+        pub bias: f32,
+        /// MinMax: pyramid level at and below which mixed blocks are estimated, not refined
+        /// (0 = exact).
+        pub min_level: u32,
+    }
 }
 
 impl ScatterParams {
@@ -148,39 +154,39 @@ impl ScatterParams {
     }
 }
 
-/// Uniforms of the MinMax traversal (struct `Levels`): level k ≥ 1 of the pyramid lives in
-/// the atlas at `rect[k] = (x, y, width, height)`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct LevelsParams {
-    /// Number of levels above the map (the top one is 1×1).
-    pub count: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
-    /// Atlas rectangles; entry 0 unused (level 0 is the map).
-    pub rect: [[u32; 4]; 16],
+crate::uniforms! {
+    /// Uniforms of the MinMax traversal (struct `Levels`): level k ≥ 1 of the pyramid lives in
+    /// the atlas at `rect[k] = (x, y, width, height)`.
+    pub struct LevelsParams as "Levels" {
+        /// Number of levels above the map (the top one is 1×1).
+        pub count: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+        /// Atlas rectangles; entry 0 unused (level 0 is the map).
+        pub rect: [[u32; 4]; 16],
+    }
 }
 
-/// Uniforms of the pyramid build pass (struct `Build`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Debug)]
-pub struct BuildParams {
-    /// Level being built (≥ 1).
-    pub level: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
-    /// Source rectangle (the map for level 1, else level − 1 in the atlas).
-    pub src: [u32; 4],
-    /// Destination rectangle in the atlas.
-    pub dst: [u32; 4],
+crate::uniforms! {
+    /// Uniforms of the pyramid build pass (struct `Build`).
+    pub struct BuildParams as "Build" {
+        /// Level being built (≥ 1).
+        pub level: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+        /// Source rectangle (the map for level 1, else level − 1 in the atlas).
+        pub src: [u32; 4],
+        /// Destination rectangle in the atlas.
+        pub dst: [u32; 4],
+    }
 }
 
 /// The atlas layout of a min-max pyramid over a `w × h` map: `(levels, atlas width, atlas
@@ -346,31 +352,8 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
 }
 
 impl NodeKind for SingleScattering {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            ScatterParams,
-            "Params",
-            inv_view_proj,
-            light_view_proj,
-            eye,
-            steps,
-            to_sun,
-            sigma_t,
-            radiance,
-            albedo,
-            g,
-            jitter,
-            bias,
-            min_level
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
@@ -426,7 +409,7 @@ impl NodeKind for SingleScattering {
             (4, Bind::Storage(&ins)),
             (5, Bind::Storage(&tr)),
         ];
-        if ctx.text("method")? == "MinMax" {
+        if ctx.choice::<Method>("method")? == Method::MinMax {
             let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
             binds.push((6, Bind::Texture(&atlas)));
             binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));

@@ -15,113 +15,77 @@
 //! | `exposure` | Float | 0 | −20…20 stops | multiplies by 2^exposure |
 //! | `operator` | Enum | filmic | filmic, reinhard, linear | tone curve |
 
-use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-use crate::eval::{NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat, UniformLayout};
-use crate::graph::{DefaultValue, NodeSchema, ParamKind, ParamSpec, PortSpec, PortType};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 /// The `Tonemap` node kind.
 pub struct Tonemap;
 
-/// Tone curves, in the shader's order.
-pub const OPERATORS: &[&str] = &["filmic", "reinhard", "linear"];
+crate::choice_enum! {
+    /// Tone curves, in the shader's order.
+    pub enum Operator { Filmic = "filmic", Reinhard = "reinhard", Linear = "linear" }
+}
 
-static SCHEMA: NodeSchema = NodeSchema {
+/// Tone curve names (`Operator::NAMES`).
+pub const OPERATORS: &[&str] = Operator::NAMES;
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Tonemap",
     category: "Image",
     doc: "Exposure (stops) and a filmic (ACES fit), Reinhard or clamped linear tone curve.",
-    inputs: &[PortSpec {
-        name: "image",
-        types: &[PortType::Image],
-        required: true,
-        doc: "Linear radiance.",
-    }],
-    outputs: &[PortSpec {
-        name: "out",
-        types: &[PortType::Image],
-        required: false,
-        doc: "Display-referred values in [0, 1].",
-    }],
+    inputs: &[PortSpec::required("image", &[PortType::Image], "Linear radiance.")],
+    outputs: &[PortSpec::output("out", &[PortType::Image], "Display-referred values in [0, 1].")],
     params: &[
-        ParamSpec {
-            name: "exposure",
-            kind: ParamKind::Float,
-            default: DefaultValue::Float(0.0),
-            min: -20.0,
-            max: 20.0,
-            unit: "stops",
-            doc: "Multiplies the input by 2^exposure.",
-        },
-        ParamSpec {
-            name: "operator",
-            kind: ParamKind::Enum(OPERATORS),
-            default: DefaultValue::Enum("filmic"),
-            min: 0.0,
-            max: 0.0,
-            unit: "",
-            doc: "Tone curve: filmic (ACES fit), reinhard, linear (clamp).",
-        },
+        ParamSpec::float("exposure", 0.0, -20.0, 20.0, "stops", "Multiplies the input by 2^exposure."),
+        ParamSpec::choice("operator", Operator::NAMES, "filmic", "Tone curve: filmic (ACES fit), reinhard, linear (clamp)."),
     ],
-};
+})
+.shader(SHADER)
+.uniforms(&[TonemapParams::LAYOUT]);
 
-static SHADER: Shader = Shader {
-    stem: "tonemap",
-    source: include_str!("../shaders/tonemap.wgsl"),
-};
+const SHADER: Shader = Shader::new("tonemap", include_str!("../shaders/tonemap.wgsl"));
 
-/// Uniforms of `shaders/tonemap.wgsl` (struct `Params`).
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub struct TonemapParams {
-    /// 2^exposure.
-    pub scale: f32,
-    /// Index into [`OPERATORS`].
-    pub op: u32,
-    /// Padding.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
+crate::uniforms! {
+    /// Uniforms of `shaders/tonemap.wgsl` (struct `Params`).
+    pub struct TonemapParams as "Params" {
+        /// 2^exposure.
+        pub scale: f32,
+        /// [`Operator`] code.
+        pub op: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+    }
 }
 
 /// CPU reference for one channel value.
-pub fn curve(op: &str, x: f32) -> f32 {
+pub fn curve(op: Operator, x: f32) -> f32 {
     // Clamp first: beyond 65504 every curve is at its ceiling, and x² must not overflow.
     let x = x.clamp(0.0, 65504.0);
     match op {
-        "filmic" => ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0),
-        "reinhard" => x / (1.0 + x),
-        _ => x.min(1.0),
+        Operator::Filmic => {
+            ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+        }
+        Operator::Reinhard => x / (1.0 + x),
+        Operator::Linear => x.min(1.0),
     }
 }
 
 impl NodeKind for Tonemap {
-    fn schema(&self) -> &'static NodeSchema {
-        &SCHEMA
-    }
-
-    fn shader(&self) -> Option<Shader> {
-        Some(SHADER)
-    }
-
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        vec![crate::uniform_layout!(
-            TonemapParams,
-            "Params",
-            scale,
-            op,
-            _pad0,
-            _pad1
-        )]
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let tex = ctx.require_texture("image")?;
-        let op = ctx.text("operator")?;
         let u = TonemapParams {
             scale: 2f32.powf(ctx.f32("exposure")?),
-            op: OPERATORS.iter().position(|o| *o == op).unwrap_or(0) as u32,
+            op: ctx.choice::<Operator>("operator")? as u32,
             _pad0: 0,
             _pad1: 0,
         };

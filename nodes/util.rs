@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use crate::eval::{NodeError, PortValue, RunCtx};
 use crate::gpu::{GpuTexture, TexFormat};
-use crate::graph::{DefaultValue, ParamKind, ParamSpec, ParamValue};
+use crate::graph::ParamValue;
 
 /// Resolve a `width`/`height` pair of parameters where 0 means "the evaluation size".
 pub fn size_or_default(ctx: &RunCtx, w: &str, h: &str) -> Result<(u32, u32), NodeError> {
@@ -25,26 +25,6 @@ pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
     match t.format {
         TexFormat::R32F => PortValue::Scalar(t),
         TexFormat::Rgba32F | TexFormat::Rg32F => PortValue::Image(t),
-    }
-}
-
-/// A `Float` parameter spec, for node tables.
-pub const fn float(
-    name: &'static str,
-    default: f64,
-    min: f64,
-    max: f64,
-    unit: &'static str,
-    doc: &'static str,
-) -> ParamSpec {
-    ParamSpec {
-        name,
-        kind: ParamKind::Float,
-        default: DefaultValue::Float(default),
-        min,
-        max,
-        unit,
-        doc,
     }
 }
 

@@ -74,9 +74,10 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
 //
 // 1. `kappa`: κ of every texel (the operation's identity at the epipole's own texel centre).
 // 2. `rectify`: a grid of epipolar rays from l (row j: direction dir_j from a table computed in
-//    f64 on the CPU; column m: distance d0 + m / stride). Each cell holds the min (max) of κ
-//    over the 2×2 (or 3×3) block of texels around its point g: a bound on κ of any texel that
-//    a sample within 0.5 (1.0) texel of g can land on.
+//    f64 on the CPU, about one row per texel of arc at the map's far edge; column m: distance
+//    d0 + m, one column per texel). Each cell holds the min (max) of κ over the 3×3 block of
+//    texels around its point g: a bound on κ of any texel that a sample within 1.0 texel of g
+//    can land on.
 // 3. `grid_blocks` + `grid_combine`: van Herk / Gil–Werman along each row over the interior
 //    samples E+1 … length−E (constant cost per cell whatever the length).
 // 4. `project_back`: per texel, the samples 1…E and last−E+1…last exactly (last = the final
@@ -99,13 +100,9 @@ struct Rect {
     op: u32,
     rows: u32,
     cols: u32,
-    stride: u32,
     ends: i32,
-    block: i32,
     length: i32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 @group(0) @binding(3) var<uniform> R: Rect;
@@ -143,15 +140,10 @@ fn kappa(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
 
-// Point of grid cell (column m, row j): the row's base point (distance d0) plus m / stride
-// along its direction. `rectify` and `project_back` share it so both see the same f32 value.
+// Point of grid cell (column m, row j): the row's base point (distance d0) plus m along its
+// direction. `rectify` and `project_back` share it so both see the same f32 value.
 fn grid_point(m: i32, row: vec4<f32>) -> vec2<f32> {
-    return row.zw + row.xy * (f32(m) / f32(R.stride));
-}
-
-// The block of texels a point within half a block of g can land on: its first texel.
-fn block_origin(g: vec2<f32>) -> vec2<i32> {
-    return select(vec2<i32>(floor(g)) - 1, vec2<i32>(floor(g - 0.5)), R.block == 2);
+    return row.zw + row.xy * f32(m);
 }
 
 @compute @workgroup_size(8, 8)
@@ -160,11 +152,12 @@ fn rectify(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let row = textureLoad(rows_in, vec2<u32>(id.y, 0u), 0);
-    let o = block_origin(grid_point(i32(id.x), row));
+    // The 3×3 block of texels a point within one texel of g can land on.
+    let o = vec2<i32>(floor(grid_point(i32(id.x), row))) - 1;
     let size = vec2<i32>(textureDimensions(kappa_in));
     var v = identity_r();
-    for (var by = 0; by < R.block; by++) {
-        for (var bx = 0; bx < R.block; bx++) {
+    for (var by = 0; by < 3; by++) {
+        for (var bx = 0; bx < 3; bx++) {
             let t = o + vec2<i32>(bx, by);
             if t.x >= 0 && t.y >= 0 && t.x < size.x && t.y < size.y {
                 v = pick_r(v, textureLoad(kappa_in, t, 0).r);
@@ -174,19 +167,12 @@ fn rectify(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
 
-// Columns are `stride` sub-steps per texel; a window of samples one texel apart takes every
-// stride-th column, so each row splits into `stride` interleaved sequences (residue r: columns
-// r, r + stride, …), filtered separately in blocks of n = lo + hi + 1 aligned at their start.
-fn seq_len(r: u32) -> u32 {
-    return (R.cols + R.stride - 1u - r) / R.stride;
-}
-
+// Each row is filtered in blocks of k = lo + hi + 1 columns aligned at the row's start.
 @compute @workgroup_size(8, 8)
 fn grid_blocks(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = u32(R.lo + R.hi + 1);
-    let row = id.y / R.stride;
-    let r = id.y % R.stride;
-    let n = seq_len(r);
+    let row = id.y;
+    let n = R.cols;
     let start = id.x * k;
     if start >= n || row >= R.rows {
         return;
@@ -194,13 +180,13 @@ fn grid_blocks(@builtin(global_invocation_id) id: vec3<u32>) {
     let end = min(start + k, n);
     var acc = identity_r();
     for (var i = start; i < end; i++) {
-        let c = vec2<u32>(i * R.stride + r, row);
+        let c = vec2<u32>(i, row);
         acc = pick_r(acc, textureLoad(grid, c, 0).r);
         textureStore(prefix_out, c, vec4<f32>(acc, 0.0, 0.0, 1.0));
     }
     acc = identity_r();
     for (var i = end; i > start; i--) {
-        let c = vec2<u32>((i - 1u) * R.stride + r, row);
+        let c = vec2<u32>(i - 1u, row);
         acc = pick_r(acc, textureLoad(grid, c, 0).r);
         textureStore(suffix_out, c, vec4<f32>(acc, 0.0, 0.0, 1.0));
     }
@@ -213,21 +199,20 @@ fn grid_combine(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= R.cols || id.y >= R.rows {
         return;
     }
-    let r = id.x % R.stride;
-    let n = i32(seq_len(r));
+    let n = i32(R.cols);
     let k = R.lo + R.hi + 1;
-    let x = i32(id.x / R.stride);
+    let x = i32(id.x);
     var s = identity_r();
     let a = x - R.lo;
     if a >= 0 {
-        s = textureLoad(suffix_in, vec2<i32>(a * i32(R.stride) + i32(r), i32(id.y)), 0).r;
+        s = textureLoad(suffix_in, vec2<i32>(a, i32(id.y)), 0).r;
     }
     var p = identity_r();
     let b = x + R.hi;
     if b < n {
-        p = textureLoad(prefix_in, vec2<i32>(b * i32(R.stride) + i32(r), i32(id.y)), 0).r;
+        p = textureLoad(prefix_in, vec2<i32>(b, i32(id.y)), 0).r;
     } else if b / k == (n - 1) / k {
-        p = textureLoad(prefix_in, vec2<i32>((n - 1) * i32(R.stride) + i32(r), i32(id.y)), 0).r;
+        p = textureLoad(prefix_in, vec2<i32>(n - 1, i32(id.y)), 0).r;
     }
     textureStore(grid_out, id.xy, vec4<f32>(pick_r(s, p), 0.0, 0.0, 1.0));
 }
@@ -274,9 +259,9 @@ fn valid_sample(c: vec2<f32>, dir: vec2<f32>, d_t: f32, i: i32, size: vec2<i32>)
 }
 
 // Does the grid point of column m on `row` cover the exact sample point p (every coordinate
-// within half a block, less a margin for f32 rounding)?
+// within one texel, the 3×3 block's half-width, less a margin for f32 rounding)?
 fn covered(p: vec2<f32>, m: i32, row: vec4<f32>) -> bool {
-    let reach = select(1.0, 0.5, R.block == 2) - 0.01;
+    let reach = 0.99;
     let off = abs(p - grid_point(m, row));
     return m >= 0 && m < i32(R.cols) && off.x <= reach && off.y <= reach;
 }
@@ -328,9 +313,9 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
         let j = i32(round((phi - R.phi0) / R.dphi));
         if j >= 0 && j < i32(R.rows) {
             let row = textureLoad(rows_in, vec2<i32>(j, 0), 0);
-            let step = select(-i32(R.stride), i32(R.stride), erode);
+            let step = select(-1, 1, erode);
             let first = select(d_t - 1.0, d_t + 1.0, erode);
-            let m = i32(round((first - R.d0) * f32(R.stride))) + e * step;
+            let m = i32(round(first - R.d0)) + e * step;
             let m_last = m + (last - 2 * e - 1) * step;
             if covered(c + dir * f32(e + 1), m, row) && covered(c + dir * f32(last - e), m_last, row) {
                 let bound = textureLoad(grid, vec2<i32>(m, j), 0).r;

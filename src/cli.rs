@@ -728,7 +728,7 @@ fn default_text(p: &crate::graph::ParamSpec) -> String {
 
 fn range_text(p: &crate::graph::ParamSpec) -> String {
     match p.kind {
-        ParamKind::Float | ParamKind::Int | ParamKind::Colour => {
+        ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3 => {
             format!("[{}, {}]", num(p.min), num(p.max))
         }
         ParamKind::Enum(names) => names.join(" | "),
@@ -762,7 +762,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                     "kind": s.kind, "category": s.category, "doc": s.doc,
                     "ports": all,
                     "params": s.params.iter().map(|p| {
-                        let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour);
+                        let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);
                         serde_json::json!({
                             "name": p.name, "type": p.kind.name(),
                             "default": match p.default.value() {
@@ -771,6 +771,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                                 ParamValue::Bool(v) => serde_json::json!(v),
                                 ParamValue::Enum(v) | ParamValue::Text(v) => serde_json::json!(v),
                                 ParamValue::Colour(c) => serde_json::json!(c),
+                                ParamValue::Vec3(c) => serde_json::json!(c),
                             },
                             "min": if numeric { serde_json::json!(p.min) } else { serde_json::Value::Null },
                             "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },

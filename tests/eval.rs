@@ -364,3 +364,62 @@ fn gpu_timings_come_from_timestamp_queries_when_asked() {
         assert!(m1.gpu_time.is_none());
     }
 }
+
+/// A document checked against another catalog (a newer Tyndall's, a hand-built one) can carry an
+/// enum value this registry does not know. The loader refuses such files, but nothing stops a
+/// `Graph` built in code: the node must then fail with an error naming the node and the
+/// parameter — never fall back silently to the first option.
+#[test]
+fn unknown_choice_is_an_error_naming_node_and_parameter() {
+    use tyndall::graph::{Catalog, NodeSchema, ParamSpec, PortSpec, PortType};
+    let gpu = require_gpu!();
+    let registry = tyndall::nodes::registry();
+    let real = registry.catalog().get("Tonemap").expect("Tonemap");
+    static OPS: &[&str] = &["filmic", "reinhard", "linear", "agx"];
+    static IMG: &[PortType] = &[PortType::Image];
+    static INPUTS: &[PortSpec] = &[PortSpec::required("image", IMG, "")];
+    static OUTPUTS: &[PortSpec] = &[PortSpec::output("out", IMG, "")];
+    static PARAMS: &[ParamSpec] = &[
+        ParamSpec::float("exposure", 0.0, -20.0, 20.0, "stops", ""),
+        ParamSpec::choice("operator", OPS, "agx", ""),
+    ];
+    static NEWER: NodeSchema = NodeSchema {
+        kind: "Tonemap",
+        category: "Image",
+        doc: "",
+        inputs: INPUTS,
+        outputs: OUTPUTS,
+        params: PARAMS,
+    };
+    assert_eq!(real.params.len(), NEWER.params.len());
+    let mut newer = Catalog::new();
+    newer.add(&NEWER);
+    let mut g = Graph::new();
+    let id = g.add_node(&newer, "Tonemap").expect("add");
+    g.set_param(&newer, &id, "operator", ParamValue::Enum("agx".into()))
+        .expect("valid in the newer catalog");
+    let mut opts = EvalOptions {
+        size: (4, 4),
+        ..Default::default()
+    };
+    let image = common::upload(
+        &gpu,
+        &tyndall::io::Raster::new(4, 4, 4, 0.5),
+        tyndall::graph::PortType::Image,
+    );
+    opts.inject.insert((id.clone(), "image".into()), (image, 1));
+    let mut ev = Evaluator::new(Arc::new(registry), gpu);
+    let err = ev
+        .evaluate(&g, &[Target::Port(id.clone(), "out".into())], &opts)
+        .expect_err("an unknown operator must not evaluate");
+    let msg = err.to_string();
+    for part in [
+        id.as_str(),
+        "Tonemap",
+        "operator",
+        "agx",
+        "filmic, reinhard, linear",
+    ] {
+        assert!(msg.contains(part), "'{part}' missing from: {msg}");
+    }
+}

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use tyndall::eval::{Matrices, PortValue};
 use tyndall::graph::{ParamValue, PortType};
 use tyndall::io::Raster;
-use tyndall::nodes::morphology2d::{chord, radius_texels, reference, reference_closure};
+use tyndall::nodes::morphology2d::{chord, radius_texels, reference, reference_closure, Unit};
 
 /// Exact equality, reporting the first differing texel (whole rasters are too long to print).
 fn same(a: &Raster, b: &Raster, what: &str) {
@@ -189,10 +189,16 @@ fn chords_and_units() {
             .to_cols_array_2d(),
         ..Matrices::default()
     };
-    assert_eq!(radius_texels(0.5, "metres", Some(&m), 2048).expect("m"), 51);
-    assert_eq!(radius_texels(0.5, "metres", Some(&m), 1024).expect("m"), 26);
-    assert_eq!(radius_texels(6.4, "texels", None, 1024).expect("t"), 6);
-    assert!(radius_texels(1.0, "metres", None, 1024).is_err());
+    assert_eq!(
+        radius_texels(0.5, Unit::Metres, Some(&m), 2048).expect("m"),
+        51
+    );
+    assert_eq!(
+        radius_texels(0.5, Unit::Metres, Some(&m), 1024).expect("m"),
+        26
+    );
+    assert_eq!(radius_texels(6.4, Unit::Texels, None, 1024).expect("t"), 6);
+    assert!(radius_texels(1.0, Unit::Metres, None, 1024).is_err());
 }
 
 #[test]

@@ -12,6 +12,7 @@ mod common;
 
 use tyndall::graph::{ParamValue, PortType};
 use tyndall::io::Raster;
+use tyndall::nodes::tonemap::Operator;
 use tyndall::nodes::{constant, image_input, image_output, math, remap};
 
 const F32_EPS: f32 = f32::EPSILON;
@@ -56,7 +57,8 @@ fn tolerance(op: &str, expected: f32) -> f32 {
 }
 
 fn check_math(op: &str, a: math::Operand, b: math::Operand, got: &Raster) {
-    let expected = math::reference(op, a, b, 0.3, -0.5, 0.75).expect("reference");
+    let op_t = math::Op::from_name(op).expect("op");
+    let expected = math::reference(op_t, a, b, 0.3, -0.5, 0.75).expect("reference");
     assert_eq!(
         (got.width, got.height, got.channels),
         (expected.width, expected.height, expected.channels),
@@ -179,7 +181,14 @@ fn math_extremes_stay_finite() {
         )
         .expect("evaluate");
         for (i, v) in out["out"].data.iter().enumerate() {
-            let e = math::apply(op, a.data[i], b as f32, 0.5, 0.0, 1.0);
+            let e = math::apply(
+                math::Op::from_name(op).expect("op"),
+                a.data[i],
+                b as f32,
+                0.5,
+                0.0,
+                1.0,
+            );
             // Overflow to ±Inf is the honest f32 answer for 1e30 / 1e-30; everything else is finite.
             if e.is_finite() {
                 assert!(v.is_finite(), "{op} {b}: a = {} gave {v}", a.data[i]);
@@ -273,7 +282,8 @@ fn image_input_matches_reference_for_exr_and_png() {
                 (1, 1),
             )
             .expect("read");
-            let (im, sc) = image_input::reference(file, channel);
+            let ch = image_input::Channel::from_name(channel).expect("channel");
+            let (im, sc) = image_input::reference(file, ch);
             assert_eq!(out["image"], im, "{channel} {}", path.display());
             // Luminance is a 3-term dot product that may be fused: a few ULP of 1.
             assert!(
@@ -387,7 +397,7 @@ fn tonemap_matches_reference_curves() {
                 let want = if i % 4 == 3 {
                     *x
                 } else {
-                    tyndall::nodes::tonemap::curve(op, x * scale)
+                    tyndall::nodes::tonemap::curve(Operator::from_name(op).expect("op"), x * scale)
                 };
                 assert!(
                     g.is_finite() && (g - want).abs() <= 1e-6,
@@ -520,4 +530,65 @@ fn composite_follows_its_formula() {
             );
         }
     }
+}
+
+/// Blur on the GPU equals its CPU reference: Scalar and Image, non-square, kernels wider than
+/// the image (edge clamping on both sides), a fractional σ and the truncate knob's extremes.
+#[test]
+fn blur_matches_reference() {
+    let gpu = require_gpu!();
+    let scalar = common::random_raster(23, 11, 1, -2.0, 5.0, 31);
+    let image = common::random_raster(9, 14, 4, 0.0, 3.0, 32);
+    for (raster, ty) in [(&scalar, PortType::Scalar), (&image, PortType::Image)] {
+        for (sigma, truncate) in [(0.6, 3.0), (2.0, 1.0), (2.0, 6.0), (7.5, 3.0)] {
+            let out = common::run_node(
+                &gpu,
+                "Blur",
+                &[
+                    ("sigma", ParamValue::Float(sigma)),
+                    ("truncate", ParamValue::Float(truncate)),
+                ],
+                vec![("in", common::upload(&gpu, raster, ty))],
+                &["out"],
+                (1, 1),
+            )
+            .expect("blur");
+            let want = tyndall::nodes::blur::reference(raster, sigma, truncate);
+            // Same weights, same order of terms; the driver may fuse a multiply-add (1 ulp per
+            // term): two passes of ≤ 2·23 + 1 terms of values ≤ 5 stay within 1e-5.
+            let d = common::max_abs_diff(&out["out"], &want);
+            assert!(d <= 1e-5, "{ty:?} σ {sigma} truncate {truncate}: {d}");
+        }
+    }
+}
+
+/// The Gaussian's properties, on the CPU reference (the test above ties the GPU to it): weights
+/// sum to 1, so a constant stays constant and an impulse far from the border keeps its mass;
+/// σ = 0 is the identity; the extreme σ stays finite.
+#[test]
+fn blur_preserves_constants_and_mass() {
+    use tyndall::nodes::blur::{radius, reference, weights};
+    for (sigma, truncate) in [(0.3, 1.0), (2.0, 3.0), (40.0, 6.0), (256.0, 6.0)] {
+        let w = weights(sigma, radius(sigma, truncate));
+        let total: f64 = w[0] as f64 + 2.0 * w[1..].iter().map(|v| *v as f64).sum::<f64>();
+        assert!(
+            (total - 1.0).abs() < 1e-6,
+            "σ {sigma}: weights sum to {total}"
+        );
+    }
+    let flat = tyndall::io::Raster::new(17, 9, 4, 0.25);
+    let out = reference(&flat, 30.0, 6.0);
+    assert!(
+        out.data.iter().all(|v| (v - 0.25).abs() <= 1e-6),
+        "constant moved"
+    );
+    let mut impulse = tyndall::io::Raster::new(41, 41, 1, 0.0);
+    impulse.data[20 * 41 + 20] = 1.0;
+    let out = reference(&impulse, 3.0, 3.0); // r = 9: the kernel stays inside
+    let mass: f32 = out.data.iter().sum();
+    assert!((mass - 1.0).abs() <= 1e-5, "mass {mass}");
+    assert!(out.data.iter().all(|v| *v >= 0.0 && v.is_finite()));
+    assert_eq!(reference(&impulse, 0.0, 3.0), impulse);
+    let huge = reference(&impulse, 256.0, 6.0);
+    assert!(huge.data.iter().all(|v| v.is_finite() && *v >= 0.0));
 }

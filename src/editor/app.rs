@@ -18,23 +18,8 @@ use super::worker::{NodeReport, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
 use crate::eval::Registry;
 use crate::gpu::Gpu;
-use crate::graph::{save_string, Interp, Key, ParamKind, ParamValue, PortType};
+use crate::graph::{save_string, Interp, Key, ParamKind, ParamValue};
 use crate::io::Raster;
-
-/// Colour of a port type's pins and wires.
-pub fn port_colour(t: PortType) -> egui::Color32 {
-    match t {
-        PortType::ShadowMap => egui::Color32::from_rgb(230, 160, 60),
-        PortType::Depth => egui::Color32::from_rgb(90, 160, 230),
-        PortType::Scalar => egui::Color32::from_rgb(180, 180, 180),
-        PortType::Image => egui::Color32::from_rgb(230, 220, 90),
-        PortType::Volume => egui::Color32::from_rgb(160, 110, 220),
-        PortType::Lut2D => egui::Color32::from_rgb(220, 100, 160),
-        PortType::LightMap => egui::Color32::from_rgb(250, 240, 200),
-        PortType::Scene => egui::Color32::from_rgb(100, 200, 120),
-        PortType::Phase => egui::Color32::from_rgb(120, 210, 210),
-    }
-}
 
 /// Viewer zoom.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,7 +162,7 @@ impl EditorApp {
     /// compositors do; a refusal (type mismatch, cycle, unknown port) lands in the status line
     /// with its reason. The canvas's wire drops come here.
     pub fn connect_ports(&mut self, from: &str, to: &str) -> bool {
-        let res = connect_replacing(&mut self.state, from, to);
+        let res = self.state.connect_replacing(from, to);
         self.status = match &res {
             Ok(()) => String::new(),
             Err(e) => format!("refused: {e}"),
@@ -298,20 +283,6 @@ impl EditorApp {
             ctx.request_repaint_after(Duration::from_millis(30));
         }
     }
-}
-
-/// Connect `from` to `to` in one undo step, first removing the edge `to` already has.
-pub(super) fn connect_replacing(
-    state: &mut EditorState,
-    from: &str,
-    to: &str,
-) -> Result<(), super::EditorError> {
-    let (to_node, to_port) = to.split_once('.').unwrap_or((to, ""));
-    let (to_node, to_port) = (to_node.to_string(), to_port.to_string());
-    state.apply(|g, c| {
-        g.disconnect(&to_node, &to_port);
-        g.connect(c, from, to)
-    })
 }
 
 /// The first and last key-frame times of the document, when it has keys.
@@ -544,6 +515,19 @@ impl EditorApp {
                         let mut rgba = [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32];
                         if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
                             changed = Some(ParamValue::Colour(rgba.map(|x| x as f64)));
+                        }
+                    }
+                    (ParamKind::Vec3, ParamValue::Vec3(c)) => {
+                        let mut v = *c;
+                        let mut edited = false;
+                        for x in &mut v {
+                            edited |= ui
+                                .add(egui::DragValue::new(x).range(p.min..=p.max).speed(0.05))
+                                .on_hover_text(p.doc)
+                                .changed();
+                        }
+                        if edited {
+                            changed = Some(ParamValue::Vec3(v));
                         }
                     }
                     _ => {

@@ -8,9 +8,24 @@ use egui_snarl::ui::{PinInfo, SnarlViewer};
 use egui_snarl::{InPin, NodeId, OutPin, Snarl};
 
 use super::worker::NodeReport;
-use super::{port_colour, EditorState};
+use super::EditorState;
 use crate::eval::Status;
 use crate::graph::{Graph, PortType};
+
+/// Colour of a port type's pins and wires.
+pub fn port_colour(t: PortType) -> egui::Color32 {
+    match t {
+        PortType::ShadowMap => egui::Color32::from_rgb(230, 160, 60),
+        PortType::Depth => egui::Color32::from_rgb(90, 160, 230),
+        PortType::Scalar => egui::Color32::from_rgb(180, 180, 180),
+        PortType::Image => egui::Color32::from_rgb(230, 220, 90),
+        PortType::Volume => egui::Color32::from_rgb(160, 110, 220),
+        PortType::Lut2D => egui::Color32::from_rgb(220, 100, 160),
+        PortType::LightMap => egui::Color32::from_rgb(250, 240, 200),
+        PortType::Scene => egui::Color32::from_rgb(100, 200, 120),
+        PortType::Phase => egui::Color32::from_rgb(120, 210, 210),
+    }
+}
 
 /// The canvas's view of the document: every edit goes through [`EditorState`]; bodies show
 /// the worker's thumbnails, timings and errors.
@@ -115,11 +130,9 @@ impl SnarlViewer<String> for CanvasView<'_> {
             self.port(&b, true, to.id.input),
         ) {
             // Connecting to a taken input replaces its edge, as in other compositors.
-            let res = super::app::connect_replacing(
-                self.state,
-                &format!("{a}.{fp}"),
-                &format!("{b}.{tp}"),
-            );
+            let res = self
+                .state
+                .connect_replacing(&format!("{a}.{fp}"), &format!("{b}.{tp}"));
             *self.status = match res {
                 Ok(()) => String::new(),
                 Err(e) => format!("refused: {e}"),

@@ -10,5 +10,6 @@ mod state;
 pub mod view;
 pub mod worker;
 
-pub use app::{port_colour, run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
+pub use app::{run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
+pub use canvas::port_colour;
 pub use state::{autosave_path, list_presets, EditorError, EditorState, PresetEntry, UNDO_LIMIT};

@@ -108,6 +108,17 @@ impl EditorState {
         self.undo.len()
     }
 
+    /// Connect `from` to `to` (`"node.port"`) in one undo step, first removing the edge `to`
+    /// already has (connecting to a taken input replaces its edge, as in other compositors).
+    pub fn connect_replacing(&mut self, from: &str, to: &str) -> Result<(), EditorError> {
+        let (to_node, to_port) = to.split_once('.').unwrap_or((to, ""));
+        let (to_node, to_port) = (to_node.to_string(), to_port.to_string());
+        self.apply(|g, c| {
+            g.disconnect(&to_node, &to_port);
+            g.connect(c, from, to)
+        })
+    }
+
     /// Apply a change as one undoable step; a refused change leaves document and history as
     /// they were.
     pub fn apply<T>(

@@ -16,11 +16,11 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 
 pub use convert::{download, upload_raster};
-pub use node::{with_suffix, NodeError, NodeKind, Registry, RunCtx};
+pub use node::{with_suffix, NodeDecl, NodeError, NodeKind, Registry, RunCtx};
 pub use value::{Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;
-use crate::graph::{Graph, GraphError};
+use crate::graph::{Graph, GraphError, NodeSchema, ParamValue};
 
 /// An evaluation failure, naming the node (and port or parameter) at fault.
 #[derive(Debug, Error)]
@@ -300,18 +300,67 @@ impl Evaluator {
         opts: &EvalOptions,
     ) -> Result<Evaluation, EvalError> {
         self.clock += 1;
-        let catalog = self.registry.catalog().clone();
-        // 1. What is needed, and which outputs of each node.
-        let mut wanted: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-        let mut sinks: BTreeSet<String> = BTreeSet::new();
+        let plan = self.plan(graph, targets)?;
+        let order = graph.topo_order();
+        let mut done = Upstream::default();
+        let mut stats: BTreeMap<String, (Status, Duration, Option<Duration>)> = BTreeMap::new();
+        let empty = BTreeSet::new();
+        let gpu = self.gpu.clone();
+        for id in order.iter().filter(|id| plan.needed.contains(*id)) {
+            let (k, kind) = self.kind_of(graph, id)?;
+            let node_err = |source: NodeError| EvalError::Node {
+                node: id.clone(),
+                kind: kind.clone(),
+                source,
+            };
+            let params = self.params_at(graph, id, k.schema(), opts.time)?;
+            let (key, inputs) = key_and_inputs(graph, id, &*k, &kind, &params, &done, opts)
+                .map_err(|e| e.into_eval(&node_err))?;
+            done.keys.insert(id.clone(), key);
+            let want = plan.wanted.get(id).unwrap_or(&empty);
+            let mut ctx = RunCtx {
+                gpu: &gpu,
+                id,
+                params: &params,
+                inputs: &inputs,
+                wanted: want,
+                size: opts.size,
+                output_suffix: &opts.output_suffix,
+                outputs: BTreeMap::new(),
+            };
+            let outputs = match self.reuse(id, key, want) {
+                Some(outputs) => {
+                    stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None));
+                    outputs
+                }
+                None => {
+                    let (outputs, wall, gpu) =
+                        self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
+                    self.record(id, key, &outputs);
+                    stats.insert(id.clone(), (Status::Ran, wall, gpu));
+                    outputs
+                }
+            };
+            if plan.sinks.contains(id) {
+                k.commit(&ctx, &outputs).map_err(node_err)?;
+            }
+            done.results.insert(id.clone(), outputs);
+        }
+        self.evict();
+        Ok(report(graph, targets, &order, &done.results, &stats))
+    }
+
+    /// Step 1, plan: which nodes the targets need, which outputs of each, and which sinks commit.
+    fn plan(&self, graph: &Graph, targets: &[Target]) -> Result<Plan, EvalError> {
+        let mut plan = Plan::default();
         let mut stack: Vec<String> = Vec::new();
         for t in targets {
             match t {
                 Target::Node(id) => {
                     let (k, _) = self.kind_of(graph, id)?;
-                    let entry = wanted.entry(id.clone()).or_default();
+                    let entry = plan.wanted.entry(id.clone()).or_default();
                     if k.is_sink() {
-                        sinks.insert(id.clone());
+                        plan.sinks.insert(id.clone());
                     } else {
                         entry.extend(k.schema().outputs.iter().map(|p| p.name.to_string()));
                     }
@@ -327,166 +376,102 @@ impl Evaluator {
                             known: k.schema().output_names(),
                         });
                     }
-                    wanted.entry(id.clone()).or_default().insert(port.clone());
+                    plan.wanted
+                        .entry(id.clone())
+                        .or_default()
+                        .insert(port.clone());
                     stack.push(id.clone());
                 }
             }
         }
-        let mut needed: BTreeSet<String> = stack.iter().cloned().collect();
+        plan.needed = stack.iter().cloned().collect();
         while let Some(id) = stack.pop() {
             let (k, _) = self.kind_of(graph, &id)?;
             for input in k.schema().inputs {
                 if let Some((src, sport)) = graph.source_of(&id, input.name) {
-                    wanted
+                    plan.wanted
                         .entry(src.to_string())
                         .or_default()
                         .insert(sport.to_string());
-                    if needed.insert(src.to_string()) {
+                    if plan.needed.insert(src.to_string()) {
                         stack.push(src.to_string());
                     }
                 }
             }
         }
-        // 2. Run or reuse, sources first.
-        let order = graph.topo_order();
-        let mut keys: BTreeMap<String, u64> = BTreeMap::new();
-        let mut results: BTreeMap<String, BTreeMap<String, PortValue>> = BTreeMap::new();
-        let mut stats: BTreeMap<String, (Status, Duration, Option<Duration>)> = BTreeMap::new();
-        let empty = BTreeSet::new();
-        for id in order.iter().filter(|id| needed.contains(*id)) {
-            let (k, kind) = self.kind_of(graph, id)?;
-            let schema = k.schema();
-            let node_err = |source: NodeError| EvalError::Node {
-                node: id.clone(),
-                kind: kind.clone(),
-                source,
-            };
-            let mut params = BTreeMap::new();
-            for p in schema.params {
-                params.insert(
-                    p.name.to_string(),
-                    graph.param_at(&catalog, id, p.name, opts.time)?,
-                );
-            }
-            let mut h = DefaultHasher::new();
-            kind.hash(&mut h);
-            for (name, v) in &params {
-                if !k.key_exempt().contains(&name.as_str()) {
-                    name.hash(&mut h);
-                    v.hash_into(&mut h);
-                }
-            }
-            k.volatile_key(&params).hash(&mut h);
-            opts.size.hash(&mut h);
-            let mut inputs = BTreeMap::new();
-            for input in schema.inputs {
-                if let Some((src, sport)) = graph.source_of(id, input.name) {
-                    (input.name, keys.get(src), sport).hash(&mut h);
-                    let v = results
-                        .get(src)
-                        .and_then(|r| r.get(sport))
-                        .cloned()
-                        .ok_or_else(|| {
-                            node_err(NodeError::Input {
-                                port: input.name.to_string(),
-                                message: format!("upstream {src}.{sport} produced no value"),
-                            })
-                        })?;
-                    inputs.insert(input.name.to_string(), v);
-                } else if let Some((v, vkey)) =
-                    opts.inject.get(&(id.clone(), input.name.to_string()))
-                {
-                    (input.name, "inject", vkey).hash(&mut h);
-                    inputs.insert(input.name.to_string(), v.clone());
-                }
-            }
-            let key = h.finish();
-            keys.insert(id.clone(), key);
-            let want = wanted.get(id).unwrap_or(&empty);
-            let mut ctx = RunCtx {
-                gpu: &self.gpu,
-                id,
-                params: &params,
-                inputs: &inputs,
-                wanted: want,
-                size: opts.size,
-                output_suffix: &opts.output_suffix,
-                outputs: BTreeMap::new(),
-            };
-            let cached = self
-                .cache
-                .get_mut(id)
-                .filter(|e| e.key == key && want.iter().all(|p| e.outputs.contains_key(p)));
-            let outputs = if let Some(e) = cached {
-                e.last_used = self.clock;
-                stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None));
-                e.outputs.clone()
-            } else {
-                self.gpu.set_timing(opts.gpu_timings);
-                let start = Instant::now();
-                k.run(&mut ctx).map_err(node_err)?;
-                self.gpu.wait().map_err(|e| node_err(e.into()))?;
-                self.gpu.take_errors().map_err(|e| node_err(e.into()))?;
-                let elapsed = start.elapsed();
-                let gpu_time = self.gpu.take_gpu_time();
-                self.gpu.set_timing(false);
-                for p in want {
-                    if !ctx.outputs.contains_key(p) {
-                        return Err(node_err(NodeError::Other(format!(
-                            "did not produce output '{p}'"
-                        ))));
-                    }
-                }
-                let outputs = std::mem::take(&mut ctx.outputs);
-                let bytes = outputs.values().map(PortValue::bytes).sum();
-                self.cache.insert(
-                    id.clone(),
-                    Entry {
-                        key,
-                        outputs: outputs.clone(),
-                        bytes,
-                        last_used: self.clock,
-                    },
-                );
-                stats.insert(id.clone(), (Status::Ran, elapsed, gpu_time));
-                outputs
-            };
-            if sinks.contains(id) {
-                k.commit(&ctx, &outputs).map_err(node_err)?;
-            }
-            results.insert(id.clone(), outputs);
+        Ok(plan)
+    }
+
+    /// Every declared parameter of node `id` at time `t` (key-frames sampled).
+    fn params_at(
+        &self,
+        graph: &Graph,
+        id: &str,
+        schema: &NodeSchema,
+        t: f64,
+    ) -> Result<BTreeMap<String, ParamValue>, EvalError> {
+        let catalog = self.registry.catalog();
+        let mut params = BTreeMap::new();
+        for p in schema.params {
+            params.insert(p.name.to_string(), graph.param_at(catalog, id, p.name, t)?);
         }
-        self.evict();
-        // 3. Report.
-        let mut outputs = BTreeMap::new();
-        for t in targets {
-            if let Target::Port(id, port) = t {
-                if let Some(v) = results.get(id).and_then(|r| r.get(port)) {
-                    outputs.insert((id.clone(), port.clone()), v.clone());
-                }
-            }
+        Ok(params)
+    }
+
+    /// Step 3a, reuse: the cached outputs of `id` if its key is unchanged and they hold every
+    /// wanted port.
+    fn reuse(
+        &mut self,
+        id: &str,
+        key: u64,
+        want: &BTreeSet<String>,
+    ) -> Option<BTreeMap<String, PortValue>> {
+        let e = self
+            .cache
+            .get_mut(id)
+            .filter(|e| e.key == key && want.iter().all(|p| e.outputs.contains_key(p)))?;
+        e.last_used = self.clock;
+        Some(e.outputs.clone())
+    }
+
+    /// Step 3b, run: the node's GPU work, waited for and timed; every wanted port must be set.
+    #[allow(clippy::type_complexity)]
+    fn run(
+        &self,
+        k: &dyn NodeKind,
+        ctx: &mut RunCtx,
+        want: &BTreeSet<String>,
+        opts: &EvalOptions,
+    ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>), NodeError> {
+        self.gpu.set_timing(opts.gpu_timings);
+        let start = Instant::now();
+        let ran = k.run(ctx).and_then(|()| {
+            self.gpu.wait()?;
+            self.gpu.take_errors()?;
+            Ok(())
+        });
+        let elapsed = start.elapsed();
+        let gpu_time = self.gpu.take_gpu_time();
+        self.gpu.set_timing(false);
+        ran?;
+        if let Some(p) = want.iter().find(|p| !ctx.outputs.contains_key(*p)) {
+            return Err(NodeError::Other(format!("did not produce output '{p}'")));
         }
-        let stats = Stats {
-            nodes: order
-                .iter()
-                .filter_map(|id| {
-                    let node = graph.node(id)?;
-                    let (status, time, gpu_time) =
-                        stats
-                            .get(id)
-                            .copied()
-                            .unwrap_or((Status::NotNeeded, Duration::ZERO, None));
-                    Some(NodeStat {
-                        id: id.clone(),
-                        kind: node.kind.clone(),
-                        status,
-                        time,
-                        gpu_time,
-                    })
-                })
-                .collect(),
-        };
-        Ok(Evaluation { outputs, stats })
+        Ok((std::mem::take(&mut ctx.outputs), elapsed, gpu_time))
+    }
+
+    /// Step 4, record: keep a node's fresh outputs in the cache under its key.
+    fn record(&mut self, id: &str, key: u64, outputs: &BTreeMap<String, PortValue>) {
+        let bytes = outputs.values().map(PortValue::bytes).sum();
+        self.cache.insert(
+            id.to_string(),
+            Entry {
+                key,
+                outputs: outputs.clone(),
+                bytes,
+                last_used: self.clock,
+            },
+        );
     }
 
     fn evict(&mut self) {
@@ -504,5 +489,118 @@ impl Evaluator {
                 None => break,
             }
         }
+    }
+}
+
+/// What an evaluation needs: nodes, their wanted output ports, and the sinks to commit.
+#[derive(Default)]
+struct Plan {
+    needed: BTreeSet<String>,
+    wanted: BTreeMap<String, BTreeSet<String>>,
+    sinks: BTreeSet<String>,
+}
+
+/// What the nodes evaluated so far produced: their keys and outputs.
+#[derive(Default)]
+struct Upstream {
+    keys: BTreeMap<String, u64>,
+    results: BTreeMap<String, BTreeMap<String, PortValue>>,
+}
+
+/// A missing upstream value, reported against the node that needed it.
+struct MissingInput {
+    port: String,
+    message: String,
+}
+
+impl MissingInput {
+    fn into_eval(self, node_err: &dyn Fn(NodeError) -> EvalError) -> EvalError {
+        node_err(NodeError::Input {
+            port: self.port,
+            message: self.message,
+        })
+    }
+}
+
+/// Step 2, key: the node's cache key — kind, parameters (less the exempt ones), volatile
+/// material, evaluation size, and each input's upstream key — and its input values.
+fn key_and_inputs(
+    graph: &Graph,
+    id: &str,
+    k: &dyn NodeKind,
+    kind: &str,
+    params: &BTreeMap<String, ParamValue>,
+    done: &Upstream,
+    opts: &EvalOptions,
+) -> Result<(u64, BTreeMap<String, PortValue>), MissingInput> {
+    let mut h = DefaultHasher::new();
+    kind.hash(&mut h);
+    for (name, v) in params {
+        if !k.key_exempt().contains(&name.as_str()) {
+            name.hash(&mut h);
+            v.hash_into(&mut h);
+        }
+    }
+    k.volatile_key(params).hash(&mut h);
+    opts.size.hash(&mut h);
+    let mut inputs = BTreeMap::new();
+    for input in k.schema().inputs {
+        if let Some((src, sport)) = graph.source_of(id, input.name) {
+            (input.name, done.keys.get(src), sport).hash(&mut h);
+            let v = done
+                .results
+                .get(src)
+                .and_then(|r| r.get(sport))
+                .cloned()
+                .ok_or_else(|| MissingInput {
+                    port: input.name.to_string(),
+                    message: format!("upstream {src}.{sport} produced no value"),
+                })?;
+            inputs.insert(input.name.to_string(), v);
+        } else if let Some((v, vkey)) = opts.inject.get(&(id.to_string(), input.name.to_string())) {
+            (input.name, "inject", vkey).hash(&mut h);
+            inputs.insert(input.name.to_string(), v.clone());
+        }
+    }
+    Ok((h.finish(), inputs))
+}
+
+/// Step 5, report: the requested ports' values and one statistic per node in topological order.
+fn report(
+    graph: &Graph,
+    targets: &[Target],
+    order: &[String],
+    results: &BTreeMap<String, BTreeMap<String, PortValue>>,
+    stats: &BTreeMap<String, (Status, Duration, Option<Duration>)>,
+) -> Evaluation {
+    let mut outputs = BTreeMap::new();
+    for t in targets {
+        if let Target::Port(id, port) = t {
+            if let Some(v) = results.get(id).and_then(|r| r.get(port)) {
+                outputs.insert((id.clone(), port.clone()), v.clone());
+            }
+        }
+    }
+    let nodes = order
+        .iter()
+        .filter_map(|id| {
+            let node = graph.node(id)?;
+            let (status, time, gpu_time) =
+                stats
+                    .get(id)
+                    .copied()
+                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None));
+            Some(NodeStat {
+                id: id.clone(),
+                kind: node.kind.clone(),
+                status,
+                time,
+                gpu_time,
+            })
+        })
+        .collect();
+    Evaluation {
+        outputs,
+        stats: Stats { nodes },
     }
 }

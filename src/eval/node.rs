@@ -8,7 +8,7 @@ use thiserror::Error;
 
 use super::value::PortValue;
 use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
-use crate::graph::{NodeSchema, ParamValue};
+use crate::graph::{Choice, NodeSchema, ParamValue};
 
 /// A failure inside a node, before the evaluator adds the node's id and kind.
 #[derive(Debug, Error, Clone)]
@@ -110,13 +110,53 @@ impl RunCtx<'_> {
         }
     }
 
-    /// An `Enum` or `Text` parameter.
+    /// A `Text` parameter. An `Enum` parameter is refused here: read it with
+    /// [`RunCtx::choice`], which checks the value against its names.
     pub fn text(&self, name: &str) -> Result<&str, NodeError> {
         match self.param(name)? {
-            ParamValue::Enum(v) | ParamValue::Text(v) => Ok(v),
+            ParamValue::Text(v) => Ok(v),
+            ParamValue::Enum(_) => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is a choice: read it with RunCtx::choice".into(),
+            }),
             _ => Err(NodeError::Param {
                 param: name.to_string(),
                 message: "is not text".into(),
+            }),
+        }
+    }
+
+    /// An `Enum` parameter as its [`Choice`] type (declared with
+    /// [`choice_enum!`](crate::choice_enum)). A value that is not one of `T::NAMES` is an error
+    /// naming the parameter, the value and the accepted names (the evaluator adds the node):
+    /// never a silent fallback to the first option.
+    pub fn choice<T: Choice>(&self, name: &str) -> Result<T, NodeError> {
+        let v = self.param(name)?;
+        let text = match v {
+            ParamValue::Enum(t) | ParamValue::Text(t) => t.as_str(),
+            _ => {
+                return Err(NodeError::Param {
+                    param: name.to_string(),
+                    message: format!("is a {}, not one of {}", v.kind_name(), T::NAMES.join(", ")),
+                })
+            }
+        };
+        T::from_name(text).ok_or_else(|| NodeError::Param {
+            param: name.to_string(),
+            message: format!(
+                "unknown value \"{text}\" (expected one of {})",
+                T::NAMES.join(", ")
+            ),
+        })
+    }
+
+    /// A `Vec3` parameter.
+    pub fn vec3(&self, name: &str) -> Result<[f32; 3], NodeError> {
+        match self.param(name)? {
+            ParamValue::Vec3(c) => Ok(c.map(|v| v as f32)),
+            _ => Err(NodeError::Param {
+                param: name.to_string(),
+                message: "is not a 3-vector".into(),
             }),
         }
     }
@@ -192,38 +232,83 @@ pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
     p.with_file_name(name)
 }
 
-/// A node kind: its schema, its GPU implementation, and what the evaluator must know about it.
+/// What a node kind declares as data: its schema (ports, parameters, docs), its shader, the
+/// uniform structs the layout test checks, and how the evaluator treats it. One `static` per
+/// kind, built with [`NodeDecl::new`] and the `const` setters:
 ///
-/// Each implementation also carries a plain-Rust CPU reference of its maths (a free function in
-/// its file), used by the tests as the oracle.
-pub trait NodeKind: Send + Sync {
+/// ```ignore
+/// static DECL: NodeDecl = NodeDecl::new(NodeSchema { kind: "Blur", … })
+///     .shader(Shader::new("blur", include_str!("../shaders/blur.wgsl")))
+///     .uniforms(&[BlurParams::LAYOUT]);
+/// ```
+#[derive(Debug)]
+pub struct NodeDecl {
     /// Ports, parameters and docs.
-    fn schema(&self) -> &'static NodeSchema;
-
-    /// The node's shader (`shaders/<stem>.wgsl`, same stem as the node file).
-    fn shader(&self) -> Option<Shader>;
-
-    /// Uniform structs bound by the shader, for the layout test.
-    fn uniform_layouts(&self) -> Vec<UniformLayout> {
-        Vec::new()
-    }
-
+    pub schema: NodeSchema,
+    /// The node's shader (`shaders/<stem>.wgsl`, same stem as the node file); `None` for a
+    /// node that runs no GPU pass.
+    pub shader: Option<Shader>,
+    /// Uniform structs bound by the shader (declared with [`uniforms!`](crate::uniforms)), for
+    /// the layout test.
+    pub uniforms: &'static [UniformLayout],
     /// Parameters that do not change the node's outputs (e.g. an output file path), left out of
     /// the cache key.
-    fn key_exempt(&self) -> &'static [&'static str] {
-        &[]
+    pub key_exempt: &'static [&'static str],
+    /// Whether the node is a sink: it writes something outside the graph and is evaluated when
+    /// the graph's outputs are requested.
+    pub sink: bool,
+}
+
+impl NodeDecl {
+    /// A declaration with no shader, no uniforms, no exempt parameters, not a sink.
+    pub const fn new(schema: NodeSchema) -> Self {
+        Self {
+            schema,
+            shader: None,
+            uniforms: &[],
+            key_exempt: &[],
+            sink: false,
+        }
     }
+
+    /// Set the shader.
+    pub const fn shader(self, shader: Shader) -> Self {
+        Self {
+            shader: Some(shader),
+            ..self
+        }
+    }
+
+    /// Set the uniform structs the shader binds.
+    pub const fn uniforms(self, uniforms: &'static [UniformLayout]) -> Self {
+        Self { uniforms, ..self }
+    }
+
+    /// Set the parameters left out of the cache key.
+    pub const fn key_exempt(self, key_exempt: &'static [&'static str]) -> Self {
+        Self { key_exempt, ..self }
+    }
+
+    /// Mark the node as a sink.
+    pub const fn sink(self) -> Self {
+        Self { sink: true, ..self }
+    }
+}
+
+/// A node kind: its declaration (data) and its behaviour (GPU work).
+///
+/// Each implementation also carries a plain-Rust CPU reference of its maths (a free function in
+/// its file), used by the tests as the oracle. What every kind would write the same way (schema,
+/// shader, uniform layouts, sink flag) is read from [`NodeKind::decl`] by the methods on
+/// `dyn NodeKind` ([`schema`](#method.schema), [`shader`](#method.shader), …).
+pub trait NodeKind: Send + Sync {
+    /// The kind's declaration.
+    fn decl(&self) -> &'static NodeDecl;
 
     /// Extra cache-key material the parameters do not capture (e.g. an input file's size and
     /// modification time). Called every evaluation.
     fn volatile_key(&self, _params: &BTreeMap<String, ParamValue>) -> u64 {
         0
-    }
-
-    /// Whether the node is a sink: it writes something outside the graph and is evaluated when
-    /// the graph's outputs are requested.
-    fn is_sink(&self) -> bool {
-        false
     }
 
     /// Compute the wanted outputs (GPU work).
@@ -237,6 +322,33 @@ pub trait NodeKind: Send + Sync {
         _outputs: &BTreeMap<String, PortValue>,
     ) -> Result<(), NodeError> {
         Ok(())
+    }
+}
+
+impl dyn NodeKind + '_ {
+    /// Ports, parameters and docs.
+    pub fn schema(&self) -> &'static NodeSchema {
+        &self.decl().schema
+    }
+
+    /// The node's shader, if it runs a GPU pass.
+    pub fn shader(&self) -> Option<Shader> {
+        self.decl().shader
+    }
+
+    /// Uniform structs bound by the shader, for the layout test.
+    pub fn uniform_layouts(&self) -> &'static [UniformLayout] {
+        self.decl().uniforms
+    }
+
+    /// Parameters left out of the cache key.
+    pub fn key_exempt(&self) -> &'static [&'static str] {
+        self.decl().key_exempt
+    }
+
+    /// Whether the node is a sink.
+    pub fn is_sink(&self) -> bool {
+        self.decl().sink
     }
 }
 

@@ -2,24 +2,57 @@
 //! the two cannot drift apart silently.
 
 /// The layout of a `#[repr(C)]` uniform struct, as the Rust compiler laid it out.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct UniformLayout {
     /// Name of the WGSL struct (`Params`).
     pub wgsl_struct: &'static str,
     /// `size_of` the Rust struct.
     pub size: usize,
     /// `(field name, offset_of)` for every field, in declaration order.
-    pub fields: Vec<(&'static str, usize)>,
+    pub fields: &'static [(&'static str, usize)],
 }
 
-/// Build a [`UniformLayout`] from a Rust struct: `uniform_layout!(MathParams, "Params", op, a, b)`.
+/// Declare a uniform struct and its [`UniformLayout`] in one place, so the list of fields the
+/// layout test compares with the WGSL struct is the struct's own (a field added to the Rust
+/// struct cannot be missing from the check):
+///
+/// ```
+/// tyndall::uniforms! {
+///     /// Uniforms of `shaders/x.wgsl`.
+///     pub struct XParams as "Params" {
+///         /// Radius.
+///         pub r: f32,
+///         /// Padding.
+///         pub _pad: [f32; 3],
+///     }
+/// }
+/// assert_eq!(XParams::LAYOUT.fields, &[("r", 0), ("_pad", 4)]);
+/// ```
+///
+/// The struct is `#[repr(C)]`, `Pod`, `Zeroable`, `Clone`, `Copy` and `Debug`; `"Params"` names
+/// the WGSL struct it must match.
 #[macro_export]
-macro_rules! uniform_layout {
-    ($ty:ty, $wgsl:expr, $($field:ident),+ $(,)?) => {
-        $crate::gpu::UniformLayout {
-            wgsl_struct: $wgsl,
-            size: std::mem::size_of::<$ty>(),
-            fields: vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),+],
+macro_rules! uniforms {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident as $wgsl:literal {
+            $( $(#[$fmeta:meta])* $fvis:vis $field:ident : $ty:ty ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+        $vis struct $name {
+            $( $(#[$fmeta])* $fvis $field : $ty ),+
+        }
+
+        impl $name {
+            /// This struct's layout, for the check against its WGSL struct.
+            pub const LAYOUT: $crate::gpu::UniformLayout = $crate::gpu::UniformLayout {
+                wgsl_struct: $wgsl,
+                size: ::std::mem::size_of::<$name>(),
+                fields: &[$((stringify!($field), ::std::mem::offset_of!($name, $field))),+],
+            };
         }
     };
 }

@@ -62,6 +62,14 @@ pub struct Shader {
     pub source: &'static str,
 }
 
+impl Shader {
+    /// `Shader::new("math", include_str!("../shaders/math.wgsl"))`: the stem and the embedded
+    /// source (a test checks that the source equals `shaders/<stem>.wgsl`).
+    pub const fn new(stem: &'static str, source: &'static str) -> Self {
+        Self { stem, source }
+    }
+}
+
 /// The headless GPU context shared by all nodes.
 pub struct Gpu {
     /// The device.

@@ -262,9 +262,14 @@ fn value_to_param(v: &Value) -> Result<ParamValue, String> {
                     _ => return Err("a list of numbers".into()),
                 }
             }
-            Ok(ParamValue::Colour(c))
+            // Three numbers are a Vec3 (a Colour parameter coerces it with alpha 1).
+            Ok(if items.len() == 3 {
+                ParamValue::Vec3([c[0], c[1], c[2]])
+            } else {
+                ParamValue::Colour(c)
+            })
         }
-        Value::Seq(_) => Err("a list (colours have 3 or 4 numbers)".into()),
+        Value::Seq(_) => Err("a list (colours have 3 or 4 numbers, vectors 3)".into()),
         Value::Map(_) => Err("a map or struct".into()),
         Value::Unit => Err("()".into()),
         Value::Option(_) => Err("an option".into()),
@@ -279,12 +284,17 @@ fn param_to_value(p: &ParamValue) -> Value {
         ParamValue::Int(v) => Value::Number(Number::I64(*v)),
         ParamValue::Bool(b) => Value::Bool(*b),
         ParamValue::Enum(s) | ParamValue::Text(s) => Value::String(s.clone()),
-        ParamValue::Colour(c) => Value::Seq(
-            c.iter()
-                .map(|x| Value::Number(Number::F64((*x).into())))
-                .collect(),
-        ),
+        ParamValue::Colour(c) => numbers(c),
+        ParamValue::Vec3(c) => numbers(c),
     }
+}
+
+fn numbers(c: &[f64]) -> Value {
+    Value::Seq(
+        c.iter()
+            .map(|x| Value::Number(Number::F64((*x).into())))
+            .collect(),
+    )
 }
 
 fn syntax_location(e: &ron::error::SpannedError) -> Location {

@@ -18,6 +18,6 @@ pub use format::{
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
-    num, sample_keys, DefaultValue, Direction, Interp, Key, ParamKind, ParamProblem, ParamSpec,
-    ParamValue, PortSpec, PortType,
+    num, position, sample_keys, Choice, DefaultValue, Direction, Interp, Key, ParamKind,
+    ParamProblem, ParamSpec, ParamValue, PortSpec, PortType,
 };

@@ -101,6 +101,42 @@ pub struct PortSpec {
     pub doc: &'static str,
 }
 
+impl PortSpec {
+    /// An optional input port accepting `types`.
+    pub const fn input(name: &'static str, types: &'static [PortType], doc: &'static str) -> Self {
+        Self {
+            name,
+            types,
+            required: false,
+            doc,
+        }
+    }
+
+    /// An input port that must be connected for the node to evaluate.
+    pub const fn required(
+        name: &'static str,
+        types: &'static [PortType],
+        doc: &'static str,
+    ) -> Self {
+        Self {
+            name,
+            types,
+            required: true,
+            doc,
+        }
+    }
+
+    /// An output port producing one of `types` (see [`PortSpec::types`]).
+    pub const fn output(name: &'static str, types: &'static [PortType], doc: &'static str) -> Self {
+        Self {
+            name,
+            types,
+            required: false,
+            doc,
+        }
+    }
+}
+
 /// The kind of a parameter's value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamKind {
@@ -116,6 +152,9 @@ pub enum ParamKind {
     Text,
     /// An RGBA colour, each channel within the parameter's range.
     Colour,
+    /// A 3-vector (a position or direction in the scene's coordinates), each component within
+    /// the parameter's range: `[x, y, z]` in RON, `x,y,z` on the command line.
+    Vec3,
 }
 
 impl ParamKind {
@@ -128,6 +167,7 @@ impl ParamKind {
             ParamKind::Enum(_) => "Enum",
             ParamKind::Text => "Text",
             ParamKind::Colour => "Colour",
+            ParamKind::Vec3 => "Vec3",
         }
     }
 
@@ -152,6 +192,8 @@ pub enum DefaultValue {
     Text(&'static str),
     /// Default of a `Colour` parameter.
     Colour([f64; 4]),
+    /// Default of a `Vec3` parameter.
+    Vec3([f64; 3]),
 }
 
 impl DefaultValue {
@@ -164,6 +206,7 @@ impl DefaultValue {
             DefaultValue::Enum(v) => ParamValue::Enum(v.to_string()),
             DefaultValue::Text(v) => ParamValue::Text(v.to_string()),
             DefaultValue::Colour(v) => ParamValue::Colour(v),
+            DefaultValue::Vec3(v) => ParamValue::Vec3(v),
         }
     }
 }
@@ -187,6 +230,248 @@ pub struct ParamSpec {
     pub doc: &'static str,
 }
 
+impl ParamSpec {
+    /// A `Float` parameter: default, hard range `[min, max]`, unit ("" for none).
+    pub const fn float(
+        name: &'static str,
+        default: f64,
+        min: f64,
+        max: f64,
+        unit: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        assert!(
+            min <= default && default <= max,
+            "float default outside its range"
+        );
+        Self {
+            name,
+            kind: ParamKind::Float,
+            default: DefaultValue::Float(default),
+            min,
+            max,
+            unit,
+            doc,
+        }
+    }
+
+    /// An `Int` parameter: default, hard range `[min, max]`, unit ("" for none).
+    pub const fn int(
+        name: &'static str,
+        default: i64,
+        min: i64,
+        max: i64,
+        unit: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        assert!(
+            min <= default && default <= max,
+            "int default outside its range"
+        );
+        let (min, max) = (min as f64, max as f64);
+        Self {
+            name,
+            kind: ParamKind::Int,
+            default: DefaultValue::Int(default),
+            min,
+            max,
+            unit,
+            doc,
+        }
+    }
+
+    /// An `Enum` parameter: one of `names` (usually a [`Choice`] type's `NAMES`), `default`
+    /// among them (checked when the table is compiled). Read it with `RunCtx::choice`.
+    pub const fn choice(
+        name: &'static str,
+        names: &'static [&'static str],
+        default: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        assert!(
+            position(names, default).is_some(),
+            "choice default not among its names"
+        );
+        Self {
+            name,
+            kind: ParamKind::Enum(names),
+            default: DefaultValue::Enum(default),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc,
+        }
+    }
+
+    /// A `Bool` parameter.
+    pub const fn flag(name: &'static str, default: bool, doc: &'static str) -> Self {
+        Self {
+            name,
+            kind: ParamKind::Bool,
+            default: DefaultValue::Bool(default),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc,
+        }
+    }
+
+    /// A `Text` parameter (paths, names, tag lists).
+    pub const fn text(name: &'static str, default: &'static str, doc: &'static str) -> Self {
+        Self {
+            name,
+            kind: ParamKind::Text,
+            default: DefaultValue::Text(default),
+            min: 0.0,
+            max: 0.0,
+            unit: "",
+            doc,
+        }
+    }
+
+    /// A `Colour` parameter (RGBA), every channel of the default and of any value within
+    /// `[min, max]`.
+    pub const fn colour(
+        name: &'static str,
+        default: [f64; 4],
+        min: f64,
+        max: f64,
+        unit: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        Self {
+            name,
+            kind: ParamKind::Colour,
+            default: DefaultValue::Colour(default),
+            min,
+            max,
+            unit,
+            doc,
+        }
+    }
+
+    /// A `Vec3` parameter (`[x, y, z]`), every component within `[min, max]`.
+    pub const fn vec3(
+        name: &'static str,
+        default: [f64; 3],
+        min: f64,
+        max: f64,
+        unit: &'static str,
+        doc: &'static str,
+    ) -> Self {
+        Self {
+            name,
+            kind: ParamKind::Vec3,
+            default: DefaultValue::Vec3(default),
+            min,
+            max,
+            unit,
+            doc,
+        }
+    }
+
+    /// For an `Enum` parameter, the index of `value` among its names.
+    pub fn choice_index(&self, value: &ParamValue) -> Result<usize, ParamProblem> {
+        match (&self.kind, value) {
+            (ParamKind::Enum(names), ParamValue::Enum(v) | ParamValue::Text(v)) => {
+                position(names, v).ok_or_else(|| ParamProblem::UnknownEnum(v.clone()))
+            }
+            _ => Err(ParamProblem::WrongType),
+        }
+    }
+}
+
+/// Index of `name` in `names` (usable in constant tables, where `==` on strings is not).
+pub const fn position(names: &[&str], name: &str) -> Option<usize> {
+    let mut i = 0;
+    while i < names.len() {
+        let (a, b) = (names[i].as_bytes(), name.as_bytes());
+        if a.len() == b.len() {
+            let mut j = 0;
+            while j < a.len() && a[j] == b[j] {
+                j += 1;
+            }
+            if j == a.len() {
+                return Some(i);
+            }
+        }
+        i += 1;
+    }
+    None
+}
+
+/// A Rust enum that mirrors an `Enum` parameter's names, declared with [`choice_enum!`](crate::choice_enum):
+/// a node reads its parameter as this type, never by string comparison.
+pub trait Choice: Sized + Copy + 'static {
+    /// The names as written in files and on the command line, in variant order.
+    const NAMES: &'static [&'static str];
+    /// The variants, in the same order as [`Choice::NAMES`].
+    const ALL: &'static [Self];
+
+    /// The variant named `name`, if any.
+    fn from_name(name: &str) -> Option<Self> {
+        position(Self::NAMES, name).map(|i| Self::ALL[i])
+    }
+
+    /// The variant's name.
+    fn name(self) -> &'static str;
+}
+
+/// Declare a [`Choice`] enum: variant `= "name in files"` pairs, in the order the shader codes
+/// (`as u32`) expect.
+///
+/// ```
+/// tyndall::choice_enum! {
+///     /// Footprint of a filter.
+///     pub enum Shape { Circle = "Circle", Square = "Square" }
+/// }
+/// assert_eq!(Shape::NAMES, &["Circle", "Square"]);
+/// assert_eq!(Shape::from_name("Square"), Some(Shape::Square));
+/// ```
+#[macro_export]
+macro_rules! choice_enum {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $name:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $text:literal ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        $vis enum $name {
+            $( $(#[$vmeta])* #[doc = concat!("`", $text, "`")] $variant ),+
+        }
+
+        impl $name {
+            /// The names as written in files and on the command line, in variant order.
+            pub const NAMES: &'static [&'static str] = &[$($text),+];
+            /// The variants, in the same order as `NAMES`.
+            pub const ALL: &'static [Self] = &[$(Self::$variant),+];
+
+            /// The variant's name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Self::$variant => $text),+
+                }
+            }
+
+            /// The variant named `name`, if any.
+            pub fn from_name(name: &str) -> Option<Self> {
+                <Self as $crate::graph::Choice>::from_name(name)
+            }
+        }
+
+        impl $crate::graph::Choice for $name {
+            const NAMES: &'static [&'static str] = Self::NAMES;
+            const ALL: &'static [Self] = Self::ALL;
+
+            fn name(self) -> &'static str {
+                Self::name(self)
+            }
+        }
+    };
+}
+
 /// A parameter value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ParamValue {
@@ -202,6 +487,8 @@ pub enum ParamValue {
     Text(String),
     /// RGBA colour.
     Colour([f64; 4]),
+    /// 3-vector.
+    Vec3([f64; 3]),
 }
 
 impl ParamValue {
@@ -223,6 +510,7 @@ impl ParamValue {
             ParamValue::Enum(_) => "Enum",
             ParamValue::Text(_) => "Text",
             ParamValue::Colour(_) => "Colour",
+            ParamValue::Vec3(_) => "Vec3",
         }
     }
 
@@ -236,6 +524,7 @@ impl ParamValue {
             ParamValue::Enum(v) => (3u8, v).hash(h),
             ParamValue::Text(v) => (4u8, v).hash(h),
             ParamValue::Colour(c) => (5u8, c.map(f64::to_bits)).hash(h),
+            ParamValue::Vec3(c) => (6u8, c.map(f64::to_bits)).hash(h),
         }
     }
 }
@@ -248,6 +537,7 @@ impl fmt::Display for ParamValue {
             ParamValue::Bool(v) => write!(f, "{v}"),
             ParamValue::Enum(v) | ParamValue::Text(v) => f.write_str(v),
             ParamValue::Colour(c) => write!(f, "{},{},{},{}", c[0], c[1], c[2], c[3]),
+            ParamValue::Vec3(c) => write!(f, "{},{},{}", c[0], c[1], c[2]),
         }
     }
 }
@@ -279,24 +569,31 @@ impl ParamSpec {
                 None => Ok(()),
                 Some(v) => Err(ParamProblem::OutOfRange(*v)),
             },
+            (ParamKind::Vec3, ParamValue::Vec3(c)) => match c.iter().find(|v| !in_range(**v)) {
+                None => Ok(()),
+                Some(v) => Err(ParamProblem::OutOfRange(*v)),
+            },
             _ => Err(ParamProblem::WrongType),
         }
     }
 
     /// Convert a loosely typed value (from RON or the command line) into this parameter's kind:
-    /// an integer literal is accepted for a `Float`, a string for an `Enum`.
+    /// an integer literal is accepted for a `Float`, a string for an `Enum`, a 3-list (read as
+    /// a `Vec3`) for a `Colour` (alpha 1).
     pub fn coerce(&self, value: ParamValue) -> Result<ParamValue, ParamProblem> {
         let v = match (&self.kind, value) {
             (ParamKind::Float, ParamValue::Int(i)) => ParamValue::Float(i as f64),
             (ParamKind::Enum(_), ParamValue::Text(s)) => ParamValue::Enum(s),
             (ParamKind::Text, ParamValue::Enum(s)) => ParamValue::Text(s),
+            (ParamKind::Colour, ParamValue::Vec3([r, g, b])) => ParamValue::Colour([r, g, b, 1.0]),
             (_, v) => v,
         };
         self.check(&v)?;
         Ok(v)
     }
 
-    /// Parse a command-line string (`3`, `0.5`, `true`, `Circle`, `1,0.5,0,1`) into this kind.
+    /// Parse a command-line string (`3`, `0.5`, `true`, `Circle`, `1,0.5,0,1`, `x,y,z`) into
+    /// this kind.
     pub fn parse_str(&self, s: &str) -> Result<ParamValue, ParamProblem> {
         let v = match self.kind {
             ParamKind::Float => {
@@ -321,6 +618,14 @@ impl ParamSpec {
                     _ => return Err(ParamProblem::WrongType),
                 }
             }
+            ParamKind::Vec3 => {
+                let parts: Result<Vec<f64>, _> =
+                    s.split(',').map(|p| p.trim().parse::<f64>()).collect();
+                match parts.map_err(|_| ParamProblem::WrongType)?.as_slice() {
+                    [x, y, z] => ParamValue::Vec3([*x, *y, *z]),
+                    _ => return Err(ParamProblem::WrongType),
+                }
+            }
         };
         self.check(&v)?;
         Ok(v)
@@ -339,6 +644,11 @@ impl ParamSpec {
             }
             ParamKind::Colour => format!(
                 "Colour [r, g, b, a] with channels in [{}, {}]",
+                num(self.min),
+                num(self.max)
+            ),
+            ParamKind::Vec3 => format!(
+                "Vec3 [x, y, z] with components in [{}, {}]",
                 num(self.min),
                 num(self.max)
             ),

@@ -13,7 +13,12 @@ use glam::{Quat, Vec3};
 use super::{Camera, Object, Scene, SceneError, Sun};
 
 /// Names of the built-in scenes.
-pub const BUILTIN_SCENES: &[&str] = &["torus", "tree", "window", "fence", "figure"];
+pub const BUILTIN_SCENES: &[&str] = Builtin::NAMES;
+
+crate::choice_enum! {
+    /// The built-in scenes.
+    pub enum Builtin { Torus = "torus", Tree = "tree", Window = "window", Fence = "fence", Figure = "figure" }
+}
 
 /// SplitMix64: small, seedable, deterministic across platforms.
 struct Rng(u64);
@@ -199,271 +204,285 @@ fn ground(size: f32) -> Object {
     g
 }
 
-/// Build the built-in scene `name` from `seed`.
+/// Build the built-in scene `name` (one of [`BUILTIN_SCENES`]) from `seed`.
 pub fn builtin(name: &str, seed: u64) -> Result<Scene, SceneError> {
+    let which =
+        Builtin::from_name(name).ok_or_else(|| SceneError::UnknownBuiltin(name.to_string()))?;
     let mut rng = Rng(seed ^ 0x7479_6e64_616c_6c00);
-    let scene = match name {
-        "torus" => {
-            let mut t = object("torus", [0.8, 0.35, 0.2, 1.0], &["torus"]);
-            torus(&mut t, Vec3::new(0.0, 3.0, 0.0), 2.0, 0.6, 64, 24);
-            Scene {
-                objects: vec![ground(10.0), t],
-                camera: Camera {
-                    position: Vec3::new(8.0, 1.2, 9.0),
-                    target: Vec3::new(0.0, 2.2, 0.0),
-                    fov_y: 50.0,
-                    near: 0.1,
-                    far: 60.0,
-                },
-                sun: Sun {
-                    azimuth: 225.0,
-                    elevation: 50.0,
-                    colour: [1.0, 0.95, 0.85],
-                    intensity: 3.0,
-                },
-            }
+    Ok(match which {
+        Builtin::Torus => torus_scene(),
+        Builtin::Tree => tree_scene(&mut rng, seed),
+        Builtin::Window => window_scene(&mut rng),
+        Builtin::Fence => fence_scene(&mut rng),
+        Builtin::Figure => figure_scene(&mut rng),
+    })
+}
+
+/// A torus hovering over the ground: one clean ring of shafts.
+fn torus_scene() -> Scene {
+    let mut t = object("torus", [0.8, 0.35, 0.2, 1.0], &["torus"]);
+    torus(&mut t, Vec3::new(0.0, 3.0, 0.0), 2.0, 0.6, 64, 24);
+    Scene {
+        objects: vec![ground(10.0), t],
+        camera: Camera {
+            position: Vec3::new(8.0, 1.2, 9.0),
+            target: Vec3::new(0.0, 2.2, 0.0),
+            fov_y: 50.0,
+            near: 0.1,
+            far: 60.0,
+        },
+        sun: Sun {
+            azimuth: 225.0,
+            elevation: 50.0,
+            colour: [1.0, 0.95, 0.85],
+            intensity: 3.0,
+        },
+    }
+}
+
+/// A tree whose canopy of 2200 leaf quads has gaps (varied by `seed`): dappled shafts.
+fn tree_scene(rng: &mut Rng, seed: u64) -> Scene {
+    let mut trunk = object("trunk", [0.35, 0.25, 0.18, 1.0], &["trunk"]);
+    cylinder(&mut trunk, Vec3::ZERO, 0.35, 5.0, 16);
+    for k in 0..5 {
+        let a = k as f32 * 1.3 + rng.range(0.0, 0.5);
+        let dir = Vec3::new(a.cos(), 0.8, a.sin()).normalize();
+        let c = Vec3::new(0.0, 3.8 + k as f32 * 0.3, 0.0) + dir * 1.0;
+        cuboid(
+            &mut trunk,
+            c,
+            Vec3::new(0.09, 1.1, 0.09),
+            Quat::from_rotation_arc(Vec3::Y, dir),
+        );
+    }
+    let mut leaves = object("canopy", [0.25, 0.5, 0.18, 1.0], &["foliage"]);
+    let centre = Vec3::new(0.0, 6.2, 0.0);
+    let mut placed = 0;
+    while placed < 2200 {
+        let p = Vec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        if p.length() > 1.0 {
+            continue;
         }
-        "tree" => {
-            let mut trunk = object("trunk", [0.35, 0.25, 0.18, 1.0], &["trunk"]);
-            cylinder(&mut trunk, Vec3::ZERO, 0.35, 5.0, 16);
-            for k in 0..5 {
-                let a = k as f32 * 1.3 + rng.range(0.0, 0.5);
-                let dir = Vec3::new(a.cos(), 0.8, a.sin()).normalize();
-                let c = Vec3::new(0.0, 3.8 + k as f32 * 0.3, 0.0) + dir * 1.0;
-                cuboid(
-                    &mut trunk,
-                    c,
-                    Vec3::new(0.09, 1.1, 0.09),
-                    Quat::from_rotation_arc(Vec3::Y, dir),
-                );
-            }
-            let mut leaves = object("canopy", [0.25, 0.5, 0.18, 1.0], &["foliage"]);
-            let centre = Vec3::new(0.0, 6.2, 0.0);
-            let mut placed = 0;
-            while placed < 2200 {
-                let p = Vec3::new(
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                );
-                if p.length() > 1.0 {
-                    continue;
-                }
-                // Gaps: a few empty lobes inside the canopy so light breaks through.
-                let gap = (p.x * 3.1 + seed as f32 * 0.37).sin()
-                    * (p.z * 2.7).cos()
-                    * (p.y * 2.3 + 1.0).sin();
-                if gap > 0.35 {
-                    continue;
-                }
-                let pos = centre + p * Vec3::new(3.2, 2.0, 3.2);
-                let rot = Quat::from_euler(
-                    glam::EulerRot::XYZ,
-                    rng.range(0.0, 6.3),
-                    rng.range(0.0, 6.3),
-                    rng.range(0.0, 6.3),
-                );
-                let s = rng.range(0.12, 0.22);
-                let corners = [
-                    Vec3::new(-s, 0.0, -s),
-                    Vec3::new(s, 0.0, -s),
-                    Vec3::new(s, 0.0, s),
-                    Vec3::new(-s, 0.0, s),
-                ]
-                .map(|c| pos + rot * c);
-                quad(&mut leaves, corners);
-                placed += 1;
-            }
-            Scene {
-                objects: vec![ground(12.0), trunk, leaves],
-                camera: Camera {
-                    position: Vec3::new(9.0, 2.2, 9.5),
-                    target: Vec3::new(0.0, 3.5, 0.0),
-                    fov_y: 50.0,
-                    near: 0.1,
-                    far: 60.0,
-                },
-                sun: Sun {
-                    azimuth: 225.0,
-                    elevation: 38.0,
-                    colour: [1.0, 0.92, 0.78],
-                    intensity: 3.0,
-                },
-            }
+        // Gaps: a few empty lobes inside the canopy so light breaks through.
+        let gap =
+            (p.x * 3.1 + seed as f32 * 0.37).sin() * (p.z * 2.7).cos() * (p.y * 2.3 + 1.0).sin();
+        if gap > 0.35 {
+            continue;
         }
-        "window" => {
-            let mut walls = object("walls", [0.75, 0.72, 0.68, 1.0], &["wall"]);
-            let (w, h, d) = (6.0f32, 3.5f32, 8.0f32);
-            let t = 0.15;
-            let mut floor = object("floor", [0.5, 0.42, 0.35, 1.0], &["floor"]);
-            cuboid(
-                &mut floor,
-                Vec3::new(0.0, -t, 0.0),
-                Vec3::new(w, t, d),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut walls,
-                Vec3::new(0.0, h + t, 0.0),
-                Vec3::new(w, t, d),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut walls,
-                Vec3::new(0.0, h / 2.0, -d),
-                Vec3::new(w, h / 2.0, t),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut walls,
-                Vec3::new(0.0, h / 2.0, d),
-                Vec3::new(w, h / 2.0, t),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut walls,
-                Vec3::new(-w, h / 2.0, 0.0),
-                Vec3::new(t, h / 2.0, d),
-                Quat::IDENTITY,
-            );
-            // The +x wall has three windows: built from a lower band, an upper band and piers.
-            let (sill, lintel) = (1.0f32, 2.7f32);
-            cuboid(
-                &mut walls,
-                Vec3::new(w, sill / 2.0, 0.0),
-                Vec3::new(t, sill / 2.0, d),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut walls,
-                Vec3::new(w, (lintel + h) / 2.0, 0.0),
-                Vec3::new(t, (h - lintel) / 2.0, d),
-                Quat::IDENTITY,
-            );
-            let jitter = rng.range(-0.3, 0.3);
-            let windows = [-4.0 + jitter, 0.0, 4.0 - jitter];
-            let half_w = 0.8;
-            let mut edges = vec![-d];
-            for c in windows {
-                edges.push(c - half_w);
-                edges.push(c + half_w);
-            }
-            edges.push(d);
-            for pair in edges.chunks(2) {
-                let (z0, z1) = (pair[0], pair[1]);
-                let hm = (lintel - sill) / 2.0;
-                cuboid(
-                    &mut walls,
-                    Vec3::new(w, sill + hm, (z0 + z1) / 2.0),
-                    Vec3::new(t, hm, (z1 - z0) / 2.0),
-                    Quat::IDENTITY,
-                );
-            }
-            Scene {
-                objects: vec![floor, walls],
-                camera: Camera {
-                    position: Vec3::new(-4.8, 1.7, -6.5),
-                    target: Vec3::new(2.0, 1.2, 1.0),
-                    fov_y: 60.0,
-                    near: 0.05,
-                    far: 40.0,
-                },
-                sun: Sun {
-                    azimuth: 70.0,
-                    elevation: 30.0,
-                    colour: [1.0, 0.9, 0.75],
-                    intensity: 4.0,
-                },
-            }
-        }
-        "fence" => {
-            let mut f = object("fence", [0.45, 0.33, 0.22, 1.0], &["fence"]);
-            for i in 0..11 {
-                let x = -5.0 + i as f32 + rng.range(-0.05, 0.05);
-                let hgt = 2.0 + rng.range(-0.1, 0.1);
-                cuboid(
-                    &mut f,
-                    Vec3::new(x, hgt / 2.0, 0.0),
-                    Vec3::new(0.12, hgt / 2.0, 0.12),
-                    Quat::IDENTITY,
-                );
-            }
-            cuboid(
-                &mut f,
-                Vec3::new(0.0, 1.4, 0.16),
-                Vec3::new(5.4, 0.1, 0.04),
-                Quat::IDENTITY,
-            );
-            Scene {
-                objects: vec![ground(10.0), f],
-                camera: Camera {
-                    position: Vec3::new(2.5, 1.6, 8.0),
-                    target: Vec3::new(0.0, 1.0, -1.0),
-                    fov_y: 50.0,
-                    near: 0.1,
-                    far: 50.0,
-                },
-                sun: Sun {
-                    azimuth: 180.0,
-                    elevation: 25.0,
-                    colour: [1.0, 0.85, 0.65],
-                    intensity: 3.0,
-                },
-            }
-        }
-        "figure" => {
-            let mut fig = object("figure", [0.6, 0.6, 0.65, 1.0], &["figure"]);
-            let lean = rng.range(-0.05, 0.05);
-            let r = Quat::from_rotation_z(lean);
-            cuboid(
-                &mut fig,
-                Vec3::new(-0.2, 0.9, 0.0),
-                Vec3::new(0.12, 0.45, 0.12),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut fig,
-                Vec3::new(0.2, 0.9, 0.0),
-                Vec3::new(0.12, 0.45, 0.12),
-                Quat::IDENTITY,
-            );
-            cuboid(
-                &mut fig,
-                Vec3::new(0.0, 1.75, 0.0),
-                Vec3::new(0.38, 0.45, 0.2),
-                r,
-            );
-            cuboid(
-                &mut fig,
-                Vec3::new(-0.55, 1.75, 0.0),
-                Vec3::new(0.1, 0.42, 0.1),
-                Quat::from_rotation_z(-0.25),
-            );
-            cuboid(
-                &mut fig,
-                Vec3::new(0.55, 1.75, 0.0),
-                Vec3::new(0.1, 0.42, 0.1),
-                Quat::from_rotation_z(0.25),
-            );
-            sphere(&mut fig, Vec3::new(0.0, 2.5, 0.0), Vec3::splat(0.22), 24);
-            Scene {
-                objects: vec![ground(8.0), fig],
-                camera: Camera {
-                    position: Vec3::new(0.8, 1.5, 6.0),
-                    target: Vec3::new(0.0, 1.6, 0.0),
-                    fov_y: 50.0,
-                    near: 0.1,
-                    far: 40.0,
-                },
-                sun: Sun {
-                    azimuth: 190.0,
-                    elevation: 30.0,
-                    colour: [1.0, 0.93, 0.8],
-                    intensity: 3.0,
-                },
-            }
-        }
-        other => return Err(SceneError::UnknownBuiltin(other.to_string())),
-    };
-    Ok(scene)
+        let pos = centre + p * Vec3::new(3.2, 2.0, 3.2);
+        let rot = Quat::from_euler(
+            glam::EulerRot::XYZ,
+            rng.range(0.0, 6.3),
+            rng.range(0.0, 6.3),
+            rng.range(0.0, 6.3),
+        );
+        let s = rng.range(0.12, 0.22);
+        let corners = [
+            Vec3::new(-s, 0.0, -s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(-s, 0.0, s),
+        ]
+        .map(|c| pos + rot * c);
+        quad(&mut leaves, corners);
+        placed += 1;
+    }
+    Scene {
+        objects: vec![ground(12.0), trunk, leaves],
+        camera: Camera {
+            position: Vec3::new(9.0, 2.2, 9.5),
+            target: Vec3::new(0.0, 3.5, 0.0),
+            fov_y: 50.0,
+            near: 0.1,
+            far: 60.0,
+        },
+        sun: Sun {
+            azimuth: 225.0,
+            elevation: 38.0,
+            colour: [1.0, 0.92, 0.78],
+            intensity: 3.0,
+        },
+    }
+}
+
+/// A room lit through three windows in its +x wall (their spacing varied by `seed`).
+fn window_scene(rng: &mut Rng) -> Scene {
+    let mut walls = object("walls", [0.75, 0.72, 0.68, 1.0], &["wall"]);
+    let (w, h, d) = (6.0f32, 3.5f32, 8.0f32);
+    let t = 0.15;
+    let mut floor = object("floor", [0.5, 0.42, 0.35, 1.0], &["floor"]);
+    cuboid(
+        &mut floor,
+        Vec3::new(0.0, -t, 0.0),
+        Vec3::new(w, t, d),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut walls,
+        Vec3::new(0.0, h + t, 0.0),
+        Vec3::new(w, t, d),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut walls,
+        Vec3::new(0.0, h / 2.0, -d),
+        Vec3::new(w, h / 2.0, t),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut walls,
+        Vec3::new(0.0, h / 2.0, d),
+        Vec3::new(w, h / 2.0, t),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut walls,
+        Vec3::new(-w, h / 2.0, 0.0),
+        Vec3::new(t, h / 2.0, d),
+        Quat::IDENTITY,
+    );
+    // The +x wall has three windows: built from a lower band, an upper band and piers.
+    let (sill, lintel) = (1.0f32, 2.7f32);
+    cuboid(
+        &mut walls,
+        Vec3::new(w, sill / 2.0, 0.0),
+        Vec3::new(t, sill / 2.0, d),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut walls,
+        Vec3::new(w, (lintel + h) / 2.0, 0.0),
+        Vec3::new(t, (h - lintel) / 2.0, d),
+        Quat::IDENTITY,
+    );
+    let jitter = rng.range(-0.3, 0.3);
+    let windows = [-4.0 + jitter, 0.0, 4.0 - jitter];
+    let half_w = 0.8;
+    let mut edges = vec![-d];
+    for c in windows {
+        edges.push(c - half_w);
+        edges.push(c + half_w);
+    }
+    edges.push(d);
+    for pair in edges.chunks(2) {
+        let (z0, z1) = (pair[0], pair[1]);
+        let hm = (lintel - sill) / 2.0;
+        cuboid(
+            &mut walls,
+            Vec3::new(w, sill + hm, (z0 + z1) / 2.0),
+            Vec3::new(t, hm, (z1 - z0) / 2.0),
+            Quat::IDENTITY,
+        );
+    }
+    Scene {
+        objects: vec![floor, walls],
+        camera: Camera {
+            position: Vec3::new(-4.8, 1.7, -6.5),
+            target: Vec3::new(2.0, 1.2, 1.0),
+            fov_y: 60.0,
+            near: 0.05,
+            far: 40.0,
+        },
+        sun: Sun {
+            azimuth: 70.0,
+            elevation: 30.0,
+            colour: [1.0, 0.9, 0.75],
+            intensity: 4.0,
+        },
+    }
+}
+
+/// A picket fence: eleven posts and a rail, low sun behind it.
+fn fence_scene(rng: &mut Rng) -> Scene {
+    let mut f = object("fence", [0.45, 0.33, 0.22, 1.0], &["fence"]);
+    for i in 0..11 {
+        let x = -5.0 + i as f32 + rng.range(-0.05, 0.05);
+        let hgt = 2.0 + rng.range(-0.1, 0.1);
+        cuboid(
+            &mut f,
+            Vec3::new(x, hgt / 2.0, 0.0),
+            Vec3::new(0.12, hgt / 2.0, 0.12),
+            Quat::IDENTITY,
+        );
+    }
+    cuboid(
+        &mut f,
+        Vec3::new(0.0, 1.4, 0.16),
+        Vec3::new(5.4, 0.1, 0.04),
+        Quat::IDENTITY,
+    );
+    Scene {
+        objects: vec![ground(10.0), f],
+        camera: Camera {
+            position: Vec3::new(2.5, 1.6, 8.0),
+            target: Vec3::new(0.0, 1.0, -1.0),
+            fov_y: 50.0,
+            near: 0.1,
+            far: 50.0,
+        },
+        sun: Sun {
+            azimuth: 180.0,
+            elevation: 25.0,
+            colour: [1.0, 0.85, 0.65],
+            intensity: 3.0,
+        },
+    }
+}
+
+/// A standing figure of boxes and a head, sun behind it.
+fn figure_scene(rng: &mut Rng) -> Scene {
+    let mut fig = object("figure", [0.6, 0.6, 0.65, 1.0], &["figure"]);
+    let lean = rng.range(-0.05, 0.05);
+    let r = Quat::from_rotation_z(lean);
+    cuboid(
+        &mut fig,
+        Vec3::new(-0.2, 0.9, 0.0),
+        Vec3::new(0.12, 0.45, 0.12),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut fig,
+        Vec3::new(0.2, 0.9, 0.0),
+        Vec3::new(0.12, 0.45, 0.12),
+        Quat::IDENTITY,
+    );
+    cuboid(
+        &mut fig,
+        Vec3::new(0.0, 1.75, 0.0),
+        Vec3::new(0.38, 0.45, 0.2),
+        r,
+    );
+    cuboid(
+        &mut fig,
+        Vec3::new(-0.55, 1.75, 0.0),
+        Vec3::new(0.1, 0.42, 0.1),
+        Quat::from_rotation_z(-0.25),
+    );
+    cuboid(
+        &mut fig,
+        Vec3::new(0.55, 1.75, 0.0),
+        Vec3::new(0.1, 0.42, 0.1),
+        Quat::from_rotation_z(0.25),
+    );
+    sphere(&mut fig, Vec3::new(0.0, 2.5, 0.0), Vec3::splat(0.22), 24);
+    Scene {
+        objects: vec![ground(8.0), fig],
+        camera: Camera {
+            position: Vec3::new(0.8, 1.5, 6.0),
+            target: Vec3::new(0.0, 1.6, 0.0),
+            fov_y: 50.0,
+            near: 0.1,
+            far: 40.0,
+        },
+        sun: Sun {
+            azimuth: 190.0,
+            elevation: 30.0,
+            colour: [1.0, 0.93, 0.8],
+            intensity: 3.0,
+        },
+    }
 }

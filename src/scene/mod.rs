@@ -8,7 +8,7 @@ mod gpu;
 use glam::{Mat4, Vec3};
 use thiserror::Error;
 
-pub use builtin::{builtin, BUILTIN_SCENES};
+pub use builtin::{builtin, Builtin, BUILTIN_SCENES};
 pub use gltf_load::load_gltf;
 pub use gpu::{GpuScene, MeshVertex};
 
