@@ -8,7 +8,7 @@ for scene in torus tree window fence figure; do
   ./target/release/tyndall render "graphs/physical/$scene.ron" -o "docs/physical/$scene.png" --size 960x540
 done
 ./target/release/tyndall render tests/fixtures/gltf_scene.ron -o docs/physical/gltf_scene.png --size 960x540
-for preset in tree_hole_filling torus_closure figure_silhouette; do
+for preset in tree_hole_filling torus_closure figure_silhouette window_soft_glow; do
   ./target/release/tyndall render "graphs/stylize/$preset.ron" -o "docs/stylize/$preset.png" --size 960x540
 done
 ./target/release/tyndall render graphs/stylize/tree_holes_animated.ron -o docs/stylize/tree_holes_animated.png --size 960x540 --frames 0-2

@@ -67,7 +67,7 @@ fn every_uniform_struct_matches_its_wgsl() {
             continue;
         };
         for layout in kind.uniform_layouts() {
-            check_uniform_layout(shader.source, &layout)
+            check_uniform_layout(shader.source, layout)
                 .unwrap_or_else(|e| panic!("{} ({}.wgsl): {e}", kind.schema().kind, shader.stem));
             checked += 1;
         }
