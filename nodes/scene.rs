@@ -3,8 +3,10 @@
 //! Without a `path`, the built-in scene `name` is built from `seed` (see [`crate::scene::builtin`]
 //! for the list: torus, tree, window, fence, figure). With a `path`, the glTF file is loaded:
 //! meshes, node transforms, base colours, its first camera and its first directional light
-//! (`KHR_lights_punctual`). `camera = custom` and `light = custom` replace the scene's own
-//! camera and sun with the parameters below (all key-frameable).
+//! (`KHR_lights_punctual`, whose illuminance in lux is read as irradiance in W/m² by dividing by
+//! 683 lm/W, as Blender's glTF importer does); objects tagged `medium` are not drawn and bound
+//! the medium for `SingleScattering`'s `bounds = tagged`. `camera = custom` and `light = custom`
+//! replace the scene's own camera and sun with the parameters below (all key-frameable).
 //!
 //! The node uploads vertex and index buffers; it runs no shader pass (so it has no WGSL file).
 //!
@@ -25,7 +27,7 @@
 //! | `sun_azimuth` | Float | 30 | −720…720 ° | clockwise from +Z seen from above |
 //! | `sun_elevation` | Float | 45 | −90…90 ° | above the horizon |
 //! | `sun_colour` | Colour | (1, 0.95, 0.85, 1) | 0…1e6 | linear RGB (alpha unused) |
-//! | `sun_intensity` | Float | 3 | 0…1e6 | multiplies the colour |
+//! | `sun_intensity` | Float | 3 | 0…1e6 W/m² | irradiance on a surface facing the sun, multiplying the colour |
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -68,7 +70,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
         ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
         ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
-        ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "", "Sun intensity multiplying the colour (light = custom)."),
+        ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "W/m²", "Sun irradiance on a surface facing it, multiplying the colour (light = custom); a glTF sun's lux are read as lux / 683."),
     ],
 });
 

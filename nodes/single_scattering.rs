@@ -7,7 +7,19 @@
 //! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun).
 //! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
 //! A sample is lit when it lies outside the map or the light box, or when its light-space depth
-//! is at most the map's depth plus `bias`.
+//! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the
+//! `Scene`) times f (1/sr) times σt·length (dimensionless) gives `inscatter` in W/(m²·sr).
+//!
+//! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
+//! objects tagged `medium`, connected on `scene`) the view ray scatters only on [t0, t1], its
+//! part inside the box, and the transmittance of surfaces is e^{−σt (t1 − t0)}. With
+//! `light_extinction = on` the sun reaching a point is attenuated by e^{−σt ℓ}, ℓ the distance
+//! from the point to the box's boundary towards the sun, and the factored form no longer holds:
+//! `L_scat = σt ρ f E ∫_{t0}^{t1} V(t) e^{−σt (t − t0)} e^{−σt ℓ(t)} dt`. ℓ is piecewise linear
+//! along the ray (the nearest of three faces), so the integral of the weight over any stretch is
+//! exact; `BruteForce` weights each sample by its interval's integral, `MinMax` integrates its
+//! lit stretches exactly. `light_extinction = on` with `bounds = none` is refused (an unbounded
+//! medium would extinguish the sun completely).
 //!
 //! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
 //! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
@@ -26,9 +38,10 @@
 //! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
 //! | `light_map` | in | LightMap (optional) | multiplies the incoming light; unconnected: 1 |
 //! | `phase` | in | Phase (optional) | tabulated phase function; unconnected: Henyey–Greenstein `g` |
+//! | `scene` | in | Scene (optional) | for `bounds = tagged`: its objects tagged `medium` |
 //! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
 //! | `depth` | out | Depth | the input depth, passed on for transfer functions |
-//! | `inscatter` | out | Image | L_scat (linear RGB, alpha 1) |
+//! | `inscatter` | out | Image | L_scat, W/(m²·sr) (linear RGB, alpha 1) |
 //! | `transmittance` | out | Scalar | e^{−sσt}, for compositing surfaces behind the medium |
 //!
 //! | param | type | default | range | |
@@ -37,11 +50,14 @@
 //! | `albedo` | Float | 0.9 | 0…1 | scattering albedo ρ |
 //! | `g` | Float | 0.5 | −0.999…0.999 | Henyey–Greenstein asymmetry |
 //! | `tint` | Colour | (1, 1, 1, 1) | 0…1e6 | multiplies the sun's colour |
-//! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's radiance |
+//! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's irradiance |
 //! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
 //! | `method` | Enum | BruteForce | BruteForce, MinMax | visibility algorithm |
+//! | `bounds` | Enum | none | none, box, tagged | where the medium is |
+//! | `box_min`, `box_max` | Vec3 | (−5, 0, −5), (5, 5, 5) | ±1e6 m | the box (bounds = box) |
+//! | `light_extinction` | Enum | off | off, on | attenuate the sun through the medium |
 //! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
 
 use glam::{Mat4, Vec3, Vec4};
@@ -51,6 +67,7 @@ use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
+use crate::scene::GpuScene;
 
 /// The `SingleScattering` node kind.
 pub struct SingleScattering;
@@ -63,6 +80,16 @@ crate::choice_enum! {
     pub enum Method { BruteForce = "BruteForce", MinMax = "MinMax" }
 }
 
+crate::choice_enum! {
+    /// Where the medium is.
+    pub enum Bounds { None = "none", Box = "box", Tagged = "tagged" }
+}
+
+crate::choice_enum! {
+    /// Whether the sun is attenuated on its way through the medium.
+    pub enum Extinction { Off = "off", On = "on" }
+}
+
 #[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SingleScattering",
@@ -73,11 +100,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::required("depth", &[PortType::Depth], "Camera linear depth (from GBuffer)."),
         PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the incoming light (unconnected: 1)."),
         PortSpec::input("phase", &[PortType::Phase], "Tabulated phase function (unconnected: Henyey–Greenstein g)."),
+        PortSpec::input("scene", &[PortType::Scene], "The scene whose objects tagged `medium` bound the medium (bounds = tagged)."),
     ],
     outputs: &[
         PortSpec::output("visibility", &[PortType::Scalar], "Average visibility V̄ of the view ray."),
         PortSpec::output("depth", &[PortType::Depth], "The input depth, passed on."),
-        PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance (linear RGB)."),
+        PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance, W/(m²·sr) (linear RGB)."),
         PortSpec::output("transmittance", &[PortType::Scalar], "e^(−s σt) along the view ray."),
     ],
     params: &[
@@ -85,12 +113,16 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
         ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
         ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
-        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's radiance."),
+        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
         ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
         ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
         ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
         ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
         ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)."),
+        ParamSpec::choice("bounds", Bounds::NAMES, "none", "Where the medium is: none (fills every view ray, the seed's model), box (box_min…box_max), tagged (the bounds of the scene's objects tagged `medium`)."),
+        ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the medium box (bounds = box), scene coordinates."),
+        ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the medium box (bounds = box), scene coordinates."),
+        ParamSpec::choice("light_extinction", Extinction::NAMES, "off", "off: the sun reaches every point unattenuated (seed eq. 1); on: by e^(−σt ℓ), ℓ = distance to the medium's boundary towards the sun (needs bounds)."),
     ],
 })
 .shader(SHADER)
@@ -129,6 +161,14 @@ crate::uniforms! {
         /// MinMax: pyramid level at and below which mixed blocks are estimated, not refined
         /// (0 = exact).
         pub min_level: u32,
+        /// Medium box, low corner (when `bounded`).
+        pub box_min: [f32; 3],
+        /// 1 when the medium is the box, 0 when it fills the view ray.
+        pub bounded: u32,
+        /// Medium box, high corner.
+        pub box_max: [f32; 3],
+        /// 1 when the sun is attenuated on its way through the medium.
+        pub light_extinction: u32,
     }
 }
 
@@ -150,7 +190,21 @@ impl ScatterParams {
             jitter: p.jitter,
             bias: p.bias,
             min_level: p.min_level,
+            box_min: [0.0; 3],
+            bounded: 0,
+            box_max: [0.0; 3],
+            light_extinction: 0,
         }
+    }
+
+    /// Bound the medium to the box `(min, max)` (`None`: it fills every view ray) and switch
+    /// the sun's extinction on its way through it.
+    pub fn with_bounds(mut self, bounds: Option<(Vec3, Vec3)>, light_extinction: bool) -> Self {
+        if let Some((lo, hi)) = bounds {
+            (self.box_min, self.box_max, self.bounded) = (lo.to_array(), hi.to_array(), 1);
+        }
+        self.light_extinction = light_extinction as u32;
+        self
     }
 }
 
@@ -266,6 +320,103 @@ pub fn hash(x: u32, y: u32) -> f32 {
 /// Result of one pixel: (V̄, in-scatter RGB, transmittance).
 pub type PixelResult = (f32, [f32; 3], f32);
 
+/// The part `[t0, t1]` of `[0, s]` inside the medium along the ray `eye + dir·t` (t1 ≤ t0: none).
+pub fn medium_segment(p: &ScatterParams, dir: Vec3, s: f32) -> (f32, f32) {
+    if p.bounded == 0 {
+        return (0.0, s);
+    }
+    let (mut t0, mut t1) = (0.0f32, s);
+    for k in 0..3 {
+        if dir[k] == 0.0 {
+            if p.eye[k] < p.box_min[k] || p.eye[k] > p.box_max[k] {
+                return (0.0, -1.0);
+            }
+        } else {
+            let ta = (p.box_min[k] - p.eye[k]) / dir[k];
+            let tb = (p.box_max[k] - p.eye[k]) / dir[k];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+    }
+    (t0, t1)
+}
+
+/// `(1 − e^{−len·m})/m` for m ≥ 0, accurate on short stretches (series below len·m = 0.5).
+pub fn decay_integral(len: f32, m: f32) -> f32 {
+    let x = len * m;
+    if x < 0.5 {
+        let series = 1.0
+            - x / 2.0
+                * (1.0
+                    - x / 3.0
+                        * (1.0 - x / 4.0 * (1.0 - x / 5.0 * (1.0 - x / 6.0 * (1.0 - x / 7.0)))));
+        return len * series;
+    }
+    (1.0 - (-x).exp()) / m
+}
+
+/// ℓ along the ray through the face the sun shines through on axis k: `(α, β)` with
+/// ℓ_k(t) = α + β t (an axis parallel to the sun never limits ℓ).
+fn light_line(p: &ScatterParams, dir: Vec3, k: usize) -> (f32, f32) {
+    let sk = p.to_sun[k];
+    if sk.abs() < 1e-12 {
+        return (3.0e38, 0.0);
+    }
+    let face = if sk > 0.0 { p.box_max[k] } else { p.box_min[k] };
+    ((face - p.eye[k]) / sk, -dir[k] / sk)
+}
+
+/// `∫_a^b E(t) dt`, E(t) = e^{−σt (t − t0)} · e^{−σt ℓ(t)} (ℓ = 0 with light extinction off):
+/// the weight of a stretch of the view ray in the medium (see the shader's comment).
+pub fn weight(p: &ScatterParams, dir: Vec3, t0: f32, a: f32, b: f32) -> f32 {
+    if b <= a {
+        return 0.0;
+    }
+    let sig = p.sigma_t;
+    if p.light_extinction == 0 {
+        return (-sig * (a - t0)).exp() * decay_integral(b - a, sig);
+    }
+    let lines = [0, 1, 2].map(|k| light_line(p, dir, k));
+    let mut cuts = vec![a];
+    for i in 0..3 {
+        for j in i + 1..3 {
+            let db = lines[i].1 - lines[j].1;
+            if db != 0.0 {
+                let tc = (lines[j].0 - lines[i].0) / db;
+                if tc > a && tc < b {
+                    cuts.push(tc);
+                }
+            }
+        }
+    }
+    cuts[1..].sort_by(f32::total_cmp);
+    cuts.push(b);
+    let mut total = 0.0;
+    for w in cuts.windows(2) {
+        let (p0, p1) = (w[0], w[1]);
+        if p1 <= p0 {
+            continue;
+        }
+        let mid = 0.5 * (p0 + p1);
+        let line = lines.iter().copied().fold(lines[0], |m, l| {
+            if l.0 + l.1 * mid < m.0 + m.1 * mid {
+                l
+            } else {
+                m
+            }
+        });
+        let m = sig * (1.0 + line.1);
+        let (integral, at) = if m >= 0.0 {
+            (decay_integral(p1 - p0, m), p0)
+        } else {
+            (decay_integral(p1 - p0, -m), p1)
+        };
+        let e = (-sig * ((at - t0) + (line.0 + line.1 * at).max(0.0))).exp();
+        total += e * integral;
+    }
+    total
+}
+
 /// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image.
 pub fn reference_pixel(
     p: &ScatterParams,
@@ -287,10 +438,14 @@ pub fn reference_pixel(
     let far = inv * ndc;
     let eye = Vec3::from(p.eye);
     let dir = (far.truncate() / far.w - eye).normalize_or(Vec3::NEG_Z);
+    let (t0, t1) = medium_segment(p, dir, s);
+    let len = (t1 - t0).max(0.0);
     let offset = p.jitter * (hash(x, y) - 0.5);
     let mut lit = 0u32;
+    let mut weighted = 0.0f32;
+    let n = p.steps as f32;
     for i in 0..p.steps {
-        let t = (i as f32 + 0.5 + offset) / p.steps as f32 * s;
+        let t = t0 + (i as f32 + 0.5 + offset) / n * len;
         let c = lvp * (eye + dir * t).extend(1.0);
         let (u, v, z) = (c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
         let inside = (0.0..1.0).contains(&u) && (0.0..1.0).contains(&v) && (0.0..=1.0).contains(&z);
@@ -302,15 +457,25 @@ pub fn reference_pixel(
             true
         };
         lit += visible as u32;
+        if p.light_extinction != 0 && visible {
+            let a = t0 + i as f32 / n * len;
+            let b = t0 + (i + 1) as f32 / n * len;
+            weighted += weight(p, dir, t0, a, b);
+        }
     }
-    let vbar = lit as f32 / p.steps as f32;
+    let vbar = if len > 0.0 || p.bounded == 0 {
+        lit as f32 / n
+    } else {
+        1.0
+    };
     let cos = dir.dot(Vec3::from(p.to_sun));
-    let k = p.sigma_t
-        * p.albedo
-        * henyey_greenstein(p.g, cos)
-        * transmittance_integral(s, p.sigma_t)
-        * vbar;
-    (vbar, p.radiance.map(|r| r * k), (-s * p.sigma_t).exp())
+    let base = p.sigma_t * p.albedo * henyey_greenstein(p.g, cos);
+    let k = if p.light_extinction != 0 {
+        base * weighted
+    } else {
+        base * transmittance_integral(len, p.sigma_t) * vbar
+    };
+    (vbar, p.radiance.map(|r| r * k), (-len * p.sigma_t).exp())
 }
 
 /// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
@@ -349,6 +514,22 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
         gpu.copy_region(&back, &front, dst[0], dst[1], dst[2], dst[3])?;
     }
     Ok((levels, front))
+}
+
+/// The bounds of the objects tagged `medium` in the scene on the `scene` port.
+fn tagged_bounds(ctx: &RunCtx) -> Result<(Vec3, Vec3), NodeError> {
+    let input = |message: &str| NodeError::Input {
+        port: "scene".into(),
+        message: message.into(),
+    };
+    let scene = ctx
+        .input("scene")
+        .ok_or_else(|| input("must be connected when bounds = tagged"))?
+        .payload::<GpuScene>()
+        .ok_or_else(|| input("is not a scene"))?;
+    scene.scene.medium.ok_or_else(|| {
+        input("has no objects tagged `medium` (glTF node extras: {\"tags\": [\"medium\"]})")
+    })
 }
 
 impl NodeKind for SingleScattering {
@@ -396,7 +577,33 @@ impl NodeKind for SingleScattering {
             bias: ctx.f32("bias")?,
             min_level: ctx.int("min_level")? as u32,
         };
-        let u = ScatterParams::new(&camera, &light, medium);
+        let extinction = ctx.choice::<Extinction>("light_extinction")? == Extinction::On;
+        let bounds = match ctx.choice::<Bounds>("bounds")? {
+            Bounds::None if extinction => {
+                return Err(NodeError::Param {
+                    param: "light_extinction".into(),
+                    message: "on needs a bounded medium (the sun is attenuated up to its \
+                              boundary): set bounds to box or tagged"
+                        .into(),
+                })
+            }
+            Bounds::None => None,
+            Bounds::Box => {
+                let (lo, hi) = (
+                    Vec3::from(ctx.vec3("box_min")?),
+                    Vec3::from(ctx.vec3("box_max")?),
+                );
+                if lo.cmpgt(hi).any() {
+                    return Err(NodeError::Param {
+                        param: "box_max".into(),
+                        message: format!("{hi} is below box_min {lo} on some axis"),
+                    });
+                }
+                Some((lo, hi))
+            }
+            Bounds::Tagged => Some(tagged_bounds(ctx)?),
+        };
+        let u = ScatterParams::new(&camera, &light, medium).with_bounds(bounds, extinction);
         let (w, h) = (depth.width, depth.height);
         let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
         let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;

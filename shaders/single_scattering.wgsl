@@ -14,6 +14,10 @@ struct Params {
     jitter: f32,
     bias: f32,
     min_level: u32,
+    box_min: vec3<f32>,
+    bounded: u32,
+    box_max: vec3<f32>,
+    light_extinction: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -56,6 +60,132 @@ fn visible(x: vec3<f32>) -> f32 {
     return select(0.0, 1.0, uvz.z <= textureLoad(shadow, texel, 0).r + P.bias);
 }
 
+// ---- The medium's extent along a view ray, and the weight of each stretch of it -----------
+//
+// Unbounded (`bounded` = 0), the medium fills [0, s]. Bounded, it is the box [box_min, box_max]
+// and the view ray scatters on [t0, t1] = [0, s] ∩ the box. A point at distance t contributes
+// with weight E(t) = e^{−σt (t − t0)} · e^{−σt ℓ(t)}: the view ray's transmittance from where it
+// entered the medium, and (light extinction on) the sun's transmittance over ℓ(t), the distance
+// from the point to the box's boundary towards the sun. In the box ℓ(t) is the smallest of three
+// linear functions of t (one per face the sun shines through), so E is the exponential of a
+// piecewise-linear function and its integral over any stretch is exact, piece by piece.
+
+// [t0, t1]: the part of [0, s] inside the medium (t1 ≤ t0 when the ray misses it).
+fn medium_segment(dir: vec3<f32>, s: f32) -> vec2<f32> {
+    if P.bounded == 0u {
+        return vec2<f32>(0.0, s);
+    }
+    var t0 = 0.0;
+    var t1 = s;
+    for (var k = 0; k < 3; k++) {
+        if dir[k] == 0.0 {
+            if P.eye[k] < P.box_min[k] || P.eye[k] > P.box_max[k] {
+                return vec2<f32>(0.0, -1.0);
+            }
+        } else {
+            let ta = (P.box_min[k] - P.eye[k]) / dir[k];
+            let tb = (P.box_max[k] - P.eye[k]) / dir[k];
+            t0 = max(t0, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        }
+    }
+    return vec2<f32>(t0, t1);
+}
+
+// ℓ along the ray through face k (the face the sun shines through on axis k): ℓ_k(t) = α + β t.
+// An axis the sun is parallel to never limits ℓ (a huge α).
+fn light_line(dir: vec3<f32>, k: i32) -> vec2<f32> {
+    let sk = P.to_sun[k];
+    if abs(sk) < 1e-12 {
+        return vec2<f32>(3.0e38, 0.0);
+    }
+    let face = select(P.box_min[k], P.box_max[k], sk > 0.0);
+    return vec2<f32>((face - P.eye[k]) / sk, -dir[k] / sk);
+}
+
+// (1 − e^{−len·m})/m for m ≥ 0, accurate for the short stretches the weights integrate: the
+// series below x = len·m = 0.5 (truncation < 2e-7 relative), so 1 − e^{−x} never cancels
+// against the driver's exp.
+fn decay_integral(len: f32, m: f32) -> f32 {
+    let x = len * m;
+    if x < 0.5 {
+        return len * (1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0 * (1.0 - x / 5.0 * (1.0 - x / 6.0 * (1.0 - x / 7.0))))));
+    }
+    return (1.0 - exp(-x)) / m;
+}
+
+// ∫_a^b e^{−m (t − a)} dt for m of either sign, from the end where the exponent is largest, so
+// nothing overflows: returns (integral relative to E at that end, which end: 0 = a, 1 = b).
+fn exp_segment(len: f32, m: f32) -> vec2<f32> {
+    if m >= 0.0 {
+        return vec2<f32>(decay_integral(len, m), 0.0);
+    }
+    return vec2<f32>(decay_integral(len, -m), 1.0);
+}
+
+// ∫_a^b E(t) dt over a stretch [a, b] of [t0, t1] (see above).
+fn weight(dir: vec3<f32>, t0: f32, a: f32, b: f32) -> f32 {
+    if b <= a {
+        return 0.0;
+    }
+    let sig = P.sigma_t;
+    if P.light_extinction == 0u {
+        return exp(-sig * (a - t0)) * decay_integral(b - a, sig);
+    }
+    let l0 = light_line(dir, 0);
+    let l1 = light_line(dir, 1);
+    let l2 = light_line(dir, 2);
+    // Where two of the lines cross inside (a, b), ℓ may switch lines: split there.
+    // cuts[0] = a, the crossings at cuts[1 … n], then b.
+    var cuts = array<f32, 5>(a, b, b, b, b);
+    var n = 0;
+    let lines = array<vec2<f32>, 3>(l0, l1, l2);
+    for (var i = 0; i < 3; i++) {
+        for (var j = i + 1; j < 3; j++) {
+            let db = lines[i].y - lines[j].y;
+            if db != 0.0 {
+                let tc = (lines[j].x - lines[i].x) / db;
+                if tc > a && tc < b {
+                    n += 1;
+                    cuts[n] = tc;
+                }
+            }
+        }
+    }
+    // Sort the (at most three) crossings, then integrate each piece on its own line.
+    for (var i = 1; i <= n; i++) {
+        for (var j = i + 1; j <= n; j++) {
+            if cuts[j] < cuts[i] {
+                let tmp = cuts[i];
+                cuts[i] = cuts[j];
+                cuts[j] = tmp;
+            }
+        }
+    }
+    cuts[n + 1] = b;
+    var total = 0.0;
+    for (var i = 0; i <= n; i++) {
+        let p0 = cuts[i];
+        let p1 = cuts[i + 1];
+        if p1 <= p0 {
+            continue;
+        }
+        let mid = 0.5 * (p0 + p1);
+        var line = l0;
+        if l1.x + l1.y * mid < line.x + line.y * mid {
+            line = l1;
+        }
+        if l2.x + l2.y * mid < line.x + line.y * mid {
+            line = l2;
+        }
+        let seg = exp_segment(p1 - p0, sig * (1.0 + line.y));
+        let at = select(p0, p1, seg.y > 0.5);
+        let e = exp(-sig * ((at - t0) + max(line.x + line.y * at, 0.0)));
+        total += e * seg.x;
+    }
+    return total;
+}
+
 // Unit direction of the view ray through the centre of pixel `p` of a `size` image.
 fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
     let ndc = vec4<f32>(
@@ -77,17 +207,38 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
+    let seg = medium_segment(dir, s);
+    let t0 = seg.x;
+    let len = max(seg.y - seg.x, 0.0);
     let offset = P.jitter * (hash(id.x, id.y) - 0.5);
     var lit = 0.0;
+    var weighted = 0.0;
     for (var i = 0u; i < P.steps; i++) {
-        let t = (f32(i) + 0.5 + offset) / f32(P.steps) * s;
-        lit += visible(P.eye + dir * t);
+        let t = t0 + (f32(i) + 0.5 + offset) / f32(P.steps) * len;
+        let v = visible(P.eye + dir * t);
+        lit += v;
+        if P.light_extinction != 0u && v > 0.0 {
+            // Sample i stands for its interval of the segment.
+            let a = t0 + f32(i) / f32(P.steps) * len;
+            let b = t0 + f32(i + 1u) / f32(P.steps) * len;
+            weighted += weight(dir, t0, a, b);
+        }
     }
-    let vbar = lit / f32(P.steps);
-    let k = P.sigma_t * P.albedo * henyey_greenstein(P.g, dot(dir, P.to_sun)) * transmittance_integral(s, P.sigma_t) * vbar;
-    textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * k, 1.0));
-    textureStore(out_transmittance, id.xy, vec4<f32>(exp(-s * P.sigma_t), 0.0, 0.0, 1.0));
+    let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
+    store(id.xy, dir, vbar, len, weighted);
+}
+
+// Write the outputs of one pixel. Light extinction off: the seed's factored form (eq. 2),
+// σt ρ f · (1 − e^{−Lσt})/σt · V̄ over the medium's length L on the ray; on: σt ρ f · ∫ V E dt.
+fn store(p: vec2<u32>, dir: vec3<f32>, vbar: f32, len: f32, weighted: f32) {
+    let base = P.sigma_t * P.albedo * henyey_greenstein(P.g, dot(dir, P.to_sun));
+    var k = base * transmittance_integral(len, P.sigma_t) * vbar;
+    if P.light_extinction != 0u {
+        k = base * weighted;
+    }
+    textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
+    textureStore(out_inscatter, p, vec4<f32>(P.radiance * k, 1.0));
+    textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
 }
 
 // ---- Method MinMax: a min-max pyramid of the shadow map, traversed hierarchically ----------
@@ -173,15 +324,19 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
+    let seg = medium_segment(dir, s);
+    let t0 = seg.x;
+    let t1 = max(seg.y, seg.x);
+    let ext = P.light_extinction != 0u;
     let msize = vec2<f32>(textureDimensions(shadow));
     // The ray in level-0 texel units and light depth: p(t) = a + d t.
     let c0 = P.light_view_proj * vec4<f32>(P.eye, 1.0);
     let c1 = P.light_view_proj * vec4<f32>(P.eye + dir, 1.0);
     let a = vec3<f32>((c0.x * 0.5 + 0.5) * msize.x, (0.5 - c0.y * 0.5) * msize.y, c0.z);
     let d = vec3<f32>((c1.x - c0.x) * 0.5 * msize.x, -(c1.y - c0.y) * 0.5 * msize.y, c1.z - c0.z);
-    // Clip [0, s] to the map and the light box; the rest of the ray is lit.
-    var tin = 0.0;
-    var tout = s;
+    // Clip [t0, t1] to the map and the light box; the rest of the ray is lit.
+    var tin = t0;
+    var tout = t1;
     let lo = vec3<f32>(0.0);
     let hi = vec3<f32>(msize, 1.0);
     for (var k = 0; k < 3; k++) {
@@ -196,9 +351,16 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
             tout = min(tout, max(ta, tb));
         }
     }
-    var lit = s;
+    var lit = t1 - t0;
+    var weighted = 0.0;
+    if ext {
+        weighted = weight(dir, t0, t0, t1);
+    }
     if tout > tin {
-        lit = s - (tout - tin);
+        lit = (t1 - t0) - (tout - tin);
+        if ext {
+            weighted = weight(dir, t0, t0, tin) + weight(dir, t0, tout, t1);
+        }
         let top = L.count;
         var level = top;
         var t = tin;
@@ -240,19 +402,35 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
             let up = select(level, min(level + 1u, top), parent_changes);
             if max(z0, z1) <= mm.x + P.bias {
                 lit += t_exit - t;
+                if ext {
+                    weighted += weight(dir, t0, t, t_exit);
+                }
                 t = t_exit;
                 level = up;
             } else if min(z0, z1) > mm.y + P.bias {
                 t = t_exit;
                 level = up;
             } else if level == 0u {
-                lit += lit_part(t, t_exit, z0, z1, mm.x + P.bias);
+                let part = lit_part(t, t_exit, z0, z1, mm.x + P.bias);
+                lit += part;
+                if ext {
+                    // The lit part is at the end where the depth is under the occluder.
+                    if z0 <= mm.x + P.bias {
+                        weighted += weight(dir, t0, t, t + part);
+                    } else {
+                        weighted += weight(dir, t0, t_exit - part, t_exit);
+                    }
+                }
                 t = t_exit;
             } else if level <= P.min_level {
                 // Quality knob: estimate a mixed block instead of refining it, taking its
                 // occluder depth as spread evenly over [min, max].
                 let zm = 0.5 * (z0 + z1);
-                lit += (t_exit - t) * clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
+                let frac = clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
+                lit += (t_exit - t) * frac;
+                if ext {
+                    weighted += weight(dir, t0, t, t_exit) * frac;
+                }
                 t = t_exit;
                 level = up;
             } else {
@@ -264,13 +442,16 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
             let n = 64u;
             for (var i = 0u; i < n; i++) {
                 let ti = t + (f32(i) + 0.5) / f32(n) * (tout - t);
-                lit += visible(P.eye + dir * ti) * (tout - t) / f32(n);
+                let v = visible(P.eye + dir * ti);
+                lit += v * (tout - t) / f32(n);
+                if ext && v > 0.0 {
+                    let a = t + f32(i) / f32(n) * (tout - t);
+                    weighted += weight(dir, t0, a, a + (tout - t) / f32(n));
+                }
             }
         }
     }
-    let vbar = select(1.0, clamp(lit / s, 0.0, 1.0), s > 0.0);
-    let k = P.sigma_t * P.albedo * henyey_greenstein(P.g, dot(dir, P.to_sun)) * transmittance_integral(s, P.sigma_t) * vbar;
-    textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * k, 1.0));
-    textureStore(out_transmittance, id.xy, vec4<f32>(exp(-s * P.sigma_t), 0.0, 0.0, 1.0));
+    let len = t1 - t0;
+    let vbar = select(1.0, clamp(lit / len, 0.0, 1.0), len > 0.0);
+    store(id.xy, dir, vbar, len, weighted);
 }

@@ -11,7 +11,7 @@ use tyndall::eval::{download, EvalOptions, Evaluator, Matrices, PortValue, Targe
 use tyndall::graph::{Graph, ParamValue};
 use tyndall::io::Raster;
 use tyndall::nodes::single_scattering::{
-    reference_pixel, transmittance_integral, Medium, ScatterParams,
+    henyey_greenstein, reference_pixel, transmittance_integral, Medium, ScatterParams,
 };
 
 /// What a scattering evaluation produced, read back.
@@ -70,6 +70,7 @@ fn run_scene(
         ("scene.scene", "gbuffer.scene"),
         ("shadow.map", "scatter.shadow"),
         ("gbuffer.depth", "scatter.depth"),
+        ("scene.scene", "scatter.scene"), // only read with bounds = tagged
     ] {
         g.connect(&cat, a, b).expect("edge");
     }
@@ -791,4 +792,440 @@ fn shadow_map_and_gbuffer_match_the_ground_plane_analytically() {
         hits > 64 * 36 / 3 && other > 0,
         "ground pixels {hits}, others {other}"
     );
+}
+
+// ---- Bounded media and light-path extinction ---------------------------------------------
+
+fn v3(v: [f64; 3]) -> ParamValue {
+    ParamValue::Vec3(v)
+}
+
+fn en(v: &str) -> ParamValue {
+    ParamValue::Enum(v.into())
+}
+
+/// A box around the tree's canopy and trunk, smaller than the view, so rays enter and leave it.
+const TREE_BOX: ([f64; 3], [f64; 3]) = ([-3.0, 0.0, -3.0], [3.0, 7.0, 3.0]);
+
+fn bounded(extra: &[(&'static str, ParamValue)]) -> Params {
+    let mut v = vec![
+        ("bounds", en("box")),
+        ("box_min", v3(TREE_BOX.0)),
+        ("box_max", v3(TREE_BOX.1)),
+        ("light_extinction", en("on")),
+    ];
+    v.extend(extra.iter().cloned());
+    v
+}
+
+fn tree_box() -> Option<(Vec3, Vec3)> {
+    let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+    Some((f(TREE_BOX.0), f(TREE_BOX.1)))
+}
+
+/// How far the in-scatter may move when the ends of the view ray's stretch in the box move: the
+/// view ray comes out of the f32 inverse view-projection (far point ÷ w) good to ~1e-6 relative
+/// and rounded differently on the GPU (fused multiply-adds) and the CPU; where it meets a face
+/// at a shallow angle an end moves up to ~10× that along the ray (measured: 4e-5 m at 7.4 m, a
+/// 0.13 m chord across a box corner). Allow each end 1e-5 of the depth `s`, times the largest
+/// integrand, E σt ρ max f (weights are at most 1).
+fn chord_slack(radiance: f32, sigma: f32, albedo: f32, g: f32, s: f32) -> f32 {
+    let max_phase = henyey_greenstein(g, 1.0).max(henyey_greenstein(g, -1.0));
+    radiance * sigma * albedo * max_phase * 2.0 * 1e-5 * s
+}
+
+/// Bounded medium with light extinction: GPU brute force against the CPU reference, with the
+/// tolerances (and their reasons) of `brute_force_matches_cpu_reference`, plus [`chord_slack`]
+/// for where the box cuts the ray.
+#[test]
+fn bounded_medium_with_light_extinction_matches_cpu_reference() {
+    let gpu = require_gpu!();
+    let steps = 64;
+    let r = run_scene(
+        &gpu,
+        &[("name", en("tree"))],
+        256,
+        (64, 36),
+        &bounded(&[("steps", ParamValue::Int(steps)), ("jitter", p(0.5))]),
+    );
+    let params = ScatterParams::new(&r.camera, &r.light, medium(steps as u32, 0.5))
+        .with_bounds(tree_box(), true);
+    let (w, h) = (r.depth.width, r.depth.height);
+    let (mut differing, mut outside, mut inside) = (0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (v, ins, t) =
+                reference_pixel(&params, &r.shadow, r.depth.pixel(x, y)[0], x, y, w, h);
+            let gv = r.vis.pixel(x, y)[0];
+            assert!(
+                (gv - v).abs() <= 2.0 / steps as f32 + 1e-6,
+                "V̄ at ({x},{y}): {gv} vs {v}"
+            );
+            if gv != v {
+                differing += 1;
+            } else {
+                let depth = r.depth.pixel(x, y)[0];
+                for (c, (g, want)) in r.inscatter.pixel(x, y).iter().zip(ins).enumerate() {
+                    let slack = chord_slack(r.light.radiance[c], 0.08, 0.9, 0.5, depth);
+                    assert!(
+                        (g - want).abs() <= 1e-4 * want.abs() + 1e-7 + slack,
+                        "inscatter at ({x},{y}): {g} vs {want}"
+                    );
+                }
+            }
+            // e^{−σt L}: L moves by up to 2e-5 s (see chord_slack).
+            let depth = r.depth.pixel(x, y)[0];
+            assert!((r.transmittance.pixel(x, y)[0] - t).abs() <= 1e-6 + 0.08 * 2e-5 * depth);
+            if t == 1.0 {
+                outside += 1; // the view ray misses the box: nothing scatters
+                assert!(r.inscatter.pixel(x, y)[..3].iter().all(|c| *c == 0.0));
+            } else {
+                inside += 1;
+            }
+        }
+    }
+    assert!(
+        differing * 50 <= (w * h) as usize,
+        "{differing} pixels differ"
+    );
+    assert!(
+        outside > 0 && inside > 0,
+        "the box should cover part of the view"
+    );
+}
+
+/// MinMax integrates its lit stretches exactly; 8192 brute-force steps approach the same value
+/// (each light/shadow transition misjudges at most half a step's weight).
+#[test]
+fn bounded_min_max_matches_dense_cpu_reference() {
+    let gpu = require_gpu!();
+    let r = run_scene(
+        &gpu,
+        &[("name", en("tree"))],
+        256,
+        (48, 27),
+        &bounded(&[("method", en("MinMax"))]),
+    );
+    let params =
+        ScatterParams::new(&r.camera, &r.light, medium(8192, 0.0)).with_bounds(tree_box(), true);
+    let (w, h) = (r.depth.width, r.depth.height);
+    let peak = r.inscatter.data.iter().cloned().fold(0.0f32, f32::max);
+    assert!(peak > 0.0);
+    let mut sum = 0.0;
+    for y in 0..h {
+        for x in 0..w {
+            let (_, ins, _) =
+                reference_pixel(&params, &r.shadow, r.depth.pixel(x, y)[0], x, y, w, h);
+            for (g, want) in r.inscatter.pixel(x, y).iter().zip(ins) {
+                let d = (g - want).abs() / peak;
+                assert!(d <= 0.005, "({x},{y}): MinMax {g} vs 8192 steps {want}");
+                sum += d;
+            }
+        }
+    }
+    assert!(
+        sum / (3 * w * h) as f32 <= 5e-4,
+        "mean error {}",
+        sum / (3 * w * h) as f32
+    );
+    assert_finite(&r, "bounded MinMax");
+}
+
+/// An independent check of the bounded integral: no shadow reaches the box (the torus scene,
+/// a box beside the torus), so V = 1 and the in-scatter is E σt ρ f ∫ e^{−σt (t − t0)} e^{−σt ℓ(t)}
+/// dt, which the test computes itself in f64 — in closed form for a sun straight overhead
+/// (ℓ = top − y(t), linear), and by 20 000-point Simpson quadrature with ℓ found by a ray–box
+/// exit for a slanted sun (ℓ switches faces along the ray). Both methods must agree to 2e-4
+/// relative (f32 sums of up to 128 exponentials, each within a few ulp).
+#[test]
+fn box_medium_matches_the_analytic_integral() {
+    let gpu = require_gpu!();
+    let (lo, hi) = (Vec3::new(5.0, 0.5, -2.0), Vec3::new(9.0, 4.0, 2.0));
+    let eye = Vec3::new(7.0, 2.0, 9.0);
+    let (sigma, albedo, g) = (0.3f64, 0.9f64, 0.4f32);
+    for (elevation, azimuth) in [(90.0, 0.0), (50.0, 100.0)] {
+        let scene = vec![
+            ("name", en("torus")),
+            ("camera", en("custom")),
+            ("cam_x", p(eye.x as f64)),
+            ("cam_y", p(eye.y as f64)),
+            ("cam_z", p(eye.z as f64)),
+            ("target_x", p(7.0)),
+            ("target_y", p(2.3)),
+            ("target_z", p(0.0)),
+            ("fov", p(30.0)),
+            ("light", en("custom")),
+            ("sun_elevation", p(elevation)),
+            ("sun_azimuth", p(azimuth)),
+        ];
+        for method in ["MinMax", "BruteForce"] {
+            let r = run_scene(
+                &gpu,
+                &scene,
+                512,
+                (20, 12),
+                &[
+                    ("bounds", en("box")),
+                    ("box_min", v3([5.0, 0.5, -2.0])),
+                    ("box_max", v3([9.0, 4.0, 2.0])),
+                    ("light_extinction", en("on")),
+                    ("sigma_t", p(sigma)),
+                    ("albedo", p(albedo)),
+                    ("g", p(g as f64)),
+                    ("method", en(method)),
+                ],
+            );
+            let to_sun = r.light.backward().as_dvec3();
+            let inv = r.camera.view_proj().inverse();
+            let (w, h) = (r.vis.width, r.vis.height);
+            let mut checked = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let ndc = glam::Vec4::new(
+                        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+                        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+                        1.0,
+                        1.0,
+                    );
+                    let far = inv * ndc;
+                    let dir = (far.truncate() / far.w - r.camera.eye()).normalize();
+                    let s = r.depth.pixel(x, y)[0] as f64;
+                    let (e, d) = (r.camera.eye().as_dvec3(), dir.as_dvec3());
+                    let Some((t0, t1)) = slab(e, d, lo.as_dvec3(), hi.as_dvec3(), s) else {
+                        assert_eq!(r.inscatter.pixel(x, y)[0], 0.0, "({x},{y}) misses the box");
+                        continue;
+                    };
+                    let ell = |t: f64| {
+                        let q = e + d * t;
+                        slab(q, to_sun, lo.as_dvec3(), hi.as_dvec3(), f64::INFINITY)
+                            .map_or(0.0, |(_, out)| out)
+                    };
+                    let f = |t: f64| (-sigma * ((t - t0) + ell(t))).exp();
+                    let integral = if elevation == 90.0 {
+                        // ℓ(t) = hi.y − (e.y + d.y t): the exponent is linear in t.
+                        let m = sigma * (1.0 - d.y);
+                        f(t0) * (1.0 - (-m * (t1 - t0)).exp()) / m
+                    } else {
+                        simpson(f, t0, t1, 20_000)
+                    };
+                    let phase = henyey_greenstein(g, dir.dot(r.light.backward())) as f64;
+                    for c in 0..3 {
+                        let want = r.light.radiance[c] as f64 * sigma * albedo * phase * integral;
+                        let got = r.inscatter.pixel(x, y)[c] as f64;
+                        let slack = chord_slack(
+                            r.light.radiance[c],
+                            sigma as f32,
+                            albedo as f32,
+                            g,
+                            s as f32,
+                        );
+                        assert!(
+                            (got - want).abs() <= 2e-4 * want.abs() + slack as f64,
+                            "{method} sun {elevation}°: ({x},{y}) channel {c}: {got} vs {want}"
+                        );
+                    }
+                    assert!(r.vis.pixel(x, y)[0] == 1.0, "a shadow reached the box");
+                    checked += 1;
+                }
+            }
+            assert!(
+                checked > (w * h) as usize / 4,
+                "{checked} pixels cross the box"
+            );
+        }
+    }
+}
+
+/// The part of [0, s] of the ray e + d·t inside the box, in f64 (None: it misses).
+fn slab(
+    e: glam::DVec3,
+    d: glam::DVec3,
+    lo: glam::DVec3,
+    hi: glam::DVec3,
+    s: f64,
+) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, s);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if e[k] < lo[k] || e[k] > hi[k] {
+                return None;
+            }
+        } else {
+            let (a, b) = ((lo[k] - e[k]) / d[k], (hi[k] - e[k]) / d[k]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+    }
+    (t1 > t0).then_some((t0, t1))
+}
+
+fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let hstep = (b - a) / n as f64;
+    let mut sum = f(a) + f(b);
+    for i in 1..n {
+        sum += f(a + i as f64 * hstep) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    sum * hstep / 3.0
+}
+
+/// σt at 0 and 1e4 with bounds and light extinction on; the camera outside the box, inside it
+/// and on its boundary; a box of zero volume; rays parallel to box faces (a camera looking
+/// straight along −z, odd image size): everything finite, V̄ in [0, 1], and MinMax close to
+/// 2048 brute-force steps (the bound of `extremes_stay_finite_and_methods_agree`).
+#[test]
+fn bounded_extremes_stay_finite() {
+    let gpu = require_gpu!();
+    let cam = |pos: [f64; 3], target: [f64; 3]| -> Params {
+        vec![
+            ("name", en("tree")),
+            ("camera", en("custom")),
+            ("cam_x", p(pos[0])),
+            ("cam_y", p(pos[1])),
+            ("cam_z", p(pos[2])),
+            ("target_x", p(target[0])),
+            ("target_y", p(target[1])),
+            ("target_z", p(target[2])),
+        ]
+    };
+    let outside = cam([9.0, 2.2, 9.5], [0.0, 3.5, 0.0]);
+    let inside = cam([1.0, 3.0, 1.0], [-2.0, 4.0, -2.0]);
+    let on_face = cam([3.0, 3.0, 0.0], [-2.0, 4.0, 0.5]);
+    let axis = cam([0.0, 3.0, 9.0], [0.0, 3.0, 0.0]);
+    let flat = vec![("box_max", v3([3.0, 0.0, 3.0]))]; // zero volume: y from 0 to 0
+    let cases: Vec<(&str, Params, Params)> = vec![
+        (
+            "sigma_t = 0",
+            outside.clone(),
+            bounded(&[("sigma_t", p(0.0))]),
+        ),
+        (
+            "sigma_t = 1e4",
+            outside.clone(),
+            bounded(&[("sigma_t", p(1e4))]),
+        ),
+        ("camera inside", inside, bounded(&[])),
+        ("camera on a face", on_face, bounded(&[])),
+        ("rays along the z faces", axis, bounded(&[])),
+        ("zero-volume box", outside.clone(), bounded(&flat)),
+        (
+            "extinction off",
+            outside,
+            bounded(&[("light_extinction", en("off"))]),
+        ),
+    ];
+    for (what, scene, extra) in cases {
+        let mut brute = extra.clone();
+        brute.push(("steps", ParamValue::Int(2048)));
+        let mut fast = extra.clone();
+        fast.push(("method", en("MinMax")));
+        let a = run_scene(&gpu, &scene, 512, (25, 15), &brute);
+        let b = run_scene(&gpu, &scene, 512, (25, 15), &fast);
+        assert_finite(&a, what);
+        assert_finite(&b, what);
+        let d = common::max_abs_diff(&a.vis, &b.vis);
+        assert!(
+            d <= 16.0 / (2.0 * 2048.0),
+            "{what}: MinMax differs from 2048 steps by {d}"
+        );
+        let peak = a
+            .inscatter
+            .data
+            .iter()
+            .cloned()
+            .fold(0.0f32, f32::max)
+            .max(1e-30);
+        let di = common::max_abs_diff(&a.inscatter, &b.inscatter) / peak;
+        assert!(di <= 0.01, "{what}: in-scatter differs by {di} of its peak");
+        match what {
+            "sigma_t = 0" | "zero-volume box" => {
+                assert!(a.transmittance.data.iter().all(|v| *v == 1.0), "{what}");
+                assert!(
+                    a.inscatter.data.chunks(4).all(|c| c[..3] == [0.0; 3]),
+                    "{what}: nothing may scatter"
+                );
+            }
+            "camera inside" => assert!(a.transmittance.data.iter().all(|v| *v < 1.0)),
+            _ => {}
+        }
+    }
+}
+
+/// Light extinction needs bounds; `tagged` needs a scene with a `medium` object.
+#[test]
+fn bounded_medium_errors_name_the_parameter() {
+    let gpu = require_gpu!();
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let text = |scatter: &str| {
+        format!(
+            "(version: 2, nodes: {{\"scene\": (kind: \"Scene\"), \"shadow\": (kind: \"ShadowMap\", params: {{\"resolution\": 64}}), \"gbuffer\": (kind: \"GBuffer\"), \"scatter\": (kind: \"SingleScattering\", params: {{{scatter}}})}}, edges: [(\"scene.scene\", \"shadow.scene\"), (\"scene.scene\", \"gbuffer.scene\"), (\"shadow.map\", \"scatter.shadow\"), (\"gbuffer.depth\", \"scatter.depth\"), (\"scene.scene\", \"scatter.scene\")])"
+        )
+    };
+    for (params, words) in [
+        (
+            "\"light_extinction\": \"on\"",
+            &["scatter", "light_extinction", "bounds"][..],
+        ),
+        (
+            "\"bounds\": \"tagged\"",
+            &["scatter", "scene", "medium"][..],
+        ),
+        (
+            "\"bounds\": \"box\", \"box_min\": [0, 0, 0], \"box_max\": [1, -1, 1]",
+            &["scatter", "box_max"][..],
+        ),
+    ] {
+        let g = tyndall::graph::load_str(&text(params), std::path::Path::new("e.ron"), &cat)
+            .expect("graph");
+        let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+        let err = ev
+            .evaluate(
+                &g,
+                &[Target::Port("scatter".into(), "inscatter".into())],
+                &EvalOptions {
+                    size: (8, 8),
+                    ..Default::default()
+                },
+            )
+            .expect_err(params)
+            .to_string();
+        for w in words {
+            assert!(err.contains(w), "{params}: '{w}' missing from: {err}");
+        }
+    }
+}
+
+/// A glTF object tagged `medium` is not drawn; its bounds are the scene's medium, and
+/// `bounds = tagged` renders exactly what `bounds = box` with those corners renders.
+#[test]
+fn tagged_medium_from_gltf_equals_the_same_box() {
+    let gpu = require_gpu!();
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/medium_scene.gltf");
+    let scene = tyndall::scene::load_gltf(&path).expect("load");
+    assert_eq!(scene.objects.len(), 3, "the medium box is not drawn");
+    assert!(scene
+        .objects
+        .iter()
+        .all(|o| !o.tags.iter().any(|t| t == "medium")));
+    assert_eq!(
+        scene.medium,
+        Some((Vec3::new(-4.0, 0.0, -1.0), Vec3::new(4.0, 4.0, 5.0)))
+    );
+    assert_eq!(scene.sun.intensity, 3.0, "2049 lux = 3 W/m²");
+    let gltf = [("path", ParamValue::Text(path.display().to_string()))];
+    let common = [("light_extinction", en("on")), ("method", en("MinMax"))];
+    let mut tagged = vec![("bounds", en("tagged"))];
+    tagged.extend(common.iter().cloned());
+    let mut boxed = vec![
+        ("bounds", en("box")),
+        ("box_min", v3([-4.0, 0.0, -1.0])),
+        ("box_max", v3([4.0, 4.0, 5.0])),
+    ];
+    boxed.extend(common.iter().cloned());
+    let a = run_scene(&gpu, &gltf, 256, (32, 18), &tagged);
+    let b = run_scene(&gpu, &gltf, 256, (32, 18), &boxed);
+    assert_eq!(a.inscatter, b.inscatter);
+    assert_eq!(a.transmittance, b.transmittance);
+    assert!(a.inscatter.data.iter().any(|v| *v > 0.0));
 }

@@ -237,6 +237,7 @@ fn torus_scene() -> Scene {
             colour: [1.0, 0.95, 0.85],
             intensity: 3.0,
         },
+        medium: None,
     }
 }
 
@@ -306,6 +307,7 @@ fn tree_scene(rng: &mut Rng, seed: u64) -> Scene {
             colour: [1.0, 0.92, 0.78],
             intensity: 3.0,
         },
+        medium: None,
     }
 }
 
@@ -393,6 +395,7 @@ fn window_scene(rng: &mut Rng) -> Scene {
             colour: [1.0, 0.9, 0.75],
             intensity: 4.0,
         },
+        medium: None,
     }
 }
 
@@ -430,6 +433,7 @@ fn fence_scene(rng: &mut Rng) -> Scene {
             colour: [1.0, 0.85, 0.65],
             intensity: 3.0,
         },
+        medium: None,
     }
 }
 
@@ -484,5 +488,6 @@ fn figure_scene(rng: &mut Rng) -> Scene {
             colour: [1.0, 0.93, 0.8],
             intensity: 3.0,
         },
+        medium: None,
     }
 }

@@ -1,6 +1,8 @@
 //! glTF 2.0 (`.gltf` with embedded or external buffers, `.glb`): meshes with node transforms,
 //! base colours, the first camera and the first directional light (`KHR_lights_punctual`).
-//! Tags come from a node's `extras: {"tags": [...]}`.
+//! Tags come from a node's `extras: {"tags": [...]}`; objects tagged `medium` are not drawn but
+//! give the scene's medium bounds. A directional light's intensity (lux) is read as irradiance
+//! in W/m² (÷ 683, [`LUX_PER_WATT`]).
 
 use std::path::Path;
 
@@ -8,6 +10,14 @@ use base64::Engine;
 use glam::{Mat3, Mat4, Vec3};
 
 use super::{Camera, Object, Scene, SceneError, Sun};
+
+/// Luminous efficacy used to read a glTF directional light's illuminance (lux) as irradiance
+/// (W/m²), as Blender's glTF importer does in its default ("Standard") lighting mode.
+pub const LUX_PER_WATT: f32 = 683.0;
+
+/// Objects carrying this tag (glTF node `extras: {"tags": ["medium"]}`) bound the participating
+/// medium (`SingleScattering` with `bounds = tagged`) and are not drawn.
+pub const MEDIUM_TAG: &str = "medium";
 
 fn err(path: &Path, reason: impl std::fmt::Display) -> SceneError {
     SceneError::Gltf {
@@ -113,7 +123,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
                     azimuth,
                     elevation,
                     colour: light.color(),
-                    intensity: light.intensity(),
+                    intensity: light.intensity() / LUX_PER_WATT,
                 });
             }
         }
@@ -172,11 +182,24 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
             });
         }
     }
+    let (media, objects): (Vec<Object>, Vec<Object>) = objects
+        .into_iter()
+        .partition(|o| o.tags.iter().any(|t| t == MEDIUM_TAG));
     if objects.is_empty() {
-        return Err(err(path, "no triangle meshes"));
+        return Err(err(
+            path,
+            "no triangle meshes (other than the medium's bounds)",
+        ));
     }
+    let medium = media
+        .iter()
+        .flat_map(|o| o.positions.iter())
+        .fold(None, |b: Option<(Vec3, Vec3)>, p| {
+            Some(b.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))))
+        });
     let mut s = Scene {
         objects,
+        medium,
         camera: Camera {
             position: Vec3::ZERO,
             target: Vec3::NEG_Z,

@@ -9,7 +9,7 @@ use glam::{Mat4, Vec3};
 use thiserror::Error;
 
 pub use builtin::{builtin, Builtin, BUILTIN_SCENES};
-pub use gltf_load::load_gltf;
+pub use gltf_load::{load_gltf, LUX_PER_WATT, MEDIUM_TAG};
 pub use gpu::{GpuScene, MeshVertex};
 
 /// Errors building or loading a scene.
@@ -92,7 +92,8 @@ pub struct Sun {
     pub elevation: f32,
     /// Linear RGB colour.
     pub colour: [f32; 3],
-    /// Intensity multiplying the colour.
+    /// Irradiance in W/m² on a surface facing the sun (multiplies the colour). glTF files give
+    /// lux; the loader divides by 683 lm/W as Blender's glTF importer does.
     pub intensity: f32,
 }
 
@@ -112,7 +113,7 @@ impl Sun {
         )
     }
 
-    /// Colour × intensity.
+    /// Colour × intensity: the sun's irradiance per channel, W/m².
     pub fn radiance(&self) -> [f32; 3] {
         self.colour.map(|c| c * self.intensity)
     }
@@ -127,6 +128,10 @@ pub struct Scene {
     pub camera: Camera,
     /// The sun (the file's or the built-in's; node parameters may override it).
     pub sun: Sun,
+    /// Bounds `(min, max)` of the objects tagged `medium` in a glTF file (those objects are not
+    /// part of `objects`: they bound the participating medium and are not drawn); `None` when
+    /// the scene has none.
+    pub medium: Option<(Vec3, Vec3)>,
 }
 
 impl Scene {
