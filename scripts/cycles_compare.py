@@ -1,0 +1,245 @@
+"""Tyndall's physical mode against a path tracer: Blender's Cycles, single scattering only.
+
+Run (Debian: apt-get install blender), from the repository root, after `cargo build --release`:
+
+    blender -b --factory-startup --python scripts/cycles_compare.py [-- --samples N --out DIR]
+
+It builds a small scene — ground, a wall with a vertical slit, a sun behind the wall, and a box of
+homogeneous fog (Volume Scatter: density σ = σt, albedo 1, anisotropy g) on the camera's side —
+renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the sun, shadowed,
+attenuated on the way in and on the way out, which is Tyndall's `bounds = tagged`,
+`light_extinction = on`), exports the same scene as glTF (the fog box tagged `medium`, the sun's
+W/m² written as lux × 683), renders it with `target/release/tyndall`, and prints the correlation
+and the mean relative error over the pixels whose Cycles in-scatter is above 10 % of its maximum.
+
+Default output is tests/fixtures/cycles/: `scene.gltf`, `cycles_volume_direct.exr` (what the test
+`tests/cycles.rs` compares against, so CI needs no Blender) and `compare.ron` (the Tyndall graph).
+"""
+import math
+import os
+import subprocess
+import sys
+
+import bpy
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+
+# The scene's physical values (the test reads the same ones from compare.ron).
+SIGMA = 0.25        # 1/m, Volume Scatter density = σt (albedo 1)
+G = 0.5             # Henyey–Greenstein anisotropy
+SUN_W_M2 = 5.0      # sun irradiance, W/m²
+WIDTH, HEIGHT = 160, 90
+FOG_MIN = (-4.0, -6.0, 0.0)   # Blender coordinates (z up)
+FOG_MAX = (4.0, -0.2, 4.0)
+
+
+def args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    samples, out = 2048, os.path.join(ROOT, "tests", "fixtures", "cycles")
+    for i, a in enumerate(argv):
+        if a == "--samples":
+            samples = int(argv[i + 1])
+        if a == "--out":
+            out = os.path.abspath(argv[i + 1])
+    return samples, out
+
+
+def box(name, lo, hi):
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    o = bpy.context.active_object
+    o.name = name
+    o.location = [(a + b) / 2 for a, b in zip(lo, hi)]
+    o.scale = [(b - a) / 2 for a, b in zip(lo, hi)]
+    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+    return o
+
+
+def material(name, colour=None, volume=False):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    out = nodes["Material Output"]
+    bsdf = nodes.get("Principled BSDF")
+    if volume:
+        nodes.remove(bsdf)
+        scatter = nodes.new("ShaderNodeVolumeScatter")
+        scatter.inputs["Density"].default_value = SIGMA
+        scatter.inputs["Anisotropy"].default_value = G
+        scatter.inputs["Color"].default_value = (1, 1, 1, 1)
+        links.new(scatter.outputs["Volume"], out.inputs["Volume"])
+    else:
+        bsdf.inputs["Base Color"].default_value = colour
+        bsdf.inputs["Roughness"].default_value = 1.0
+    return m
+
+
+def build():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    ground = box("ground", (-10, -12, -0.1), (10, 8, 0.0))
+    ground.data.materials.append(material("ground", (0.6, 0.58, 0.55, 1)))
+    wall = material("wall", (0.7, 0.4, 0.3, 1))
+    for name, lo, hi in (("wall_left", (-7, -0.1, 0), (-0.35, 0.1, 9.0)),
+                         ("wall_right", (0.35, -0.1, 0), (7, 0.1, 9.0))):
+        w = box(name, lo, hi)
+        w.data.materials.append(wall)
+        w["tags"] = ["wall", "occluder"]
+    ground["tags"] = ["ground"]
+    fog = box("fog", FOG_MIN, FOG_MAX)
+    fog.data.materials.append(material("fog", volume=True))
+    fog["tags"] = ["medium"]
+
+    sun_data = bpy.data.lights.new("sun", type="SUN")
+    sun_data.energy = SUN_W_M2
+    sun_data.angle = 0.0
+    sun = bpy.data.objects.new("sun", sun_data)
+    scene.collection.objects.link(sun)
+    # The light travels towards −y (through the slit to the camera's side), down and a little −x.
+    travel = (-0.25, -1.0, -0.45)
+    sun.rotation_mode = "QUATERNION"
+    sun.rotation_quaternion = look(travel)
+
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.lens_unit = "FOV"
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.angle_y = math.radians(40)
+    cam_data.clip_start, cam_data.clip_end = 0.1, 60.0
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (6.0, -13.0, 2.2)
+    cam.rotation_mode = "QUATERNION"
+    cam.rotation_quaternion = look(tuple(t - c for t, c in zip((0.0, -1.0, 2.0), cam.location)))
+    scene.camera = cam
+
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    return scene
+
+
+def look(direction):
+    """Rotation taking Blender's −Z (the camera's and the sun's forward) onto `direction`."""
+    from mathutils import Vector
+    return Vector(direction).normalized().to_track_quat("-Z", "Y")
+
+
+def render_cycles(scene, samples, out):
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.max_bounces = 0
+    c.volume_bounces = 0
+    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 0
+    c.transparent_max_bounces = 8
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    # Tyndall evaluates one ray through each pixel's centre: a (nearly) zero-width pixel filter
+    # makes Cycles average over the same ray instead of a 1.5-pixel footprint.
+    c.filter_type = "BOX"
+    c.filter_width = 0.01
+    scene.render.resolution_x, scene.render.resolution_y = WIDTH, HEIGHT
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = False
+    scene.view_settings.view_transform = "Standard"
+    layer = scene.view_layers[0]
+    layer.cycles.use_pass_volume_direct = True
+    scene.use_nodes = True
+    tree = scene.node_tree
+    for n in list(tree.nodes):
+        tree.nodes.remove(n)
+    rl = tree.nodes.new("CompositorNodeRLayers")
+    comp = tree.nodes.new("CompositorNodeComposite")
+    tree.links.new(rl.outputs["Image"], comp.inputs["Image"])
+    fo = tree.nodes.new("CompositorNodeOutputFile")
+    fo.base_path = out
+    fo.format.file_format = "OPEN_EXR"
+    fo.format.color_depth = "32"
+    fo.format.color_mode = "RGB"
+    fo.file_slots[0].path = "cycles_volume_direct"
+    tree.links.new(rl.outputs["VolumeDir"], fo.inputs[0])
+    scene.frame_set(1)
+    bpy.ops.render.render(write_still=False)
+    produced = os.path.join(out, "cycles_volume_direct0001.exr")
+    final = os.path.join(out, "cycles_volume_direct.exr")
+    os.replace(produced, final)
+    return final
+
+
+GRAPH = """(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"path": "{gltf}"}}),
+        "shadow": (kind: "ShadowMap", params: {{"resolution": 2048}}),
+        "gbuffer": (kind: "GBuffer"),
+        "scatter": (kind: "SingleScattering", params: {{"sigma_t": {sigma}, "albedo": 1.0, "g": {g}, "method": "MinMax", "bias": 0.0005, "bounds": "tagged", "light_extinction": "on"}}),
+        "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),
+    }},
+    edges: [
+        ("scene.scene", "shadow.scene"),
+        ("scene.scene", "gbuffer.scene"),
+        ("scene.scene", "scatter.scene"),
+        ("shadow.map", "scatter.shadow"),
+        ("gbuffer.depth", "scatter.depth"),
+        ("scatter.inscatter", "out.image"),
+    ],
+)
+"""
+
+
+def export_and_render_tyndall(out):
+    gltf = os.path.join(out, "scene.gltf")
+    bpy.ops.export_scene.gltf(filepath=gltf, export_format="GLTF_EMBEDDED", export_cameras=True,
+                              export_lights=True, export_extras=True, export_yup=True,
+                              export_apply=True)
+    rel = os.path.relpath(gltf, ROOT)
+    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, exr="out/cycles/tyndall_inscatter.exr")
+    with open(os.path.join(out, "compare.ron"), "w") as f:
+        f.write(graph)
+    exe = os.path.join(ROOT, "target", "release", "tyndall")
+    subprocess.run([exe, "render", os.path.join(out, "compare.ron"), "--size", f"{WIDTH}x{HEIGHT}"],
+                   cwd=ROOT, check=True)
+    return os.path.join(ROOT, "out", "cycles", "tyndall_inscatter.exr")
+
+
+def pixels(path):
+    img = bpy.data.images.load(path)
+    px = list(img.pixels)  # RGBA, rows bottom to top
+    w, h = img.size
+    rows = [px[r * w * 4:(r + 1) * w * 4] for r in range(h)]
+    return [v for row in reversed(rows) for v in row], w, h
+
+
+def compare(cycles_exr, tyndall_exr):
+    a, w, h = pixels(cycles_exr)
+    b, w2, h2 = pixels(tyndall_exr)
+    assert (w, h) == (w2, h2)
+    lum = lambda p, i: sum(p[i * 4 + c] for c in range(3)) / 3
+    ref = [lum(a, i) for i in range(w * h)]
+    got = [lum(b, i) for i in range(w * h)]
+    peak = max(ref)
+    lit = [i for i in range(w * h) if ref[i] > 0.1 * peak]
+    mx, my = sum(ref[i] for i in lit) / len(lit), sum(got[i] for i in lit) / len(lit)
+    sxy = sum((ref[i] - mx) * (got[i] - my) for i in lit)
+    sxx = sum((ref[i] - mx) ** 2 for i in lit)
+    syy = sum((got[i] - my) ** 2 for i in lit)
+    corr = sxy / math.sqrt(sxx * syy)
+    rel = sum(abs(got[i] - ref[i]) / ref[i] for i in lit) / len(lit)
+    ratio = sum(got[i] for i in lit) / sum(ref[i] for i in lit)
+    print(f"compare: {len(lit)} lit pixels (Cycles in-scatter > 10 % of its max {peak:.5g} W/(m²·sr))")
+    print(f"compare: correlation {corr:.4f}, mean relative error {rel * 100:.2f} %, "
+          f"Tyndall/Cycles level {ratio:.4f}")
+
+
+def main():
+    samples, out = args()
+    os.makedirs(out, exist_ok=True)
+    scene = build()
+    cycles_exr = render_cycles(scene, samples, out)
+    tyndall_exr = export_and_render_tyndall(out)
+    compare(cycles_exr, tyndall_exr)
+
+
+main()
