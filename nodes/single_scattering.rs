@@ -366,6 +366,21 @@ fn light_line(p: &ScatterParams, dir: Vec3, k: usize) -> (f32, f32) {
     ((face - p.eye[k]) / sk, -dir[k] / sk)
 }
 
+/// ℓ at distance t along the view ray, computed from the point itself (the lines of
+/// [`light_line`] carry terms of order 1/|sun_k| that cancel badly in f32).
+fn light_exit(p: &ScatterParams, dir: Vec3, t: f32) -> f32 {
+    let q = Vec3::from(p.eye) + dir * t;
+    let mut ell = 3.0e38f32;
+    for k in 0..3 {
+        let sk = p.to_sun[k];
+        if sk.abs() >= 1e-12 {
+            let face = if sk > 0.0 { p.box_max[k] } else { p.box_min[k] };
+            ell = ell.min((face - q[k]) / sk);
+        }
+    }
+    ell.max(0.0)
+}
+
 /// `∫_a^b E(t) dt`, E(t) = e^{−σt (t − t0)} · e^{−σt ℓ(t)} (ℓ = 0 with light extinction off):
 /// the weight of a stretch of the view ray in the medium (see the shader's comment).
 pub fn weight(p: &ScatterParams, dir: Vec3, t0: f32, a: f32, b: f32) -> f32 {
@@ -411,7 +426,7 @@ pub fn weight(p: &ScatterParams, dir: Vec3, t0: f32, a: f32, b: f32) -> f32 {
         } else {
             (decay_integral(p1 - p0, -m), p1)
         };
-        let e = (-sig * ((at - t0) + (line.0 + line.1 * at).max(0.0))).exp();
+        let e = (-sig * ((at - t0) + light_exit(p, dir, at))).exp();
         total += e * integral;
     }
     total

@@ -114,6 +114,21 @@ fn decay_integral(len: f32, m: f32) -> f32 {
     return (1.0 - exp(-x)) / m;
 }
 
+// ℓ at distance t along the view ray, from the point itself (the lines above carry terms of
+// order 1/|sun_k|, which cancel badly in f32 when the sun is nearly parallel to a face).
+fn light_exit(dir: vec3<f32>, t: f32) -> f32 {
+    let q = P.eye + dir * t;
+    var ell = 3.0e38;
+    for (var k = 0; k < 3; k++) {
+        let sk = P.to_sun[k];
+        if abs(sk) >= 1e-12 {
+            let face = select(P.box_min[k], P.box_max[k], sk > 0.0);
+            ell = min(ell, (face - q[k]) / sk);
+        }
+    }
+    return max(ell, 0.0);
+}
+
 // ∫_a^b e^{−m (t − a)} dt for m of either sign, from the end where the exponent is largest, so
 // nothing overflows: returns (integral relative to E at that end, which end: 0 = a, 1 = b).
 fn exp_segment(len: f32, m: f32) -> vec2<f32> {
@@ -180,7 +195,7 @@ fn weight(dir: vec3<f32>, t0: f32, a: f32, b: f32) -> f32 {
         }
         let seg = exp_segment(p1 - p0, sig * (1.0 + line.y));
         let at = select(p0, p1, seg.y > 0.5);
-        let e = exp(-sig * ((at - t0) + max(line.x + line.y * at, 0.0)));
+        let e = exp(-sig * ((at - t0) + light_exit(dir, at)));
         total += e * seg.x;
     }
     return total;
