@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cargo build --release --quiet
-for scene in torus tree window fence figure; do
+for scene in torus tree window fence figure window_room; do
   ./target/release/tyndall render "graphs/physical/$scene.ron" -o "docs/physical/$scene.png" --size 960x540
 done
 ./target/release/tyndall render tests/fixtures/gltf_scene.ron -o docs/physical/gltf_scene.png --size 960x540
