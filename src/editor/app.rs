@@ -249,7 +249,7 @@ impl EditorApp {
                 view,
             });
         }
-        if let Some(out) = worker.poll() {
+        for out in worker.poll() {
             for (id, rep) in out.nodes {
                 if let Some(t) = &rep.thumb {
                     let image = colour_image(t, Channel::Rgb, 0.0);

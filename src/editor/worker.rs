@@ -118,14 +118,16 @@ impl Worker {
         self.sent
     }
 
-    /// The newest finished outcome, if any arrived since the last call.
-    pub fn poll(&mut self) -> Option<Outcome> {
-        let mut last = None;
+    /// Every outcome finished since the last call, oldest first. All of them, not only the
+    /// newest: a thumbnail is sent once (the worker remembers it was delivered), so an outcome
+    /// skipped here would lose its thumbnails until the node reruns.
+    pub fn poll(&mut self) -> Vec<Outcome> {
+        let mut outs = Vec::new();
         while let Ok(o) = self.rx.try_recv() {
             self.done = o.generation;
-            last = Some(o);
+            outs.push(o);
         }
-        last
+        outs
     }
 
     /// Every request sent has its outcome (or the worker is gone).
