@@ -21,13 +21,12 @@
 //! The cache key includes the file's size and modification time, so editing the file on disk
 //! re-runs the node.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `ImageInput` node kind.
@@ -112,7 +111,8 @@ impl NodeKind for ImageInput {
         &DECL
     }
 
-    fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
+    fn volatile_key(&self, key: &KeyInput) -> u64 {
+        let params = key.params;
         super::util::file_stamp(params, "path")
     }
 

@@ -26,6 +26,7 @@ pub mod shadow_map;
 pub mod side_by_side;
 pub mod single_scattering;
 pub mod tonemap;
+pub mod transfer_function;
 pub mod util;
 
 /// Every node kind Tyndall ships.
@@ -58,5 +59,6 @@ pub fn registry() -> Registry {
     r.add(Arc::new(side_by_side::SideBySide));
     r.add(Arc::new(single_scattering::SingleScattering));
     r.add(Arc::new(tonemap::Tonemap));
+    r.add(Arc::new(transfer_function::TransferFunction));
     r
 }

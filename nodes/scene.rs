@@ -29,14 +29,13 @@
 //! | `sun_colour` | Colour | (1, 0.95, 0.85, 1) | 0…1e6 | linear RGB (alpha unused) |
 //! | `sun_intensity` | Float | 3 | 0…1e6 W/m² | irradiance on a surface facing the sun, multiplying the colour |
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::scene::{builtin, load_gltf, Builtin, GpuScene, Sun};
 
 /// The `Scene` node kind.
@@ -79,7 +78,8 @@ impl NodeKind for SceneNode {
         &DECL
     }
 
-    fn volatile_key(&self, params: &BTreeMap<String, ParamValue>) -> u64 {
+    fn volatile_key(&self, key: &KeyInput) -> u64 {
+        let params = key.params;
         super::util::file_stamp(params, "path")
     }
 

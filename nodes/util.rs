@@ -31,12 +31,18 @@ pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
 /// Cache-key material for a file named by a `Text` parameter: its size and modification time
 /// (so editing the file on disk re-runs the node).
 pub fn file_stamp(params: &BTreeMap<String, ParamValue>, param: &str) -> u64 {
+    match params.get(param) {
+        Some(ParamValue::Text(p)) => path_stamp(std::path::Path::new(p)),
+        _ => 0,
+    }
+}
+
+/// Cache-key material for a file: its size and modification time (0 when it cannot be read).
+pub fn path_stamp(path: &std::path::Path) -> u64 {
     let mut h = std::hash::DefaultHasher::new();
-    if let Some(ParamValue::Text(p)) = params.get(param) {
-        if let Ok(m) = std::fs::metadata(p) {
-            m.len().hash(&mut h);
-            m.modified().ok().hash(&mut h);
-        }
+    if let Ok(m) = std::fs::metadata(path) {
+        m.len().hash(&mut h);
+        m.modified().ok().hash(&mut h);
     }
     h.finish()
 }

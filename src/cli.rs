@@ -314,9 +314,9 @@ fn file_key(path: &Path) -> u64 {
 /// The port type a file with `channels` channels should become on a port accepting `accepts`.
 fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
     if channels == 4 {
-        return accepts
-            .contains(&PortType::Image)
-            .then_some(PortType::Image);
+        return [PortType::Image, PortType::Lut2D]
+            .into_iter()
+            .find(|t| accepts.contains(t));
     }
     accepts
         .iter()
@@ -365,8 +365,8 @@ fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliError> {
         Some(d) => {
             let text =
                 std::fs::read_to_string(d).map_err(|e| bad(format!("{}: {e}", d.display())))?;
-            let v: ron::Value = ron::from_str(&text)
-                .map_err(|e| bad(format!("{}:{}: {}", d.display(), e.span.start, e.code)))?;
+            let v = crate::graph::NodeData::from_text(&text)
+                .map_err(|e| bad(format!("{}:{e}", d.display())))?;
             Some(v)
         }
         None => None,

@@ -10,7 +10,8 @@ use crate::io::Raster;
 
 /// Upload a raster as a value of `ty`: one channel feeds `Scalar`, `Depth` or `ShadowMap`
 /// (matrices identity), four channels feed `Image`; a one-channel raster given for an `Image`
-/// becomes grey with alpha 1. Other combinations are refused with a message.
+/// becomes grey with alpha 1, a square RGBA raster feeds `Lut2D`. Other combinations are refused
+/// with a message.
 pub fn upload_raster(gpu: &Gpu, r: &Raster, ty: PortType) -> Result<PortValue, NodeError> {
     let mismatch = || {
         NodeError::Other(format!(
@@ -20,6 +21,9 @@ pub fn upload_raster(gpu: &Gpu, r: &Raster, ty: PortType) -> Result<PortValue, N
     };
     match (ty, r.channels) {
         (PortType::Image, 4) => Ok(PortValue::Image(Arc::new(
+            gpu.upload(r.width, r.height, 4, &r.data)?,
+        ))),
+        (PortType::Lut2D, 4) if r.width == r.height => Ok(PortValue::Lut2D(Arc::new(
             gpu.upload(r.width, r.height, 4, &r.data)?,
         ))),
         (PortType::Image, 1) => {

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 
 pub use convert::{download, upload_raster};
-pub use node::{with_suffix, NodeDecl, NodeError, NodeKind, Registry, RunCtx};
+pub use node::{with_suffix, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx};
 pub use value::{Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;
@@ -318,10 +318,13 @@ impl Evaluator {
                 .map_err(|e| e.into_eval(&node_err))?;
             done.keys.insert(id.clone(), key);
             let want = plan.wanted.get(id).unwrap_or(&empty);
+            let data = graph.node(id).and_then(|n| n.data.as_ref());
             let mut ctx = RunCtx {
                 gpu: &gpu,
                 id,
                 params: &params,
+                data,
+                time: opts.time,
                 inputs: &inputs,
                 wanted: want,
                 size: opts.size,
@@ -522,8 +525,8 @@ impl MissingInput {
     }
 }
 
-/// Step 2, key: the node's cache key — kind, parameters (less the exempt ones), volatile
-/// material, evaluation size, and each input's upstream key — and its input values.
+/// Step 2, key: the node's cache key — kind, parameters (less the exempt ones), data block,
+/// volatile material, evaluation size, and each input's upstream key — and its input values.
 fn key_and_inputs(
     graph: &Graph,
     id: &str,
@@ -541,7 +544,14 @@ fn key_and_inputs(
             v.hash_into(&mut h);
         }
     }
-    k.volatile_key(params).hash(&mut h);
+    let data = graph.node(id).and_then(|n| n.data.as_ref());
+    data.hash(&mut h);
+    k.volatile_key(&KeyInput {
+        params,
+        data,
+        time: opts.time,
+    })
+    .hash(&mut h);
     opts.size.hash(&mut h);
     let mut inputs = BTreeMap::new();
     for input in k.schema().inputs {

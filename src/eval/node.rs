@@ -8,7 +8,7 @@ use thiserror::Error;
 
 use super::value::PortValue;
 use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
-use crate::graph::{Choice, NodeSchema, ParamValue};
+use crate::graph::{Choice, NodeData, NodeSchema, ParamValue};
 
 /// A failure inside a node, before the evaluator adds the node's id and kind.
 #[derive(Debug, Error, Clone)]
@@ -29,6 +29,9 @@ pub enum NodeError {
         /// What is wrong.
         message: String,
     },
+    /// A problem with the node's data block.
+    #[error("data block: {0}")]
+    Data(String),
     /// Reading or writing a file.
     #[error("{0}")]
     Io(String),
@@ -54,6 +57,10 @@ pub struct RunCtx<'a> {
     pub id: &'a str,
     /// Parameter values at the evaluation time (all declared parameters present).
     pub params: &'a BTreeMap<String, ParamValue>,
+    /// The node's data block, if it has one.
+    pub data: Option<&'a NodeData>,
+    /// The evaluation time (frames), for nodes that interpolate key-frames in their data.
+    pub time: f64,
     /// Values on connected input ports.
     pub inputs: &'a BTreeMap<String, PortValue>,
     /// Output ports some consumer needs; a node may skip the others.
@@ -172,6 +179,14 @@ impl RunCtx<'_> {
         }
     }
 
+    /// The data block parsed into the node's structure; `T::default()` when the node has none.
+    pub fn data<T: serde::de::DeserializeOwned + Default>(&self) -> Result<T, NodeError> {
+        match self.data {
+            Some(d) => d.parse().map_err(NodeError::Data),
+            None => Ok(T::default()),
+        }
+    }
+
     /// The value on input `port`, if connected.
     pub fn input(&self, port: &str) -> Option<&PortValue> {
         self.inputs.get(port)
@@ -230,6 +245,16 @@ pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
         None => format!("{stem}{suffix}"),
     };
     p.with_file_name(name)
+}
+
+/// What [`NodeKind::volatile_key`] may look at.
+pub struct KeyInput<'a> {
+    /// Parameter values at the evaluation time.
+    pub params: &'a BTreeMap<String, ParamValue>,
+    /// The node's data block.
+    pub data: Option<&'a NodeData>,
+    /// The evaluation time.
+    pub time: f64,
 }
 
 /// What a node kind declares as data: its schema (ports, parameters, docs), its shader, the
@@ -305,9 +330,10 @@ pub trait NodeKind: Send + Sync {
     /// The kind's declaration.
     fn decl(&self) -> &'static NodeDecl;
 
-    /// Extra cache-key material the parameters do not capture (e.g. an input file's size and
-    /// modification time). Called every evaluation.
-    fn volatile_key(&self, _params: &BTreeMap<String, ParamValue>) -> u64 {
+    /// Extra cache-key material the parameters and the data block do not capture (an input
+    /// file's size and modification time; the time, for data with key-frames). Called every
+    /// evaluation; the evaluator already hashes the parameters and the data block's text.
+    fn volatile_key(&self, _key: &KeyInput) -> u64 {
         0
     }
 

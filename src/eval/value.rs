@@ -77,6 +77,9 @@ pub enum PortValue {
     Scalar(Arc<GpuTexture>),
     /// RGBA, `RGBA32F`.
     Image(Arc<GpuTexture>),
+    /// A baked transfer function, `RGBA32F`, N×N: texel (i, j) holds the colour at
+    /// u = V̄ = (i + 0.5)/N, v = normalised depth = (j + 0.5)/N.
+    Lut2D(Arc<GpuTexture>),
     /// Any other port type; the producing and consuming nodes agree on the payload.
     Other(PortType, Arc<dyn Any + Send + Sync>),
 }
@@ -89,6 +92,7 @@ impl PortValue {
             PortValue::Depth(..) => PortType::Depth,
             PortValue::Scalar(_) => PortType::Scalar,
             PortValue::Image(_) => PortType::Image,
+            PortValue::Lut2D(_) => PortType::Lut2D,
             PortValue::Other(t, _) => *t,
         }
     }
@@ -99,7 +103,8 @@ impl PortValue {
             PortValue::ShadowMap(t, _)
             | PortValue::Depth(t, _)
             | PortValue::Scalar(t)
-            | PortValue::Image(t) => Some(t),
+            | PortValue::Image(t)
+            | PortValue::Lut2D(t) => Some(t),
             PortValue::Other(..) => None,
         }
     }

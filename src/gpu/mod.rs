@@ -44,6 +44,7 @@ pub enum GpuError {
 }
 
 /// One binding of a compute dispatch (paired with its binding number in group 0).
+#[derive(Clone, Copy)]
 pub enum Bind<'a> {
     /// A uniform buffer with these bytes.
     Uniform(&'a [u8]),
@@ -265,6 +266,25 @@ impl Gpu {
         Ok(self.pool.acquire(width, height, format))
     }
 
+    /// A texture of zeros. ([`Gpu::texture`] recycles textures, so its contents are whatever the
+    /// last user left: a pass that reads a texture before writing every texel starts here.)
+    pub fn zeroed(
+        &self,
+        width: u32,
+        height: u32,
+        format: TexFormat,
+    ) -> Result<GpuTexture, GpuError> {
+        let channels = match format {
+            TexFormat::R32F => 1,
+            TexFormat::Rg32F => 2,
+            TexFormat::Rgba32F => 4,
+        };
+        let zeros = vec![0.0f32; (width * height * channels) as usize];
+        let tex = self.texture(width, height, format)?;
+        self.write(&tex, &zeros)?;
+        Ok(tex)
+    }
+
     /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`) into a new texture.
     pub fn upload(
         &self,
@@ -279,6 +299,13 @@ impl Gpu {
             TexFormat::Rgba32F
         };
         let tex = self.texture(width, height, format)?;
+        self.write(&tex, data)?;
+        Ok(tex)
+    }
+
+    /// Overwrite every texel of `tex` with interleaved float samples.
+    fn write(&self, tex: &GpuTexture, data: &[f32]) -> Result<(), GpuError> {
+        let (width, height, format) = (tex.width, tex.height, tex.format);
         self.scoped(|| {
             self.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
@@ -299,8 +326,7 @@ impl Gpu {
                     depth_or_array_layers: 1,
                 },
             );
-        })?;
-        Ok(tex)
+        })
     }
 
     /// Read a texture back to the CPU: the one row-padded readback helper. Returns

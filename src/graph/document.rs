@@ -25,7 +25,7 @@ pub struct Node {
     /// Position on the editor canvas.
     pub pos: Option<[f32; 2]>,
     /// Free-form per-node data block (TF layers, strokes, splats), kept verbatim.
-    pub data: Option<ron::Value>,
+    pub data: Option<super::NodeData>,
 }
 
 /// An edge payload: which output port feeds which input port.
@@ -255,6 +255,13 @@ impl Graph {
     pub fn set_pos(&mut self, id: &str, pos: Option<[f32; 2]>) -> Result<(), GraphError> {
         let ix = self.ix(id)?;
         self.g[ix].pos = pos;
+        Ok(())
+    }
+
+    /// Set (or clear) a node's data block.
+    pub fn set_data(&mut self, id: &str, data: Option<super::NodeData>) -> Result<(), GraphError> {
+        let ix = self.ix(id)?;
+        self.g[ix].data = data;
         Ok(())
     }
 

@@ -68,7 +68,7 @@ struct FileNodeV1 {
     #[serde(default)]
     position: Option<(f32, f32)>,
     #[serde(default)]
-    data: Option<Value>,
+    data: Option<super::NodeData>,
 }
 
 /// Version 1 → 2: `keyframes` → `keys`, `position` → `pos`.
@@ -131,7 +131,7 @@ struct FileNode {
         skip_serializing_if = "Option::is_none",
         serialize_with = "ser_inner"
     )]
-    data: Option<Value>,
+    data: Option<super::NodeData>,
 }
 
 fn ser_inner<S: Serializer, T: Serialize>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {

@@ -4,12 +4,14 @@
 //! This module knows no GPU and no individual node kind: kinds are described by
 //! [`NodeSchema`]s gathered in a [`Catalog`] that the node registry provides.
 
+mod data;
 mod document;
 mod error;
 mod format;
 mod schema;
 mod types;
 
+pub use data::NodeData;
 pub use document::{check_param_value, split_endpoint, EdgeRefs, Graph, Node, Wire};
 pub use error::{GraphError, LoadError, Location};
 pub use format::{

@@ -87,6 +87,21 @@ pub fn run_node(
     outputs: &[&str],
     size: (u32, u32),
 ) -> Result<BTreeMap<String, Raster>, tyndall::eval::EvalError> {
+    run_node_with(gpu, kind, params, None, 0.0, inputs, outputs, size)
+}
+
+/// [`run_node`] with a data block (RON text) and an evaluation time.
+#[allow(clippy::too_many_arguments)]
+pub fn run_node_with(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    kind: &str,
+    params: &[(&str, ParamValue)],
+    data: Option<&str>,
+    time: f64,
+    inputs: Vec<(&str, PortValue)>,
+    outputs: &[&str],
+    size: (u32, u32),
+) -> Result<BTreeMap<String, Raster>, tyndall::eval::EvalError> {
     let registry = Arc::new(tyndall::nodes::registry());
     let cat = registry.catalog().clone();
     let mut g = Graph::new();
@@ -94,8 +109,13 @@ pub fn run_node(
     for (name, v) in params {
         g.set_param(&cat, &id, name, v.clone()).expect("param");
     }
+    if let Some(d) = data {
+        let d = tyndall::graph::NodeData::from_text(d).expect("data block is RON");
+        g.set_data(&id, Some(d)).expect("data");
+    }
     let mut opts = EvalOptions {
         size,
+        time,
         ..Default::default()
     };
     for (i, (port, v)) in inputs.into_iter().enumerate() {
