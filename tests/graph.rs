@@ -527,3 +527,36 @@ fn vec3_parameters_load_save_and_parse() {
     let bad = text.replace("[-2, 0.5, 3e2]", "[-2, 0.5, 3e2, 1]");
     assert!(load_str(&bad, Path::new("box.ron"), &cat).is_err());
 }
+
+/// A data block survives save → load → save verbatim, enum variant and struct names included
+/// (a parsed `ron::Value` would drop them).
+#[test]
+fn data_blocks_keep_their_names_through_save_and_load() {
+    let registry = tyndall::nodes::registry();
+    let cat = registry.catalog();
+    let text = r#"(
+    version: 2,
+    nodes: {
+        "tf": (kind: "TransferFunction", data: (layers: [(layer: Solid(colour: (1.0, 0.0, 0.0, 1.0)), blend: Add)])),
+    },
+)"#;
+    let g = tyndall::graph::load_str(text, std::path::Path::new("tf.ron"), cat).expect("loads");
+    let saved = tyndall::graph::save_string(&g);
+    assert!(
+        saved.contains("Solid(colour: (1.0, 0.0, 0.0, 1.0)), blend: Add"),
+        "{saved}"
+    );
+    let again =
+        tyndall::graph::load_str(&saved, std::path::Path::new("tf.ron"), cat).expect("reloads");
+    assert_eq!(tyndall::graph::save_string(&again), saved);
+    let data: tyndall::nodes::transfer_function::TfData = again
+        .node("tf")
+        .and_then(|n| n.data.as_ref())
+        .expect("data")
+        .parse()
+        .expect("typed");
+    assert_eq!(
+        data.layers[0].blend,
+        tyndall::nodes::transfer_function::Blend::Add
+    );
+}
