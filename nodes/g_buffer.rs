@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 use super::util::size_or_default;
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
+use crate::gpu::{Gpu, GpuError, GpuTexture, MeshDraw, RasterTarget, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::scene::GpuScene;
 
@@ -72,48 +72,61 @@ impl NodeKind for GBufferNode {
                     message: "is not a scene".into(),
                 })?;
         let (w, h) = size_or_default(ctx, "width", "height")?;
-        let cam = scene.scene.camera;
-        let (view, proj) = (cam.view(), cam.proj(w as f32 / h as f32));
-        let u = GBufferParams {
-            view_proj: (proj * view).to_cols_array_2d(),
-            eye: cam.position.to_array(),
-            far: cam.far,
-        };
-        let depth = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let normal = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
-        let albedo = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
-        ctx.gpu.raster(
-            SHADER,
-            bytemuck::bytes_of(&u),
-            &[
-                RasterTarget {
-                    texture: &depth,
-                    clear: [cam.far as f64, 0.0, 0.0, 0.0],
-                },
-                RasterTarget {
-                    texture: &normal,
-                    clear: [0.0; 4],
-                },
-                RasterTarget {
-                    texture: &albedo,
-                    clear: [0.0; 4],
-                },
-            ],
-            &MeshDraw {
-                vertices: &scene.vertices,
-                indices: &scene.indices,
-                ranges: &scene.ranges,
-            },
-        )?;
-        let m = Matrices {
-            view: view.to_cols_array_2d(),
-            proj: proj.to_cols_array_2d(),
-            far: cam.far,
-            radiance: [0.0; 3],
-        };
+        let (depth, normal, albedo, m) = render(ctx.gpu, scene, &scene.scene.camera, w, h)?;
         ctx.set("depth", PortValue::Depth(Arc::new(depth), m));
         ctx.set("normal", PortValue::Image(Arc::new(normal)));
         ctx.set("albedo", PortValue::Image(Arc::new(albedo)));
         Ok(())
     }
+}
+
+/// Render the G-buffer of `scene` seen by `cam` at `w × h`: linear depth (sky: the far
+/// distance), normals, albedo, and the camera's matrices (for other nodes that need a view of
+/// the scene, e.g. `LightMapSolve`).
+pub fn render(
+    gpu: &Gpu,
+    scene: &GpuScene,
+    cam: &crate::scene::Camera,
+    w: u32,
+    h: u32,
+) -> Result<(GpuTexture, GpuTexture, GpuTexture, Matrices), GpuError> {
+    let (view, proj) = (cam.view(), cam.proj(w as f32 / h as f32));
+    let u = GBufferParams {
+        view_proj: (proj * view).to_cols_array_2d(),
+        eye: cam.position.to_array(),
+        far: cam.far,
+    };
+    let depth = gpu.texture(w, h, TexFormat::R32F)?;
+    let normal = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    let albedo = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    gpu.raster(
+        SHADER,
+        bytemuck::bytes_of(&u),
+        &[
+            RasterTarget {
+                texture: &depth,
+                clear: [cam.far as f64, 0.0, 0.0, 0.0],
+            },
+            RasterTarget {
+                texture: &normal,
+                clear: [0.0; 4],
+            },
+            RasterTarget {
+                texture: &albedo,
+                clear: [0.0; 4],
+            },
+        ],
+        &MeshDraw {
+            vertices: &scene.vertices,
+            indices: &scene.indices,
+            ranges: &scene.ranges,
+        },
+    )?;
+    let m = Matrices {
+        view: view.to_cols_array_2d(),
+        proj: proj.to_cols_array_2d(),
+        far: cam.far,
+        radiance: [0.0; 3],
+    };
+    Ok((depth, normal, albedo, m))
 }

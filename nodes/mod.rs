@@ -17,6 +17,8 @@ pub mod hole_composite;
 pub mod hole_map;
 pub mod image_input;
 pub mod image_output;
+pub mod light_map;
+pub mod light_map_solve;
 pub mod math;
 pub mod morphology2d;
 pub mod perlin_noise2d;
@@ -42,6 +44,8 @@ pub fn registry() -> Registry {
     r.add(Arc::new(hole_map::HoleMap));
     r.add(Arc::new(image_input::ImageInput));
     r.add(Arc::new(image_output::ImageOutput));
+    r.add(Arc::new(light_map::LightMap));
+    r.add(Arc::new(light_map_solve::LightMapSolve));
     r.add(Arc::new(math::Math));
     r.add(Arc::new(morphology2d::Morphology2D(
         morphology2d::Op::Dilate,

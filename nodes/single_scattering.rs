@@ -21,6 +21,11 @@
 //! lit stretches exactly. `light_extinction = on` with `bounds = none` is refused (an unbounded
 //! medium would extinguish the sun completely).
 //!
+//! Light map (SPEC §5): with `light_map` connected the sun reaching x is multiplied by the map's
+//! colour at x (bilinear, clamp to edge, in the map's own light projection), so the factored
+//! form no longer holds: `L_scat = σt ρ f E Σ_i V_i M(x_i) ∫_{interval i} E(t) dt` — the same
+//! interval weights as light extinction. `BruteForce` only; `MinMax` with a light map is refused.
+//!
 //! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
 //! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
 //! method, in the spirit of Chen et al.'s min-max mip-maps, here as a 2D quadtree over the map
@@ -36,7 +41,7 @@
 //! |---|---|---|---|
 //! | `shadow` | in | ShadowMap (required) | the map the medium sees (possibly manipulated) |
 //! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
-//! | `light_map` | in | LightMap (optional) | multiplies the incoming light; unconnected: 1 |
+//! | `light_map` | in | LightMap (optional) | multiplies the incoming light (BruteForce only); unconnected: 1 |
 //! | `phase` | in | Phase (optional) | tabulated phase function; unconnected: Henyey–Greenstein `g` |
 //! | `scene` | in | Scene (optional) | for `bounds = tagged`: its objects tagged `medium` |
 //! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
@@ -126,7 +131,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     ],
 })
 .shader(SHADER)
-.uniforms(&[ScatterParams::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT]);
+.uniforms(&[ScatterParams::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT]);
 
 const SHADER: Shader = Shader::new(
     "single_scattering",
@@ -205,6 +210,14 @@ impl ScatterParams {
         }
         self.light_extinction = light_extinction as u32;
         self
+    }
+}
+
+crate::uniforms! {
+    /// Uniforms of the light-map lookup (struct `LightMapView`).
+    pub struct LightMapView as "LightMapView" {
+        /// World → light clip of the light map.
+        pub view_proj: [[f32; 4]; 4],
     }
 }
 
@@ -572,14 +585,22 @@ impl NodeKind for SingleScattering {
                 })
             }
         };
-        for port in ["light_map", "phase"] {
-            if ctx.input(port).is_some() {
-                return Err(NodeError::Input {
-                    port: port.into(),
-                    message: "is not supported yet; leave it unconnected".into(),
-                });
-            }
+        if ctx.input("phase").is_some() {
+            return Err(NodeError::Input {
+                port: "phase".into(),
+                message: "is not supported yet; leave it unconnected".into(),
+            });
         }
+        let light_map = match ctx.input("light_map") {
+            None => None,
+            Some(PortValue::LightMap(t, m)) => Some((t.clone(), *m)),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "light_map".into(),
+                    message: "is not a light map".into(),
+                })
+            }
+        };
         let tint = ctx.colour("tint")?;
         let medium = Medium {
             sigma_t: ctx.f32("sigma_t")?,
@@ -631,7 +652,22 @@ impl NodeKind for SingleScattering {
             (4, Bind::Storage(&ins)),
             (5, Bind::Storage(&tr)),
         ];
-        if ctx.choice::<Method>("method")? == Method::MinMax {
+        let method = ctx.choice::<Method>("method")?;
+        if let Some((map, m)) = &light_map {
+            if method != Method::BruteForce {
+                return Err(NodeError::Input {
+                    port: "light_map".into(),
+                    message: "needs method BruteForce (MinMax integrates visibility only)".into(),
+                });
+            }
+            let lm = LightMapView {
+                view_proj: m.view_proj().to_cols_array_2d(),
+            };
+            binds.push((11, Bind::Texture(map)));
+            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
+            ctx.gpu
+                .dispatch(SHADER, "brute_force_light_map", &binds, w, h)?;
+        } else if method == Method::MinMax {
             let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
             binds.push((6, Bind::Texture(&atlas)));
             binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));

@@ -80,6 +80,10 @@ pub enum PortValue {
     /// A baked transfer function, `RGBA32F`, N×N: texel (i, j) holds the colour at
     /// u = V̄ = (i + 0.5)/N, v = normalised depth = (j + 0.5)/N.
     Lut2D(Arc<GpuTexture>),
+    /// A light map, `RGBA32F`: the colour multiplying the sun at a point is the bilinear lookup
+    /// at the point's (u, v) under these light matrices (orthographic along the light, u = x/2
+    /// + 1/2, v = 1/2 − y/2 of light clip space, clamp to edge).
+    LightMap(Arc<GpuTexture>, Matrices),
     /// Any other port type; the producing and consuming nodes agree on the payload.
     Other(PortType, Arc<dyn Any + Send + Sync>),
 }
@@ -93,6 +97,7 @@ impl PortValue {
             PortValue::Scalar(_) => PortType::Scalar,
             PortValue::Image(_) => PortType::Image,
             PortValue::Lut2D(_) => PortType::Lut2D,
+            PortValue::LightMap(..) => PortType::LightMap,
             PortValue::Other(t, _) => *t,
         }
     }
@@ -104,7 +109,8 @@ impl PortValue {
             | PortValue::Depth(t, _)
             | PortValue::Scalar(t)
             | PortValue::Image(t)
-            | PortValue::Lut2D(t) => Some(t),
+            | PortValue::Lut2D(t)
+            | PortValue::LightMap(t, _) => Some(t),
             PortValue::Other(..) => None,
         }
     }

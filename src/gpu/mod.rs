@@ -52,6 +52,16 @@ pub enum Bind<'a> {
     Texture(&'a GpuTexture),
     /// A write-only storage texture (`texture_storage_2d<FORMAT, write>`).
     Storage(&'a GpuTexture),
+    /// A read-write storage buffer of 32-bit words (`array<atomic<i32>>`, `array<i32>`…).
+    Buffer(&'a GpuBuffer),
+}
+
+/// A storage buffer of 32-bit words (for passes that accumulate with integer atomics: WGSL
+/// has no float atomics).
+pub struct GpuBuffer {
+    raw: wgpu::Buffer,
+    /// Number of 32-bit words.
+    pub words: u32,
 }
 
 /// A WGSL source with the stem of its file in `shaders/`.
@@ -329,6 +339,58 @@ impl Gpu {
         })
     }
 
+    /// A storage buffer of `words` 32-bit zeros.
+    pub fn buffer_zeroed(&self, words: u32) -> Result<GpuBuffer, GpuError> {
+        let size = (words.max(1) as u64) * 4;
+        if size > self.limits.max_storage_buffer_binding_size {
+            return Err(GpuError::Validation(format!(
+                "a storage buffer of {words} words exceeds the adapter's limit"
+            )));
+        }
+        let raw = self.scoped(|| {
+            let raw = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("storage"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            self.queue.write_buffer(&raw, 0, &vec![0u8; size as usize]);
+            raw
+        })?;
+        Ok(GpuBuffer { raw, words })
+    }
+
+    /// Read a storage buffer back as i32 words.
+    pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
+        let size = (b.words.max(1) as u64) * 4;
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        self.scoped(|| {
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(&b.raw, 0, &staging, 0, size);
+            self.queue.submit([enc.finish()]);
+        })?;
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let view = staging
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let words: Vec<i32> = bytemuck::cast_slice(&view[..]).to_vec();
+        Ok(words[..b.words as usize].to_vec())
+    }
+
     /// Read a texture back to the CPU: the one row-padded readback helper. Returns
     /// `width * height * channels` interleaved floats, rows top to bottom, padding removed.
     pub fn read_texture(&self, tex: &GpuTexture) -> Result<Vec<f32>, GpuError> {
@@ -447,6 +509,7 @@ impl Gpu {
                     TexFormat::Rgba32F => ":s4",
                     TexFormat::Rg32F => ":s2",
                 },
+                Bind::Buffer(_) => ":b",
             });
         }
         let mut cache = match self.pipelines.lock() {
@@ -478,6 +541,11 @@ impl Gpu {
                                 access: wgpu::StorageTextureAccess::WriteOnly,
                                 format: t.format.wgpu(),
                                 view_dimension: wgpu::TextureViewDimension::D2,
+                            },
+                            Bind::Buffer(_) => wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                                has_dynamic_offset: false,
+                                min_binding_size: None,
                             },
                         },
                         count: None,
@@ -573,6 +641,7 @@ impl Gpu {
                     wgpu::BindingResource::TextureView(t.view())
                 }
                 (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
+                (Bind::Buffer(b), _) => b.raw.as_entire_binding(),
                 (Bind::Uniform(_), None) => {
                     return Err(GpuError::Validation(format!(
                         "{}: uniform {i} has no buffer",

@@ -1,0 +1,176 @@
+// LightMapSolve (nodes/light_map_solve.rs): the two matrix-free halves of the normal equations.
+// `forward` is T x for the constraint pixels of one view, `adjoint` adds Tᵀ r into the light
+// map's texels. Row k of T (a constraint pixel's view ray, marched to its first surface in
+// `steps` equal intervals) holds the weights ŵ_i V_i of its samples, ŵ_i = ∫_{interval i}
+// e^{−σt t} dt / ∫_0^s e^{−σt t} dt, spread bilinearly over the four light-map texels around
+// each sample: (T x)_k = Σ_i V_i ŵ_i x(uv_i). WGSL has no float atomics, so `adjoint` adds in
+// 64-bit fixed point made of two u32 words per value (low word with atomicAdd, the carry read
+// from the value it returns, then the high word): each contribution is multiplied by `scale`
+// (per channel, chosen by the caller so that no sum can reach 2^62: Σ|r| · scale ≤ 2^61, since
+// Σ_i ŵ_i ≤ 1 and bilinear weights sum to 1) and keeps f32's relative precision (6e-8), where
+// one i32 word would round each contribution to ~1e-4 of itself on large problems.
+
+struct View {
+    inv_view_proj: mat4x4<f32>,
+    light_view_proj: mat4x4<f32>,
+    eye: vec3<f32>,
+    steps: u32,
+    scale: vec3<f32>,
+    sigma_t: f32,
+    map_size: vec2<u32>,
+    bias: f32,
+    _pad0: u32,
+}
+
+@group(0) @binding(0) var<uniform> P: View;
+@group(0) @binding(1) var shadow: texture_2d<f32>;
+@group(0) @binding(2) var depth: texture_2d<f32>;
+@group(0) @binding(3) var targets: texture_2d<f32>;
+@group(0) @binding(4) var x_map: texture_2d<f32>;
+@group(0) @binding(5) var out_tx: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(6) var residual: texture_2d<f32>;
+@group(0) @binding(7) var<storage, read_write> acc: array<atomic<u32>>;
+
+fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
+    let ndc = vec2<f32>(
+        (f32(p.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
+        1.0 - (f32(p.y) + 0.5) / f32(size.y) * 2.0,
+    );
+    let far = P.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let dir = far.xyz / far.w - P.eye;
+    return select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
+}
+
+// (1 − e^{−len·m})/m, accurate for small len·m.
+fn decay_integral(len: f32, m: f32) -> f32 {
+    let x = len * m;
+    if x < 1e-3 {
+        return len * (1.0 - x * 0.5 + x * x / 6.0);
+    }
+    return (1.0 - exp(-x)) / m;
+}
+
+// Light-space (u, v, depth) of a world point, and whether the sun reaches it (nearest texel,
+// depth bias; outside the map or the light box: lit).
+fn light_uv(x: vec3<f32>) -> vec3<f32> {
+    let c = P.light_view_proj * vec4<f32>(x, 1.0);
+    return vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+}
+
+fn visible(l: vec3<f32>) -> bool {
+    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 || l.z < 0.0 || l.z > 1.0 {
+        return true;
+    }
+    let size = vec2<f32>(textureDimensions(shadow));
+    let t = min(vec2<u32>(l.xy * size), vec2<u32>(size) - 1u);
+    return l.z <= textureLoad(shadow, t, 0).r + P.bias;
+}
+
+// The four texels around light-map coordinate uv and their bilinear weights (clamp to edge).
+struct Corners {
+    idx: vec4<i32>,
+    w: vec4<f32>,
+}
+
+fn corners(uv: vec2<f32>) -> Corners {
+    let size = vec2<i32>(P.map_size);
+    let q = uv * vec2<f32>(size) - 0.5;
+    let f = q - floor(q);
+    let i0 = clamp(vec2<i32>(floor(q)), vec2<i32>(0), size - 1);
+    let i1 = clamp(vec2<i32>(floor(q)) + 1, vec2<i32>(0), size - 1);
+    var c: Corners;
+    c.idx = vec4<i32>(i0.y * size.x + i0.x, i0.y * size.x + i1.x, i1.y * size.x + i0.x, i1.y * size.x + i1.x);
+    c.w = vec4<f32>((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+    return c;
+}
+
+fn x_at(idx: i32) -> vec3<f32> {
+    let w = i32(P.map_size.x);
+    return textureLoad(x_map, vec2<i32>(idx % w, idx / w), 0).rgb;
+}
+
+@compute @workgroup_size(8, 8)
+fn forward(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(depth);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    if textureLoad(targets, id.xy, 0).a <= 0.0 {
+        textureStore(out_tx, id.xy, vec4<f32>(0.0));
+        return;
+    }
+    let dir = view_ray(id.xy, size);
+    let s = textureLoad(depth, id.xy, 0).r;
+    let n = f32(P.steps);
+    let total = decay_integral(s, P.sigma_t);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < P.steps; i++) {
+        let t = (f32(i) + 0.5) / n * s;
+        let l = light_uv(P.eye + dir * t);
+        if !visible(l) || total <= 0.0 {
+            continue;
+        }
+        let a = f32(i) / n * s;
+        let w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
+        let c = corners(l.xy);
+        let v = c.w.x * x_at(c.idx.x) + c.w.y * x_at(c.idx.y) + c.w.z * x_at(c.idx.z) + c.w.w * x_at(c.idx.w);
+        sum += w * v;
+    }
+    textureStore(out_tx, id.xy, vec4<f32>(sum, 1.0));
+}
+
+// Add x (an integer-valued f32 up to 2^62 in magnitude) to the 64-bit two's-complement value
+// in words (2 w, 2 w + 1) = (low, high).
+fn add64(w: i32, x: f32) {
+    let a = abs(x);
+    var hi = u32(floor(a / 4294967296.0));
+    var lo = u32(a - f32(hi) * 4294967296.0);
+    if x < 0.0 {
+        lo = ~lo + 1u;
+        hi = ~hi + select(0u, 1u, lo == 0u);
+    }
+    if lo == 0u && hi == 0u {
+        return;
+    }
+    let old = atomicAdd(&acc[2 * w], lo);
+    let carry = select(0u, 1u, old + lo < old);
+    atomicAdd(&acc[2 * w + 1], hi + carry);
+}
+
+fn add(idx: i32, v: vec3<f32>) {
+    let n = i32(P.map_size.x * P.map_size.y);
+    let q = round(v * P.scale);
+    add64(idx, q.x);
+    add64(n + idx, q.y);
+    add64(2 * n + idx, q.z);
+}
+
+@compute @workgroup_size(8, 8)
+fn adjoint(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(depth);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    if textureLoad(targets, id.xy, 0).a <= 0.0 {
+        return;
+    }
+    let r = textureLoad(residual, id.xy, 0).rgb;
+    let dir = view_ray(id.xy, size);
+    let s = textureLoad(depth, id.xy, 0).r;
+    let n = f32(P.steps);
+    let total = decay_integral(s, P.sigma_t);
+    for (var i = 0u; i < P.steps; i++) {
+        let t = (f32(i) + 0.5) / n * s;
+        let l = light_uv(P.eye + dir * t);
+        if !visible(l) || total <= 0.0 {
+            continue;
+        }
+        let a = f32(i) / n * s;
+        let w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
+        let c = corners(l.xy);
+        add(c.idx.x, r * (w * c.w.x));
+        add(c.idx.y, r * (w * c.w.y));
+        add(c.idx.z, r * (w * c.w.z));
+        add(c.idx.w, r * (w * c.w.w));
+    }
+}
