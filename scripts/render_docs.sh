@@ -12,7 +12,7 @@ for preset in tree_hole_filling torus_closure figure_silhouette window_soft_glow
   ./target/release/tyndall render "graphs/stylize/$preset.ron" -o "docs/stylize/$preset.png" --size 960x540
 done
 ./target/release/tyndall render graphs/stylize/tree_holes_animated.ron -o docs/stylize/tree_holes_animated.png --size 960x540 --frames 0-2
-for preset in alarm_tree alarm_fence tree_modulate; do
+for preset in alarm_tree alarm_fence tree_modulate window_light_map; do
   ./target/release/tyndall render "graphs/color/$preset.ron" -o "docs/color/$preset.png" --size 960x540
 done
 ./target/release/tyndall render graphs/color/sunrise.ron -o out/sunrise.png --size 960x540 --frames 0-48
