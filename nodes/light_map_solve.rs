@@ -945,11 +945,13 @@ impl NodeKind for LightMapSolve {
         let want = desired(&views);
         let mut op = GpuOperator::new(ctx.gpu, views, &shadow, light, n, sampling)?;
         let bar = indicatif::ProgressBar::new(set.iterations as u64);
+        let template = format!(
+            "light-map solve ({} constraint pixels, {n}² map) {{bar:30}} {{pos}}/{{len}} residual {{msg}}",
+            want.len()
+        );
         bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "light-map solve {bar:30} {pos}/{len} residual {msg}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         let sol = solve(&mut op, &want, set, &mut |it, res| {
             bar.set_position(it as u64);

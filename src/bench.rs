@@ -57,6 +57,11 @@ pub struct Suite {
     /// the measured output: `(before, threshold)`.
     #[serde(default)]
     pub holes: Option<(String, f32)>,
+    /// The measured output is a per-iteration residual (one texel per iteration, the first the
+    /// start, as `LightMapSolve.residual`): the table adds the iterations run and the final
+    /// residual over the start.
+    #[serde(default)]
+    pub convergence: bool,
 }
 
 /// One measured row.
@@ -78,6 +83,8 @@ pub struct Row {
     pub growth: f64,
     /// Holes in the `before` map and in the output (when `holes` is set).
     pub holes: Option<(usize, usize)>,
+    /// Iterations run and the final residual over the start (when `convergence` is set).
+    pub convergence: Option<(usize, f64)>,
 }
 
 /// Errors of the bench runner.
@@ -298,6 +305,14 @@ pub fn run(
             }
             None => None,
         };
+        let convergence = suite.convergence.then(|| {
+            let first = out.data.first().copied().unwrap_or(0.0) as f64;
+            let last = out.data.last().copied().unwrap_or(0.0) as f64;
+            (
+                out.data.len().saturating_sub(1),
+                if first > 0.0 { last / first } else { f64::NAN },
+            )
+        });
         let median = times[times.len() / 2];
         let group_of = |p: &BTreeMap<String, String>| -> BTreeMap<String, String> {
             p.iter()
@@ -321,6 +336,7 @@ pub fn run(
             max_err,
             growth,
             holes,
+            convergence,
         });
     }
     Ok(rows)
@@ -357,7 +373,7 @@ fn cell(v: f64, digits: usize) -> String {
     }
 }
 
-/// The table as text.
+/// The table as text (the iteration columns only when a row has them).
 pub fn table(rows: &[Row]) -> String {
     let w = rows
         .iter()
@@ -365,14 +381,19 @@ pub fn table(rows: &[Row]) -> String {
         .max()
         .unwrap_or(7)
         .max(7);
+    let conv = rows.iter().any(|r| r.convergence.is_some());
     let mut s = format!(
-        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}\n",
+        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
         "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
     );
+    if conv {
+        s.push_str(&format!("  {:>10}  {:>12}", "iterations", "residual/r0"));
+    }
+    s.push('\n');
     for r in rows {
         let holes = r.holes.map_or("-".to_string(), |(a, b)| format!("{a}>{b}"));
         s.push_str(&format!(
-            "{:<w$}  {:>10.3}  {:>10.3}  {:>10}  {:>10}  {:>8}  {:>13}\n",
+            "{:<w$}  {:>10.3}  {:>10.3}  {:>10}  {:>10}  {:>8}  {:>13}",
             r.setting,
             r.median_ms,
             r.min_ms,
@@ -381,20 +402,31 @@ pub fn table(rows: &[Row]) -> String {
             cell(r.growth, 2),
             holes
         ));
+        if conv {
+            let (it, res) = r.convergence.unwrap_or((0, f64::NAN));
+            s.push_str(&format!("  {:>10}  {:>12}", it, cell(res, 6)));
+        }
+        s.push('\n');
     }
     s
 }
 
 /// The table as CSV.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s =
-        String::from("setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after\n");
+    let mut s = String::from(
+        "setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after,iterations,residual_ratio\n",
+    );
     for r in rows {
         let (a, b) = r.holes.map_or((String::new(), String::new()), |(a, b)| {
             (a.to_string(), b.to_string())
         });
+        let (it, res) = r
+            .convergence
+            .map_or((String::new(), String::new()), |(i, x)| {
+                (i.to_string(), cell(x, 8))
+            });
         s.push_str(&format!(
-            "\"{}\",{:.4},{:.4},{},{},{},{a},{b}\n",
+            "\"{}\",{:.4},{:.4},{},{},{},{a},{b},{it},{res}\n",
             r.setting,
             r.median_ms,
             r.min_ms,
