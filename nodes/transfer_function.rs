@@ -48,8 +48,14 @@
 //! image paths, constraint counts): to make a layer appear, give it opacity 0 in the earlier key.
 //!
 //! `lut` input: a baked table from another `TransferFunction` (one TF feeding several lookups);
-//! when connected the data block is not used. Diffusion constraints anchored to a surface point
-//! (`anchor`) are not supported yet and are refused with a message.
+//! when connected the data block is not used.
+//!
+//! 3D constraints (seed 000 §4.2): a diffusion constraint may carry `anchor: Some((object:
+//! "walls", triangle: 1234, bary: (0.2, 0.3, 0.5)))`, a surface point as `tyndall pick` prints
+//! it. Every frame the point is projected into the view of the `depth` input and the constraint
+//! moves to that pixel's (V̄, normalised depth), so it follows the scene and the camera; while
+//! the point is off screen or hidden behind a nearer surface the constraint keeps its `at`.
+//! Anchors need the `scene`, `visibility` and `depth` inputs.
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
@@ -57,6 +63,7 @@
 //! | `depth` | in | Depth | linear depth (needed for `image` and `depth_range = auto`) |
 //! | `inscatter` | in | Image | the physical in-scatter (needed for `Modulate`) |
 //! | `lut` | in | Lut2D | a baked table to use instead of the data block |
+//! | `scene` | in | Scene | for anchored constraints: the objects their surface points lie on |
 //! | `image` | out | Image | the recoloured in-scatter |
 //! | `lut` | out | Lut2D | the baked table (N×N RGBA) |
 //!
@@ -102,6 +109,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("depth", &[PortType::Depth], "Linear depth; needed for `image` and depth_range = auto."),
         PortSpec::input("inscatter", &[PortType::Image], "Physical in-scatter, multiplied in Modulate mode."),
         PortSpec::input("lut", &[PortType::Lut2D], "A baked table to use instead of this node's layers."),
+        PortSpec::input("scene", &[PortType::Scene], "The scene, for diffusion constraints anchored to surface points."),
     ],
     outputs: &[
         PortSpec::output("image", &[PortType::Image], "The recoloured in-scatter (linear RGB)."),
@@ -1033,13 +1041,6 @@ fn stack(ctx: &RunCtx) -> Result<Vec<LayerEntry>, NodeError> {
                 e.opacity
             )));
         }
-        if let Layer::Diffusion { constraints } = &e.layer {
-            if constraints.iter().any(|c| c.anchor.is_some()) {
-                return Err(NodeError::Data(format!(
-                    "layer {i}: constraints anchored to a surface point are not supported yet"
-                )));
-            }
-        }
         let finite = match &e.layer {
             Layer::Solid { colour } => colour.iter().all(|v| v.is_finite()),
             Layer::Gradient {
@@ -1065,6 +1066,135 @@ fn stack(ctx: &RunCtx) -> Result<Vec<LayerEntry>, NodeError> {
         }
     }
     Ok(stack)
+}
+
+/// The frame the TF is looked up in: V̄ and depth (with the camera's matrices).
+struct Frame {
+    vis: Arc<GpuTexture>,
+    depth: Arc<GpuTexture>,
+    camera: Matrices,
+}
+
+impl Frame {
+    /// The connected `visibility` and `depth`, checked; `None` when either is unconnected.
+    fn of(ctx: &RunCtx) -> Result<Option<Frame>, NodeError> {
+        let vis = match ctx.input("visibility") {
+            None => return Ok(None),
+            Some(v) => v
+                .texture()
+                .cloned()
+                .ok_or_else(|| input_err("visibility", "is not an image"))?,
+        };
+        let (depth, camera) = match ctx.input("depth") {
+            None => return Ok(None),
+            Some(PortValue::Depth(t, m)) => (t.clone(), *m),
+            Some(_) => return Err(input_err("depth", "is not a depth image")),
+        };
+        if (depth.width, depth.height) != (vis.width, vis.height) {
+            return Err(input_err(
+                "depth",
+                format!(
+                    "is {}×{} but visibility is {}×{}",
+                    depth.width, depth.height, vis.width, vis.height
+                ),
+            ));
+        }
+        Ok(Some(Frame { vis, depth, camera }))
+    }
+
+    /// The depth range: the parameters, or the frame's percentiles.
+    fn range(&self, ctx: &RunCtx) -> Result<(f32, f32), NodeError> {
+        Ok(match ctx.choice::<DepthRange>("depth_range")? {
+            DepthRange::Manual => (ctx.f32("depth_min")?, ctx.f32("depth_max")?),
+            DepthRange::Auto => auto_range(&ctx.gpu.read_texture(&self.depth)?, &self.camera),
+        })
+    }
+}
+
+/// Where an anchored constraint lands in TF space this frame: the surface point projected into
+/// the view; `None` when it is off screen, behind the camera, or hidden by a nearer surface
+/// (linear depth at its pixel more than 1 % + 1 mm short of its distance).
+pub fn anchor_tf_position(
+    p: glam::Vec3,
+    camera: &Matrices,
+    vis: &Raster,
+    depth: &Raster,
+    range: (f32, f32),
+) -> Option<[f32; 2]> {
+    let c = camera.view_proj() * p.extend(1.0);
+    if c.w <= 0.0 {
+        return None;
+    }
+    let (w, h) = (depth.width as f32, depth.height as f32);
+    let x = (c.x / c.w * 0.5 + 0.5) * w;
+    let y = (0.5 - c.y / c.w * 0.5) * h;
+    if !(0.0..w).contains(&x) || !(0.0..h).contains(&y) {
+        return None;
+    }
+    let k = (y as usize) * depth.width as usize + x as usize;
+    let (d, dist) = (depth.data[k], (p - camera.eye()).length());
+    if d < dist * 0.99 - 1e-3 {
+        return None;
+    }
+    Some([vis.data[k], depth_coordinate(d, range.0, range.1)])
+}
+
+/// Move anchored diffusion constraints to where their surface points are this frame (see
+/// [`anchor_tf_position`]); a constraint that is not visible keeps its `at`.
+fn resolve_anchors(
+    ctx: &RunCtx,
+    layers: &mut [LayerEntry],
+    frame: Option<&Frame>,
+) -> Result<(), NodeError> {
+    let anchored = layers.iter().any(|e| match &e.layer {
+        Layer::Diffusion { constraints } => constraints.iter().any(|c| c.anchor.is_some()),
+        _ => false,
+    });
+    if !anchored {
+        return Ok(());
+    }
+    let scene = ctx
+        .input("scene")
+        .ok_or_else(|| input_err("scene", "must be connected for anchored constraints"))?
+        .payload::<crate::scene::GpuScene>()
+        .ok_or_else(|| input_err("scene", "is not a scene"))?;
+    let f = frame.ok_or_else(|| {
+        input_err(
+            "visibility",
+            "and `depth` must be connected for anchored constraints",
+        )
+    })?;
+    let range = f.range(ctx)?;
+    let read = |t: &GpuTexture| -> Result<Raster, NodeError> {
+        Ok(Raster {
+            width: t.width,
+            height: t.height,
+            channels: 1,
+            data: ctx.gpu.read_texture(t)?,
+        })
+    };
+    let (vis, depth) = (read(&f.vis)?, read(&f.depth)?);
+    for (i, e) in layers.iter_mut().enumerate() {
+        if let Layer::Diffusion { constraints } = &mut e.layer {
+            for c in constraints.iter_mut() {
+                if let Some(a) = &c.anchor {
+                    let p = scene
+                        .scene
+                        .surface_position(&a.object, a.triangle, a.bary)
+                        .ok_or_else(|| {
+                            NodeError::Data(format!(
+                                "layer {i}: anchor: the scene has no object {:?} with a triangle {}",
+                                a.object, a.triangle
+                            ))
+                        })?;
+                    if let Some(at) = anchor_tf_position(p, &f.camera, &vis, &depth, range) {
+                        c.at = at;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 impl NodeKind for TransferFunction {
@@ -1094,34 +1224,22 @@ impl NodeKind for TransferFunction {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let frame = Frame::of(ctx)?;
         let lut = match ctx.input("lut") {
             Some(PortValue::Lut2D(t)) => t.clone(),
             Some(_) => return Err(input_err("lut", "is not a Lut2D")),
             None => {
                 let n = ctx.int("resolution")? as u32;
                 let cycles = ctx.int("diffusion_cycles")? as u32;
-                Arc::new(bake_gpu(ctx.gpu, &stack(ctx)?, n, cycles)?)
+                let mut layers = stack(ctx)?;
+                resolve_anchors(ctx, &mut layers, frame.as_ref())?;
+                Arc::new(bake_gpu(ctx.gpu, &layers, n, cycles)?)
             }
         };
         if ctx.wants("image") {
-            let vis = ctx
-                .input("visibility")
-                .and_then(|v| v.texture().cloned())
-                .ok_or_else(|| input_err("visibility", "must be connected for `image`"))?;
-            let (depth, matrices) = match ctx.input("depth") {
-                Some(PortValue::Depth(t, m)) => (t.clone(), *m),
-                Some(_) => return Err(input_err("depth", "is not a depth image")),
-                None => return Err(input_err("depth", "must be connected for `image`")),
-            };
-            if (depth.width, depth.height) != (vis.width, vis.height) {
-                return Err(input_err(
-                    "depth",
-                    format!(
-                        "is {}×{} but visibility is {}×{}",
-                        depth.width, depth.height, vis.width, vis.height
-                    ),
-                ));
-            }
+            let f = frame.ok_or_else(|| {
+                input_err("visibility", "and `depth` must be connected for `image`")
+            })?;
             let mode = ctx.choice::<Mode>("mode")?;
             let inscatter = match mode {
                 Mode::Modulate => {
@@ -1129,17 +1247,14 @@ impl NodeKind for TransferFunction {
                         .input("inscatter")
                         .and_then(|v| v.texture().cloned())
                         .ok_or_else(|| input_err("inscatter", "must be connected for Modulate"))?;
-                    if (t.width, t.height) != (vis.width, vis.height) {
+                    if (t.width, t.height) != (f.vis.width, f.vis.height) {
                         return Err(input_err("inscatter", "differs in size from visibility"));
                     }
                     Some(t)
                 }
                 Mode::Replace => None,
             };
-            let (depth_min, depth_max) = match ctx.choice::<DepthRange>("depth_range")? {
-                DepthRange::Manual => (ctx.f32("depth_min")?, ctx.f32("depth_max")?),
-                DepthRange::Auto => auto_range(&ctx.gpu.read_texture(&depth)?, &matrices),
-            };
+            let (depth_min, depth_max) = f.range(ctx)?;
             let k = LookupParams {
                 depth_min,
                 depth_max,
@@ -1149,13 +1264,13 @@ impl NodeKind for TransferFunction {
             let image = mg_pass(
                 ctx.gpu,
                 "lookup",
-                (vis.width, vis.height),
+                (f.vis.width, f.vis.height),
                 &[
                     (1, Bind::Texture(&lut)),
                     (2, Bind::Texture(inscatter.as_deref().unwrap_or(&lut))),
                     (7, Bind::Uniform(bytemuck::bytes_of(&k))),
-                    (8, Bind::Texture(&vis)),
-                    (9, Bind::Texture(&depth)),
+                    (8, Bind::Texture(&f.vis)),
+                    (9, Bind::Texture(&f.depth)),
                 ],
             )?;
             ctx.set("image", PortValue::Image(Arc::new(image)));
@@ -1163,4 +1278,221 @@ impl NodeKind for TransferFunction {
         ctx.set("lut", PortValue::Lut2D(lut));
         Ok(())
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// `tyndall pick`: what a pixel's view ray sees, for placing 3D constraints.
+
+/// Where a picked pixel lands in a transfer function's space.
+#[derive(Debug, Clone, Serialize)]
+pub struct TfPick {
+    /// The TransferFunction node.
+    pub node: String,
+    /// u = V̄.
+    pub u: f32,
+    /// v = normalised depth.
+    pub v: f32,
+    /// The depth range used (manual parameters or the frame's percentiles).
+    pub depth_min: f32,
+    /// Upper end of the depth range.
+    pub depth_max: f32,
+    /// `manual` or `auto`.
+    pub depth_range: String,
+}
+
+/// The surface point under a pixel.
+#[derive(Debug, Clone, Serialize)]
+pub struct SurfacePick {
+    /// Object name.
+    pub object: String,
+    /// Triangle index in the object.
+    pub triangle: u32,
+    /// Barycentric coordinates.
+    pub bary: [f32; 3],
+    /// World position.
+    pub position: [f32; 3],
+}
+
+/// What `tyndall pick` reports for one pixel.
+#[derive(Debug, Clone, Serialize)]
+pub struct Pick {
+    /// The pixel (x right, y down).
+    pub pixel: [u32; 2],
+    /// The evaluation size the pixel refers to.
+    pub size: [u32; 2],
+    /// Evaluation time.
+    pub time: f64,
+    /// The node whose inputs were read.
+    pub node: String,
+    /// V̄ of the view ray.
+    pub visibility: f32,
+    /// Linear depth, metres (sky: the camera's far distance).
+    pub depth: f32,
+    /// TF coordinates, when the node is a TransferFunction.
+    pub tf: Option<TfPick>,
+    /// The first surface along the ray, when the graph's scene can be found.
+    pub surface: Option<SurfacePick>,
+}
+
+fn pick_err(message: impl Into<String>) -> crate::eval::EvalError {
+    crate::eval::EvalError::Node {
+        node: "-".into(),
+        kind: "pick".into(),
+        source: NodeError::Other(message.into()),
+    }
+}
+
+/// The node and port feeding `id.port`.
+fn source(g: &crate::graph::Graph, id: &str, port: &str) -> Option<(String, String)> {
+    g.source_of(id, port)
+        .map(|(n, p)| (n.to_string(), p.to_string()))
+}
+
+/// Follow `depth` inputs upstream from `start` to the first node with a connected `scene`
+/// input: the scene the depth was rendered from.
+fn scene_of(g: &crate::graph::Graph, start: &str) -> Option<(String, String)> {
+    let mut id = start.to_string();
+    for _ in 0..64 {
+        if let Some(s) = source(g, &id, "scene") {
+            return Some(s);
+        }
+        id = source(g, &id, "depth")?.0;
+    }
+    None
+}
+
+/// Evaluate what pixel `pixel` of the `node` TransferFunction (default: the first one by id,
+/// else the first SingleScattering) sees: V̄, linear depth, TF coordinates and the surface
+/// point (object, triangle, barycentrics) under it.
+pub fn pick(
+    ev: &mut crate::eval::Evaluator,
+    g: &crate::graph::Graph,
+    node: Option<&str>,
+    pixel: (u32, u32),
+    opts: &crate::eval::EvalOptions,
+) -> Result<Pick, crate::eval::EvalError> {
+    use crate::eval::Target;
+    let of_kind = |k: &str| g.nodes().find(|n| n.kind == k).map(|n| n.id.clone());
+    let id = match node {
+        Some(n) => n.to_string(),
+        None => of_kind("TransferFunction")
+            .or_else(|| of_kind("SingleScattering"))
+            .ok_or_else(|| {
+                pick_err("the graph has no TransferFunction or SingleScattering node")
+            })?,
+    };
+    let kind = g
+        .node(&id)
+        .map(|n| n.kind.clone())
+        .ok_or_else(|| pick_err(format!("no node '{id}' in the graph")))?;
+    let (vis_src, depth_src) = match kind.as_str() {
+        "TransferFunction" => (
+            source(g, &id, "visibility")
+                .ok_or_else(|| pick_err(format!("{id}.visibility is not connected")))?,
+            source(g, &id, "depth")
+                .ok_or_else(|| pick_err(format!("{id}.depth is not connected")))?,
+        ),
+        "SingleScattering" => (
+            (id.clone(), "visibility".to_string()),
+            (id.clone(), "depth".to_string()),
+        ),
+        other => {
+            return Err(pick_err(format!(
+                "node '{id}' is a {other}: pick reads a TransferFunction or SingleScattering"
+            )))
+        }
+    };
+    let scene_src = scene_of(g, &depth_src.0);
+    let mut targets = vec![
+        Target::Port(vis_src.0.clone(), vis_src.1.clone()),
+        Target::Port(depth_src.0.clone(), depth_src.1.clone()),
+    ];
+    if let Some((n, p)) = &scene_src {
+        targets.push(Target::Port(n.clone(), p.clone()));
+    }
+    let r = ev.evaluate(g, &targets, opts)?;
+    let gpu = ev.gpu().clone();
+    let get = |src: &(String, String)| {
+        r.outputs
+            .get(src)
+            .ok_or_else(|| pick_err(format!("{}.{} produced nothing", src.0, src.1)))
+    };
+    let vis = crate::eval::download(&gpu, get(&vis_src)?).map_err(|e| pick_err(e.to_string()))?;
+    let depth_value = get(&depth_src)?;
+    let camera = match depth_value {
+        PortValue::Depth(_, m) => *m,
+        _ => return Err(pick_err("the depth input is not a Depth value")),
+    };
+    let depth = crate::eval::download(&gpu, depth_value).map_err(|e| pick_err(e.to_string()))?;
+    let (x, y) = pixel;
+    if x >= depth.width || y >= depth.height {
+        return Err(pick_err(format!(
+            "pixel {x},{y} is outside the {}×{} image",
+            depth.width, depth.height
+        )));
+    }
+    let k = (y * depth.width + x) as usize;
+    let (visibility, d) = (vis.data[k], depth.data[k]);
+    let tf = if kind == "TransferFunction" {
+        let cat = ev.registry().catalog().clone();
+        let param = |name: &str| {
+            g.param_at(&cat, &id, name, opts.time)
+                .map_err(|e| pick_err(e.to_string()))
+        };
+        let auto =
+            matches!(param("depth_range")?, crate::graph::ParamValue::Enum(ref s) if s == "auto");
+        let (lo, hi) = if auto {
+            auto_range(&depth.data, &camera)
+        } else {
+            let f = |v: crate::graph::ParamValue| v.as_f64().unwrap_or(0.0) as f32;
+            (f(param("depth_min")?), f(param("depth_max")?))
+        };
+        Some(TfPick {
+            node: id.clone(),
+            u: if visibility.is_nan() {
+                0.0
+            } else {
+                visibility.clamp(0.0, 1.0)
+            },
+            v: depth_coordinate(d, lo, hi),
+            depth_min: lo,
+            depth_max: hi,
+            depth_range: if auto { "auto" } else { "manual" }.into(),
+        })
+    } else {
+        None
+    };
+    let surface = match scene_src.as_ref().and_then(|s| r.outputs.get(s)) {
+        Some(v) => {
+            let scene = v
+                .payload::<crate::scene::GpuScene>()
+                .ok_or_else(|| pick_err("the scene port holds no scene"))?;
+            let ndc = glam::Vec4::new(
+                (x as f32 + 0.5) / depth.width as f32 * 2.0 - 1.0,
+                1.0 - (y as f32 + 0.5) / depth.height as f32 * 2.0,
+                1.0,
+                1.0,
+            );
+            let far = camera.view_proj().inverse() * ndc;
+            let eye = camera.eye();
+            let dir = (far.truncate() / far.w - eye).normalize_or(glam::Vec3::NEG_Z);
+            scene.scene.ray_hit(eye, dir).map(|h| SurfacePick {
+                object: h.object,
+                triangle: h.triangle,
+                bary: h.bary,
+                position: h.position.to_array(),
+            })
+        }
+        None => None,
+    };
+    Ok(Pick {
+        pixel: [x, y],
+        size: [depth.width, depth.height],
+        time: opts.time,
+        node: id,
+        visibility,
+        depth: d,
+        tf,
+        surface,
+    })
 }

@@ -369,3 +369,37 @@ fn key_framed_sun_animates_across_frames() {
     let stats = String::from_utf8_lossy(&o.stdout);
     assert_eq!(stats.matches("frame ").count(), 3, "{stats}");
 }
+
+/// `tyndall pick`: JSON with V̄, depth, TF coordinates and the surface point; a pixel outside
+/// the image is an evaluation error (exit 1), a malformed one bad input (exit 2).
+#[test]
+fn pick_prints_what_a_pixel_sees() {
+    if !gpu_available() {
+        return;
+    }
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/color/alarm_tree.ron");
+    let g = graph.display().to_string();
+    let out = tyndall(&["pick", &g, "--pixel", "80,33", "--size", "160x90", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(v["node"], "alarm");
+    assert_eq!(v["size"], serde_json::json!([160, 90]));
+    let vis = v["visibility"].as_f64().expect("visibility");
+    assert!((0.0..=1.0).contains(&vis));
+    assert_eq!(v["tf"]["u"].as_f64(), Some(vis));
+    assert_eq!(v["tf"]["depth_range"], "auto");
+    assert_eq!(v["surface"]["object"], "canopy");
+    assert_eq!(v["surface"]["bary"].as_array().map(Vec::len), Some(3));
+    let text = tyndall(&["pick", &g, "--pixel", "80,33", "--size", "160x90"]);
+    let s = String::from_utf8_lossy(&text.stdout);
+    assert!(s.contains("anchor: Some((object: \"canopy\""), "{s}");
+    let outside = tyndall(&["pick", &g, "--pixel", "500,10", "--size", "160x90"]);
+    assert_eq!(outside.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&outside.stderr).contains("outside the 160×90 image"));
+    let bad = tyndall(&["pick", &g, "--pixel", "12"]);
+    assert_eq!(bad.status.code(), Some(2));
+}

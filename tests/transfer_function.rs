@@ -551,3 +551,120 @@ fn errors_name_the_node_and_the_problem() {
     .to_string();
     assert!(e.contains("visibility"), "{e}");
 }
+
+fn tree_graph(data: &str, cam: Option<[f64; 3]>) -> String {
+    let camera = match cam {
+        Some([x, y, z]) => format!(
+            r#", "camera": "custom", "cam_x": {x:.1}, "cam_y": {y:.1}, "cam_z": {z:.1}, "target_y": 3.5"#
+        ),
+        None => String::new(),
+    };
+    format!(
+        r#"(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"name": "tree"{camera}}}),
+        "shadow": (kind: "ShadowMap", params: {{"resolution": 512}}),
+        "gbuffer": (kind: "GBuffer"),
+        "scatter": (kind: "SingleScattering", params: {{"steps": 32}}),
+        "tf": (kind: "TransferFunction", params: {{"resolution": 64, "depth_range": "auto"}}, data: {data}),
+    }},
+    edges: [
+        ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
+        ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"),
+        ("scatter.visibility", "tf.visibility"), ("scatter.depth", "tf.depth"),
+        ("scene.scene", "tf.scene"),
+    ],
+)"#
+    )
+}
+
+fn load(text: &str) -> tyndall::graph::Graph {
+    let registry = tyndall::nodes::registry();
+    tyndall::graph::load_str(text, Path::new("t.ron"), registry.catalog()).expect("graph")
+}
+
+/// `pick` reads the pixel's V̄ and depth from the graph, its TF coordinates, and the surface
+/// point the camera ray hits (at the pixel's depth); an anchored constraint lands where that
+/// point is seen, and follows it when the camera moves.
+#[test]
+fn pick_and_anchored_constraints_follow_the_surface() {
+    let gpu = require_gpu!();
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+    let opts = tyndall::eval::EvalOptions {
+        size: (160, 90),
+        ..Default::default()
+    };
+    let plain = load(&tree_graph("(layers: [])", None));
+    let p = tf::pick(&mut ev, &plain, None, (80, 33), &opts).expect("pick");
+    let s = p.surface.clone().expect("the canopy is under this pixel");
+    let tfp = p.tf.clone().expect("tf coordinates");
+    // The surface point lies at the pixel's depth along its ray: the G-buffer's depth is the
+    // rasterised distance to the same triangle (1 % covers the pixel-centre vs fragment offset).
+    let eye = glam::Vec3::new(9.0, 2.2, 9.5);
+    let dist = (glam::Vec3::from(s.position) - eye).length();
+    assert!(
+        (dist - p.depth).abs() <= 0.01 * p.depth,
+        "{dist} vs {}",
+        p.depth
+    );
+    assert!((tfp.u - p.visibility).abs() < 1e-6);
+    let (lo, hi) = (tfp.depth_min, tfp.depth_max);
+    assert!((tfp.v - tf::depth_coordinate(p.depth, lo, hi)).abs() < 1e-6);
+
+    let data = format!(
+        "(layers: [(layer: Diffusion(constraints: [
+            (at: (0.0, 0.0), colour: (0.0, 0.0, 1.0, 1.0)),
+            (at: (0.05, 0.95), colour: (1.0, 0.0, 0.0, 1.0),
+             anchor: Some((object: {:?}, triangle: {}, bary: ({}, {}, {})))),
+        ]))])",
+        s.object, s.triangle, s.bary[0], s.bary[1], s.bary[2]
+    );
+    let red_at = |lut: &Raster, at: [f32; 2]| {
+        let cell = |x: f32| ((x * 64.0).floor() as usize).min(63);
+        let k = (cell(at[1]) * 64 + cell(at[0])) * 4;
+        lut.data[k..k + 4].to_vec()
+    };
+    let lut_of = |ev: &mut tyndall::eval::Evaluator, g: &tyndall::graph::Graph| {
+        let r = ev
+            .evaluate(
+                g,
+                &[tyndall::eval::Target::Port("tf".into(), "lut".into())],
+                &opts,
+            )
+            .expect("bake");
+        tyndall::eval::download(&gpu, &r.outputs[&("tf".into(), "lut".into())]).expect("lut")
+    };
+    let lut = lut_of(&mut ev, &load(&tree_graph(&data, None)));
+    assert_eq!(red_at(&lut, [tfp.u, tfp.v]), vec![1.0, 0.0, 0.0, 1.0]);
+    // Another camera: the same surface point, seen elsewhere in the frame and in TF space.
+    let moved = load(&tree_graph(&data, Some([6.0, 3.0, 11.0])));
+    let lut2 = lut_of(&mut ev, &moved);
+    let r = ev
+        .evaluate(
+            &moved,
+            &[
+                tyndall::eval::Target::Port("scatter".into(), "visibility".into()),
+                tyndall::eval::Target::Port("scatter".into(), "depth".into()),
+            ],
+            &opts,
+        )
+        .expect("frame");
+    let depth_value = &r.outputs[&("scatter".into(), "depth".into())];
+    let PortValue::Depth(_, cam) = depth_value else {
+        panic!("depth");
+    };
+    let vis = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "visibility".into())])
+        .expect("vis");
+    let depth = tyndall::eval::download(&gpu, depth_value).expect("depth");
+    let range = tf::auto_range(&depth.data, cam);
+    let at = tf::anchor_tf_position(glam::Vec3::from(s.position), cam, &vis, &depth, range)
+        .expect("still visible from the second camera");
+    assert_eq!(red_at(&lut2, at), vec![1.0, 0.0, 0.0, 1.0]);
+    assert_ne!(
+        red_at(&lut2, [tfp.u, tfp.v]),
+        vec![1.0, 0.0, 0.0, 1.0],
+        "the constraint did not move with the camera (choose another pixel or camera)"
+    );
+}

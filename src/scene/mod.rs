@@ -156,6 +156,70 @@ impl Scene {
     pub fn triangles(&self) -> usize {
         self.objects.iter().map(|o| o.indices.len() / 3).sum()
     }
+
+    /// The first surface along the ray `origin + t·dir`, t > 0 (Möller–Trumbore on every
+    /// triangle, both faces): for picking one pixel, not for rendering.
+    pub fn ray_hit(&self, origin: Vec3, dir: Vec3) -> Option<SurfacePoint> {
+        let mut best: Option<SurfacePoint> = None;
+        for o in &self.objects {
+            for (ti, tri) in o.indices.chunks_exact(3).enumerate() {
+                let [a, b, c] = [0, 1, 2].map(|k| o.positions[tri[k] as usize]);
+                let (e1, e2) = (b - a, c - a);
+                let pv = dir.cross(e2);
+                let det = e1.dot(pv);
+                if det.abs() < 1e-12 {
+                    continue;
+                }
+                let inv = 1.0 / det;
+                let tv = origin - a;
+                let u = tv.dot(pv) * inv;
+                if !(0.0..=1.0).contains(&u) {
+                    continue;
+                }
+                let qv = tv.cross(e1);
+                let v = dir.dot(qv) * inv;
+                if v < 0.0 || u + v > 1.0 {
+                    continue;
+                }
+                let t = e2.dot(qv) * inv;
+                if t > 1e-6 && best.as_ref().is_none_or(|h| t < h.t) {
+                    best = Some(SurfacePoint {
+                        object: o.name.clone(),
+                        triangle: ti as u32,
+                        bary: [1.0 - u - v, u, v],
+                        position: origin + dir * t,
+                        t,
+                    });
+                }
+            }
+        }
+        best
+    }
+
+    /// The world position of a surface point given as object name, triangle index and
+    /// barycentric coordinates (weights of the triangle's three vertices); `None` when the
+    /// object or triangle does not exist.
+    pub fn surface_position(&self, object: &str, triangle: u32, bary: [f32; 3]) -> Option<Vec3> {
+        let o = self.objects.iter().find(|o| o.name == object)?;
+        let tri = o.indices.chunks_exact(3).nth(triangle as usize)?;
+        let p = [0, 1, 2].map(|k| o.positions.get(tri[k] as usize).copied());
+        Some(p[0]? * bary[0] + p[1]? * bary[1] + p[2]? * bary[2])
+    }
+}
+
+/// A point on a scene surface, as `tyndall pick` reports it and anchors refer to it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfacePoint {
+    /// The object's name.
+    pub object: String,
+    /// Triangle index within the object.
+    pub triangle: u32,
+    /// Barycentric coordinates: the weights of the triangle's three vertices (sum 1).
+    pub bary: [f32; 3],
+    /// World position.
+    pub position: Vec3,
+    /// Distance along the picking ray.
+    pub t: f32,
 }
 
 /// Light-space matrices of an orthographic shadow map along `to_sun`, fitted to the bounds:
