@@ -31,8 +31,9 @@ fn every_shader_file_validates_with_naga() {
     assert!(count >= 5, "only {count} shaders found");
 }
 
-/// Node kinds that run no shader pass: `Scene` only uploads vertex and index buffers.
-const NO_GPU_PASS: &[&str] = &["Scene"];
+/// Node kinds that run no shader pass: `Scene` only uploads vertex and index buffers, `LightMap`
+/// only uploads (or passes on) a texture and its light matrices.
+const NO_GPU_PASS: &[&str] = &["LightMap", "Scene"];
 
 #[test]
 fn every_node_has_a_shader_and_source_file_with_one_stem() {

@@ -87,6 +87,12 @@ pub struct EditorApp {
     pub recovery: Option<PathBuf>,
     /// The window was asked to close with unsaved changes: the save/discard/cancel prompt.
     pub confirm_quit: bool,
+    /// The transfer-function panel's state.
+    pub tf: super::tf_panel::TfPanel,
+    /// The stroke panel's state.
+    pub strokes: super::stroke_panel::StrokePanel,
+    /// The node kinds (for picking 3D constraints on the UI thread).
+    registry: Arc<Registry>,
     allow_close: bool,
 }
 
@@ -147,6 +153,9 @@ impl EditorApp {
             recovery: None,
             confirm_quit: false,
             allow_close: false,
+            tf: Default::default(),
+            strokes: Default::default(),
+            registry,
         }
     }
 
@@ -415,7 +424,7 @@ impl EditorApp {
         };
         let image = egui::Image::new(tex)
             .fit_to_exact_size(shown)
-            .sense(egui::Sense::hover());
+            .sense(egui::Sense::click_and_drag());
         let response = match self.zoom {
             Zoom::Fit => ui.add(image),
             Zoom::One => {
@@ -425,11 +434,55 @@ impl EditorApp {
                     .inner
             }
         };
+        let response = response.on_hover_cursor(egui::CursorIcon::Crosshair);
+        response.widget_info(|| {
+            egui::WidgetInfo::labeled(egui::WidgetType::Other, true, "viewer picture")
+        });
         if let Some(pos) = response.hover_pos() {
             let rel = (pos - response.rect.min) / response.rect.size();
             let x = (rel.x * raster.width as f32).floor().max(0.0) as u32;
             let y = (rel.y * raster.height as f32).floor().max(0.0) as u32;
             self.probe = probe(pictures, x, y);
+        }
+        let size = (raster.width, raster.height);
+        let at = |p: egui::Pos2| {
+            let rel = (p - response.rect.min) / response.rect.size();
+            [rel.x * size.0 as f32, rel.y * size.1 as f32]
+        };
+        let kind = self
+            .selected
+            .as_ref()
+            .and_then(|id| self.state.graph().node(id))
+            .map(|n| (n.id.clone(), n.kind.clone()));
+        match kind {
+            Some((id, k)) if k == "TransferFunction" && self.tf.arm_3d => {
+                if let (true, Some(p)) = (response.clicked(), response.interact_pointer_pos()) {
+                    let [x, y] = at(p);
+                    let px = ((x as u32).min(size.0 - 1), (y as u32).min(size.1 - 1));
+                    self.add_3d_constraint(&id, px, size);
+                }
+            }
+            Some((id, k)) if k == "LightMapSolve" && self.strokes.armed => {
+                let start = response.drag_started() || response.clicked();
+                if let (true, Some(p)) =
+                    (start || response.dragged(), response.interact_pointer_pos())
+                {
+                    if let Err(e) = super::stroke_panel::paint(
+                        &mut self.state,
+                        &id,
+                        &self.strokes,
+                        at(p),
+                        size,
+                        start,
+                    ) {
+                        self.status = e;
+                    }
+                }
+                if response.drag_stopped() || response.clicked() {
+                    self.state.end_merge();
+                }
+            }
+            _ => {}
         }
         ui.label(egui::RichText::new(&self.probe).monospace().small());
     }
@@ -592,6 +645,58 @@ impl EditorApp {
                 self.status = e.to_string();
             }
         }
+        let message = match node.kind.as_str() {
+            "TransferFunction" => {
+                super::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
+            }
+            "LightMapSolve" => {
+                super::stroke_panel::show(ui, &mut self.state, &id, &mut self.strokes, VIEW_SIZE)
+            }
+            _ => None,
+        };
+        if let Some(m) = message {
+            self.status = m;
+        }
+    }
+
+    /// A click in the viewer while a TF's 3D constraint is armed: pick the surface under the
+    /// pixel (an evaluation on this thread) and add a constraint anchored to it.
+    pub fn add_3d_constraint(&mut self, id: &str, pixel: (u32, u32), size: (u32, u32)) {
+        use crate::nodes::transfer_function::{pick, Anchor, Constraint};
+        let result = (|| -> Result<String, String> {
+            let gpu = Gpu::shared().map_err(|e| e.to_string())?;
+            let mut ev = crate::eval::Evaluator::new(self.registry.clone(), gpu);
+            let opts = crate::eval::EvalOptions {
+                time: self.time,
+                size,
+                ..Default::default()
+            };
+            let p = pick(&mut ev, self.state.graph(), Some(id), pixel, &opts)
+                .map_err(|e| e.to_string())?;
+            let s = p
+                .surface
+                .ok_or("no surface under this pixel (sky): nothing to anchor to")?;
+            let tf = p.tf.ok_or("not a TransferFunction")?;
+            let mut data = super::tf_panel::data_of(&self.state, id)?;
+            let stack = super::tf_panel::editable(&mut data, self.time)
+                .ok_or("add a key at this frame to edit the stack")?;
+            let c = Constraint {
+                at: [tf.u, tf.v],
+                colour: self.tf.brush,
+                anchor: Some(Anchor {
+                    object: s.object.clone(),
+                    triangle: s.triangle,
+                    bary: s.bary,
+                }),
+            };
+            self.tf.layer = super::tf_panel::add_constraint(stack, self.tf.layer, c);
+            super::tf_panel::store(&mut self.state, id, &data, None)?;
+            Ok(format!(
+                "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",
+                s.object, s.triangle, p.visibility, p.depth
+            ))
+        })();
+        self.status = result.unwrap_or_else(|e| e);
     }
 
     fn timeline(&mut self, ui: &mut egui::Ui) {
@@ -636,6 +741,21 @@ impl EditorApp {
                         ],
                         egui::Stroke::new(2.0, egui::Color32::from_rgb(240, 200, 60)),
                     );
+                }
+                // Key-frames of a transfer function's layer stack (its data block).
+                if n.kind == "TransferFunction" {
+                    let tf = n
+                        .data
+                        .as_ref()
+                        .and_then(|d| d.parse::<crate::nodes::transfer_function::TfData>().ok());
+                    for k in tf.map(|d| d.keys).unwrap_or_default() {
+                        let x = x_of(k.t);
+                        painter.circle_filled(
+                            egui::pos2(x, rect.center().y),
+                            4.0,
+                            egui::Color32::from_rgb(230, 90, 220),
+                        );
+                    }
                 }
             }
             let x = x_of(self.time);

@@ -7,6 +7,8 @@
 mod app;
 mod canvas;
 mod state;
+pub mod stroke_panel;
+pub mod tf_panel;
 pub mod view;
 pub mod worker;
 

@@ -56,6 +56,9 @@ pub struct EditorState {
     saved: Graph,
     last_autosave: Instant,
     autosave_every: Duration,
+    /// The tag of the last `set_data` call that may merge with the next (a drag or a stroke in
+    /// progress): `node:tag`.
+    merge: Option<String>,
 }
 
 impl EditorState {
@@ -70,6 +73,7 @@ impl EditorState {
             saved: Graph::new(),
             last_autosave: Instant::now(),
             autosave_every: Duration::from_secs(60),
+            merge: None,
         }
     }
 
@@ -125,6 +129,7 @@ impl EditorState {
         &mut self,
         change: impl FnOnce(&mut Graph, &Catalog) -> Result<T, GraphError>,
     ) -> Result<T, EditorError> {
+        self.merge = None;
         let before = self.graph.clone();
         match change(&mut self.graph, &self.catalog) {
             Ok(v) => {
@@ -144,8 +149,34 @@ impl EditorState {
         }
     }
 
+    /// Set (or clear) a node's data block as one undoable step. With `merge`, consecutive calls
+    /// with the same tag on the same node — the frames of one drag or one painted stroke — make
+    /// a single step: undo returns to before the first of them.
+    pub fn set_data(
+        &mut self,
+        node: &str,
+        data: Option<crate::graph::NodeData>,
+        merge: Option<&str>,
+    ) -> Result<(), EditorError> {
+        let tag = merge.map(|m| format!("{node}:{m}"));
+        if tag.is_some() && tag == self.merge && !self.undo.is_empty() {
+            self.graph.set_data(node, data)?;
+            self.redo.clear();
+            return Ok(());
+        }
+        self.apply(|g, _| g.set_data(node, data))?;
+        self.merge = tag;
+        Ok(())
+    }
+
+    /// End a merged edit (the drag or stroke is over): the next `set_data` starts a new step.
+    pub fn end_merge(&mut self) {
+        self.merge = None;
+    }
+
     /// Undo the last change; returns whether there was one.
     pub fn undo(&mut self) -> bool {
+        self.merge = None;
         match self.undo.pop() {
             Some(g) => {
                 self.redo.push(std::mem::replace(&mut self.graph, g));
@@ -157,6 +188,7 @@ impl EditorState {
 
     /// Redo the last undone change; returns whether there was one.
     pub fn redo(&mut self) -> bool {
+        self.merge = None;
         match self.redo.pop() {
             Some(g) => {
                 self.undo.push(std::mem::replace(&mut self.graph, g));

@@ -1,0 +1,189 @@
+//! The stroke panel (shown under the parameters of a selected `LightMapSolve`): its views, the
+//! brush (colour, width, eraser), and painting in the viewer. A view is added from the scene's
+//! camera at the viewer's size; while painting is armed a drag over the viewer paints a stroke
+//! into the active view (one undoable step per stroke), with pixel coordinates of the viewer's
+//! picture scaled to the view's size. The solve runs in the evaluation worker whenever the
+//! strokes change (the top bar's spinner is its progress); the solved light map is the node's
+//! thumbnail, and its `residual` output shows the convergence.
+
+use eframe::egui;
+
+use crate::editor::EditorState;
+use crate::graph::NodeData;
+use crate::nodes::light_map_solve::{SolveData, Stroke, View, ViewCamera};
+
+/// The panel's own state.
+pub struct StrokePanel {
+    /// The view strokes go into.
+    pub view: usize,
+    /// Brush colour (linear RGB).
+    pub colour: [f32; 3],
+    /// Brush diameter in view pixels.
+    pub width: f32,
+    /// Paint erasing strokes.
+    pub erase: bool,
+    /// A drag in the viewer paints.
+    pub armed: bool,
+}
+
+impl Default for StrokePanel {
+    fn default() -> Self {
+        Self {
+            view: 0,
+            colour: [1.0, 0.4, 0.1],
+            width: 12.0,
+            erase: false,
+            armed: false,
+        }
+    }
+}
+
+/// The node's data block parsed (absent: no views).
+pub fn data_of(state: &EditorState, id: &str) -> Result<SolveData, String> {
+    match state.graph().node(id).and_then(|n| n.data.as_ref()) {
+        Some(d) => d.parse(),
+        None => Ok(SolveData::default()),
+    }
+}
+
+fn store(
+    state: &mut EditorState,
+    id: &str,
+    data: &SolveData,
+    merge: Option<&str>,
+) -> Result<(), String> {
+    let d = NodeData::from_value(data)?;
+    state
+        .set_data(id, Some(d), merge)
+        .map_err(|e| e.to_string())
+}
+
+/// Paint: `start` begins a new stroke at `point` (pixels of a `size` picture), otherwise the
+/// point extends the stroke begun last; all of one stroke is one undoable step.
+pub fn paint(
+    state: &mut EditorState,
+    id: &str,
+    panel: &StrokePanel,
+    point: [f32; 2],
+    size: (u32, u32),
+    start: bool,
+) -> Result<(), String> {
+    let mut data = data_of(state, id)?;
+    if data.views.is_empty() {
+        data.views.push(View {
+            camera: ViewCamera::Scene,
+            width: size.0,
+            height: size.1,
+            strokes: vec![],
+        });
+    }
+    let i = panel.view.min(data.views.len() - 1);
+    let v = &mut data.views[i];
+    let p = [
+        point[0] * v.width as f32 / size.0.max(1) as f32,
+        point[1] * v.height as f32 / size.1.max(1) as f32,
+    ];
+    match v.strokes.last_mut() {
+        Some(s) if !start => s.points.push(p),
+        _ => v.strokes.push(Stroke {
+            colour: panel.colour,
+            width: panel.width,
+            points: vec![p],
+            erase: panel.erase,
+        }),
+    }
+    store(state, id, &data, Some("paint"))
+}
+
+/// Draw the panel for node `id`; returns a status message when an edit was refused.
+pub fn show(
+    ui: &mut egui::Ui,
+    state: &mut EditorState,
+    id: &str,
+    panel: &mut StrokePanel,
+    view_size: (u32, u32),
+) -> Option<String> {
+    ui.separator();
+    ui.heading("Strokes");
+    let mut data = match data_of(state, id) {
+        Ok(d) => d,
+        Err(e) => {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 90, 80),
+                format!("data block: {e}"),
+            );
+            return None;
+        }
+    };
+    let before = data.clone();
+    ui.horizontal(|ui| {
+        ui.label("brush");
+        ui.color_edit_button_rgb(&mut panel.colour);
+        ui.add(
+            egui::DragValue::new(&mut panel.width)
+                .range(1.0..=200.0)
+                .suffix(" px"),
+        )
+        .on_hover_text("brush diameter");
+        ui.toggle_value(&mut panel.erase, "eraser");
+        ui.toggle_value(&mut panel.armed, "Paint")
+            .on_hover_text("Drag over the viewer to paint into the active view");
+    });
+    ui.horizontal(|ui| {
+        if ui
+            .button("Add view")
+            .on_hover_text("A view from the scene's camera, at the viewer's size")
+            .clicked()
+        {
+            data.views.push(View {
+                camera: ViewCamera::Scene,
+                width: view_size.0,
+                height: view_size.1,
+                strokes: vec![],
+            });
+            panel.view = data.views.len() - 1;
+        }
+        let total: usize = data.views.iter().map(|v| v.strokes.len()).sum();
+        ui.label(format!("{} view(s), {total} stroke(s)", data.views.len()));
+    });
+    let mut remove = None;
+    for (i, v) in data.views.iter_mut().enumerate() {
+        ui.horizontal(|ui| {
+            let camera = match &v.camera {
+                ViewCamera::Scene => "scene camera".to_string(),
+                ViewCamera::Look { position, .. } => {
+                    format!(
+                        "camera at ({:.1}, {:.1}, {:.1})",
+                        position[0], position[1], position[2]
+                    )
+                }
+            };
+            if ui
+                .selectable_label(
+                    panel.view == i,
+                    format!("view {i}: {camera}, {}×{}", v.width, v.height),
+                )
+                .clicked()
+            {
+                panel.view = i;
+            }
+            ui.label(format!("{} stroke(s)", v.strokes.len()));
+            if ui.small_button("undo stroke").clicked() {
+                v.strokes.pop();
+            }
+            if ui.small_button("✕").on_hover_text("remove view").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        data.views.remove(i);
+        panel.view = panel.view.min(data.views.len().saturating_sub(1));
+    }
+    if data != before {
+        if let Err(e) = store(state, id, &data, None) {
+            return Some(e);
+        }
+    }
+    None
+}

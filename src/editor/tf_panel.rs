@@ -1,0 +1,416 @@
+//! The transfer-function panel (shown under the parameters of a selected `TransferFunction`):
+//! the layer list (add, remove, reorder, blend, opacity, colours), the TF square (a preview of
+//! the baked table; a click adds a diffusion constraint, a drag moves one), key-frames of the
+//! layer stack, and the arming of 3D constraints (a click in the viewer adds a constraint
+//! anchored to the surface under that pixel). Every edit is one undoable step on the node's data
+//! block; a drag is one step.
+
+use eframe::egui;
+
+use crate::editor::EditorState;
+use crate::graph::NodeData;
+use crate::nodes::transfer_function::{
+    bake_reference, layer_name, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
+};
+
+/// Side of the TF square on screen, in points.
+pub const SQUARE: f32 = 200.0;
+/// Resolution of the square's CPU preview.
+const PREVIEW: u32 = 64;
+
+/// The panel's own state (what is selected, the brush colour, the preview texture).
+pub struct TfPanel {
+    /// The layer edited by clicks in the square (index in the stack).
+    pub layer: usize,
+    /// Colour of new constraints.
+    pub brush: [f32; 4],
+    /// A click in the viewer adds an anchored 3D constraint.
+    pub arm_3d: bool,
+    dragging: Option<usize>,
+    preview: Option<(String, egui::TextureHandle)>,
+}
+
+impl Default for TfPanel {
+    fn default() -> Self {
+        Self {
+            layer: 0,
+            brush: [1.0, 0.5, 0.1, 1.0],
+            arm_3d: false,
+            dragging: None,
+            preview: None,
+        }
+    }
+}
+
+/// The node's data block parsed (an absent block is an empty stack).
+pub fn data_of(state: &EditorState, id: &str) -> Result<TfData, String> {
+    match state.graph().node(id).and_then(|n| n.data.as_ref()) {
+        Some(d) => d.parse(),
+        None => Ok(TfData::default()),
+    }
+}
+
+/// Write `data` back as one undoable step (merged with the previous step of the same `merge`
+/// tag, for drags).
+pub fn store(
+    state: &mut EditorState,
+    id: &str,
+    data: &TfData,
+    merge: Option<&str>,
+) -> Result<(), String> {
+    let d = NodeData::from_value(data)?;
+    state
+        .set_data(id, Some(d), merge)
+        .map_err(|e| e.to_string())
+}
+
+/// The stack edited at `time`: the plain layers, or the key at exactly `time`; `None` when the
+/// stack is key-framed and no key sits at `time` (it is then shown interpolated, read-only).
+pub fn editable(data: &mut TfData, time: f64) -> Option<&mut Vec<LayerEntry>> {
+    if data.keys.is_empty() {
+        return Some(&mut data.layers);
+    }
+    data.keys
+        .iter_mut()
+        .find(|k| k.t == time)
+        .map(|k| &mut k.layers)
+}
+
+/// Add a constraint to the stack's diffusion layer `layer` (or, when that layer is not a
+/// diffusion layer, to a new diffusion layer on top); returns the layer it went to.
+pub fn add_constraint(stack: &mut Vec<LayerEntry>, layer: usize, c: Constraint) -> usize {
+    if let Some(LayerEntry {
+        layer: Layer::Diffusion { constraints },
+        ..
+    }) = stack.get_mut(layer)
+    {
+        constraints.push(c);
+        return layer;
+    }
+    stack.push(LayerEntry {
+        layer: Layer::Diffusion {
+            constraints: vec![c],
+        },
+        blend: Blend::Alpha,
+        opacity: 1.0,
+    });
+    stack.len() - 1
+}
+
+fn new_layer(kind: &str, brush: [f32; 4]) -> Layer {
+    match kind {
+        "Gradient" => Layer::Gradient {
+            from: [0.0, 0.0],
+            to: [1.0, 0.0],
+            from_colour: [0.0, 0.0, 0.0, 1.0],
+            to_colour: brush,
+        },
+        "Diffusion" => Layer::Diffusion {
+            constraints: vec![],
+        },
+        "Image" => Layer::Image {
+            path: "tf.png".into(),
+        },
+        _ => Layer::Solid { colour: brush },
+    }
+}
+
+fn colour_button(ui: &mut egui::Ui, c: &mut [f32; 4]) -> bool {
+    ui.color_edit_button_rgba_unmultiplied(c).changed()
+}
+
+/// Draw the panel for node `id` at `time`; returns a status message when an edit was refused.
+pub fn show(
+    ui: &mut egui::Ui,
+    state: &mut EditorState,
+    id: &str,
+    time: f64,
+    panel: &mut TfPanel,
+) -> Option<String> {
+    ui.separator();
+    ui.heading("Transfer function");
+    let mut data = match data_of(state, id) {
+        Ok(d) => d,
+        Err(e) => {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 90, 80),
+                format!("data block: {e}"),
+            );
+            return None;
+        }
+    };
+    let before = data.clone();
+    let mut merge: Option<&str> = None;
+    let mut message = None;
+    // Key-frames of the stack.
+    ui.horizontal(|ui| {
+        if data.keys.is_empty() {
+            if ui
+                .button("Key stack")
+                .on_hover_text("Turn the stack into key-frames, with a key at this frame")
+                .clicked()
+            {
+                data.keys.push(TfKey {
+                    t: time,
+                    layers: std::mem::take(&mut data.layers),
+                });
+            }
+        } else if data.keys.iter().any(|k| k.t == time) {
+            if ui.button("Remove key").clicked() {
+                data.keys.retain(|k| k.t != time);
+                if data.keys.len() == 1 {
+                    data.layers = data.keys.remove(0).layers;
+                }
+            }
+        } else if ui
+            .button("Add key")
+            .on_hover_text("Key the interpolated stack at this frame")
+            .clicked()
+        {
+            match data.stack_at(time) {
+                Ok(layers) => data.keys.push(TfKey { t: time, layers }),
+                Err(e) => message = Some(e),
+            }
+        }
+        let keys: Vec<String> = data.keys.iter().map(|k| format!("{}", k.t)).collect();
+        if !keys.is_empty() {
+            ui.label(format!("keys at {}", keys.join(", ")));
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.label("brush");
+        colour_button(ui, &mut panel.brush);
+        ui.toggle_value(&mut panel.arm_3d, "3D constraint")
+            .on_hover_text(
+                "Click in the viewer to add a constraint anchored to that surface point",
+            );
+    });
+    // The TF square.
+    let shown = data.stack_at(time).unwrap_or_default();
+    let key = format!("{:?}", shown);
+    if panel.preview.as_ref().is_none_or(|(k, _)| *k != key) {
+        let lut = bake_reference(&shown, PREVIEW, 4, &[]);
+        let pixels: Vec<egui::Color32> = lut
+            .data
+            .chunks(4)
+            .map(|p| {
+                let c = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+                egui::Color32::from_rgb(c(p[0]), c(p[1]), c(p[2]))
+            })
+            .collect();
+        let image = egui::ColorImage::new([PREVIEW as usize, PREVIEW as usize], pixels);
+        let tex = ui
+            .ctx()
+            .load_texture("tf-square", image, egui::TextureOptions::LINEAR);
+        panel.preview = Some((key, tex));
+    }
+    let (rect, response) =
+        ui.allocate_exact_size(egui::vec2(SQUARE, SQUARE), egui::Sense::click_and_drag());
+    let response = response.on_hover_text(
+        "x: average visibility V̄, y: depth (down = far). Click: add a constraint; drag: move one",
+    );
+    response.widget_info(|| egui::WidgetInfo::labeled(egui::WidgetType::Other, true, "TF square"));
+    let painter = ui.painter_at(rect);
+    if let Some((_, tex)) = &panel.preview {
+        painter.image(
+            tex.id(),
+            rect,
+            egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+            egui::Color32::WHITE,
+        );
+    }
+    let to_screen = |at: [f32; 2]| rect.min + egui::vec2(at[0], at[1]) * rect.size();
+    let to_tf = |p: egui::Pos2| {
+        let r = (p - rect.min) / rect.size();
+        [r.x.clamp(0.0, 1.0), r.y.clamp(0.0, 1.0)]
+    };
+    let mut markers = Vec::new();
+    if let Some(LayerEntry {
+        layer: Layer::Diffusion { constraints },
+        ..
+    }) = shown.get(panel.layer)
+    {
+        for (i, c) in constraints.iter().enumerate() {
+            let p = to_screen(c.at);
+            let fill = egui::Color32::from_rgb(
+                (c.colour[0].clamp(0.0, 1.0) * 255.0) as u8,
+                (c.colour[1].clamp(0.0, 1.0) * 255.0) as u8,
+                (c.colour[2].clamp(0.0, 1.0) * 255.0) as u8,
+            );
+            painter.circle(p, 5.0, fill, egui::Stroke::new(1.5, egui::Color32::WHITE));
+            if c.anchor.is_some() {
+                painter.circle_stroke(p, 8.0, egui::Stroke::new(1.0, egui::Color32::WHITE));
+            }
+            markers.push((i, p));
+        }
+    }
+    let near = |pos: egui::Pos2| {
+        markers
+            .iter()
+            .filter(|(_, p)| p.distance(pos) <= 8.0)
+            .min_by(|a, b| a.1.distance(pos).total_cmp(&b.1.distance(pos)))
+            .map(|(i, _)| *i)
+    };
+    if response.drag_started() {
+        // Where the button went down (egui reports a drag only after the pointer has moved).
+        let origin = ui.input(|i| i.pointer.press_origin());
+        panel.dragging = origin.or(response.interact_pointer_pos()).and_then(near);
+    }
+    if let (Some(i), Some(pos)) = (panel.dragging, response.interact_pointer_pos()) {
+        if response.dragged() {
+            if let Some(stack) = editable(&mut data, time) {
+                if let Some(LayerEntry {
+                    layer: Layer::Diffusion { constraints },
+                    ..
+                }) = stack.get_mut(panel.layer)
+                {
+                    if let Some(c) = constraints.get_mut(i) {
+                        c.at = to_tf(pos);
+                        merge = Some("drag");
+                    }
+                }
+            }
+        }
+    }
+    if response.drag_stopped() {
+        panel.dragging = None;
+        state.end_merge();
+    }
+    if response.clicked() {
+        if let Some(pos) = response.interact_pointer_pos() {
+            if near(pos).is_none() {
+                match editable(&mut data, time) {
+                    Some(stack) => {
+                        let c = Constraint {
+                            at: to_tf(pos),
+                            colour: panel.brush,
+                            anchor: None,
+                        };
+                        panel.layer = add_constraint(stack, panel.layer, c);
+                    }
+                    None => message = Some("add a key at this frame to edit the stack".into()),
+                }
+            }
+        }
+    }
+    // The layer list, top of the stack first.
+    let read_only = editable(&mut data, time).is_none();
+    ui.horizontal(|ui| {
+        ui.label("Layers");
+        ui.menu_button("Add layer", |ui| {
+            for kind in ["Solid", "Gradient", "Diffusion", "Image"] {
+                if ui.button(kind).clicked() {
+                    if let Some(stack) = editable(&mut data, time) {
+                        stack.push(LayerEntry {
+                            layer: new_layer(kind, panel.brush),
+                            blend: Blend::Alpha,
+                            opacity: 1.0,
+                        });
+                        panel.layer = stack.len() - 1;
+                    }
+                    ui.close();
+                }
+            }
+        });
+    });
+    if read_only {
+        ui.label("(between keys: the stack shown is interpolated; add a key to edit it)");
+    } else if let Some(stack) = editable(&mut data, time) {
+        let n = stack.len();
+        let mut action: Option<(&str, usize)> = None;
+        for i in (0..n).rev() {
+            let e = &mut stack[i];
+            ui.push_id(("tf-layer", i), |ui| {
+                ui.horizontal(|ui| {
+                    if ui
+                        .selectable_label(
+                            panel.layer == i,
+                            format!("{i} {}", layer_name(&e.layer, false)),
+                        )
+                        .clicked()
+                    {
+                        panel.layer = i;
+                    }
+                    egui::ComboBox::from_id_salt("blend")
+                        .selected_text(format!("{:?}", e.blend))
+                        .width(70.0)
+                        .show_ui(ui, |ui| {
+                            for b in [Blend::Alpha, Blend::Multiply, Blend::Add] {
+                                ui.selectable_value(&mut e.blend, b, format!("{b:?}"));
+                            }
+                        });
+                    ui.add(
+                        egui::DragValue::new(&mut e.opacity)
+                            .range(0.0..=1.0)
+                            .speed(0.01),
+                    )
+                    .on_hover_text("opacity");
+                    if ui.small_button("▲").on_hover_text("move up").clicked() && i + 1 < n {
+                        action = Some(("up", i));
+                    }
+                    if ui.small_button("▼").on_hover_text("move down").clicked() && i > 0 {
+                        action = Some(("down", i));
+                    }
+                    if ui.small_button("✕").on_hover_text("remove layer").clicked() {
+                        action = Some(("remove", i));
+                    }
+                });
+                ui.horizontal(|ui| match &mut e.layer {
+                    Layer::Solid { colour } => {
+                        colour_button(ui, colour);
+                    }
+                    Layer::Gradient {
+                        from,
+                        to,
+                        from_colour,
+                        to_colour,
+                    } => {
+                        colour_button(ui, from_colour);
+                        for v in from.iter_mut() {
+                            ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
+                        }
+                        ui.label("→");
+                        colour_button(ui, to_colour);
+                        for v in to.iter_mut() {
+                            ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
+                        }
+                    }
+                    Layer::Diffusion { constraints } => {
+                        let mut remove = None;
+                        for (k, c) in constraints.iter_mut().enumerate() {
+                            colour_button(ui, &mut c.colour);
+                            if ui
+                                .small_button("✕")
+                                .on_hover_text("remove constraint")
+                                .clicked()
+                            {
+                                remove = Some(k);
+                            }
+                        }
+                        if let Some(k) = remove {
+                            constraints.remove(k);
+                        }
+                    }
+                    Layer::Image { path } => {
+                        ui.text_edit_singleline(path);
+                    }
+                });
+            });
+        }
+        match action {
+            Some(("up", i)) => stack.swap(i, i + 1),
+            Some(("down", i)) => stack.swap(i, i - 1),
+            Some((_, i)) => {
+                stack.remove(i);
+                panel.layer = panel.layer.min(stack.len().saturating_sub(1));
+            }
+            None => {}
+        }
+    }
+    if data != before {
+        if let Err(e) = store(state, id, &data, merge) {
+            message = Some(e);
+        }
+    }
+    message
+}

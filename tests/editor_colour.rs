@@ -1,0 +1,286 @@
+//! The editor's colour panels, driven like a user would (egui_kittest): the transfer-function
+//! layer list, the TF square (click adds a constraint, drag moves it in one undo step), 3D
+//! constraints picked in the viewer, and stroke painting for the light-map solve.
+
+mod common;
+
+use std::path::Path;
+use std::sync::Arc;
+
+use eframe::egui;
+use egui_kittest::kittest::Queryable;
+use egui_kittest::Harness;
+use tyndall::editor::{EditorApp, EditorState};
+use tyndall::nodes::light_map_solve::SolveData;
+use tyndall::nodes::transfer_function::{Layer, TfData};
+
+fn harness_for(text: &str, dir: &Path) -> Harness<'static, EditorApp> {
+    let path = dir.join("g.ron");
+    std::fs::write(&path, text).expect("write graph");
+    let registry = Arc::new(tyndall::nodes::registry());
+    let state = EditorState::open(registry.catalog().clone(), &path).expect("open");
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 1000.0))
+        .wgpu()
+        .build_eframe(move |_cc| EditorApp::new(state, registry));
+    h.run_steps(4);
+    h
+}
+
+fn settle(h: &mut Harness<'static, EditorApp>) {
+    for _ in 0..3000 {
+        h.run_steps(1);
+        if h.state().idle() {
+            h.run_steps(2);
+            if h.state().idle() {
+                return;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    panic!("the evaluation worker did not finish");
+}
+
+fn tf_data(h: &Harness<'static, EditorApp>, id: &str) -> TfData {
+    h.state()
+        .state
+        .graph()
+        .node(id)
+        .and_then(|n| n.data.as_ref())
+        .map(|d| d.parse().expect("TfData"))
+        .unwrap_or_default()
+}
+
+const TF_ONLY: &str = r#"(version: 2, nodes: {
+    "tf": (kind: "TransferFunction", params: {"resolution": 16},
+           data: (layers: [(layer: Solid(colour: (0.1, 0.2, 0.3, 1.0)))])),
+})"#;
+
+fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
+    h.event(egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    });
+}
+
+#[test]
+fn tf_layers_add_reorder_remove_and_undo() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_for(TF_ONLY, dir.path());
+    h.state_mut().selected = Some("tf".into());
+    h.run_steps(3);
+    h.get_by_label("Add layer").click();
+    h.run_steps(2);
+    h.get_by_label("Gradient").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    assert_eq!(d.layers.len(), 2);
+    assert!(matches!(d.layers[1].layer, Layer::Gradient { .. }));
+    // The list shows the top layer first: its "▼" moves the gradient below the solid.
+    h.get_all_by_label("▼").next().expect("▼").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    assert!(matches!(d.layers[0].layer, Layer::Gradient { .. }));
+    assert!(matches!(d.layers[1].layer, Layer::Solid { .. }));
+    // Remove the top (solid) layer, then undo it.
+    h.get_all_by_label("✕").next().expect("✕").click();
+    h.run_steps(2);
+    assert_eq!(tf_data(&h, "tf").layers.len(), 1);
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    assert_eq!(tf_data(&h, "tf").layers.len(), 2, "undo restores the layer");
+    // Key the stack at this frame: the data becomes key-frames, shown on the timeline.
+    h.get_by_label("Key stack").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    assert_eq!(d.keys.len(), 1);
+    assert!(d.layers.is_empty());
+}
+
+#[test]
+fn tf_square_click_adds_and_drag_moves_a_constraint_in_one_step() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_for(TF_ONLY, dir.path());
+    h.state_mut().selected = Some("tf".into());
+    h.run_steps(3);
+    let rect = h.get_by_label("TF square").rect();
+    h.get_by_label("TF square").click();
+    h.run_steps(3);
+    let d = tf_data(&h, "tf");
+    let Layer::Diffusion { constraints } = &d.layers[1].layer else {
+        panic!("a click adds a diffusion layer with the constraint: {d:?}");
+    };
+    assert_eq!(constraints.len(), 1);
+    assert!((constraints[0].at[0] - 0.5).abs() < 0.02 && (constraints[0].at[1] - 0.5).abs() < 0.02);
+    let steps = h.state().state.undo_depth();
+    // Drag the marker from the centre by (+40, +20) points in small moves.
+    let c = rect.center();
+    h.event(egui::Event::PointerMoved(c));
+    h.run_steps(1);
+    press(&mut h, c, true);
+    h.run_steps(1);
+    for k in 1..=10 {
+        h.event(egui::Event::PointerMoved(
+            c + egui::vec2(4.0 * k as f32, 2.0 * k as f32),
+        ));
+        h.run_steps(1);
+    }
+    press(&mut h, c + egui::vec2(40.0, 20.0), false);
+    h.run_steps(3);
+    let d = tf_data(&h, "tf");
+    let Layer::Diffusion { constraints } = &d.layers[1].layer else {
+        panic!("diffusion layer");
+    };
+    let want = [0.5 + 40.0 / rect.width(), 0.5 + 20.0 / rect.height()];
+    assert!(
+        (constraints[0].at[0] - want[0]).abs() < 0.02
+            && (constraints[0].at[1] - want[1]).abs() < 0.02,
+        "{:?} vs {want:?}",
+        constraints[0].at
+    );
+    assert_eq!(
+        h.state().state.undo_depth(),
+        steps + 1,
+        "the drag is one undo step"
+    );
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    let Layer::Diffusion { constraints } = &d.layers[1].layer else {
+        panic!("diffusion layer");
+    };
+    assert!(
+        (constraints[0].at[0] - 0.5).abs() < 0.02,
+        "undo returns to before the drag"
+    );
+}
+
+const TREE_TF: &str = r#"(version: 2, nodes: {
+    "scene": (kind: "Scene", params: {"name": "tree"}),
+    "shadow": (kind: "ShadowMap", params: {"resolution": 512}),
+    "gbuffer": (kind: "GBuffer"),
+    "scatter": (kind: "SingleScattering", params: {"steps": 16}),
+    "tf": (kind: "TransferFunction", params: {"resolution": 32, "depth_range": "auto"},
+           data: (layers: [(layer: Diffusion(constraints: []))])),
+}, edges: [
+    ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"), ("scene.scene", "tf.scene"),
+    ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"),
+    ("scatter.visibility", "tf.visibility"), ("scatter.depth", "tf.depth"),
+])"#;
+
+#[test]
+fn viewer_click_adds_an_anchored_3d_constraint() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_for(TREE_TF, dir.path());
+    h.state_mut().selected = Some("tf".into());
+    settle(&mut h);
+    h.get_by_label("3D constraint").click();
+    h.run_steps(2);
+    assert!(h.state().tf.arm_3d);
+    // The centre of the viewer's 480×270 picture: the tree's trunk.
+    h.get_by_label("viewer picture").click();
+    h.run_steps(3);
+    let d = tf_data(&h, "tf");
+    let Layer::Diffusion { constraints } = &d.layers[0].layer else {
+        panic!("diffusion layer");
+    };
+    assert_eq!(constraints.len(), 1, "status: {}", h.state().status);
+    let a = constraints[0].anchor.as_ref().expect("anchored");
+    assert_eq!(a.object, "trunk");
+    assert!((a.bary.iter().sum::<f32>() - 1.0).abs() < 1e-4);
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    let Layer::Diffusion { constraints } = &d.layers[0].layer else {
+        panic!("diffusion layer");
+    };
+    assert!(constraints.is_empty(), "undo removes the 3D constraint");
+}
+
+const WINDOW_SOLVE: &str = r#"(version: 2, nodes: {
+    "scene": (kind: "Scene", params: {"name": "window"}),
+    "shadow": (kind: "ShadowMap", params: {"resolution": 256}),
+    "gbuffer": (kind: "GBuffer"),
+    "scatter": (kind: "SingleScattering", params: {"steps": 16}),
+    "solve": (kind: "LightMapSolve", params: {"resolution": 16, "iterations": 2, "steps": 16}),
+}, edges: [
+    ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"), ("scene.scene", "solve.scene"),
+    ("shadow.map", "solve.shadow"), ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"),
+])"#;
+
+#[test]
+fn painting_in_the_viewer_adds_one_stroke_per_drag() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_for(WINDOW_SOLVE, dir.path());
+    // The viewer shows the scattering (pin 1) while the solve node is selected.
+    h.state_mut().pins[0] = Some("scatter".into());
+    h.state_mut().active_pin = Some(0);
+    h.state_mut().selected = Some("solve".into());
+    settle(&mut h);
+    h.get_by_label("Add view").click();
+    h.run_steps(2);
+    h.get_by_label("Paint").click();
+    h.run_steps(2);
+    let rect = h.get_by_label("viewer picture").rect();
+    let steps = h.state().state.undo_depth();
+    let a = rect.center() - egui::vec2(60.0, 0.0);
+    h.event(egui::Event::PointerMoved(a));
+    h.run_steps(1);
+    press(&mut h, a, true);
+    h.run_steps(1);
+    for k in 1..=8 {
+        h.event(egui::Event::PointerMoved(
+            a + egui::vec2(15.0 * k as f32, 3.0 * k as f32),
+        ));
+        h.run_steps(1);
+    }
+    press(&mut h, a + egui::vec2(120.0, 24.0), false);
+    h.run_steps(3);
+    let d: SolveData = h
+        .state()
+        .state
+        .graph()
+        .node("solve")
+        .and_then(|n| n.data.as_ref())
+        .expect("data")
+        .parse()
+        .expect("SolveData");
+    assert_eq!(d.views.len(), 1);
+    assert_eq!((d.views[0].width, d.views[0].height), (480, 270));
+    assert_eq!(d.views[0].strokes.len(), 1, "one drag, one stroke");
+    let s = &d.views[0].strokes[0];
+    assert!(s.points.len() >= 5, "{:?}", s.points);
+    // Points are in the view's pixels: the drag spans 120 points of a picture shown
+    // rect.width() points wide for 480 pixels.
+    let span = s.points.last().expect("last")[0] - s.points[0][0];
+    let want = 120.0 * 480.0 / rect.width();
+    assert!((span - want).abs() < 0.15 * want, "{span} vs {want}");
+    assert_eq!(
+        h.state().state.undo_depth(),
+        steps + 1,
+        "the stroke is one undo step"
+    );
+    settle(&mut h);
+    assert!(
+        h.state()
+            .reports
+            .get("solve")
+            .is_some_and(|r| r.error.is_none()),
+        "the solve ran on the new stroke: {:?}",
+        h.state().reports.get("solve").map(|r| r.error.clone())
+    );
+}
