@@ -56,6 +56,15 @@ const TF_ONLY: &str = r#"(version: 2, nodes: {
            data: (layers: [(layer: Solid(colour: (0.1, 0.2, 0.3, 1.0)))])),
 })"#;
 
+/// The opacity field of the top layer (drawn first, highest on screen): the node labelled "α"
+/// that has a value.
+fn top_field<'a>(h: &'a Harness<'static, EditorApp>) -> egui_kittest::Node<'a> {
+    h.get_all_by_label("α")
+        .filter(|n| n.value().is_some())
+        .min_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
+        .expect("opacity field")
+}
+
 fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
     h.event(egui::Event::PointerButton {
         pos,
@@ -94,6 +103,32 @@ fn tf_layers_add_reorder_remove_and_undo() {
     h.get_by_label("Undo").click();
     h.run_steps(2);
     assert_eq!(tf_data(&h, "tf").layers.len(), 2, "undo restores the layer");
+    // Blend of the top layer (the solid): Alpha → Multiply from its combo box.
+    h.get_all_by_value("Alpha")
+        .next()
+        .expect("blend combo")
+        .click();
+    h.run_steps(2);
+    h.get_by_label("Multiply").click();
+    h.run_steps(2);
+    let d = tf_data(&h, "tf");
+    assert_eq!(
+        d.layers[1].blend,
+        tyndall::nodes::transfer_function::Blend::Multiply
+    );
+    // Opacity of the top layer (drawn first, highest on screen), typed into its field.
+    top_field(&h).click();
+    h.run_steps(2);
+    top_field(&h).type_text("0.25");
+    h.run_steps(1);
+    h.key_press(egui::Key::Enter);
+    h.run_steps(2);
+    let o = tf_data(&h, "tf")
+        .layers
+        .iter()
+        .map(|l| l.opacity)
+        .collect::<Vec<_>>();
+    assert!((o[1] - 0.25).abs() < 1e-6, "{o:?}");
     // Key the stack at this frame: the data becomes key-frames, shown on the timeline.
     h.get_by_label("Key stack").click();
     h.run_steps(2);
@@ -250,18 +285,26 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
     }
     press(&mut h, a + egui::vec2(120.0, 24.0), false);
     h.run_steps(3);
-    let d: SolveData = h
-        .state()
-        .state
-        .graph()
-        .node("solve")
-        .and_then(|n| n.data.as_ref())
-        .expect("data")
-        .parse()
-        .expect("SolveData");
+    let data = |h: &Harness<'static, EditorApp>| -> SolveData {
+        h.state()
+            .state
+            .graph()
+            .node("solve")
+            .and_then(|n| n.data.as_ref())
+            .expect("data")
+            .parse()
+            .expect("SolveData")
+    };
+    // The stroke waits (drawn over the viewer) until Solve; then it is one undoable step.
+    assert_eq!(h.state().strokes.pending.len(), 1, "one drag, one stroke");
+    assert!(data(&h).views[0].strokes.is_empty());
+    h.get_by_label("Solve").click();
+    h.run_steps(3);
+    assert!(h.state().strokes.pending.is_empty());
+    let d = data(&h);
     assert_eq!(d.views.len(), 1);
     assert_eq!((d.views[0].width, d.views[0].height), (480, 270));
-    assert_eq!(d.views[0].strokes.len(), 1, "one drag, one stroke");
+    assert_eq!(d.views[0].strokes.len(), 1);
     let s = &d.views[0].strokes[0];
     assert!(s.points.len() >= 5, "{:?}", s.points);
     // Points are in the view's pixels: the drag spans 120 points of a picture shown
@@ -272,7 +315,7 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
     assert_eq!(
         h.state().state.undo_depth(),
         steps + 1,
-        "the stroke is one undo step"
+        "the solve is one undo step"
     );
     settle(&mut h);
     assert!(

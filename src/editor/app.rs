@@ -462,24 +462,52 @@ impl EditorApp {
                     self.add_3d_constraint(&id, px, size);
                 }
             }
-            Some((id, k)) if k == "LightMapSolve" && self.strokes.armed => {
-                let start = response.drag_started() || response.clicked();
-                if let (true, Some(p)) =
-                    (start || response.dragged(), response.interact_pointer_pos())
-                {
-                    if let Err(e) = super::stroke_panel::paint(
-                        &mut self.state,
-                        &id,
-                        &self.strokes,
-                        at(p),
-                        size,
-                        start,
-                    ) {
-                        self.status = e;
+            Some((id, k)) if k == "LightMapSolve" => {
+                if self.strokes.armed {
+                    let start = response.drag_started() || response.clicked();
+                    if let (true, Some(p)) =
+                        (start || response.dragged(), response.interact_pointer_pos())
+                    {
+                        if let Err(e) = super::stroke_panel::paint(
+                            &self.state,
+                            &id,
+                            &mut self.strokes,
+                            at(p),
+                            size,
+                            start,
+                        ) {
+                            self.status = e;
+                        }
                     }
                 }
-                if response.drag_stopped() || response.clicked() {
-                    self.state.end_merge();
+                // The waiting strokes, drawn over the picture.
+                let painter = ui.painter_at(response.rect);
+                let r = response.rect;
+                for (s, (w, h)) in
+                    super::stroke_panel::pending_in(&self.state, &id, &self.strokes, size)
+                {
+                    let (w, h) = (w.max(1) as f32, h.max(1) as f32);
+                    let to = |q: &[f32; 2]| {
+                        r.min + egui::vec2(q[0] / w * r.width(), q[1] / h * r.height())
+                    };
+                    let c8 = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8;
+                    let c = if s.erase {
+                        egui::Color32::from_black_alpha(160)
+                    } else {
+                        egui::Color32::from_rgba_unmultiplied(
+                            c8(s.colour[0]),
+                            c8(s.colour[1]),
+                            c8(s.colour[2]),
+                            160,
+                        )
+                    };
+                    let width = (s.width / w * r.width()).max(1.0);
+                    let pts: Vec<egui::Pos2> = s.points.iter().map(to).collect();
+                    if pts.len() == 1 {
+                        painter.circle_filled(pts[0], width * 0.5, c);
+                    } else {
+                        painter.add(egui::Shape::line(pts, egui::Stroke::new(width, c)));
+                    }
                 }
             }
             _ => {}

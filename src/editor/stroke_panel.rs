@@ -1,10 +1,11 @@
 //! The stroke panel (shown under the parameters of a selected `LightMapSolve`): its views, the
 //! brush (colour, width, eraser), and painting in the viewer. A view is added from the scene's
 //! camera at the viewer's size; while painting is armed a drag over the viewer paints a stroke
-//! into the active view (one undoable step per stroke), with pixel coordinates of the viewer's
-//! picture scaled to the view's size. The solve runs in the evaluation worker whenever the
-//! strokes change (the top bar's spinner is its progress); the solved light map is the node's
-//! thumbnail, and its `residual` output shows the convergence.
+//! for the active view, with pixel coordinates of the viewer's picture scaled to the view's
+//! size. Painted strokes wait (drawn over the viewer) until "Solve" writes them into the node's
+//! data block — one undoable step — which runs the solve in the evaluation worker (the top bar's
+//! spinner is its progress; the solved light map is the node's thumbnail, its `residual` output
+//! the convergence). "Discard" drops the waiting strokes.
 
 use eframe::egui;
 
@@ -24,6 +25,8 @@ pub struct StrokePanel {
     pub erase: bool,
     /// A drag in the viewer paints.
     pub armed: bool,
+    /// Strokes painted since the last solve: (view index, stroke in that view's pixels).
+    pub pending: Vec<(usize, Stroke)>,
 }
 
 impl Default for StrokePanel {
@@ -34,6 +37,7 @@ impl Default for StrokePanel {
             width: 12.0,
             erase: false,
             armed: false,
+            pending: Vec::new(),
         }
     }
 }
@@ -58,41 +62,79 @@ fn store(
         .map_err(|e| e.to_string())
 }
 
-/// Paint: `start` begins a new stroke at `point` (pixels of a `size` picture), otherwise the
-/// point extends the stroke begun last; all of one stroke is one undoable step.
+/// The size of view `i` (a view not yet made takes the picture's size).
+fn view_size_of(data: &SolveData, i: usize, picture: (u32, u32)) -> (u32, u32) {
+    data.views.get(i).map_or(picture, |v| (v.width, v.height))
+}
+
+/// Paint: `start` begins a new waiting stroke at `point` (pixels of a `picture`-sized image),
+/// otherwise the point extends the stroke begun last.
 pub fn paint(
-    state: &mut EditorState,
+    state: &EditorState,
     id: &str,
-    panel: &StrokePanel,
+    panel: &mut StrokePanel,
     point: [f32; 2],
-    size: (u32, u32),
+    picture: (u32, u32),
     start: bool,
 ) -> Result<(), String> {
-    let mut data = data_of(state, id)?;
-    if data.views.is_empty() {
-        data.views.push(View {
-            camera: ViewCamera::Scene,
-            width: size.0,
-            height: size.1,
-            strokes: vec![],
-        });
-    }
-    let i = panel.view.min(data.views.len() - 1);
-    let v = &mut data.views[i];
+    let data = data_of(state, id)?;
+    let (w, h) = view_size_of(&data, panel.view, picture);
     let p = [
-        point[0] * v.width as f32 / size.0.max(1) as f32,
-        point[1] * v.height as f32 / size.1.max(1) as f32,
+        point[0] * w as f32 / picture.0.max(1) as f32,
+        point[1] * h as f32 / picture.1.max(1) as f32,
     ];
-    match v.strokes.last_mut() {
-        Some(s) if !start => s.points.push(p),
-        _ => v.strokes.push(Stroke {
-            colour: panel.colour,
-            width: panel.width,
-            points: vec![p],
-            erase: panel.erase,
-        }),
+    match panel.pending.last_mut() {
+        Some((_, s)) if !start => s.points.push(p),
+        _ => panel.pending.push((
+            panel.view,
+            Stroke {
+                colour: panel.colour,
+                width: panel.width,
+                points: vec![p],
+                erase: panel.erase,
+            },
+        )),
     }
-    store(state, id, &data, Some("paint"))
+    Ok(())
+}
+
+/// Write the waiting strokes into the data block (one undoable step; a view is made from the
+/// scene camera at the picture's size when there is none).
+pub fn solve(
+    state: &mut EditorState,
+    id: &str,
+    panel: &mut StrokePanel,
+    picture: (u32, u32),
+) -> Result<(), String> {
+    let mut data = data_of(state, id)?;
+    for (view, stroke) in panel.pending.drain(..) {
+        if data.views.is_empty() {
+            data.views.push(View {
+                camera: ViewCamera::Scene,
+                width: picture.0,
+                height: picture.1,
+                strokes: vec![],
+            });
+        }
+        let i = view.min(data.views.len() - 1);
+        data.views[i].strokes.push(stroke);
+    }
+    store(state, id, &data, None)
+}
+
+/// The waiting strokes with the size of the view each belongs to.
+pub fn pending_in(
+    state: &EditorState,
+    id: &str,
+    panel: &StrokePanel,
+    picture: (u32, u32),
+) -> Vec<(Stroke, (u32, u32))> {
+    let data = data_of(state, id).unwrap_or_default();
+    panel
+        .pending
+        .iter()
+        .map(|(v, s)| (s.clone(), view_size_of(&data, *v, picture)))
+        .collect()
 }
 
 /// Draw the panel for node `id`; returns a status message when an edit was refused.
@@ -146,6 +188,25 @@ pub fn show(
         let total: usize = data.views.iter().map(|v| v.strokes.len()).sum();
         ui.label(format!("{} view(s), {total} stroke(s)", data.views.len()));
     });
+    let mut solve_now = false;
+    ui.horizontal(|ui| {
+        let waiting = panel.pending.len();
+        if ui
+            .add_enabled(waiting > 0, egui::Button::new("Solve"))
+            .on_hover_text("Add the painted strokes to the node and solve")
+            .clicked()
+        {
+            solve_now = true;
+        }
+        if ui
+            .add_enabled(waiting > 0, egui::Button::new("Discard"))
+            .on_hover_text("Drop the strokes painted since the last solve")
+            .clicked()
+        {
+            panel.pending.clear();
+        }
+        ui.label(format!("{waiting} stroke(s) waiting"));
+    });
     let mut remove = None;
     for (i, v) in data.views.iter_mut().enumerate() {
         ui.horizontal(|ui| {
@@ -184,6 +245,12 @@ pub fn show(
         if let Err(e) = store(state, id, &data, None) {
             return Some(e);
         }
+    }
+    if solve_now {
+        return Some(match solve(state, id, panel, view_size) {
+            Ok(()) => "solving the light map…".into(),
+            Err(e) => e,
+        });
     }
     None
 }

@@ -339,11 +339,13 @@ pub fn show(
                                 ui.selectable_value(&mut e.blend, b, format!("{b:?}"));
                             }
                         });
+                    let label = ui.label("α");
                     ui.add(
                         egui::DragValue::new(&mut e.opacity)
                             .range(0.0..=1.0)
                             .speed(0.01),
                     )
+                    .labelled_by(label.id)
                     .on_hover_text("opacity");
                     if ui.small_button("▲").on_hover_text("move up").clicked() && i + 1 < n {
                         action = Some(("up", i));
