@@ -16,8 +16,9 @@
 //! The vector updates and the dot products run on the CPU between the passes.
 //!
 //! It starts from the constant map `start`; texels no constraint ray reaches get no gradient
-//! and keep the start value. The residual ‖T x − b‖ is reported per iteration (stderr progress
-//! bar, and the `residual` output: one texel per iteration). It stops after `iterations`, or when
+//! and keep the start value. The residual ‖T x − b‖ is reported per iteration (`RunCtx::report`:
+//! the CLI's progress bar, the editor's top bar; and the `residual` output, one texel per
+//! iteration). It stops after `iterations`, or when
 //! ‖Tᵀ r‖ has fallen below `tolerance` × its first value. Non-negativity (`non_negative`, on by
 //! default): when a CG step would make texels negative, they are projected to 0 if that lowers
 //! the residual, else the step is shortened to the largest one that keeps every texel ≥ 0 (which
@@ -944,20 +945,28 @@ impl NodeKind for LightMapSolve {
         let views = view_problems(ctx.gpu, scene, &data)?;
         let want = desired(&views);
         let mut op = GpuOperator::new(ctx.gpu, views, &shadow, light, n, sampling)?;
-        let bar = indicatif::ProgressBar::new(set.iterations as u64);
-        let template = format!(
-            "light-map solve ({} constraint pixels, {n}² map) {{bar:30}} {{pos}}/{{len}} residual {{msg}}",
-            want.len()
-        );
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(&template)
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        let pixels = want.len();
+        ctx.report(
+            0,
+            set.iterations as u64,
+            format!("{pixels} constraint pixels, {n}² map"),
         );
         let sol = solve(&mut op, &want, set, &mut |it, res| {
-            bar.set_position(it as u64);
-            bar.set_message(format!("{res:.4e}"));
+            ctx.report(
+                it as u64,
+                set.iterations as u64,
+                format!("residual {res:.3e}"),
+            );
         })?;
-        bar.finish_and_clear();
+        ctx.report(
+            set.iterations as u64,
+            set.iterations as u64,
+            format!(
+                "{} iterations, residual {:.3e}",
+                sol.residuals.len() - 1,
+                sol.residuals.last().copied().unwrap_or(0.0)
+            ),
+        );
         let data: Vec<f32> = sol.x.iter().flat_map(|v| [v[0], v[1], v[2], 1.0]).collect();
         let map = ctx.gpu.upload(n, n, 4, &data)?;
         let res: Vec<f32> = sol.residuals.iter().map(|&r| r as f32).collect();

@@ -485,6 +485,7 @@ fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliError> {
     let mut opts = EvalOptions {
         time: a.time,
         gpu_timings: a.stats,
+        progress: Some(node_progress()),
         ..Default::default()
     };
     if let Some(s) = a.size {
@@ -671,6 +672,7 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
             output_suffix: v.suffix.clone(),
             gpu_timings: a.common.stats,
             inject: BTreeMap::new(),
+            progress: Some(node_progress()),
         };
         let result = ev.evaluate(&v.graph, &targets, &opts)?;
         for (key, file) in &files {
@@ -783,6 +785,7 @@ fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
                 output_suffix: format!("{}{frame_suffix}", v.suffix),
                 gpu_timings: a.common.stats,
                 inject: BTreeMap::new(),
+                progress: Some(node_progress()),
             };
             let result = ev.evaluate(&v.graph, &targets, &opts)?;
             if a.common.stats {
@@ -810,6 +813,48 @@ fn progress(total: u64) -> indicatif::ProgressBar {
         bar.set_style(style);
     }
     bar
+}
+
+/// Progress of long-running nodes (a light-map solve): a bar on a terminal, else a plain line
+/// at every tenth of the work.
+fn node_progress() -> crate::eval::ProgressSink {
+    use std::io::IsTerminal;
+    use std::sync::Mutex;
+    let terminal = std::io::stderr().is_terminal();
+    let bar: Mutex<Option<(String, indicatif::ProgressBar)>> = Mutex::new(None);
+    let last_tenth = Mutex::new(u64::MAX);
+    crate::eval::ProgressSink(Arc::new(move |p: &crate::eval::Progress| {
+        if !terminal {
+            let tenth = (p.done * 10).checked_div(p.total).unwrap_or(0);
+            if let Ok(mut last) = last_tenth.lock() {
+                if *last != tenth || p.done == p.total {
+                    *last = tenth;
+                    eprintln!("{}: {}/{} {}", p.node, p.done, p.total, p.message);
+                }
+            }
+            return;
+        }
+        let Ok(mut guard) = bar.lock() else {
+            return;
+        };
+        if guard.as_ref().is_none_or(|(n, _)| *n != p.node) {
+            let b = indicatif::ProgressBar::new(p.total);
+            let template = format!("{} {{bar:30}} {{pos}}/{{len}} {{msg}}", p.node);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(&template) {
+                b.set_style(style);
+            }
+            *guard = Some((p.node.clone(), b));
+        }
+        if let Some((_, b)) = guard.as_ref() {
+            b.set_length(p.total);
+            b.set_position(p.done);
+            b.set_message(p.message.clone());
+            if p.done >= p.total {
+                b.finish_and_clear();
+                *guard = None;
+            }
+        }
+    }))
 }
 
 fn default_text(p: &crate::graph::ParamSpec) -> String {

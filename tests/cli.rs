@@ -403,3 +403,42 @@ fn pick_prints_what_a_pixel_sees() {
     let bad = tyndall(&["pick", &g, "--pixel", "12"]);
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// Long work reports progress: without a terminal, plain lines on stderr.
+#[test]
+fn a_light_map_solve_reports_progress_lines() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let g = dir.path().join("solve.ron");
+    std::fs::write(
+        &g,
+        r#"(version: 2, nodes: {
+    "scene": (kind: "Scene", params: {"name": "window"}),
+    "shadow": (kind: "ShadowMap", params: {"resolution": 128}),
+    "solve": (kind: "LightMapSolve", params: {"resolution": 8, "iterations": 3, "steps": 8},
+              data: (views: [(camera: Scene, width: 48, height: 27, strokes: [
+                  (colour: (1.0, 0.2, 0.0), width: 6.0, points: [(5.0, 18.0), (12.0, 14.0)])])])),
+}, edges: [("scene.scene", "shadow.scene"), ("scene.scene", "solve.scene"), ("shadow.map", "solve.shadow")])"#,
+    )
+    .expect("write");
+    let out_file = dir.path().join("r.exr");
+    let out = tyndall(&[
+        "eval",
+        &g.display().to_string(),
+        "--output",
+        &format!("solve.residual={}", out_file.display()),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("solve: 0/3"), "{err}");
+    assert!(
+        err.contains("solve: 3/3") && err.contains("residual"),
+        "{err}"
+    );
+}

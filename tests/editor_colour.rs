@@ -318,6 +318,14 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
         "the solve is one undo step"
     );
     settle(&mut h);
+    let p = h
+        .state()
+        .progress
+        .clone()
+        .expect("the solve reported its progress");
+    assert_eq!((p.node.as_str(), p.done, p.total), ("solve", 2, 2));
+    assert!(p.message.contains("residual"), "{}", p.message);
+    settle(&mut h);
     assert!(
         h.state()
             .reports

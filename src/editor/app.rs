@@ -93,6 +93,8 @@ pub struct EditorApp {
     pub strokes: super::stroke_panel::StrokePanel,
     /// The node kinds (for picking 3D constraints on the UI thread).
     registry: Arc<Registry>,
+    /// The newest progress report of a long-running node (shown while the worker is busy).
+    pub progress: Option<crate::eval::Progress>,
     allow_close: bool,
 }
 
@@ -156,6 +158,7 @@ impl EditorApp {
             tf: Default::default(),
             strokes: Default::default(),
             registry,
+            progress: None,
         }
     }
 
@@ -257,6 +260,9 @@ impl EditorApp {
                 size: VIEW_SIZE,
                 view,
             });
+        }
+        if let Some(p) = worker.poll_progress() {
+            self.progress = Some(p);
         }
         for out in worker.poll() {
             for (id, rep) in out.nodes {
@@ -1271,6 +1277,9 @@ impl eframe::App for EditorApp {
                 ui.separator();
                 if !self.idle() {
                     ui.spinner();
+                    if let Some(p) = &self.progress {
+                        ui.label(format!("{} {}/{} {}", p.node, p.done, p.total, p.message));
+                    }
                 }
                 ui.label(&self.status);
             });

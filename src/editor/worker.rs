@@ -65,6 +65,7 @@ pub struct Outcome {
 pub struct Worker {
     tx: Option<Sender<Request>>,
     rx: Receiver<Outcome>,
+    progress: Receiver<crate::eval::Progress>,
     thread: Option<JoinHandle<()>>,
     /// Generation of the newest request sent.
     pub sent: u64,
@@ -77,11 +78,18 @@ impl Worker {
     pub fn start(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
         let (tx, requests) = channel::<Request>();
         let (results, rx) = channel::<Outcome>();
+        let (progress_tx, progress) = channel::<crate::eval::Progress>();
         let thread = std::thread::Builder::new()
             .name("tyndall-eval".into())
             .spawn(move || {
                 let mut ev = Evaluator::new(registry, gpu);
                 let mut thumbed = BTreeSet::new();
+                let progress_tx = std::sync::Mutex::new(progress_tx);
+                let sink = crate::eval::ProgressSink(std::sync::Arc::new(move |p| {
+                    if let Ok(tx) = progress_tx.lock() {
+                        let _ = tx.send(p.clone());
+                    }
+                }));
                 while let Ok(mut req) = requests.recv() {
                     // Only the newest request matters.
                     loop {
@@ -91,7 +99,10 @@ impl Worker {
                             Err(TryRecvError::Disconnected) => return,
                         }
                     }
-                    if results.send(evaluate(&mut ev, &req, &mut thumbed)).is_err() {
+                    if results
+                        .send(evaluate(&mut ev, &req, &mut thumbed, &sink))
+                        .is_err()
+                    {
                         return;
                     }
                 }
@@ -100,6 +111,7 @@ impl Worker {
         Self {
             tx: thread.as_ref().map(|_| tx),
             rx,
+            progress,
             thread,
             sent: 0,
             done: 0,
@@ -128,6 +140,15 @@ impl Worker {
             outs.push(o);
         }
         outs
+    }
+
+    /// The newest progress report of a long-running node since the last call, if any.
+    pub fn poll_progress(&mut self) -> Option<crate::eval::Progress> {
+        let mut last = None;
+        while let Ok(p) = self.progress.try_recv() {
+            last = Some(p);
+        }
+        last
     }
 
     /// Every request sent has its outcome (or the worker is gone).
@@ -166,11 +187,17 @@ pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String
         .collect()
 }
 
-fn evaluate(ev: &mut Evaluator, req: &Request, thumbed: &mut BTreeSet<String>) -> Outcome {
+fn evaluate(
+    ev: &mut Evaluator,
+    req: &Request,
+    thumbed: &mut BTreeSet<String>,
+    sink: &crate::eval::ProgressSink,
+) -> Outcome {
     let start = std::time::Instant::now();
     let opts = EvalOptions {
         time: req.time,
         size: req.size,
+        progress: Some(sink.clone()),
         ..Default::default()
     };
     let registry = ev.registry().clone();

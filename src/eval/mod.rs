@@ -77,6 +77,32 @@ pub struct EvalOptions {
     /// Values injected on unconnected input ports, by (node, port) — how `tyndall node` feeds
     /// files to a node. Each carries its own cache key.
     pub inject: BTreeMap<(String, String), (PortValue, u64)>,
+    /// Where long-running nodes report their progress (the CLI draws a progress bar, the editor
+    /// shows it in its top bar); `None`: nowhere.
+    pub progress: Option<ProgressSink>,
+}
+
+/// One progress report of a running node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// The node's id.
+    pub node: String,
+    /// Steps done.
+    pub done: u64,
+    /// Steps in all (0 when unknown).
+    pub total: u64,
+    /// What is going on (e.g. "residual 4.3e-1").
+    pub message: String,
+}
+
+/// A receiver of [`Progress`] reports, shared with the nodes of an evaluation.
+#[derive(Clone)]
+pub struct ProgressSink(pub std::sync::Arc<dyn Fn(&Progress) + Send + Sync>);
+
+impl std::fmt::Debug for ProgressSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ProgressSink")
+    }
 }
 
 impl Default for EvalOptions {
@@ -87,6 +113,7 @@ impl Default for EvalOptions {
             output_suffix: String::new(),
             gpu_timings: false,
             inject: BTreeMap::new(),
+            progress: None,
         }
     }
 }
@@ -325,6 +352,7 @@ impl Evaluator {
                 params: &params,
                 data,
                 time: opts.time,
+                progress: opts.progress.as_ref(),
                 inputs: &inputs,
                 wanted: want,
                 size: opts.size,

@@ -61,6 +61,8 @@ pub struct RunCtx<'a> {
     pub data: Option<&'a NodeData>,
     /// The evaluation time (frames), for nodes that interpolate key-frames in their data.
     pub time: f64,
+    /// Where to report progress of long work (see [`RunCtx::report`]).
+    pub progress: Option<&'a super::ProgressSink>,
     /// Values on connected input ports.
     pub inputs: &'a BTreeMap<String, PortValue>,
     /// Output ports some consumer needs; a node may skip the others.
@@ -184,6 +186,19 @@ impl RunCtx<'_> {
         match self.data {
             Some(d) => d.parse().map_err(NodeError::Data),
             None => Ok(T::default()),
+        }
+    }
+
+    /// Report progress of long work: `done` of `total` steps and a short message (shown by the
+    /// CLI's progress bar and the editor's top bar).
+    pub fn report(&self, done: u64, total: u64, message: impl Into<String>) {
+        if let Some(sink) = self.progress {
+            (sink.0)(&super::Progress {
+                node: self.id.to_string(),
+                done,
+                total,
+                message: message.into(),
+            });
         }
     }
 
