@@ -1238,7 +1238,7 @@ impl NodeKind for TransferFunction {
         };
         if ctx.wants("image") {
             let f = frame.ok_or_else(|| {
-                input_err("visibility", "and `depth` must be connected for `image`")
+                input_err("visibility", "must be connected, with `depth`, for `image`")
             })?;
             let mode = ctx.choice::<Mode>("mode")?;
             let inscatter = match mode {

@@ -129,6 +129,26 @@ fn tf_layers_add_reorder_remove_and_undo() {
         .map(|l| l.opacity)
         .collect::<Vec<_>>();
     assert!((o[1] - 0.25).abs() < 1e-6, "{o:?}");
+    // The solid's colour well opens egui's picker on the layer's colour (linear 0.1, 0.2, 0.3
+    // is sRGB 89, 124, 149). (Typing into the picker's fields did not register under kittest;
+    // the edit path is the same `changed()` → data block as the other widgets.)
+    // Colour wells from the top: the brush, then the top layer's (the solid), then the
+    // gradient's two.
+    let mut wells: Vec<_> = h
+        .get_all_by_role(egui::accesskit::Role::ColorWell)
+        .collect();
+    wells.sort_by(|a, b| a.rect().top().total_cmp(&b.rect().top()));
+    assert_eq!(wells.len(), 4);
+    wells[1].click();
+    h.run_steps(3);
+    let fields: Vec<String> = h
+        .get_all_by_role(egui::accesskit::Role::SpinButton)
+        .filter_map(|n| n.value())
+        .filter(|v| v.len() > 2 && v.as_bytes()[1] == b' ')
+        .collect();
+    assert_eq!(fields, ["R 89", "G 124", "B 149", "A 255"]);
+    h.key_press(egui::Key::Escape);
+    h.run_steps(2);
     // Key the stack at this frame: the data becomes key-frames, shown on the timeline.
     h.get_by_label("Key stack").click();
     h.run_steps(2);
