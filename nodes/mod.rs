@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use crate::eval::Registry;
 
+pub mod bilateral_filter;
 pub mod blur;
 pub mod composite;
 pub mod constant;
@@ -22,6 +23,7 @@ pub mod light_map_solve;
 pub mod math;
 pub mod morphology2d;
 pub mod perlin_noise2d;
+pub mod radial_blur;
 pub mod remap;
 pub mod scene;
 pub mod shadow_map;
@@ -34,6 +36,7 @@ pub mod util;
 /// Every node kind Tyndall ships.
 pub fn registry() -> Registry {
     let mut r = Registry::new();
+    r.add(Arc::new(bilateral_filter::BilateralFilter));
     r.add(Arc::new(blur::Blur));
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
@@ -57,6 +60,7 @@ pub fn registry() -> Registry {
         morphology2d::Op::Closure,
     )));
     r.add(Arc::new(perlin_noise2d::PerlinNoise2D));
+    r.add(Arc::new(radial_blur::RadialBlur));
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));
     r.add(Arc::new(shadow_map::ShadowMapNode));

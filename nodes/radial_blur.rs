@@ -1,0 +1,199 @@
+//! `RadialBlur`: seed 003 Algorithm 1 (after GPU Gems 3 ch. 13), the screen-space light-shaft
+//! post-process game artists know — the baseline the physical and stylised shafts are compared
+//! with.
+//!
+//! p = the pixel centre, Δ = (p − light)·density/samples; for i = 0…samples−1: p −= Δ,
+//! sum += bilinear(p)·decay^i·weight; `image` = sum·exposure. Pixel coordinates, texel centres
+//! at i + 0.5, bilinear between texel centres, clamped to the edge. The light is at
+//! (`light_x`, `light_y`) pixels, or — with a `scene` connected — at the sun's position seen by
+//! the scene's camera (the projection of the direction to the sun; it may lie off screen; a sun
+//! behind the camera gives a mirrored position, as the screen-space method does).
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `occlusion` | in | Image \| Scalar (required) | bright where the light is seen |
+//! | `scene` | in | Scene | places the light at the sun's screen position |
+//! | `image` | out | same type as `occlusion` | |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `light_x`, `light_y` | Float | 480, 100 | ±1e6 px | light position (no `scene`) |
+//! | `samples` | Int | 64 | 1…1024 | samples per pixel (quality knob) |
+//! | `density` | Float | 0.9 | 0…10 | fraction of the way to the light covered |
+//! | `decay` | Float | 0.96 | 0…1 | per-sample falloff |
+//! | `weight` | Float | 0.4 | 0…1e3 | per-sample weight |
+//! | `exposure` | Float | 0.1 | 0…1e3 | output scale |
+
+use std::sync::Arc;
+
+use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+use crate::scene::GpuScene;
+
+/// The `RadialBlur` node kind.
+pub struct RadialBlur;
+
+const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
+    kind: "RadialBlur",
+    category: "Scattering",
+    doc: "Screen-space radial blur towards the light (seed 003 Algorithm 1): the classic post-process light shafts, as a baseline.",
+    inputs: &[
+        PortSpec::required("occlusion", IMG, "Bright where the light is seen (e.g. the sky and sun, black occluders)."),
+        PortSpec::input("scene", &[PortType::Scene], "Places the light at the sun's screen position (overrides light_x, light_y)."),
+    ],
+    outputs: &[PortSpec::output("image", IMG, "The blurred shafts, same type as `occlusion`.")],
+    params: &[
+        ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
+        ParamSpec::float("light_y", 100.0, -1e6, 1e6, "px", "Light position y in pixels (down)."),
+        ParamSpec::int("samples", 64, 1, 1024, "samples", "Samples per pixel (quality knob)."),
+        ParamSpec::float("density", 0.9, 0.0, 10.0, "", "Fraction of the way to the light the samples cover."),
+        ParamSpec::float("decay", 0.96, 0.0, 1.0, "", "Falloff per sample."),
+        ParamSpec::float("weight", 0.4, 0.0, 1e3, "", "Weight of each sample."),
+        ParamSpec::float("exposure", 0.1, 0.0, 1e3, "", "Scales the sum."),
+    ],
+})
+.shader(SHADER)
+.uniforms(&[RadialParams::LAYOUT]);
+
+const SHADER: Shader = Shader::new("radial_blur", include_str!("../shaders/radial_blur.wgsl"));
+
+crate::uniforms! {
+    /// Uniforms of `shaders/radial_blur.wgsl` (struct `Params`).
+    pub struct RadialParams as "Params" {
+        /// Light position, pixels.
+        pub light: [f32; 2],
+        /// Samples per pixel.
+        pub samples: u32,
+        /// Density.
+        pub density: f32,
+        /// Decay per sample.
+        pub decay: f32,
+        /// Weight per sample.
+        pub weight: f32,
+        /// Output scale.
+        pub exposure: f32,
+        /// Padding.
+        pub _pad0: u32,
+    }
+}
+
+/// Bilinear sample of `r` at pixel coordinates p (texel centres at i + 0.5, clamp to edge).
+fn bilinear(r: &Raster, p: [f32; 2]) -> Vec<f32> {
+    let (w, h, c) = (r.width as i64, r.height as i64, r.channels as usize);
+    let q = [p[0] - 0.5, p[1] - 0.5];
+    let f = [q[0] - q[0].floor(), q[1] - q[1].floor()];
+    let (x0, y0) = (q[0].floor() as i64, q[1].floor() as i64);
+    let at = |x: i64, y: i64, k: usize| {
+        let (x, y) = (x.clamp(0, w - 1), y.clamp(0, h - 1));
+        r.data[(y * w + x) as usize * c + k]
+    };
+    (0..c)
+        .map(|k| {
+            let top = at(x0, y0, k) + (at(x0 + 1, y0, k) - at(x0, y0, k)) * f[0];
+            let bottom = at(x0, y0 + 1, k) + (at(x0 + 1, y0 + 1, k) - at(x0, y0 + 1, k)) * f[0];
+            top + (bottom - top) * f[1]
+        })
+        .collect()
+}
+
+/// CPU reference of the node.
+pub fn reference(src: &Raster, p: &RadialParams) -> Raster {
+    let mut out = src.clone();
+    let c = src.channels as usize;
+    for y in 0..src.height {
+        for x in 0..src.width {
+            let mut q = [x as f32 + 0.5, y as f32 + 0.5];
+            let n = p.samples as f32;
+            let d = [
+                (q[0] - p.light[0]) * p.density / n,
+                (q[1] - p.light[1]) * p.density / n,
+            ];
+            let mut sum = vec![0.0f32; c];
+            let mut decay = 1.0f32;
+            for _ in 0..p.samples {
+                q = [q[0] - d[0], q[1] - d[1]];
+                for (s, v) in sum.iter_mut().zip(bilinear(src, q)) {
+                    *s += v * decay * p.weight;
+                }
+                decay *= p.decay;
+            }
+            let k = (y * src.width + x) as usize * c;
+            for (i, s) in sum.iter().enumerate() {
+                out.data[k + i] = s * p.exposure;
+            }
+        }
+    }
+    out
+}
+
+/// The sun's position in pixels of a `w × h` view of the scene's camera.
+pub fn sun_pixel(scene: &crate::scene::Scene, w: u32, h: u32) -> [f32; 2] {
+    let cam = scene.camera;
+    let vp = cam.proj(w as f32 / h as f32) * cam.view();
+    let far = cam.position + scene.sun.to_sun() * cam.far * 0.5;
+    let c = vp * far.extend(1.0);
+    let w_ = if c.w.abs() < 1e-12 { 1e-12 } else { c.w };
+    [
+        (c.x / w_ * 0.5 + 0.5) * w as f32,
+        (0.5 - c.y / w_ * 0.5) * h as f32,
+    ]
+}
+
+impl NodeKind for RadialBlur {
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let src = ctx.require_texture("occlusion")?;
+        if src.format == TexFormat::Rg32F {
+            return Err(NodeError::Input {
+                port: "occlusion".into(),
+                message: "has an internal two-channel format".into(),
+            });
+        }
+        let light = match ctx.input("scene") {
+            Some(v) => {
+                let scene = v.payload::<GpuScene>().ok_or_else(|| NodeError::Input {
+                    port: "scene".into(),
+                    message: "is not a scene".into(),
+                })?;
+                sun_pixel(&scene.scene, src.width, src.height)
+            }
+            None => [ctx.f32("light_x")?, ctx.f32("light_y")?],
+        };
+        let p = RadialParams {
+            light,
+            samples: ctx.int("samples")? as u32,
+            density: ctx.f32("density")?,
+            decay: ctx.f32("decay")?,
+            weight: ctx.f32("weight")?,
+            exposure: ctx.f32("exposure")?,
+            _pad0: 0,
+        };
+        let out = ctx.gpu.texture(src.width, src.height, src.format)?;
+        let (entry, slot) = if src.format == TexFormat::R32F {
+            ("radial_scalar", 3)
+        } else {
+            ("radial_image", 4)
+        };
+        ctx.gpu.dispatch(
+            SHADER,
+            entry,
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&p))),
+                (1, Bind::Texture(&src)),
+                (slot, Bind::Storage(&out)),
+            ],
+            src.width,
+            src.height,
+        )?;
+        ctx.set("image", super::util::image_like(Arc::new(out)));
+        Ok(())
+    }
+}
