@@ -12,6 +12,8 @@ pub mod bilateral_filter;
 pub mod blur;
 pub mod composite;
 pub mod constant;
+pub mod depth_upsample;
+pub mod downsample;
 pub mod epipolar;
 pub mod g_buffer;
 pub mod hole_composite;
@@ -40,6 +42,8 @@ pub fn registry() -> Registry {
     r.add(Arc::new(blur::Blur));
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));
+    r.add(Arc::new(depth_upsample::DepthUpsample));
+    r.add(Arc::new(downsample::Downsample));
     r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Dilation)));
     r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Closure)));
     r.add(Arc::new(g_buffer::GBufferNode));
