@@ -17,3 +17,4 @@ for preset in alarm_tree alarm_fence tree_modulate window_light_map; do
 done
 ./target/release/tyndall render graphs/color/sunrise.ron -o out/sunrise.png --size 960x540 --frames 0-48
 ./target/release/tyndall render scripts/sunrise_sheet.ron
+./target/release/tyndall render graphs/medium/tree_bilateral.ron -o docs/medium/tree_bilateral.png --size 480x270
