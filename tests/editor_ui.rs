@@ -77,6 +77,18 @@ fn selecting_a_node_shows_its_parameters_and_picture() {
     let mut h = harness("graphs/physical/window.ron");
     h.state_mut().selected = Some("tonemap".into());
     settle(&mut h);
+    // Every node with a picture output shows its thumbnail before the snapshot (they change the
+    // nodes' sizes).
+    for id in ["shadow", "gbuffer", "scatter", "composite", "tonemap"] {
+        for _ in 0..500 {
+            if h.state().has_thumbnail(id) {
+                break;
+            }
+            h.run_steps(1);
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        assert!(h.state().has_thumbnail(id), "{id} has no thumbnail");
+    }
     // The node's title on the canvas and the parameters panel's heading.
     assert_eq!(h.query_all_by_label("tonemap - Tonemap").count(), 2);
     let _ = h.get_by_label("operator");

@@ -187,6 +187,11 @@ impl EditorApp {
         self.frame_all = true;
     }
 
+    /// Whether node `id` has a thumbnail on the canvas.
+    pub fn has_thumbnail(&self, id: &str) -> bool {
+        self.thumbs.contains_key(id)
+    }
+
     /// Every evaluation asked for has landed (or there is no GPU).
     pub fn idle(&self) -> bool {
         self.worker.as_ref().is_none_or(|w| w.idle())
