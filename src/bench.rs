@@ -4,7 +4,9 @@
 //! A suite is a RON file (`benches/<name>.ron`) naming a graph, the node to measure, the output
 //! to compare, an optional reference setting and the settings to measure. In a setting, plain
 //! keys are parameters of the measured node, `node.param` keys set other nodes (e.g. the map
-//! resolution) and the key `node` measures another node. Each setting runs `runs` times (the
+//! resolution), the key `node` measures another node, `output` compares another of its ports,
+//! and `time` (`a+b+c`) times the sum of several nodes (all re-run each time: a chain such as
+//! downsample + march + upsample). Each setting runs `runs` times (the
 //! measured node's cached result dropped each time, its inputs kept); the table reports the
 //! median and minimum wall-clock time of that node (GPU work included: the evaluator waits for
 //! completion), the RMSE and maximum error against the reference, and optionally the ratio to
@@ -62,6 +64,11 @@ pub struct Suite {
     /// residual over the start.
     #[serde(default)]
     pub convergence: bool,
+    /// Also report the RMSE over the texels at depth discontinuities only: `(depth port,
+    /// threshold)` — a texel whose depth differs from a 4-neighbour's by more than `threshold`
+    /// times its own.
+    #[serde(default)]
+    pub edges: Option<(String, f32)>,
 }
 
 /// One measured row.
@@ -85,6 +92,11 @@ pub struct Row {
     pub holes: Option<(usize, usize)>,
     /// Iterations run and the final residual over the start (when `convergence` is set).
     pub convergence: Option<(usize, f64)>,
+    /// Peak signal-to-noise ratio against the reference, dB (peak: the reference's largest
+    /// value; NaN without a reference).
+    pub psnr: f64,
+    /// RMSE at depth discontinuities (when `edges` is set).
+    pub edge_rmse: f64,
 }
 
 /// Errors of the bench runner.
@@ -138,7 +150,7 @@ fn apply(
         .cloned()
         .unwrap_or_else(|| default_node.to_string());
     for (key, value) in setting {
-        if key == "node" {
+        if key == "node" || key == "output" || key == "time" {
             continue;
         }
         match split_endpoint(key) {
@@ -162,6 +174,57 @@ fn errors(a: &Raster, b: &Raster) -> (f64, f64) {
         mx = mx.max(d);
     }
     ((sq / n).sqrt(), mx)
+}
+
+/// Texels at depth discontinuities: the depth differs from a 4-neighbour's by more than
+/// `threshold` times its own.
+pub fn discontinuities(depth: &Raster, threshold: f32) -> Vec<bool> {
+    let (w, h) = (depth.width as usize, depth.height as usize);
+    let d = |x: usize, y: usize| depth.data[(y * w + x) * depth.channels as usize];
+    let mut out = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let here = d(x, y);
+            let mut n = Vec::with_capacity(4);
+            if x > 0 {
+                n.push(d(x - 1, y));
+            }
+            if x + 1 < w {
+                n.push(d(x + 1, y));
+            }
+            if y > 0 {
+                n.push(d(x, y - 1));
+            }
+            if y + 1 < h {
+                n.push(d(x, y + 1));
+            }
+            out[y * w + x] = n.iter().any(|v| (v - here).abs() > threshold * here.abs());
+        }
+    }
+    out
+}
+
+/// RMSE of `a` against `b` over the texels where `mask` is set (all channels).
+pub fn masked_rmse(a: &Raster, b: &Raster, mask: &[bool]) -> f64 {
+    if a.data.len() != b.data.len() || a.data.len() != mask.len() * a.channels as usize {
+        return f64::NAN;
+    }
+    let c = a.channels as usize;
+    let (mut sq, mut n) = (0.0f64, 0usize);
+    for (i, m) in mask.iter().enumerate() {
+        if *m {
+            for k in 0..c {
+                let d = a.data[i * c + k] as f64 - b.data[i * c + k] as f64;
+                sq += d * d;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (sq / n as f64).sqrt()
+    }
 }
 
 /// Number of 4-connected components of texels ≥ `threshold` in a one-channel raster.
@@ -237,7 +300,8 @@ pub fn run(
     let read = |ev: &mut Evaluator,
                 g: &Graph,
                 node: &str,
-                port: &str|
+                port: &str,
+                timed: &[String]|
      -> Result<(Raster, f64), BenchError> {
         let r = ev
             .evaluate(
@@ -250,8 +314,9 @@ pub fn run(
             .stats
             .nodes
             .iter()
-            .find(|n| n.id == node)
-            .map_or(0.0, |n| n.time.as_secs_f64() * 1e3);
+            .filter(|n| timed.contains(&n.id) || (timed.is_empty() && n.id == node))
+            .map(|n| n.time.as_secs_f64() * 1e3)
+            .sum();
         let v = r
             .outputs
             .get(&(node.to_string(), port.to_string()))
@@ -261,12 +326,26 @@ pub fn run(
             ms,
         ))
     };
+    let output_of = |setting: &BTreeMap<String, String>| {
+        setting
+            .get("output")
+            .cloned()
+            .unwrap_or_else(|| suite.output.clone())
+    };
     let reference = match &suite.reference {
         Some(setting) => {
             let mut g = base.clone();
             let node = apply(&registry, &mut g, &suite.node, setting)?;
             progress(&format!("reference {}", describe(setting)));
-            Some(read(&mut ev, &g, &node, &suite.output)?.0)
+            Some(read(&mut ev, &g, &node, &output_of(setting), &[])?.0)
+        }
+        None => None,
+    };
+    let edge_mask = match &suite.edges {
+        Some((port, threshold)) => {
+            let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
+            let (d, _) = read(&mut ev, &base, n, p, &[])?;
+            Some(discontinuities(&d, *threshold))
         }
         None => None,
     };
@@ -280,11 +359,18 @@ pub fn run(
         ));
         let mut g = base.clone();
         let node = apply(&registry, &mut g, &suite.node, setting)?;
+        let output = output_of(setting);
+        let timed: Vec<String> = setting
+            .get("time")
+            .map(|t| t.split('+').map(|s| s.trim().to_string()).collect())
+            .unwrap_or_else(|| vec![node.clone()]);
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..runs.max(1) {
-            ev.invalidate(&node);
-            let (raster, ms) = read(&mut ev, &g, &node, &suite.output)?;
+            for t in &timed {
+                ev.invalidate(t);
+            }
+            let (raster, ms) = read(&mut ev, &g, &node, &output, &timed)?;
             times.push(ms);
             last = Some(raster);
         }
@@ -297,7 +383,7 @@ pub fn run(
             Some((before, threshold)) => {
                 let (n, p) =
                     split_endpoint(before).map_err(|e| BenchError::Input(e.to_string()))?;
-                let (b, _) = read(&mut ev, &g, n, p)?;
+                let (b, _) = read(&mut ev, &g, n, p, &[])?;
                 Some((
                     count_components(&b, *threshold),
                     count_components(&out, *threshold),
@@ -313,6 +399,18 @@ pub fn run(
                 if first > 0.0 { last / first } else { f64::NAN },
             )
         });
+        let psnr = reference.as_ref().map_or(f64::NAN, |r| {
+            let peak = r
+                .data
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold(0.0f64, |m, v| m.max(v.abs() as f64));
+            20.0 * (peak / rmse).log10()
+        });
+        let edge_rmse = match (&edge_mask, &reference) {
+            (Some(mask), Some(r)) => masked_rmse(&out, r, mask),
+            _ => f64::NAN,
+        };
         let median = times[times.len() / 2];
         let group_of = |p: &BTreeMap<String, String>| -> BTreeMap<String, String> {
             p.iter()
@@ -337,6 +435,8 @@ pub fn run(
             growth,
             holes,
             convergence,
+            psnr,
+            edge_rmse,
         });
     }
     Ok(rows)
@@ -382,12 +482,20 @@ pub fn table(rows: &[Row]) -> String {
         .unwrap_or(7)
         .max(7);
     let conv = rows.iter().any(|r| r.convergence.is_some());
+    let psnr = rows.iter().any(|r| !r.psnr.is_nan());
+    let edges = rows.iter().any(|r| !r.edge_rmse.is_nan());
     let mut s = format!(
         "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
         "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
     );
     if conv {
         s.push_str(&format!("  {:>10}  {:>12}", "iterations", "residual/r0"));
+    }
+    if psnr {
+        s.push_str(&format!("  {:>8}", "PSNR dB"));
+    }
+    if edges {
+        s.push_str(&format!("  {:>10}", "edge RMSE"));
     }
     s.push('\n');
     for r in rows {
@@ -406,6 +514,12 @@ pub fn table(rows: &[Row]) -> String {
             let (it, res) = r.convergence.unwrap_or((0, f64::NAN));
             s.push_str(&format!("  {:>10}  {:>12}", it, cell(res, 6)));
         }
+        if psnr {
+            s.push_str(&format!("  {:>8}", cell(r.psnr, 2)));
+        }
+        if edges {
+            s.push_str(&format!("  {:>10}", cell(r.edge_rmse, 6)));
+        }
         s.push('\n');
     }
     s
@@ -414,7 +528,7 @@ pub fn table(rows: &[Row]) -> String {
 /// The table as CSV.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after,iterations,residual_ratio\n",
+        "setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after,iterations,residual_ratio,psnr_db,edge_rmse\n",
     );
     for r in rows {
         let (a, b) = r.holes.map_or((String::new(), String::new()), |(a, b)| {
@@ -426,13 +540,15 @@ pub fn csv(rows: &[Row]) -> String {
                 (i.to_string(), cell(x, 8))
             });
         s.push_str(&format!(
-            "\"{}\",{:.4},{:.4},{},{},{},{a},{b},{it},{res}\n",
+            "\"{}\",{:.4},{:.4},{},{},{},{a},{b},{it},{res},{},{}\n",
             r.setting,
             r.median_ms,
             r.min_ms,
             cell(r.rmse, 8),
             cell(r.max_err, 8),
-            cell(r.growth, 4)
+            cell(r.growth, 4),
+            cell(r.psnr, 3),
+            cell(r.edge_rmse, 8)
         ));
     }
     s
