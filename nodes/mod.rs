@@ -24,6 +24,7 @@ pub mod light_map;
 pub mod light_map_solve;
 pub mod math;
 pub mod morphology2d;
+pub mod noise_volume;
 pub mod perlin_noise2d;
 pub mod radial_blur;
 pub mod remap;
@@ -63,6 +64,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(morphology2d::Morphology2D(
         morphology2d::Op::Closure,
     )));
+    r.add(Arc::new(noise_volume::NoiseVolume));
     r.add(Arc::new(perlin_noise2d::PerlinNoise2D));
     r.add(Arc::new(radial_blur::RadialBlur));
     r.add(Arc::new(remap::Remap));

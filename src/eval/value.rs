@@ -80,6 +80,8 @@ pub enum PortValue {
     /// A baked transfer function, `RGBA32F`, N×N: texel (i, j) holds the colour at
     /// u = V̄ = (i + 0.5)/N, v = normalised depth = (j + 0.5)/N.
     Lut2D(Arc<GpuTexture>),
+    /// A volume (noise, painted blend volume) and the world-space box `[min, max]` it covers.
+    Volume(Arc<crate::gpu::GpuVolume>, [[f32; 3]; 2]),
     /// A light map, `RGBA32F`: the colour multiplying the sun at a point is the bilinear lookup
     /// at the point's (u, v) under these light matrices (orthographic along the light, u = x/2
     /// + 1/2, v = 1/2 − y/2 of light clip space, clamp to edge).
@@ -98,6 +100,7 @@ impl PortValue {
             PortValue::Image(_) => PortType::Image,
             PortValue::Lut2D(_) => PortType::Lut2D,
             PortValue::LightMap(..) => PortType::LightMap,
+            PortValue::Volume(..) => PortType::Volume,
             PortValue::Other(t, _) => *t,
         }
     }
@@ -111,7 +114,7 @@ impl PortValue {
             | PortValue::Image(t)
             | PortValue::Lut2D(t)
             | PortValue::LightMap(t, _) => Some(t),
-            PortValue::Other(..) => None,
+            PortValue::Other(..) | PortValue::Volume(..) => None,
         }
     }
 
@@ -125,6 +128,9 @@ impl PortValue {
 
     /// GPU memory held, in bytes (0 for payloads of unknown size).
     pub fn bytes(&self) -> usize {
-        self.texture().map_or(0, |t| t.bytes())
+        match self {
+            PortValue::Volume(v, _) => v.bytes(),
+            _ => self.texture().map_or(0, |t| t.bytes()),
+        }
     }
 }

@@ -5,6 +5,7 @@ mod layout;
 mod pool;
 mod raster;
 mod timer;
+mod volume;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -15,6 +16,7 @@ pub use layout::{check_uniform_layout, UniformLayout};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{MeshDraw, MeshVertex, RasterTarget};
 pub use timer::PassTimer;
+pub use volume::{mip_count, mip_size, GpuVolume};
 
 /// Errors from the GPU layer.
 #[derive(Debug, Error, Clone)]
@@ -54,6 +56,13 @@ pub enum Bind<'a> {
     Storage(&'a GpuTexture),
     /// A read-write storage buffer of 32-bit words (`array<atomic<i32>>`, `array<i32>`…).
     Buffer(&'a GpuBuffer),
+    /// A volume read with `textureLoad` at any level (`texture_3d<f32>`, unfilterable).
+    Volume(&'a GpuVolume),
+    /// One level of a volume, written (`texture_storage_3d<r32float, write>`).
+    VolumeLevel(&'a GpuVolume, u32),
+    /// One level of a volume, read (`texture_3d<f32>`, level 0 of the view is that level): for
+    /// passes that build one level from another of the same volume.
+    VolumeLevelRead(&'a GpuVolume, u32),
 }
 
 /// A storage buffer of 32-bit words (for passes that accumulate with integer atomics: WGSL
@@ -510,6 +519,9 @@ impl Gpu {
                     TexFormat::Rg32F => ":s2",
                 },
                 Bind::Buffer(_) => ":b",
+                Bind::Volume(_) => ":v",
+                Bind::VolumeLevel(..) => ":vs",
+                Bind::VolumeLevelRead(..) => ":v",
             });
         }
         let mut cache = match self.pipelines.lock() {
@@ -546,6 +558,20 @@ impl Gpu {
                                 ty: wgpu::BufferBindingType::Storage { read_only: false },
                                 has_dynamic_offset: false,
                                 min_binding_size: None,
+                            },
+                            Bind::Volume(_) | Bind::VolumeLevelRead(..) => {
+                                wgpu::BindingType::Texture {
+                                    sample_type: wgpu::TextureSampleType::Float {
+                                        filterable: false,
+                                    },
+                                    view_dimension: wgpu::TextureViewDimension::D3,
+                                    multisampled: false,
+                                }
+                            }
+                            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
+                                access: wgpu::StorageTextureAccess::WriteOnly,
+                                format: wgpu::TextureFormat::R32Float,
+                                view_dimension: wgpu::TextureViewDimension::D3,
                             },
                         },
                         count: None,
@@ -604,7 +630,22 @@ impl Gpu {
         height: u32,
     ) -> Result<(), GpuError> {
         let pipeline = self.pipeline(shader, entry, binds)?;
-        self.scoped(|| self.record(&pipeline, shader, binds, width, height))?
+        let groups = [width.div_ceil(8), height.div_ceil(8), 1];
+        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
+    }
+
+    /// Run compute entry point `entry` (`@workgroup_size(4, 4, 4)`) over `size` invocations in
+    /// x, y, z — for passes over volumes.
+    pub fn dispatch_3d(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        size: [u32; 3],
+    ) -> Result<(), GpuError> {
+        let pipeline = self.pipeline(shader, entry, binds)?;
+        let groups = size.map(|s| s.div_ceil(4));
+        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
     }
 
     fn record(
@@ -612,8 +653,7 @@ impl Gpu {
         pipeline: &wgpu::ComputePipeline,
         shader: Shader,
         binds: &[(u32, Bind)],
-        width: u32,
-        height: u32,
+        groups: [u32; 3],
     ) -> Result<(), GpuError> {
         let buffers: Vec<Option<wgpu::Buffer>> = binds
             .iter()
@@ -642,6 +682,10 @@ impl Gpu {
                 }
                 (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
                 (Bind::Buffer(b), _) => b.raw.as_entire_binding(),
+                (Bind::Volume(v), _) => wgpu::BindingResource::TextureView(v.view()),
+                (Bind::VolumeLevel(v, l), _) | (Bind::VolumeLevelRead(v, l), _) => {
+                    wgpu::BindingResource::TextureView(v.level_view(*l))
+                }
                 (Bind::Uniform(_), None) => {
                     return Err(GpuError::Validation(format!(
                         "{}: uniform {i} has no buffer",
@@ -672,7 +716,7 @@ impl Gpu {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
         }
         if let Some(t) = &timer {
             self.resolve_timer(t, &mut enc);
