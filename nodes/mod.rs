@@ -16,6 +16,7 @@ pub mod depth_upsample;
 pub mod downsample;
 pub mod epipolar;
 pub mod g_buffer;
+pub mod heterogeneity;
 pub mod hole_composite;
 pub mod hole_map;
 pub mod image_input;
@@ -48,6 +49,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Dilation)));
     r.add(Arc::new(epipolar::Epipolar(epipolar::EpiOp::Closure)));
     r.add(Arc::new(g_buffer::GBufferNode));
+    r.add(Arc::new(heterogeneity::Heterogeneity));
     r.add(Arc::new(hole_composite::HoleComposite));
     r.add(Arc::new(hole_map::HoleMap));
     r.add(Arc::new(image_input::ImageInput));

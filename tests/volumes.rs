@@ -164,3 +164,208 @@ fn extremes_stay_finite() {
         }
     }
 }
+
+use tyndall::eval::Matrices;
+use tyndall::io::Raster;
+use tyndall::nodes::heterogeneity as het;
+
+fn camera(w: u32, h: u32) -> Matrices {
+    let c = tyndall::scene::Camera {
+        position: glam::Vec3::new(7.0, 2.0, 8.0),
+        target: glam::Vec3::new(0.0, 1.5, 0.0),
+        fov_y: 50.0,
+        near: 0.1,
+        far: 40.0,
+    };
+    Matrices {
+        view: c.view().to_cols_array_2d(),
+        proj: c.proj(w as f32 / h as f32).to_cols_array_2d(),
+        far: 40.0,
+        radiance: [0.0; 3],
+    }
+}
+
+/// A graph: noise (and optionally α and I volumes, other noises) → Heterogeneity, with the
+/// in-scatter and depth injected; returns h, the image, and the noise / α / I volumes read back.
+#[allow(clippy::type_complexity)]
+fn heterogeneity(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    params: &[(&str, ParamValue)],
+    volumes: bool,
+    depth: &Raster,
+    ins: &Raster,
+) -> (Raster, Raster, Vec<het::CpuVolume>) {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    let het_id = g.add_node(&cat, "Heterogeneity").expect("node");
+    for (k, v) in params {
+        g.set_param(&cat, &het_id, k, v.clone()).expect("param");
+    }
+    let mut vols = vec![];
+    let ports: &[&str] = if volumes {
+        &["noise", "alpha", "intensity"]
+    } else {
+        &["noise"]
+    };
+    for (i, port) in ports.iter().enumerate() {
+        let n = g.add_node(&cat, "NoiseVolume").expect("noise");
+        g.set_param(&cat, &n, "resolution", ParamValue::Int(32))
+            .expect("res");
+        g.set_param(&cat, &n, "seed", ParamValue::Int(i as i64 + 3))
+            .expect("seed");
+        g.set_param(
+            &cat,
+            &n,
+            "box_min",
+            ParamValue::Vec3([-4.0 - i as f64, 0.0, -4.0]),
+        )
+        .expect("box");
+        g.connect(&cat, &format!("{n}.volume"), &format!("{het_id}.{port}"))
+            .expect("edge");
+        vols.push(n);
+    }
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let mut opts = EvalOptions::default();
+    let m = camera(depth.width, depth.height);
+    let d = Arc::new(
+        gpu.upload(depth.width, depth.height, 1, &depth.data)
+            .expect("d"),
+    );
+    opts.inject.insert(
+        (het_id.clone(), "depth".into()),
+        (PortValue::Depth(d, m), 1),
+    );
+    opts.inject.insert(
+        (het_id.clone(), "inscatter".into()),
+        (common::upload(gpu, ins, tyndall::graph::PortType::Image), 2),
+    );
+    let mut targets = vec![
+        Target::Port(het_id.clone(), "h".into()),
+        Target::Port(het_id.clone(), "image".into()),
+    ];
+    targets.extend(
+        vols.iter()
+            .map(|n| Target::Port(n.clone(), "volume".into())),
+    );
+    let r = ev.evaluate(&g, &targets, &opts).expect("evaluate");
+    let get = |p: &str| {
+        tyndall::eval::download(gpu, &r.outputs[&(het_id.clone(), p.to_string())]).expect("read")
+    };
+    let cpu = vols
+        .iter()
+        .map(|n| match &r.outputs[&(n.clone(), "volume".to_string())] {
+            PortValue::Volume(v, b) => het::CpuVolume::read(gpu, v, *b).expect("read volume"),
+            _ => panic!("volume"),
+        })
+        .collect();
+    (get("h"), get("image"), cpu)
+}
+
+fn scene_depth(w: u32, h: u32) -> Raster {
+    let mut d = Raster::new(w, h, 1, 0.0);
+    for (k, v) in d.data.iter_mut().enumerate() {
+        *v = 6.0 + (k % 7) as f32 * 1.5;
+    }
+    d
+}
+
+#[test]
+fn heterogeneity_gpu_equals_cpu() {
+    let gpu = require_gpu!();
+    let (w, h) = (24, 14);
+    let depth = scene_depth(w, h);
+    let ins = common::random_raster(w, h, 4, 0.0, 2.0, 9);
+    for volumes in [false, true] {
+        let p = [
+            ("alpha", ParamValue::Float(0.8)),
+            ("frequency", ParamValue::Float(1.3)),
+            ("intensity", ParamValue::Float(1.5)),
+            ("steps", ParamValue::Int(24)),
+        ];
+        let (got_h, got_img, vols) = heterogeneity(&gpu, &p, volumes, &depth, &ins);
+        let fields = het::Fields {
+            alpha: if volumes { Ok(&vols[1]) } else { Err(0.8) },
+            frequency: Err(1.3),
+            intensity: if volumes { Ok(&vols[2]) } else { Err(1.5) },
+        };
+        let want = het::reference_h(&depth, &camera(w, h), &vols[0], &fields, 24);
+        let d = got_h
+            .data
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        // 1e-4: 24 samples of trilinear lookups summed in f32 in another order.
+        assert!(d <= 1e-4, "volumes {volumes}: {d}");
+        for k in 0..(w * h) as usize {
+            for c in 0..3 {
+                let e = ins.data[k * 4 + c] * got_h.data[k];
+                assert!((got_img.data[k * 4 + c] - e).abs() <= 1e-5 * e.abs().max(1.0));
+            }
+        }
+        assert!(want.iter().any(|v| (v - want[0]).abs() > 1e-3), "h varies");
+    }
+}
+
+#[test]
+fn homogeneous_settings_pass_through_and_constant_noise_gives_its_value() {
+    let gpu = require_gpu!();
+    let (w, h) = (10, 6);
+    let depth = scene_depth(w, h);
+    let ins = common::random_raster(w, h, 4, 0.0, 2.0, 4);
+    let (hh, img, _) = heterogeneity(
+        &gpu,
+        &[
+            ("alpha", ParamValue::Float(0.0)),
+            ("intensity", ParamValue::Float(1.0)),
+        ],
+        false,
+        &depth,
+        &ins,
+    );
+    assert_eq!(img.data, ins.data, "α = 0, I = 1: the input, unchanged");
+    assert!(hh.data.iter().all(|v| *v == 1.0));
+    // α = 1 at the coarsest level (one texel: the volume's mean) gives that value everywhere.
+    let (hh, _, vols) = heterogeneity(
+        &gpu,
+        &[
+            ("alpha", ParamValue::Float(1.0)),
+            ("frequency", ParamValue::Float(16.0)),
+        ],
+        false,
+        &depth,
+        &ins,
+    );
+    let top = vols[0].levels.last().expect("top").1[0];
+    assert!(hh.data.iter().all(|v| (v - top).abs() < 1e-5), "{top}");
+}
+
+#[test]
+fn heterogeneity_extremes_stay_finite() {
+    let gpu = require_gpu!();
+    let (w, h) = (8, 5);
+    let mut depth = scene_depth(w, h);
+    depth.data[0] = 1e30;
+    depth.data[1] = 0.0;
+    depth.data[2] = 40.0;
+    let ins = common::random_raster(w, h, 4, 0.0, 1.0, 5);
+    for (steps, f) in [(1, 0.0), (4096, 16.0), (7, 5.5)] {
+        let (hh, img, _) = heterogeneity(
+            &gpu,
+            &[
+                ("steps", ParamValue::Int(steps)),
+                ("frequency", ParamValue::Float(f)),
+                ("alpha", ParamValue::Float(1.0)),
+                ("intensity", ParamValue::Float(1e3)),
+            ],
+            true,
+            &depth,
+            &ins,
+        );
+        assert!(
+            hh.data.iter().chain(&img.data).all(|v| v.is_finite()),
+            "{steps} {f}"
+        );
+    }
+}
