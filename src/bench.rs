@@ -5,8 +5,9 @@
 //! to compare, an optional reference setting and the settings to measure. In a setting, plain
 //! keys are parameters of the measured node, `node.param` keys set other nodes (e.g. the map
 //! resolution), the key `node` measures another node, `output` compares another of its ports,
-//! and `time` (`a+b+c`) times the sum of several nodes (all re-run each time: a chain such as
-//! downsample + march + upsample). Each setting runs `runs` times (the
+//! `time` (`a+b+c`) times the sum of several nodes (all re-run each time: a chain such as
+//! downsample + march + upsample), and `reference` compares with one of the suite's named
+//! `references` instead of its `reference`. Each setting runs `runs` times (the
 //! measured node's cached result dropped each time, its inputs kept); the table reports the
 //! median and minimum wall-clock time of that node (GPU work included: the evaluator waits for
 //! completion), the RMSE and maximum error against the reference, and optionally the ratio to
@@ -42,6 +43,10 @@ pub struct Suite {
     /// Setting of the reference output (none: no error columns).
     #[serde(default)]
     pub reference: Option<BTreeMap<String, String>>,
+    /// Further named references; a setting's `reference` key picks one (for suites that measure
+    /// several nodes, each against its own high-quality setting).
+    #[serde(default)]
+    pub references: BTreeMap<String, BTreeMap<String, String>>,
     /// The measured settings.
     pub configs: Vec<BTreeMap<String, String>>,
     /// Error bound for the speed-up comparison.
@@ -150,7 +155,7 @@ fn apply(
         .cloned()
         .unwrap_or_else(|| default_node.to_string());
     for (key, value) in setting {
-        if key == "node" || key == "output" || key == "time" {
+        if key == "node" || key == "output" || key == "time" || key == "reference" {
             continue;
         }
         match split_endpoint(key) {
@@ -341,6 +346,16 @@ pub fn run(
         }
         None => None,
     };
+    let mut named = BTreeMap::new();
+    for (name, setting) in &suite.references {
+        let mut g = base.clone();
+        let node = apply(&registry, &mut g, &suite.node, setting)?;
+        progress(&format!("reference {name}: {}", describe(setting)));
+        named.insert(
+            name.clone(),
+            read(&mut ev, &g, &node, &output_of(setting), &[])?.0,
+        );
+    }
     let edge_mask = match &suite.edges {
         Some((port, threshold)) => {
             let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
@@ -376,9 +391,13 @@ pub fn run(
         }
         times.sort_by(f64::total_cmp);
         let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
-        let (rmse, max_err) = reference
-            .as_ref()
-            .map_or((f64::NAN, f64::NAN), |r| errors(&out, r));
+        let reference = match setting.get("reference") {
+            Some(name) => Some(named.get(name).ok_or_else(|| {
+                BenchError::Input(format!("no reference named '{name}' in the suite"))
+            })?),
+            None => reference.as_ref(),
+        };
+        let (rmse, max_err) = reference.map_or((f64::NAN, f64::NAN), |r| errors(&out, r));
         let holes = match &suite.holes {
             Some((before, threshold)) => {
                 let (n, p) =
@@ -399,7 +418,7 @@ pub fn run(
                 if first > 0.0 { last / first } else { f64::NAN },
             )
         });
-        let psnr = reference.as_ref().map_or(f64::NAN, |r| {
+        let psnr = reference.map_or(f64::NAN, |r| {
             let peak = r
                 .data
                 .iter()
@@ -407,7 +426,7 @@ pub fn run(
                 .fold(0.0f64, |m, v| m.max(v.abs() as f64));
             20.0 * (peak / rmse).log10()
         });
-        let edge_rmse = match (&edge_mask, &reference) {
+        let edge_rmse = match (&edge_mask, reference) {
             (Some(mask), Some(r)) => masked_rmse(&out, r, mask),
             _ => f64::NAN,
         };
