@@ -18,3 +18,4 @@ done
 ./target/release/tyndall render graphs/color/sunrise.ron -o out/sunrise.png --size 960x540 --frames 0-48
 ./target/release/tyndall render scripts/sunrise_sheet.ron
 ./target/release/tyndall render graphs/medium/tree_bilateral.ron -o docs/medium/tree_bilateral.png --size 480x270
+./target/release/tyndall render graphs/medium/fence_noise.ron -o docs/medium/fence_noise.png --size 960x540
