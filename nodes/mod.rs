@@ -9,6 +9,7 @@ use std::sync::Arc;
 use crate::eval::Registry;
 
 pub mod bilateral_filter;
+pub mod blend_volume;
 pub mod blur;
 pub mod composite;
 pub mod constant;
@@ -41,6 +42,7 @@ pub mod util;
 pub fn registry() -> Registry {
     let mut r = Registry::new();
     r.add(Arc::new(bilateral_filter::BilateralFilter));
+    r.add(Arc::new(blend_volume::BlendVolume));
     r.add(Arc::new(blur::Blur));
     r.add(Arc::new(composite::Composite));
     r.add(Arc::new(constant::Constant));

@@ -193,18 +193,25 @@ pub fn build(gpu: &Gpu, p: &NoiseParams) -> Result<GpuVolume, GpuError> {
         ],
         p.size,
     )?;
+    build_mips(gpu, &v)?;
+    Ok(v)
+}
+
+/// Fill levels 1… of `v` from level 0 (each the 2×2×2 mean of the one below); shared with
+/// `BlendVolume`.
+pub fn build_mips(gpu: &Gpu, v: &GpuVolume) -> Result<(), GpuError> {
     for level in 1..v.mips() {
         gpu.dispatch_3d(
             SHADER,
             "mip",
             &[
-                (1, Bind::VolumeLevel(&v, level)),
-                (2, Bind::VolumeLevelRead(&v, level - 1)),
+                (1, Bind::VolumeLevel(v, level)),
+                (2, Bind::VolumeLevelRead(v, level - 1)),
             ],
             v.level_size(level),
         )?;
     }
-    Ok(v)
+    Ok(())
 }
 
 impl NodeKind for NoiseVolume {
