@@ -385,8 +385,11 @@ fn blend(
     for (k, v) in params {
         g.set_param(&cat, &id, k, v.clone()).expect("param");
     }
-    g.set_data(&id, Some(tyndall::graph::NodeData::from_text(data).expect("ron")))
-        .expect("data");
+    g.set_data(
+        &id,
+        Some(tyndall::graph::NodeData::from_text(data).expect("ron")),
+    )
+    .expect("data");
     let mut ev = Evaluator::new(registry, gpu.clone());
     let r = ev
         .evaluate(
@@ -445,7 +448,8 @@ fn blend_volume_gpu_equals_cpu_and_follows_its_splats() {
 fn blend_volume_extremes_and_roles() {
     let gpu = require_gpu!();
     // A splat larger than the volume covers it all; values beyond the role's range are clamped.
-    let huge = "(splats: [(centre: (0.0, 2.0, 0.0), radii: (1e6, 1e6, 1e6), value: 50.0, hardness: 1.0)])";
+    let huge =
+        "(splats: [(centre: (0.0, 2.0, 0.0), radii: (1e6, 1e6, 1e6), value: 50.0, hardness: 1.0)])";
     let v = blend(&gpu, huge, &[("resolution", ParamValue::Int(16))]).expect("huge");
     assert!(v.iter().all(|x| *x == 1.0), "α clamps to 1");
     let v = blend(
@@ -457,7 +461,10 @@ fn blend_volume_extremes_and_roles() {
         ],
     )
     .expect("frequency");
-    assert!(v.iter().all(|x| *x == 16.0), "frequency clamps to 16 levels");
+    assert!(
+        v.iter().all(|x| *x == 16.0),
+        "frequency clamps to 16 levels"
+    );
     // No splats: the base; a tiny splat between texel centres: finite.
     let v = blend(&gpu, "(splats: [])", &[("base", ParamValue::Float(0.4))]).expect("empty");
     assert!(v.iter().all(|x| *x == 0.4));
@@ -465,7 +472,11 @@ fn blend_volume_extremes_and_roles() {
     let v = blend(&gpu, tiny, &[]).expect("tiny");
     assert!(v.iter().all(|x| x.is_finite()));
     // A non-finite number is refused by name.
-    let e = blend(&gpu, "(splats: [(centre: (0.0, 1.0, inf), radii: (1.0, 1.0, 1.0))])", &[])
-        .expect_err("refused");
+    let e = blend(
+        &gpu,
+        "(splats: [(centre: (0.0, 1.0, inf), radii: (1.0, 1.0, 1.0))])",
+        &[],
+    )
+    .expect_err("refused");
     assert!(e.contains("BlendVolume") && e.contains("splat 0"), "{e}");
 }
