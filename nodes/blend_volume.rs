@@ -36,7 +36,6 @@ use serde::{Deserialize, Serialize};
 use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuVolume, Shader};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::GpuScene;
 
 /// The `BlendVolume` node kind.
 pub struct BlendVolume;
@@ -268,26 +267,7 @@ impl NodeKind for BlendVolume {
             s.value = s.value.clamp(lo, hi);
         }
         let base = ctx.f32("base")?.clamp(lo, hi);
-        let bounds = match ctx.input("scene") {
-            Some(v) => {
-                let s = v.payload::<GpuScene>().ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
-                let (a, b) = s.scene.bounds();
-                [a.to_array(), b.to_array()]
-            }
-            None => {
-                let (a, b) = (ctx.vec3("box_min")?, ctx.vec3("box_max")?);
-                if (0..3).any(|k| a[k] > b[k]) {
-                    return Err(NodeError::Param {
-                        param: "box_max".into(),
-                        message: format!("{b:?} is below box_min {a:?} on some axis"),
-                    });
-                }
-                [a, b]
-            }
-        };
+        let bounds = super::util::volume_box(ctx)?;
         let n = ctx.int("resolution")? as u32;
         let v = bake(ctx.gpu, &data.splats, base, n, bounds)?;
         ctx.set("volume", PortValue::Volume(Arc::new(v), bounds));

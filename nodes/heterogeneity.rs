@@ -199,20 +199,12 @@ pub fn reference_h(
     fields: &Fields,
     steps: u32,
 ) -> Vec<f32> {
-    let inv = m.view_proj().inverse();
     let eye = m.eye();
     let (w, h) = (depth.width, depth.height);
     let mut out = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
         for x in 0..w {
-            let ndc = glam::Vec4::new(
-                (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                1.0,
-                1.0,
-            );
-            let far = inv * ndc;
-            let dir = (far.truncate() / far.w - eye).normalize_or(glam::Vec3::NEG_Z);
+            let dir = m.pixel_ray(x, y, w, h);
             let s = depth.data[(y * w + x) as usize];
             let mut sum = 0.0f32;
             for i in 0..steps {

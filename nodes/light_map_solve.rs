@@ -68,7 +68,7 @@
 
 use std::sync::Arc;
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
@@ -321,17 +321,9 @@ fn row(
 ) -> Vec<([usize; 4], [f32; 4])> {
     let (w, h) = (v.depth.width, v.depth.height);
     let (x, y) = ((k as u32) % w, (k as u32) / w);
-    let inv = v.camera.view_proj().inverse();
     let lvp = light.view_proj();
-    let ndc = Vec4::new(
-        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-        1.0,
-        1.0,
-    );
-    let far = inv * ndc;
     let eye = v.camera.eye();
-    let dir = (far.truncate() / far.w - eye).normalize_or(Vec3::NEG_Z);
+    let dir = v.camera.pixel_ray(x, y, w, h);
     let depth = v.depth.data[k];
     let total = decay_integral(depth, s.sigma_t);
     let steps = s.steps as f32;

@@ -28,7 +28,6 @@ use std::sync::Arc;
 use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuVolume, Shader};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::GpuScene;
 
 /// The `NoiseVolume` node kind.
 pub struct NoiseVolume;
@@ -240,26 +239,7 @@ impl NodeKind for NoiseVolume {
             _pad0: 0,
             _pad1: 0,
         };
-        let bounds = match ctx.input("scene") {
-            Some(v) => {
-                let s = v.payload::<GpuScene>().ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
-                let (lo, hi) = s.scene.bounds();
-                [lo.to_array(), hi.to_array()]
-            }
-            None => {
-                let (lo, hi) = (ctx.vec3("box_min")?, ctx.vec3("box_max")?);
-                if (0..3).any(|k| lo[k] > hi[k]) {
-                    return Err(NodeError::Param {
-                        param: "box_max".into(),
-                        message: format!("{hi:?} is below box_min {lo:?} on some axis"),
-                    });
-                }
-                [lo, hi]
-            }
-        };
+        let bounds = super::util::volume_box(ctx)?;
         let v = build(ctx.gpu, &p)?;
         ctx.set("volume", PortValue::Volume(Arc::new(v), bounds));
         Ok(())

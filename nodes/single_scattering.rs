@@ -65,7 +65,7 @@
 //! | `light_extinction` | Enum | off | off, on | attenuate the sun through the medium |
 //! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
@@ -457,15 +457,8 @@ pub fn reference_pixel(
 ) -> PixelResult {
     let inv = Mat4::from_cols_array_2d(&p.inv_view_proj);
     let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
-    let ndc = Vec4::new(
-        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-        1.0,
-        1.0,
-    );
-    let far = inv * ndc;
     let eye = Vec3::from(p.eye);
-    let dir = (far.truncate() / far.w - eye).normalize_or(Vec3::NEG_Z);
+    let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
     let (t0, t1) = medium_segment(p, dir, s);
     let len = (t1 - t0).max(0.0);
     let offset = p.jitter * (hash(x, y) - 0.5);

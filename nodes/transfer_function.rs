@@ -1467,15 +1467,8 @@ pub fn pick(
             let scene = v
                 .payload::<crate::scene::GpuScene>()
                 .ok_or_else(|| pick_err("the scene port holds no scene"))?;
-            let ndc = glam::Vec4::new(
-                (x as f32 + 0.5) / depth.width as f32 * 2.0 - 1.0,
-                1.0 - (y as f32 + 0.5) / depth.height as f32 * 2.0,
-                1.0,
-                1.0,
-            );
-            let far = camera.view_proj().inverse() * ndc;
             let eye = camera.eye();
-            let dir = (far.truncate() / far.w - eye).normalize_or(glam::Vec3::NEG_Z);
+            let dir = camera.pixel_ray(x, y, depth.width, depth.height);
             scene.scene.ray_hit(eye, dir).map(|h| SurfacePick {
                 object: h.object,
                 triangle: h.triangle,

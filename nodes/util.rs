@@ -46,3 +46,26 @@ pub fn path_stamp(path: &std::path::Path) -> u64 {
     }
     h.finish()
 }
+
+/// The world box a volume covers: the bounds of the scene on the `scene` input, else the
+/// `box_min`…`box_max` parameters (refused when inverted). Shared by the volume nodes.
+pub fn volume_box(ctx: &RunCtx) -> Result<[[f32; 3]; 2], NodeError> {
+    if let Some(v) = ctx.input("scene") {
+        let s = v
+            .payload::<crate::scene::GpuScene>()
+            .ok_or_else(|| NodeError::Input {
+                port: "scene".into(),
+                message: "is not a scene".into(),
+            })?;
+        let (lo, hi) = s.scene.bounds();
+        return Ok([lo.to_array(), hi.to_array()]);
+    }
+    let (lo, hi) = (ctx.vec3("box_min")?, ctx.vec3("box_max")?);
+    if (0..3).any(|k| lo[k] > hi[k]) {
+        return Err(NodeError::Param {
+            param: "box_max".into(),
+            message: format!("{hi:?} is below box_min {lo:?} on some axis"),
+        });
+    }
+    Ok([lo, hi])
+}

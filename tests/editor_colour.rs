@@ -5,41 +5,21 @@
 mod common;
 
 use std::path::Path;
-use std::sync::Arc;
 
 use eframe::egui;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::Harness;
-use tyndall::editor::{EditorApp, EditorState};
+use tyndall::editor::EditorApp;
 use tyndall::nodes::light_map_solve::SolveData;
 use tyndall::nodes::transfer_function::{Layer, TfData};
 
 fn harness_for(text: &str, dir: &Path) -> Harness<'static, EditorApp> {
     let path = dir.join("g.ron");
     std::fs::write(&path, text).expect("write graph");
-    let registry = Arc::new(tyndall::nodes::registry());
-    let state = EditorState::open(registry.catalog().clone(), &path).expect("open");
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1400.0, 1000.0))
-        .wgpu()
-        .build_eframe(move |_cc| EditorApp::new(state, registry));
-    h.run_steps(4);
-    h
+    common::editor::open(&path, (1400.0, 1000.0))
 }
 
-fn settle(h: &mut Harness<'static, EditorApp>) {
-    for _ in 0..3000 {
-        h.run_steps(1);
-        if h.state().idle() {
-            h.run_steps(2);
-            if h.state().idle() {
-                return;
-            }
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    panic!("the evaluation worker did not finish");
-}
+use common::editor::settle;
 
 fn tf_data(h: &Harness<'static, EditorApp>, id: &str) -> TfData {
     h.state()

@@ -11,31 +11,13 @@ use tyndall::editor::{EditorApp, EditorState};
 use tyndall::graph::{save_string, ParamValue};
 
 fn harness(graph: &str) -> Harness<'static, EditorApp> {
-    let registry = Arc::new(tyndall::nodes::registry());
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(graph);
-    let state = EditorState::open(registry.catalog().clone(), &path).expect("open");
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1200.0, 760.0))
-        .wgpu()
-        .build_eframe(move |_cc| EditorApp::new(state, registry));
-    h.run_steps(4);
-    h
+    common::editor::open(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join(graph),
+        (1200.0, 760.0),
+    )
 }
 
-/// Run frames until the evaluation worker has delivered everything asked for.
-fn settle(h: &mut Harness<'static, EditorApp>) {
-    for _ in 0..3000 {
-        h.run_steps(1);
-        if h.state().idle() {
-            h.run_steps(2);
-            if h.state().idle() {
-                return;
-            }
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    panic!("the evaluation worker did not finish");
-}
+use common::editor::settle;
 
 #[test]
 fn canvas_shows_the_document_and_undo_button_restores_it() {

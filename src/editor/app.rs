@@ -716,7 +716,9 @@ impl EditorApp {
                 .surface
                 .ok_or("no surface under this pixel (sky): nothing to anchor to")?;
             let tf = p.tf.ok_or("not a TransferFunction")?;
-            let mut data = super::tf_panel::data_of(&self.state, id)?;
+            let mut data = self
+                .state
+                .node_data::<crate::nodes::transfer_function::TfData>(id)?;
             let stack = super::tf_panel::editable(&mut data, self.time)
                 .ok_or("add a key at this frame to edit the stack")?;
             let c = Constraint {
@@ -729,7 +731,7 @@ impl EditorApp {
                 }),
             };
             self.tf.layer = super::tf_panel::add_constraint(stack, self.tf.layer, c);
-            super::tf_panel::store(&mut self.state, id, &data, None)?;
+            self.state.store_node_data(id, &data, None)?;
             Ok(format!(
                 "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",
                 s.object, s.triangle, p.visibility, p.depth

@@ -169,6 +169,31 @@ impl EditorState {
         Ok(())
     }
 
+    /// A node's data block parsed into the node's own structure (`T::default()` when it has
+    /// none); the error is the parse error.
+    pub fn node_data<T: serde::de::DeserializeOwned + Default>(
+        &self,
+        node: &str,
+    ) -> Result<T, String> {
+        match self.graph.node(node).and_then(|n| n.data.as_ref()) {
+            Some(d) => d.parse(),
+            None => Ok(T::default()),
+        }
+    }
+
+    /// Write a node's data block from its structure: [`EditorState::set_data`] (one undoable
+    /// step, merged by `merge` tag).
+    pub fn store_node_data<T: serde::Serialize>(
+        &mut self,
+        node: &str,
+        data: &T,
+        merge: Option<&str>,
+    ) -> Result<(), String> {
+        let d = crate::graph::NodeData::from_value(data)?;
+        self.set_data(node, Some(d), merge)
+            .map_err(|e| e.to_string())
+    }
+
     /// End a merged edit (the drag or stroke is over): the next `set_data` starts a new step.
     pub fn end_merge(&mut self) {
         self.merge = None;

@@ -10,7 +10,6 @@
 use eframe::egui;
 
 use crate::editor::EditorState;
-use crate::graph::NodeData;
 use crate::nodes::light_map_solve::{SolveData, Stroke, View, ViewCamera};
 
 /// The panel's own state.
@@ -42,26 +41,6 @@ impl Default for StrokePanel {
     }
 }
 
-/// The node's data block parsed (absent: no views).
-pub fn data_of(state: &EditorState, id: &str) -> Result<SolveData, String> {
-    match state.graph().node(id).and_then(|n| n.data.as_ref()) {
-        Some(d) => d.parse(),
-        None => Ok(SolveData::default()),
-    }
-}
-
-fn store(
-    state: &mut EditorState,
-    id: &str,
-    data: &SolveData,
-    merge: Option<&str>,
-) -> Result<(), String> {
-    let d = NodeData::from_value(data)?;
-    state
-        .set_data(id, Some(d), merge)
-        .map_err(|e| e.to_string())
-}
-
 /// The size of view `i` (a view not yet made takes the picture's size).
 fn view_size_of(data: &SolveData, i: usize, picture: (u32, u32)) -> (u32, u32) {
     data.views.get(i).map_or(picture, |v| (v.width, v.height))
@@ -77,7 +56,7 @@ pub fn paint(
     picture: (u32, u32),
     start: bool,
 ) -> Result<(), String> {
-    let data = data_of(state, id)?;
+    let data = state.node_data::<SolveData>(id)?;
     let (w, h) = view_size_of(&data, panel.view, picture);
     let p = [
         point[0] * w as f32 / picture.0.max(1) as f32,
@@ -106,7 +85,7 @@ pub fn solve(
     panel: &mut StrokePanel,
     picture: (u32, u32),
 ) -> Result<(), String> {
-    let mut data = data_of(state, id)?;
+    let mut data = state.node_data::<SolveData>(id)?;
     for (view, stroke) in panel.pending.drain(..) {
         if data.views.is_empty() {
             data.views.push(View {
@@ -119,7 +98,7 @@ pub fn solve(
         let i = view.min(data.views.len() - 1);
         data.views[i].strokes.push(stroke);
     }
-    store(state, id, &data, None)
+    state.store_node_data(id, &data, None)
 }
 
 /// The waiting strokes with the size of the view each belongs to.
@@ -129,7 +108,7 @@ pub fn pending_in(
     panel: &StrokePanel,
     picture: (u32, u32),
 ) -> Vec<(Stroke, (u32, u32))> {
-    let data = data_of(state, id).unwrap_or_default();
+    let data = state.node_data::<SolveData>(id).unwrap_or_default();
     panel
         .pending
         .iter()
@@ -147,7 +126,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Strokes");
-    let mut data = match data_of(state, id) {
+    let mut data = match state.node_data::<SolveData>(id) {
         Ok(d) => d,
         Err(e) => {
             ui.colored_label(
@@ -242,7 +221,7 @@ pub fn show(
         panel.view = panel.view.min(data.views.len().saturating_sub(1));
     }
     if data != before {
-        if let Err(e) = store(state, id, &data, None) {
+        if let Err(e) = state.store_node_data(id, &data, None) {
             return Some(e);
         }
     }

@@ -8,7 +8,6 @@
 use eframe::egui;
 
 use crate::editor::EditorState;
-use crate::graph::NodeData;
 use crate::nodes::transfer_function::{
     bake_reference, layer_name, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
 };
@@ -40,28 +39,6 @@ impl Default for TfPanel {
             preview: None,
         }
     }
-}
-
-/// The node's data block parsed (an absent block is an empty stack).
-pub fn data_of(state: &EditorState, id: &str) -> Result<TfData, String> {
-    match state.graph().node(id).and_then(|n| n.data.as_ref()) {
-        Some(d) => d.parse(),
-        None => Ok(TfData::default()),
-    }
-}
-
-/// Write `data` back as one undoable step (merged with the previous step of the same `merge`
-/// tag, for drags).
-pub fn store(
-    state: &mut EditorState,
-    id: &str,
-    data: &TfData,
-    merge: Option<&str>,
-) -> Result<(), String> {
-    let d = NodeData::from_value(data)?;
-    state
-        .set_data(id, Some(d), merge)
-        .map_err(|e| e.to_string())
 }
 
 /// The stack edited at `time`: the plain layers, or the key at exactly `time`; `None` when the
@@ -129,7 +106,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Transfer function");
-    let mut data = match data_of(state, id) {
+    let mut data = match state.node_data::<TfData>(id) {
         Ok(d) => d,
         Err(e) => {
             ui.colored_label(
@@ -410,7 +387,7 @@ pub fn show(
         }
     }
     if data != before {
-        if let Err(e) = store(state, id, &data, merge) {
+        if let Err(e) = state.store_node_data(id, &data, merge) {
             message = Some(e);
         }
     }

@@ -56,6 +56,12 @@ impl Matrices {
             .transform_point3(glam::Vec3::ZERO)
     }
 
+    /// The unit world direction of the view ray through the centre of pixel (x, y) of a `w × h`
+    /// image (y down), as the scattering shaders compute it.
+    pub fn pixel_ray(&self, x: u32, y: u32, w: u32, h: u32) -> glam::Vec3 {
+        pixel_ray(self.view_proj().inverse(), self.eye(), x, y, w, h)
+    }
+
     /// The unit world direction of view-space +Z, i.e. opposite to where the view looks: for a
     /// light, the direction towards the light.
     pub fn backward(&self) -> glam::Vec3 {
@@ -64,6 +70,26 @@ impl Matrices {
             .transform_vector3(glam::Vec3::Z)
             .normalize_or(glam::Vec3::Y)
     }
+}
+
+/// The unit world direction from `eye` through the centre of pixel (x, y) of a `w × h` image
+/// (y down), given clip → world `inv_view_proj`: the CPU twin of the shaders' `view_ray`.
+pub fn pixel_ray(
+    inv_view_proj: glam::Mat4,
+    eye: glam::Vec3,
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+) -> glam::Vec3 {
+    let ndc = glam::Vec4::new(
+        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+        1.0,
+        1.0,
+    );
+    let far = inv_view_proj * ndc;
+    (far.truncate() / far.w - eye).normalize_or(glam::Vec3::NEG_Z)
 }
 
 /// A value on a port.

@@ -125,59 +125,6 @@ impl Gpu {
 
     /// Read mip `level` of a volume back: x fastest, then y, then z.
     pub fn read_volume(&self, v: &GpuVolume, level: u32) -> Result<Vec<f32>, GpuError> {
-        let [w, h, d] = v.level_size(level);
-        let row = w * 4;
-        let padded =
-            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("volume readback"),
-            size: (padded * h * d) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        self.scoped(|| {
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &v.raw,
-                    mip_level: level,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded),
-                        rows_per_image: Some(h),
-                    },
-                },
-                wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: d,
-                },
-            );
-            self.queue.submit([enc.finish()]);
-        })?;
-        let (tx, rx) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let view = buffer
-            .get_mapped_range(..)
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let mut out = Vec::with_capacity((w * h * d) as usize);
-        for z in 0..d {
-            for y in 0..h {
-                let start = ((z * h + y) * padded) as usize;
-                out.extend_from_slice(bytemuck::cast_slice(&view[start..start + row as usize]));
-            }
-        }
-        Ok(out)
+        self.read_texels(&v.raw, level, v.level_size(level), 4)
     }
 }

@@ -3,6 +3,8 @@
 
 use std::sync::Arc;
 
+pub mod editor;
+
 use tyndall::gpu::Gpu;
 
 /// The shared GPU context, or `None` (with the reason printed) when no adapter exists here.
