@@ -8,7 +8,8 @@
 //! `intensity` volumes when connected, else from the parameters of the same names. Volumes are
 //! read trilinearly between texel centres in their own world box, clamped to its edges (a point
 //! outside takes the nearest face's value). With α = 0 and I = 1 (parameters, no volumes) h ≡ 1:
-//! the node passes `inscatter` through without marching.
+//! the node passes `inscatter` through without marching, and the evaluator's statistics show it
+//! as `passed through` (`tyndall run --stats`).
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
@@ -274,6 +275,7 @@ impl NodeKind for Heterogeneity {
         let (alpha, intensity) = (ctx.f32("alpha")?, ctx.f32("intensity")?);
         if a.is_none() && i.is_none() && alpha == 0.0 && intensity == 1.0 {
             // h ≡ 1: nothing to march.
+            ctx.pass_through();
             let ones = vec![1.0f32; (ins.width * ins.height) as usize];
             ctx.set("image", ins_value);
             if ctx.wants("h") {

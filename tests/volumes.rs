@@ -5,7 +5,7 @@ mod common;
 
 use std::sync::Arc;
 
-use tyndall::eval::{EvalOptions, Evaluator, PortValue, Target};
+use tyndall::eval::{EvalOptions, Evaluator, PortValue, Status, Target};
 use tyndall::graph::{Graph, ParamValue};
 use tyndall::nodes::noise_volume as nv;
 
@@ -194,7 +194,7 @@ fn heterogeneity(
     volumes: bool,
     depth: &Raster,
     ins: &Raster,
-) -> (Raster, Raster, Vec<het::CpuVolume>) {
+) -> (Raster, Raster, Vec<het::CpuVolume>, Status) {
     let registry = Arc::new(tyndall::nodes::registry());
     let cat = registry.catalog().clone();
     let mut g = Graph::new();
@@ -259,7 +259,8 @@ fn heterogeneity(
             _ => panic!("volume"),
         })
         .collect();
-    (get("h"), get("image"), cpu)
+    let status = r.stats.status(&het_id).expect("het has a status");
+    (get("h"), get("image"), cpu, status)
 }
 
 fn scene_depth(w: u32, h: u32) -> Raster {
@@ -283,12 +284,13 @@ fn heterogeneity_gpu_equals_cpu() {
             ("intensity", ParamValue::Float(1.5)),
             ("steps", ParamValue::Int(24)),
         ];
-        let (got_h, got_img, vols) = heterogeneity(&gpu, &p, volumes, &depth, &ins);
+        let (got_h, got_img, vols, status) = heterogeneity(&gpu, &p, volumes, &depth, &ins);
         let fields = het::Fields {
             alpha: if volumes { Ok(&vols[1]) } else { Err(0.8) },
             frequency: Err(1.3),
             intensity: if volumes { Ok(&vols[2]) } else { Err(1.5) },
         };
+        assert_eq!(status, Status::Ran, "volumes {volumes}: it marched");
         let want = het::reference_h(&depth, &camera(w, h), &vols[0], &fields, 24);
         let d = got_h
             .data
@@ -314,7 +316,7 @@ fn homogeneous_settings_pass_through_and_constant_noise_gives_its_value() {
     let (w, h) = (10, 6);
     let depth = scene_depth(w, h);
     let ins = common::random_raster(w, h, 4, 0.0, 2.0, 4);
-    let (hh, img, _) = heterogeneity(
+    let (hh, img, _, status) = heterogeneity(
         &gpu,
         &[
             ("alpha", ParamValue::Float(0.0)),
@@ -325,9 +327,14 @@ fn homogeneous_settings_pass_through_and_constant_noise_gives_its_value() {
         &ins,
     );
     assert_eq!(img.data, ins.data, "α = 0, I = 1: the input, unchanged");
+    assert_eq!(
+        status,
+        Status::PassedThrough,
+        "the statistics show that nothing was marched"
+    );
     assert!(hh.data.iter().all(|v| *v == 1.0));
     // α = 1 at the coarsest level (one texel: the volume's mean) gives that value everywhere.
-    let (hh, _, vols) = heterogeneity(
+    let (hh, _, vols, _) = heterogeneity(
         &gpu,
         &[
             ("alpha", ParamValue::Float(1.0)),
@@ -351,7 +358,7 @@ fn heterogeneity_extremes_stay_finite() {
     depth.data[2] = 40.0;
     let ins = common::random_raster(w, h, 4, 0.0, 1.0, 5);
     for (steps, f) in [(1, 0.0), (4096, 16.0), (7, 5.5)] {
-        let (hh, img, _) = heterogeneity(
+        let (hh, img, _, _) = heterogeneity(
             &gpu,
             &[
                 ("steps", ParamValue::Int(steps)),

@@ -288,11 +288,7 @@ impl EditorApp {
                 self.pictures = out.view;
                 self.view_tex = None;
             }
-            let ran = self
-                .reports
-                .values()
-                .filter(|r| r.status == crate::eval::Status::Ran)
-                .count();
+            let ran = self.reports.values().filter(|r| r.status.ran()).count();
             let errors = self.reports.values().filter(|r| r.error.is_some()).count();
             self.status = match errors {
                 0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),

@@ -182,6 +182,9 @@ impl SnarlViewer<String> for CanvasView<'_> {
                 Some(r) if self.show_timings => {
                     let text = match r.status {
                         Status::Ran => format!("{:.1} ms", r.time.as_secs_f64() * 1e3),
+                        Status::PassedThrough => {
+                            format!("{:.1} ms (passed through)", r.time.as_secs_f64() * 1e3)
+                        }
                         Status::Reused => format!("{:.1} ms (cached)", r.time.as_secs_f64() * 1e3),
                         Status::NotNeeded => String::new(),
                     };

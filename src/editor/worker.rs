@@ -242,11 +242,11 @@ fn evaluate(
                     let Some(rep) = nodes.get_mut(&s.id) else {
                         continue;
                     };
-                    if s.status == Status::Ran {
-                        rep.status = Status::Ran;
+                    if s.status.ran() {
+                        rep.status = s.status;
                         rep.time = s.time;
                         thumbed.remove(&s.id);
-                    } else if s.status == Status::Reused && rep.status != Status::Ran {
+                    } else if s.status == Status::Reused && !rep.status.ran() {
                         rep.status = Status::Reused;
                     }
                 }

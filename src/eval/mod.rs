@@ -123,16 +123,27 @@ impl Default for EvalOptions {
 pub enum Status {
     /// Computed in this evaluation.
     Ran,
+    /// Run in this evaluation, but the node found its work unnecessary for these inputs and
+    /// parameters and forwarded an input unchanged (see [`RunCtx::pass_through`]).
+    PassedThrough,
     /// Its cached result was reused.
     Reused,
     /// No requested output depends on it.
     NotNeeded,
 }
 
+impl Status {
+    /// Whether the node ran in this evaluation (fully or as a pass-through).
+    pub fn ran(self) -> bool {
+        matches!(self, Status::Ran | Status::PassedThrough)
+    }
+}
+
 impl fmt::Display for Status {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Status::Ran => "ran",
+            Status::PassedThrough => "passed through",
             Status::Reused => "reused",
             Status::NotNeeded => "not needed",
         })
@@ -200,7 +211,7 @@ impl fmt::Display for Stats {
         )?;
         let ms = |d: Duration| format!("{:.3}", d.as_secs_f64() * 1e3);
         for n in &self.nodes {
-            let (wall, gpu) = if n.status == Status::Ran {
+            let (wall, gpu) = if n.status.ran() {
                 (ms(n.time), n.gpu_time.map_or("-".into(), ms))
             } else {
                 ("-".into(), "-".into())
@@ -358,6 +369,7 @@ impl Evaluator {
                 size: opts.size,
                 output_suffix: &opts.output_suffix,
                 outputs: BTreeMap::new(),
+                passed_through: false,
             };
             let outputs = match self.reuse(id, key, want) {
                 Some(outputs) => {
@@ -368,7 +380,12 @@ impl Evaluator {
                     let (outputs, wall, gpu) =
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
                     self.record(id, key, &outputs);
-                    stats.insert(id.clone(), (Status::Ran, wall, gpu));
+                    let status = if ctx.passed_through {
+                        Status::PassedThrough
+                    } else {
+                        Status::Ran
+                    };
+                    stats.insert(id.clone(), (status, wall, gpu));
                     outputs
                 }
             };

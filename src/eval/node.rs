@@ -73,6 +73,8 @@ pub struct RunCtx<'a> {
     pub output_suffix: &'a str,
     /// Outputs produced so far.
     pub outputs: BTreeMap<String, PortValue>,
+    /// Set by [`RunCtx::pass_through`]: the statistics say "passed through" instead of "ran".
+    pub passed_through: bool,
 }
 
 impl RunCtx<'_> {
@@ -187,6 +189,14 @@ impl RunCtx<'_> {
             Some(d) => d.parse().map_err(NodeError::Data),
             None => Ok(T::default()),
         }
+    }
+
+    /// Declare that this run forwards its input unchanged because the parameters and inputs
+    /// make the node's work an identity (e.g. `Heterogeneity` with α ≡ 0, I ≡ 1): the
+    /// evaluator's statistics show the node as `passed through`, so a user sees that nothing
+    /// was modelled there.
+    pub fn pass_through(&mut self) {
+        self.passed_through = true;
     }
 
     /// Report progress of long work: `done` of `total` steps and a short message (shown by the
