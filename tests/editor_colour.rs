@@ -19,7 +19,7 @@ fn harness_for(text: &str, dir: &Path) -> Harness<'static, EditorApp> {
     common::editor::open(&path, (1400.0, 1000.0))
 }
 
-use common::editor::settle;
+use common::editor::{drag, settle};
 
 fn tf_data(h: &Harness<'static, EditorApp>, id: &str) -> TfData {
     h.state()
@@ -43,15 +43,6 @@ fn top_field<'a>(h: &'a Harness<'static, EditorApp>) -> egui_kittest::Node<'a> {
         .filter(|n| n.value().is_some())
         .min_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
         .expect("opacity field")
-}
-
-fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
-    h.event(egui::Event::PointerButton {
-        pos,
-        button: egui::PointerButton::Primary,
-        pressed,
-        modifiers: egui::Modifiers::NONE,
-    });
 }
 
 #[test]
@@ -157,19 +148,7 @@ fn tf_square_click_adds_and_drag_moves_a_constraint_in_one_step() {
     assert!((constraints[0].at[0] - 0.5).abs() < 0.02 && (constraints[0].at[1] - 0.5).abs() < 0.02);
     let steps = h.state().state.undo_depth();
     // Drag the marker from the centre by (+40, +20) points in small moves.
-    let c = rect.center();
-    h.event(egui::Event::PointerMoved(c));
-    h.run_steps(1);
-    press(&mut h, c, true);
-    h.run_steps(1);
-    for k in 1..=10 {
-        h.event(egui::Event::PointerMoved(
-            c + egui::vec2(4.0 * k as f32, 2.0 * k as f32),
-        ));
-        h.run_steps(1);
-    }
-    press(&mut h, c + egui::vec2(40.0, 20.0), false);
-    h.run_steps(3);
+    drag(&mut h, rect.center(), egui::vec2(40.0, 20.0), 10);
     let d = tf_data(&h, "tf");
     let Layer::Diffusion { constraints } = &d.layers[1].layer else {
         panic!("diffusion layer");
@@ -272,19 +251,12 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
     h.run_steps(2);
     let rect = h.get_by_label("viewer picture").rect();
     let steps = h.state().state.undo_depth();
-    let a = rect.center() - egui::vec2(60.0, 0.0);
-    h.event(egui::Event::PointerMoved(a));
-    h.run_steps(1);
-    press(&mut h, a, true);
-    h.run_steps(1);
-    for k in 1..=8 {
-        h.event(egui::Event::PointerMoved(
-            a + egui::vec2(15.0 * k as f32, 3.0 * k as f32),
-        ));
-        h.run_steps(1);
-    }
-    press(&mut h, a + egui::vec2(120.0, 24.0), false);
-    h.run_steps(3);
+    drag(
+        &mut h,
+        rect.center() - egui::vec2(60.0, 0.0),
+        egui::vec2(120.0, 24.0),
+        8,
+    );
     let data = |h: &Harness<'static, EditorApp>| -> SolveData {
         h.state()
             .state
@@ -311,7 +283,9 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
     // rect.width() points wide for 480 pixels.
     let span = s.points.last().expect("last")[0] - s.points[0][0];
     let want = 120.0 * 480.0 / rect.width();
-    assert!((span - want).abs() < 0.15 * want, "{span} vs {want}");
+    // The stroke starts where the button was pressed and ends where it was released: only
+    // float rounding separates the two.
+    assert!((span - want).abs() < 0.01 * want, "{span} vs {want}");
     assert_eq!(
         h.state().state.undo_depth(),
         steps + 1,

@@ -91,6 +91,10 @@ pub struct EditorApp {
     pub tf: super::tf_panel::TfPanel,
     /// The stroke panel's state.
     pub strokes: super::stroke_panel::StrokePanel,
+    /// The 3D brush's state.
+    pub brush: super::brush_panel::BrushPanel,
+    /// The painting plane's tint over the viewer, by (picture size, plane depth).
+    brush_tex: Option<(String, egui::TextureHandle)>,
     /// The node kinds (for picking 3D constraints on the UI thread).
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
@@ -157,17 +161,29 @@ impl EditorApp {
             allow_close: false,
             tf: Default::default(),
             strokes: Default::default(),
+            brush: Default::default(),
+            brush_tex: None,
             registry,
             progress: None,
         }
     }
 
-    /// The node the viewer shows: the active pin's, else the selected one.
+    /// The node the viewer shows: the active pin's, else the selected one — or, when the
+    /// selected node has no picture output (a volume, a scene), the nearest node downstream
+    /// of it that has one (so painting a `BlendVolume` shows what it does).
     pub fn viewed(&self) -> Option<String> {
+        let g = self.state.graph();
         self.active_pin
             .and_then(|i| self.pins[i].clone())
-            .filter(|id| self.state.graph().node(id).is_some())
-            .or_else(|| self.selected.clone())
+            .filter(|id| g.node(id).is_some())
+            .or_else(|| {
+                let s = self.selected.clone()?;
+                if super::worker::picture_ports(g, &self.registry, &s).is_empty() {
+                    super::brush_panel::nearest_picture(g, &self.registry, &s).or(Some(s))
+                } else {
+                    Some(s)
+                }
+            })
     }
 
     /// Connect output `from` (`node.port`) to input `to`, replacing the input's edge as other
@@ -301,6 +317,25 @@ impl EditorApp {
     }
 }
 
+/// The pointer positions a painting stroke takes from `response` this frame, each with whether
+/// it starts a stroke. egui recognises a drag only once the pointer has moved, so a stroke
+/// starts where the button was pressed, then follows the pointer; a click is a one-point stroke.
+fn stroke_points(ui: &egui::Ui, response: &egui::Response) -> Vec<(egui::Pos2, bool)> {
+    let mut points = Vec::new();
+    if response.drag_started() || response.clicked() {
+        let origin = ui.input(|i| i.pointer.press_origin());
+        points.extend(
+            origin
+                .or(response.interact_pointer_pos())
+                .map(|p| (p, true)),
+        );
+    }
+    if response.dragged() {
+        points.extend(response.interact_pointer_pos().map(|p| (p, false)));
+    }
+    points
+}
+
 /// The first and last key-frame times of the document, when it has keys.
 fn key_range(state: &EditorState) -> Option<(f64, f64)> {
     let ts: Vec<f64> = state
@@ -328,6 +363,11 @@ impl EditorApp {
         ui.horizontal(|ui| {
             ui.heading("Viewer");
             ui.label(viewed.as_deref().unwrap_or("(nothing selected)"));
+            if self.active_pin.is_none() && viewed.is_some() && viewed != self.selected {
+                if let Some(s) = &self.selected {
+                    ui.weak(format!("(the nearest picture downstream of {s})"));
+                }
+            }
         });
         ui.horizontal(|ui| {
             for i in 0..9 {
@@ -471,10 +511,7 @@ impl EditorApp {
             }
             Some((id, k)) if k == "LightMapSolve" => {
                 if self.strokes.armed {
-                    let start = response.drag_started() || response.clicked();
-                    if let (true, Some(p)) =
-                        (start || response.dragged(), response.interact_pointer_pos())
-                    {
+                    for (p, start) in stroke_points(ui, &response) {
                         if let Err(e) = super::stroke_panel::paint(
                             &self.state,
                             &id,
@@ -516,6 +553,9 @@ impl EditorApp {
                         painter.add(egui::Shape::line(pts, egui::Stroke::new(width, c)));
                     }
                 }
+            }
+            Some((id, k)) if k == "BlendVolume" || k == "Heterogeneity" => {
+                self.brush_in_viewer(ui, &response, &id, size);
             }
             _ => {}
         }
@@ -687,10 +727,101 @@ impl EditorApp {
             "LightMapSolve" => {
                 super::stroke_panel::show(ui, &mut self.state, &id, &mut self.strokes, VIEW_SIZE)
             }
+            "BlendVolume" | "Heterogeneity" => {
+                super::brush_panel::show(ui, &mut self.state, &id, &mut self.brush)
+            }
             _ => None,
         };
         if let Some(m) = message {
             self.status = m;
+        }
+    }
+
+    /// The 3D brush over the viewer picture (`size` pixels shown in `response.rect`) while it is
+    /// armed: the plane's tint, the outline under the pointer, and painting on drags.
+    fn brush_in_viewer(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        selected: &str,
+        size: (u32, u32),
+    ) {
+        use super::brush_panel as brush;
+        if !self.brush.armed {
+            return;
+        }
+        let Some(target) = brush::target_for(self.state.graph(), &self.brush, selected) else {
+            return;
+        };
+        let view = match self
+            .brush
+            .view_for(&self.registry, self.state.graph(), &target, size)
+        {
+            Ok(v) => v.clone(),
+            Err(e) => {
+                self.status = e;
+                return;
+            }
+        };
+        let r = response.rect;
+        let at = |p: egui::Pos2| {
+            let rel = (p - r.min) / r.size();
+            [rel.x * size.0 as f32, rel.y * size.1 as f32]
+        };
+        // The plane: pixels whose surface lies behind it are tinted.
+        let tex_key = format!("{}@{}", view.key, self.brush.depth);
+        if self.brush_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
+            let tint = egui::Color32::from_rgba_unmultiplied(60, 130, 255, 100);
+            let pixels = brush::plane_mask(&view, self.brush.depth)
+                .iter()
+                .map(|m| if *m { tint } else { egui::Color32::TRANSPARENT })
+                .collect();
+            let image = egui::ColorImage::new([view.size.0 as usize, view.size.1 as usize], pixels);
+            let tex = ui
+                .ctx()
+                .load_texture("brush-plane", image, egui::TextureOptions::NEAREST);
+            self.brush_tex = Some((tex_key, tex));
+        }
+        let Some((_, tex)) = &self.brush_tex else {
+            return;
+        };
+        let painter = ui.painter_at(r);
+        painter.image(
+            tex.id(),
+            r,
+            egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+            egui::Color32::WHITE,
+        );
+        self.brush.hover = response.hover_pos().map(at);
+        if let Some(p) = response.hover_pos() {
+            let [rx, ry] = brush::outline_radii(&self.brush, &view.camera, view.size);
+            let scale = r.width() / size.0.max(1) as f32;
+            let colour = if self.brush.erase {
+                egui::Color32::from_gray(20)
+            } else {
+                egui::Color32::WHITE
+            };
+            painter.add(egui::epaint::EllipseShape::stroke(
+                p,
+                egui::vec2(rx, ry) * scale,
+                egui::Stroke::new(1.5, colour),
+            ));
+        }
+        for (p, start) in stroke_points(ui, response) {
+            if let Err(e) = brush::paint(
+                &mut self.state,
+                &mut self.brush,
+                &target,
+                &view.camera,
+                at(p),
+                size,
+                start,
+            ) {
+                self.status = e;
+            }
+        }
+        if response.drag_stopped() || response.clicked() {
+            brush::end_stroke(&mut self.state, &mut self.brush);
         }
     }
 

@@ -5,6 +5,7 @@
 //! preset browser; evaluation runs on a worker thread (`worker`).
 
 mod app;
+pub mod brush_panel;
 mod canvas;
 mod state;
 pub mod stroke_panel;

@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use eframe::egui;
 use egui_kittest::Harness;
 use tyndall::editor::{EditorApp, EditorState};
 
@@ -31,4 +32,31 @@ pub fn settle(h: &mut Harness<'static, EditorApp>) {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     panic!("the evaluation worker did not finish");
+}
+
+/// Press or release the primary button at `pos`.
+pub fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
+    h.event(egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    });
+}
+
+/// A drag as a user makes it: move to `from`, press, `moves` equal moves adding up to `by`
+/// (one frame each), release.
+pub fn drag(h: &mut Harness<'static, EditorApp>, from: egui::Pos2, by: egui::Vec2, moves: u32) {
+    h.event(egui::Event::PointerMoved(from));
+    h.run_steps(1);
+    press(h, from, true);
+    h.run_steps(1);
+    for k in 1..=moves {
+        h.event(egui::Event::PointerMoved(
+            from + by * (k as f32 / moves as f32),
+        ));
+        h.run_steps(1);
+    }
+    press(h, from + by, false);
+    h.run_steps(3);
 }

@@ -1,0 +1,508 @@
+//! The 3D brush (seed 000 §4.3, SPEC §6): painting a `BlendVolume` from the viewer. Shown under
+//! the parameters of a selected `BlendVolume` or `Heterogeneity`.
+//!
+//! A plane orthogonal to the camera's view direction sits at `depth` metres along it (the
+//! slider moves it along its normal). While the brush is armed the viewer tints the pixels
+//! whose surface lies behind the plane, so the artist sees where the plane cuts the scene, and
+//! draws the brush's outline under the pointer at its size on the plane. A drag over the viewer
+//! casts the pixel's view ray onto the plane and leaves an ellipsoidal splat there — semi-axes
+//! `radii` along the camera's right, up and viewing axes (rotation = the camera's), `opacity`,
+//! `hardness`, the painted `value` or, with the eraser, a splat restoring the base — one splat
+//! whenever the pointer has moved `spacing` × the smaller in-plane radius from the last one.
+//! The splats land in the chosen volume's data block (`(splats: [...])`), so the graph file
+//! reproduces the painting exactly; one drag is one undo step.
+//!
+//! The camera is the scene's (the one feeding the volume's `scene` input, else the graph's
+//! first `Scene`) at the viewer picture's aspect; the tint needs that scene's depth, rendered
+//! once per scene and picture size by a `GBuffer` evaluated on this thread.
+
+use std::collections::{BTreeSet, VecDeque};
+use std::sync::Arc;
+
+use eframe::egui;
+use glam::{Mat4, Quat, Vec3, Vec4};
+
+use crate::editor::EditorState;
+use crate::eval::{EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
+use crate::gpu::Gpu;
+use crate::graph::Graph;
+use crate::nodes::blend_volume::{BlendData, Role, Splat};
+
+/// The kind the brush paints into.
+pub const VOLUME_KIND: &str = "BlendVolume";
+
+/// The brush's state.
+pub struct BrushPanel {
+    /// The `BlendVolume` painted into (None: the default for the selection).
+    pub target: Option<String>,
+    /// Distance of the painting plane along the camera's view direction, m (> 0; default 10).
+    pub depth: f32,
+    /// Semi-axes of the ellipsoid along the camera's right, up and viewing axes, m (default 1).
+    pub radii: [f32; 3],
+    /// Weight at the centre, 0…1 (default 0.5).
+    pub opacity: f32,
+    /// Fraction of the radius painted at full opacity, 0…1 (default 0.5).
+    pub hardness: f32,
+    /// The value painted (clamped by the volume to its role's range; default 1).
+    pub value: f32,
+    /// Paint erasing splats (restore the volume's base value).
+    pub erase: bool,
+    /// Distance between splats along a drag, as a fraction of the smaller in-plane radius
+    /// (0.05…4; default 0.5).
+    pub spacing: f32,
+    /// A drag over the viewer paints.
+    pub armed: bool,
+    /// The pointer over the viewer, in picture pixels (for the outline).
+    pub hover: Option<[f32; 2]>,
+    view: Option<BrushView>,
+    last: Option<Vec3>,
+}
+
+impl Default for BrushPanel {
+    fn default() -> Self {
+        Self {
+            target: None,
+            depth: 10.0,
+            radii: [1.0; 3],
+            opacity: 0.5,
+            hardness: 0.5,
+            value: 1.0,
+            erase: false,
+            spacing: 0.5,
+            armed: false,
+            hover: None,
+            view: None,
+            last: None,
+        }
+    }
+}
+
+/// What the brush knows of the scene at the viewer's size.
+#[derive(Debug, Clone)]
+pub struct BrushView {
+    /// What it was rendered for (the scene node, its port and the size).
+    pub key: String,
+    /// Picture size (pixels).
+    pub size: (u32, u32),
+    /// The camera at that size.
+    pub camera: Matrices,
+    /// Linear depth along the view direction per pixel, row-major, y down (sky: the far
+    /// distance).
+    pub depth: Vec<f32>,
+}
+
+/// The `BlendVolume` nodes of the graph with their role, by id.
+pub fn volumes(graph: &Graph) -> Vec<(String, Role)> {
+    graph
+        .nodes()
+        .filter(|n| n.kind == VOLUME_KIND)
+        .map(|n| (n.id.clone(), role_of(graph, &n.id)))
+        .collect()
+}
+
+/// The role of `BlendVolume` `id` (its default, α, when unset or unknown).
+fn role_of(graph: &Graph, id: &str) -> Role {
+    match graph.node(id).and_then(|n| n.params.get("role")) {
+        Some(crate::graph::ParamValue::Enum(r)) => Role::from_name(r).unwrap_or(Role::Alpha),
+        _ => Role::Alpha,
+    }
+}
+
+/// The volume the brush paints into when none was chosen: the selected `BlendVolume`, else the
+/// first one feeding the selected node, else the graph's first.
+pub fn default_target(graph: &Graph, selected: &str) -> Option<String> {
+    let vols = volumes(graph);
+    if vols.iter().any(|(id, _)| id == selected) {
+        return Some(selected.to_string());
+    }
+    ["alpha", "frequency", "intensity"]
+        .iter()
+        .filter_map(|p| graph.source_of(selected, p))
+        .map(|(n, _)| n.to_string())
+        .find(|n| vols.iter().any(|(id, _)| id == n))
+        .or_else(|| vols.first().map(|(id, _)| id.clone()))
+}
+
+/// The volume painted now for `selected`: the chosen one while it exists, else the default.
+pub fn target_for(graph: &Graph, panel: &BrushPanel, selected: &str) -> Option<String> {
+    panel
+        .target
+        .clone()
+        .filter(|t| graph.node(t).is_some_and(|n| n.kind == VOLUME_KIND))
+        .or_else(|| default_target(graph, selected))
+}
+
+/// The nearest node downstream of `id` (breadth first, consumers in id order) that has a
+/// picture output: what the viewer shows for a node that has none itself (a volume, a scene).
+pub fn nearest_picture(graph: &Graph, registry: &Registry, id: &str) -> Option<String> {
+    let mut seen = BTreeSet::from([id.to_string()]);
+    let mut queue = VecDeque::from([id.to_string()]);
+    while let Some(n) = queue.pop_front() {
+        if n != id && !super::worker::picture_ports(graph, registry, &n).is_empty() {
+            return Some(n);
+        }
+        for c in graph.consumers(&n) {
+            if seen.insert(c.to_string()) {
+                queue.push_back(c.to_string());
+            }
+        }
+    }
+    None
+}
+
+/// The scene output the brush's camera comes from: the volume's `scene` input, else the
+/// graph's first `Scene` node.
+fn scene_source(graph: &Graph, target: &str) -> Option<(String, String)> {
+    graph
+        .source_of(target, "scene")
+        .map(|(n, p)| (n.to_string(), p.to_string()))
+        .or_else(|| {
+            graph
+                .nodes()
+                .find(|n| n.kind == "Scene")
+                .map(|n| (n.id.clone(), "scene".to_string()))
+        })
+}
+
+/// Render the scene's depth for the brush: a `GBuffer` fed by the scene source, evaluated at
+/// `size` on this thread.
+pub fn render_view(
+    registry: &Arc<Registry>,
+    graph: &Graph,
+    target: &str,
+    size: (u32, u32),
+) -> Result<BrushView, String> {
+    let (scene, port) = scene_source(graph, target)
+        .ok_or("the graph has no Scene: the brush needs a camera to paint from")?;
+    let key = format!("{:?}/{port}@{size:?}", graph.node(&scene));
+    let mut g = graph.clone();
+    let cat = registry.catalog();
+    let gb = g.add_node(cat, "GBuffer").map_err(|e| e.to_string())?;
+    g.connect(cat, &format!("{scene}.{port}"), &format!("{gb}.scene"))
+        .map_err(|e| e.to_string())?;
+    let gpu = Gpu::shared().map_err(|e| e.to_string())?;
+    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+    let opts = EvalOptions {
+        size,
+        ..Default::default()
+    };
+    let r = ev
+        .evaluate(&g, &[Target::Port(gb.clone(), "depth".into())], &opts)
+        .map_err(|e| e.to_string())?;
+    let value = r
+        .outputs
+        .get(&(gb, "depth".to_string()))
+        .ok_or("the scene's depth was not produced")?;
+    let PortValue::Depth(_, camera) = value else {
+        return Err("the GBuffer's depth is not a Depth value".into());
+    };
+    let camera = *camera;
+    let depth = crate::eval::download(&gpu, value).map_err(|e| e.to_string())?;
+    Ok(BrushView {
+        key,
+        size: (depth.width, depth.height),
+        camera,
+        depth: depth.data,
+    })
+}
+
+impl BrushPanel {
+    /// The brush's view of the scene for `target` at `size`, rendered when the scene or the
+    /// size changed since the last call.
+    pub fn view_for(
+        &mut self,
+        registry: &Arc<Registry>,
+        graph: &Graph,
+        target: &str,
+        size: (u32, u32),
+    ) -> Result<&BrushView, String> {
+        let key = scene_source(graph, target)
+            .map(|(s, p)| format!("{:?}/{p}@{size:?}", graph.node(&s)))
+            .unwrap_or_default();
+        if self.view.as_ref().is_none_or(|v| v.key != key) {
+            self.view = None;
+            self.view = Some(render_view(registry, graph, target, size)?);
+        }
+        self.view.as_ref().ok_or_else(|| "no view".to_string())
+    }
+
+    /// The view of the scene last rendered for the brush, if any.
+    pub fn view(&self) -> Option<&BrushView> {
+        self.view.as_ref()
+    }
+
+    /// The splat this brush leaves at `centre` under `camera`.
+    pub fn splat_at(&self, centre: Vec3, camera: &Matrices) -> Splat {
+        Splat {
+            centre: centre.to_array(),
+            radii: self.radii.map(|r| r.max(0.0)),
+            rotation: camera_rotation(camera).to_array(),
+            opacity: self.opacity.clamp(0.0, 1.0),
+            hardness: self.hardness.clamp(0.0, 1.0),
+            value: self.value,
+            erase: self.erase,
+        }
+    }
+}
+
+/// The camera's orientation: the rotation taking the splat frame's x, y, z to the camera's
+/// right, up and backward (view-space) axes in world space.
+pub fn camera_rotation(camera: &Matrices) -> Quat {
+    let inv = Mat4::from_cols_array_2d(&camera.view).inverse();
+    let (x, y, z) = (
+        inv.transform_vector3(Vec3::X).normalize_or(Vec3::X),
+        inv.transform_vector3(Vec3::Y).normalize_or(Vec3::Y),
+        inv.transform_vector3(Vec3::Z).normalize_or(Vec3::Z),
+    );
+    Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
+}
+
+/// The point of the painting plane (`depth` m along the view direction) under the continuous
+/// picture position `p` (pixels, y down) of a `size` picture; `None` where the ray does not
+/// meet the plane in front of the camera.
+pub fn plane_point(camera: &Matrices, p: [f32; 2], size: (u32, u32), depth: f32) -> Option<Vec3> {
+    let inv = camera.view_proj().inverse();
+    let ndc = Vec4::new(
+        p[0] / size.0.max(1) as f32 * 2.0 - 1.0,
+        1.0 - p[1] / size.1.max(1) as f32 * 2.0,
+        1.0,
+        1.0,
+    );
+    let far = inv * ndc;
+    let eye = camera.eye();
+    let dir = (far.truncate() / far.w - eye).normalize_or_zero();
+    let forward = -camera.backward();
+    let along = dir.dot(forward);
+    (along > 1e-4 && depth > 0.0 && depth.is_finite()).then(|| eye + dir * (depth / along))
+}
+
+/// Distance of a world point along the camera's view direction.
+pub fn view_depth(camera: &Matrices, p: Vec3) -> f32 {
+    (p - camera.eye()).dot(-camera.backward())
+}
+
+/// The brush outline's semi-axes in picture pixels on a `size` picture (the in-plane radii
+/// projected at the plane's depth).
+pub fn outline_radii(panel: &BrushPanel, camera: &Matrices, size: (u32, u32)) -> [f32; 2] {
+    let d = panel.depth.max(1e-3);
+    [
+        panel.radii[0] * camera.proj[0][0] * size.0 as f32 * 0.5 / d,
+        panel.radii[1] * camera.proj[1][1] * size.1 as f32 * 0.5 / d,
+    ]
+}
+
+/// Which pixels show the plane (their surface lies behind it), row-major.
+pub fn plane_mask(view: &BrushView, depth: f32) -> Vec<bool> {
+    view.depth.iter().map(|d| *d > depth).collect()
+}
+
+/// Paint at picture position `point` of the viewer: `start` begins a new stroke (a new undo
+/// step), otherwise the point continues the current one. Returns whether a splat was added
+/// (points closer than the spacing to the last splat add none).
+pub fn paint(
+    state: &mut EditorState,
+    panel: &mut BrushPanel,
+    target: &str,
+    camera: &Matrices,
+    point: [f32; 2],
+    size: (u32, u32),
+    start: bool,
+) -> Result<bool, String> {
+    if start {
+        state.end_merge();
+        panel.last = None;
+    }
+    let Some(centre) = plane_point(camera, point, size, panel.depth) else {
+        return Ok(false);
+    };
+    let step = panel.spacing.clamp(0.05, 4.0) * panel.radii[0].min(panel.radii[1]).max(1e-4);
+    if panel.last.is_some_and(|l| l.distance(centre) < step) {
+        return Ok(false);
+    }
+    let mut data = state.node_data::<BlendData>(target)?;
+    data.splats.push(panel.splat_at(centre, camera));
+    state.store_node_data(target, &data, Some("brush"))?;
+    panel.last = Some(centre);
+    Ok(true)
+}
+
+/// The drag is over: the next splat starts a new undo step.
+pub fn end_stroke(state: &mut EditorState, panel: &mut BrushPanel) {
+    if panel.last.take().is_some() {
+        state.end_merge();
+    }
+}
+
+/// Draw the panel for the selected node `selected`; returns a status message when an edit was
+/// refused.
+pub fn show(
+    ui: &mut egui::Ui,
+    state: &mut EditorState,
+    selected: &str,
+    panel: &mut BrushPanel,
+) -> Option<String> {
+    ui.separator();
+    ui.heading("3D brush");
+    let vols = volumes(state.graph());
+    let Some(target) = target_for(state.graph(), panel, selected) else {
+        ui.label("Add a BlendVolume to paint into.");
+        return None;
+    };
+    ui.horizontal(|ui| {
+        ui.label("volume");
+        egui::ComboBox::from_id_salt("brush-volume")
+            .selected_text(&target)
+            .show_ui(ui, |ui| {
+                for (id, role) in &vols {
+                    if ui
+                        .selectable_label(*id == target, format!("{id} ({})", role.name()))
+                        .clicked()
+                    {
+                        panel.target = Some(id.clone());
+                    }
+                }
+            });
+        ui.toggle_value(&mut panel.armed, "Paint")
+            .on_hover_text("Drag over the viewer to paint splats on the plane");
+        ui.toggle_value(&mut panel.erase, "eraser")
+            .on_hover_text("Splats restore the volume's base value");
+    });
+    let range = role_of(state.graph(), &target).range();
+    let far = panel.view.as_ref().map_or(1e4, |v| v.camera.far.max(1.0));
+    egui::Grid::new("brush-grid").num_columns(2).show(ui, |ui| {
+        ui.label("plane depth");
+        ui.add(
+            egui::DragValue::new(&mut panel.depth)
+                .range(0.01..=far)
+                .speed(0.05)
+                .suffix(" m"),
+        )
+        .on_hover_text("Distance of the painting plane along the view direction");
+        ui.end_row();
+        ui.label("size");
+        ui.horizontal(|ui| {
+            for (r, tip) in panel
+                .radii
+                .iter_mut()
+                .zip(["across", "up", "along the view"])
+            {
+                ui.add(
+                    egui::DragValue::new(r)
+                        .range(0.0..=1e4)
+                        .speed(0.02)
+                        .suffix(" m"),
+                )
+                .on_hover_text(format!("semi-axis {tip}"));
+            }
+        });
+        ui.end_row();
+        ui.label("opacity");
+        ui.add(egui::Slider::new(&mut panel.opacity, 0.0..=1.0));
+        ui.end_row();
+        ui.label("hardness");
+        ui.add(egui::Slider::new(&mut panel.hardness, 0.0..=1.0));
+        ui.end_row();
+        ui.label("value");
+        ui.add(egui::Slider::new(&mut panel.value, range.0..=range.1));
+        ui.end_row();
+        ui.label("spacing");
+        ui.add(egui::Slider::new(&mut panel.spacing, 0.05..=4.0))
+            .on_hover_text("Distance between splats along a drag, × the smaller in-plane radius");
+        ui.end_row();
+    });
+    let mut data = match state.node_data::<BlendData>(&target) {
+        Ok(d) => d,
+        Err(e) => {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 90, 80),
+                format!("data block: {e}"),
+            );
+            return None;
+        }
+    };
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        ui.label(format!("{} splat(s) in {target}", data.splats.len()));
+        if ui
+            .add_enabled(!data.splats.is_empty(), egui::Button::new("Clear splats"))
+            .clicked()
+        {
+            data.splats.clear();
+            changed = true;
+        }
+    });
+    if changed {
+        if let Err(e) = state.store_node_data(&target, &data, None) {
+            return Some(e);
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Camera;
+
+    fn camera(size: (u32, u32)) -> Matrices {
+        let c = Camera {
+            position: Vec3::new(1.0, 2.0, 9.0),
+            target: Vec3::new(-2.0, 1.0, 0.0),
+            fov_y: 50.0,
+            near: 0.1,
+            far: 80.0,
+        };
+        Matrices {
+            view: c.view().to_cols_array_2d(),
+            proj: c.proj(size.0 as f32 / size.1 as f32).to_cols_array_2d(),
+            far: c.far,
+            radiance: [0.0; 3],
+        }
+    }
+
+    #[test]
+    fn plane_points_lie_on_the_plane_and_project_back_to_their_pixel() {
+        let size = (480, 270);
+        let m = camera(size);
+        for (p, d) in [
+            ([240.0, 135.0], 10.0),
+            ([3.5, 260.0], 2.0),
+            ([479.0, 0.5], 55.0),
+        ] {
+            let q = plane_point(&m, p, size, d).expect("in front");
+            assert!((view_depth(&m, q) - d).abs() < 1e-3 * d, "{p:?} {d}");
+            let c = m.view_proj().project_point3(q);
+            let back = [(c.x + 1.0) * 0.5 * 480.0, (1.0 - c.y) * 0.5 * 270.0];
+            assert!((back[0] - p[0]).abs() < 1e-2 && (back[1] - p[1]).abs() < 1e-2);
+        }
+        assert!(plane_point(&m, [10.0, 10.0], size, 0.0).is_none());
+        assert!(plane_point(&m, [10.0, 10.0], size, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn splats_face_the_camera_and_the_outline_matches_their_projection() {
+        let size = (480, 270);
+        let m = camera(size);
+        let panel = BrushPanel {
+            radii: [0.7, 0.4, 2.0],
+            depth: 6.0,
+            ..Default::default()
+        };
+        let q = Quat::from_array(camera_rotation(&m).to_array());
+        let right = q * Vec3::X;
+        let back = q * Vec3::Z;
+        assert!((back - m.backward()).length() < 1e-5);
+        let centre = plane_point(&m, [200.0, 100.0], size, panel.depth).expect("point");
+        let s = panel.splat_at(centre, &m);
+        assert_eq!(s.radii, [0.7, 0.4, 2.0]);
+        // The splat's edge along its x axis lands the outline's x radius away on screen.
+        let edge = centre + right * s.radii[0];
+        let px = |p: Vec3| {
+            let c = m.view_proj().project_point3(p);
+            Vec3::new((c.x + 1.0) * 240.0, (1.0 - c.y) * 135.0, 0.0)
+        };
+        let got = (px(edge) - px(centre)).length();
+        let want = outline_radii(&panel, &m, size)[0];
+        assert!((got - want).abs() < 0.05 * want, "{got} vs {want}");
+    }
+}
