@@ -61,7 +61,7 @@ pub enum Command {
         #[arg(long)]
         csv: Option<PathBuf>,
     },
-    /// Open the editor window (early version: canvas, parameters, viewer).
+    /// Open the editor window: node canvas, viewer, parameters, timeline, presets, transfer-function, stroke and 3D-brush panels.
     Edit {
         /// Graph to open (an empty graph when left out).
         graph: Option<PathBuf>,
