@@ -285,21 +285,32 @@ fn extremes_stay_finite() {
     }
 }
 
-/// With a scene, the light sits at the sun's screen position: the direction to the sun of the
-/// `window` scene projected by its camera (any point along it projects to the same pixel).
+/// The sun's screen position against pinhole trigonometry, independently of the camera
+/// matrices: a camera at the origin looking along +Z (so world +X is screen left), vertical
+/// field of view 60°, 960 × 540; a sun at azimuth a (clockwise from +Z seen from above) and
+/// elevation e lies tan(a)/(aspect·tan 30°) half-widths left of the centre and
+/// tan(e)/(cos(a)·tan 30°) half-heights above it.
 #[test]
-fn radial_blur_places_the_light_at_the_sun() {
-    let scene = tyndall::scene::builtin("window", 1).expect("scene");
-    let p = rb::sun_pixel(&scene, 960, 540);
-    let cam = scene.camera;
-    let vp = cam.proj(960.0 / 540.0) * cam.view();
-    let c = vp * (cam.position + scene.sun.to_sun() * 10.0).extend(1.0);
-    let want = [
-        (c.x / c.w * 0.5 + 0.5) * 960.0,
-        (0.5 - c.y / c.w * 0.5) * 540.0,
-    ];
-    assert!(
-        (p[0] - want[0]).abs() < 1e-2 && (p[1] - want[1]).abs() < 1e-2,
-        "{p:?} vs {want:?}"
-    );
+fn sun_pixel_follows_pinhole_trigonometry() {
+    let mut scene = tyndall::scene::builtin("window", 1).expect("scene");
+    scene.camera.position = glam::Vec3::ZERO;
+    scene.camera.target = glam::Vec3::Z;
+    scene.camera.fov_y = 60.0;
+    let t30 = 30f32.to_radians().tan();
+    let aspect = 960.0 / 540.0;
+    for (az, el) in [(0.0f32, 0.0f32), (0.0, 15.0), (20.0, 0.0), (-25.0, 10.0)] {
+        scene.sun.azimuth = az;
+        scene.sun.elevation = el;
+        let p = rb::sun_pixel(&scene, 960, 540);
+        let (a, e) = (az.to_radians(), el.to_radians());
+        let want = [
+            480.0 - 480.0 * a.tan() / (aspect * t30),
+            270.0 - 270.0 * e.tan() / (a.cos() * t30),
+        ];
+        // 1e-2 px: f32 matrix products against f32 trigonometry.
+        assert!(
+            (p[0] - want[0]).abs() < 1e-2 && (p[1] - want[1]).abs() < 1e-2,
+            "azimuth {az}, elevation {el}: {p:?} vs {want:?}"
+        );
+    }
 }
