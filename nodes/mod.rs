@@ -24,6 +24,7 @@ pub mod image_input;
 pub mod image_output;
 pub mod light_map;
 pub mod light_map_solve;
+pub mod lorenz_mie;
 pub mod math;
 pub mod morphology2d;
 pub mod noise_volume;
