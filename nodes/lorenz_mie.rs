@@ -5,8 +5,11 @@
 //!
 //! For a size parameter x = 2πr/λ and relative refractive index m = n + iκ the series runs to
 //! n_stop = x + 4x^{1/3} + 2 terms (Wiscombe's criterion); the logarithmic derivative D_n(mx)
-//! is found by downward recurrence from n_mx = max(n_stop, |mx|) + 15, which keeps it stable for
-//! large |mx| and absorbing spheres, and ψ_n, χ_n by upward recurrence (stable for n ≤ n_stop).
+//! is found by downward recurrence from n_mx = 1.5 max(n_stop, |mx|) + 15 — BHMIE's
+//! max(n_stop, |mx|) + 15 start is too close for large real mx: it leaves 6e-5 in Q_sca at
+//! x = 200, against a 40-digit mpmath evaluation of the same series; ψ_n(x) comes from the same downward recurrence of D_n(x)
+//! (ψ_n = ψ_{n−1}/(D_n(x) + n/x): the upward recurrence of ψ loses digits once n > x), χ_n by
+//! upward recurrence (it grows, so that is stable).
 //! Then
 //!
 //! a_n = ((D_n/m + n/x) ψ_n − ψ_{n−1}) / ((D_n/m + n/x) ξ_n − ξ_{n−1}),
@@ -22,27 +25,37 @@
 
 use num_complex::Complex64 as C;
 
+/// The Mie coefficients (a_n, b_n), n = 1…n_stop.
+pub type Coefficients = Vec<(C, C)>;
+
 /// The Mie coefficients (a_n, b_n), n = 1…n_stop, and Q_sca, for size parameter `x` (> 0) and
 /// refractive index `m` (imaginary part ≥ 0).
-pub fn coefficients(x: f64, m: C) -> (Vec<(C, C)>, f64) {
+pub fn coefficients(x: f64, m: C) -> (Coefficients, f64) {
     let x = x.max(1e-9);
     let nstop = (x + 4.0 * x.cbrt() + 2.0).floor() as usize;
     let mx = m * x;
-    let nmx = (nstop as f64).max(mx.norm()).floor() as usize + 15;
+    let nmx = ((nstop as f64).max(mx.norm()) * 1.5).floor() as usize + 15;
     // D_n(mx), downward from n_mx.
     let mut d = vec![C::new(0.0, 0.0); nmx + 1];
     for n in (1..=nmx).rev() {
         let nm = C::new(n as f64, 0.0) / mx;
         d[n - 1] = nm - C::new(1.0, 0.0) / (d[n] + nm);
     }
-    let (mut psi0, mut psi1) = (x.cos(), x.sin());
+    // ψ_n(x) from the ratio ψ_{n−1}/ψ_n = D_n(x) + n/x, D_n(x) by downward recurrence (the
+    // upward recurrence of ψ loses accuracy once n exceeds x, where ψ_n decays).
+    let mut dx = vec![0.0f64; nmx + 1];
+    for n in (1..=nmx).rev() {
+        let nx = n as f64 / x;
+        dx[n - 1] = nx - 1.0 / (dx[n] + nx);
+    }
+    let mut psi1 = x.sin();
     let (mut chi0, mut chi1) = (-x.sin(), x.cos());
     let mut xi1 = C::new(psi1, -chi1);
     let mut out = Vec::with_capacity(nstop);
     let mut qsca = 0.0;
     for n in 1..=nstop {
         let nf = n as f64;
-        let psi = (2.0 * nf - 1.0) * psi1 / x - psi0;
+        let psi = psi1 / (dx[n] + nf / x);
         let chi = (2.0 * nf - 1.0) * chi1 / x - chi0;
         let xi = C::new(psi, -chi);
         let da = d[n] / m + nf / x;
@@ -51,7 +64,6 @@ pub fn coefficients(x: f64, m: C) -> (Vec<(C, C)>, f64) {
         let b = (db * psi - psi1) / (db * xi - xi1);
         qsca += (2.0 * nf + 1.0) * (a.norm_sqr() + b.norm_sqr());
         out.push((a, b));
-        psi0 = psi1;
         psi1 = psi;
         chi0 = chi1;
         chi1 = chi;
@@ -123,7 +135,8 @@ pub fn phase(
 ) -> Vec<f64> {
     let k = 2.0 * std::f64::consts::PI / (lambda_nm * 1e-3); // 1/µm
     let sizes = radii(p, nodes);
-    let sets: Vec<(Vec<(C, C)>, f64, f64)> = sizes
+    // Per radius: its coefficients, weighted C_sca and weight.
+    let sets: Vec<(Coefficients, f64, f64)> = sizes
         .iter()
         .map(|(r, w)| {
             let x = k * r;
@@ -173,6 +186,14 @@ mod tests {
         assert!((q - 3.702_201_347_460_144).abs() < 1e-9, "{q}");
     }
 
+    /// x = 200, m = 1.33 against the series evaluated with mpmath at 40 digits (Riccati–Bessel
+    /// functions from `besselj`/`bessely`, 225 terms): Q_sca = 2.055557855845197.
+    #[test]
+    fn large_size_parameter_matches_a_40_digit_evaluation() {
+        let (_, q) = coefficients(200.0, C::new(1.33, 0.0));
+        assert!((q - 2.055_557_855_845_197).abs() < 1e-10, "{q}");
+    }
+
     /// A small sphere is a Rayleigh scatterer: Q_sca → (8/3) x⁴ |(m²−1)/(m²+2)|².
     #[test]
     fn small_spheres_scatter_as_rayleigh() {
@@ -193,6 +214,9 @@ mod tests {
             assert!(intensity(&c, 1.0).is_finite() && intensity(&c, -1.0).is_finite());
         }
         let (c, q) = coefficients(500.0, C::new(1.33, 10.0));
-        assert!(q.is_finite() && intensity(&c, 0.3).is_finite(), "absorbing: {q}");
+        assert!(
+            q.is_finite() && intensity(&c, 0.3).is_finite(),
+            "absorbing: {q}"
+        );
     }
 }

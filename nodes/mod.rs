@@ -29,6 +29,7 @@ pub mod math;
 pub mod morphology2d;
 pub mod noise_volume;
 pub mod perlin_noise2d;
+pub mod phase;
 pub mod radial_blur;
 pub mod remap;
 pub mod scene;
@@ -71,6 +72,10 @@ pub fn registry() -> Registry {
     )));
     r.add(Arc::new(noise_volume::NoiseVolume));
     r.add(Arc::new(perlin_noise2d::PerlinNoise2D));
+    r.add(Arc::new(phase::PhaseNode(phase::Model::HenyeyGreenstein)));
+    r.add(Arc::new(phase::PhaseNode(phase::Model::Rayleigh)));
+    r.add(Arc::new(phase::PhaseNode(phase::Model::Mie)));
+    r.add(Arc::new(phase::PhaseNode(phase::Model::MultipleScattering)));
     r.add(Arc::new(radial_blur::RadialBlur));
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));

@@ -4,7 +4,8 @@
 //! `L_scat = σt ρ f(θ) · L_i (1 − e^{−sσt})/σt · V̄`, with `V̄ = s⁻¹ ∫₀ˢ V(x_t) dt` the average
 //! visibility of the view ray up to the first surface at distance `s` (sky: the camera's far
 //! distance), found by marching the shadow map, and `f` the Henyey–Greenstein phase function
-//! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun).
+//! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun)
+//! — or, with a `phase` table connected, that table per RGB channel (`nodes/phase.rs`).
 //! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
 //! A sample is lit when it lies outside the map or the light box, or when its light-space depth
 //! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the
@@ -42,7 +43,7 @@
 //! | `shadow` | in | ShadowMap (required) | the map the medium sees (possibly manipulated) |
 //! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
 //! | `light_map` | in | LightMap (optional) | multiplies the incoming light (BruteForce only); unconnected: 1 |
-//! | `phase` | in | Phase (optional) | tabulated phase function; unconnected: Henyey–Greenstein `g` |
+//! | `phase` | in | Phase (optional) | tabulated phase function per RGB channel (`HenyeyGreenstein`, `Rayleigh`, `Mie`, `MultipleScatteringPhase`), read linearly between its texel centres; unconnected: Henyey–Greenstein `g` |
 //! | `scene` | in | Scene (optional) | for `bounds = tagged`: its objects tagged `medium` |
 //! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
 //! | `depth` | out | Depth | the input depth, passed on for transfer functions |
@@ -174,6 +175,14 @@ crate::uniforms! {
         pub box_max: [f32; 3],
         /// 1 when the sun is attenuated on its way through the medium.
         pub light_extinction: u32,
+        /// Width of the connected phase table (0: Henyey–Greenstein `g`).
+        pub phase_width: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
     }
 }
 
@@ -199,6 +208,10 @@ impl ScatterParams {
             bounded: 0,
             box_max: [0.0; 3],
             light_extinction: 0,
+            phase_width: 0,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 
@@ -445,7 +458,8 @@ pub fn weight(p: &ScatterParams, dir: Vec3, t0: f32, a: f32, b: f32) -> f32 {
     total
 }
 
-/// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image.
+/// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image, with the
+/// built-in Henyey–Greenstein phase function.
 pub fn reference_pixel(
     p: &ScatterParams,
     shadow: &Raster,
@@ -454,6 +468,19 @@ pub fn reference_pixel(
     y: u32,
     w: u32,
     h: u32,
+) -> PixelResult {
+    reference_pixel_phase(p, None, shadow, s, (x, y), (w, h))
+}
+
+/// [`reference_pixel`] with a phase table (`None`: Henyey–Greenstein `g`) for pixel `xy` of a
+/// `size` image.
+pub fn reference_pixel_phase(
+    p: &ScatterParams,
+    phase: Option<&crate::nodes::phase::PhaseTable>,
+    shadow: &Raster,
+    s: f32,
+    (x, y): (u32, u32),
+    (w, h): (u32, u32),
 ) -> PixelResult {
     let inv = Mat4::from_cols_array_2d(&p.inv_view_proj);
     let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
@@ -490,13 +517,14 @@ pub fn reference_pixel(
         1.0
     };
     let cos = dir.dot(Vec3::from(p.to_sun));
-    let base = p.sigma_t * p.albedo * henyey_greenstein(p.g, cos);
+    let f = phase.map_or([henyey_greenstein(p.g, cos); 3], |t| t.lookup(cos));
     let k = if p.light_extinction != 0 {
-        base * weighted
+        weighted
     } else {
-        base * transmittance_integral(len, p.sigma_t) * vbar
+        transmittance_integral(len, p.sigma_t) * vbar
     };
-    (vbar, p.radiance.map(|r| r * k), (-len * p.sigma_t).exp())
+    let rad = [0, 1, 2].map(|c| p.radiance[c] * p.sigma_t * p.albedo * f[c] * k);
+    (vbar, rad, (-len * p.sigma_t).exp())
 }
 
 /// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
@@ -578,12 +606,16 @@ impl NodeKind for SingleScattering {
                 })
             }
         };
-        if ctx.input("phase").is_some() {
-            return Err(NodeError::Input {
-                port: "phase".into(),
-                message: "is not supported yet; leave it unconnected".into(),
-            });
-        }
+        let phase = match ctx.input("phase") {
+            None => None,
+            Some(PortValue::Phase(t)) => Some(t.clone()),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "phase".into(),
+                    message: "is not a phase function".into(),
+                })
+            }
+        };
         let light_map = match ctx.input("light_map") {
             None => None,
             Some(PortValue::LightMap(t, m)) => Some((t.clone(), *m)),
@@ -632,7 +664,16 @@ impl NodeKind for SingleScattering {
             }
             Bounds::Tagged => Some(tagged_bounds(ctx)?),
         };
-        let u = ScatterParams::new(&camera, &light, medium).with_bounds(bounds, extinction);
+        let mut u = ScatterParams::new(&camera, &light, medium).with_bounds(bounds, extinction);
+        let phase = match phase {
+            Some(t) => t,
+            None => Arc::new(ctx.gpu.upload(1, 1, 4, &[0.0; 4])?),
+        };
+        u.phase_width = if ctx.input("phase").is_some() {
+            phase.width
+        } else {
+            0
+        };
         let (w, h) = (depth.width, depth.height);
         let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
         let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
@@ -644,6 +685,7 @@ impl NodeKind for SingleScattering {
             (3, Bind::Storage(&vis)),
             (4, Bind::Storage(&ins)),
             (5, Bind::Storage(&tr)),
+            (13, Bind::Texture(&phase)),
         ];
         let method = ctx.choice::<Method>("method")?;
         if let Some((map, m)) = &light_map {

@@ -18,6 +18,10 @@ struct Params {
     bounded: u32,
     box_max: vec3<f32>,
     light_extinction: u32,
+    phase_width: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -26,6 +30,7 @@ struct Params {
 @group(0) @binding(3) var out_vis: texture_storage_2d<r32float, write>;
 @group(0) @binding(4) var out_inscatter: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(5) var out_transmittance: texture_storage_2d<r32float, write>;
+@group(0) @binding(13) var phase_table: texture_2d<f32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -47,6 +52,22 @@ fn transmittance_integral(s: f32, sigma_t: f32) -> f32 {
 fn henyey_greenstein(g: f32, cos_theta: f32) -> f32 {
     let d = max(1.0 + g * g - 2.0 * g * cos_theta, 1e-12);
     return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
+}
+
+// The phase function per channel: the connected table (linear between texel centres θ_i =
+// π (i + 0.5)/W, clamped at the ends) or Henyey–Greenstein g.
+fn phase(cos_theta: f32) -> vec3<f32> {
+    if P.phase_width == 0u {
+        return vec3<f32>(henyey_greenstein(P.g, cos_theta));
+    }
+    let w = f32(P.phase_width);
+    let x = clamp(acos(clamp(cos_theta, -1.0, 1.0)) / PI * w - 0.5, 0.0, w - 1.0);
+    let i0 = u32(floor(x));
+    let i1 = min(i0 + 1u, P.phase_width - 1u);
+    let f = x - f32(i0);
+    let a = textureLoad(phase_table, vec2<u32>(i0, 0u), 0).rgb;
+    let b = textureLoad(phase_table, vec2<u32>(i1, 0u), 0).rgb;
+    return mix(a, b, f);
 }
 
 fn visible(x: vec3<f32>) -> f32 {
@@ -297,7 +318,7 @@ fn brute_force_light_map(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
-    let base = P.sigma_t * P.albedo * henyey_greenstein(P.g, dot(dir, P.to_sun));
+    let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
     textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
     textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * base * acc, 1.0));
     textureStore(out_transmittance, id.xy, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
@@ -306,7 +327,7 @@ fn brute_force_light_map(@builtin(global_invocation_id) id: vec3<u32>) {
 // Write the outputs of one pixel. Light extinction off: the seed's factored form (eq. 2),
 // σt ρ f · (1 − e^{−Lσt})/σt · V̄ over the medium's length L on the ray; on: σt ρ f · ∫ V E dt.
 fn store(p: vec2<u32>, dir: vec3<f32>, vbar: f32, len: f32, weighted: f32) {
-    let base = P.sigma_t * P.albedo * henyey_greenstein(P.g, dot(dir, P.to_sun));
+    let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
     var k = base * transmittance_integral(len, P.sigma_t) * vbar;
     if P.light_extinction != 0u {
         k = base * weighted;

@@ -423,7 +423,16 @@ fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
 }
 
 fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
-    let raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    let mut raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    if let PortValue::Phase(_) = v {
+        // A phase table is written as W×1 RGB (its alpha carries nothing).
+        raster.data = raster
+            .data
+            .chunks(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        raster.channels = 3;
+    }
     let precision = match crate::io::file_kind(path).map_err(bad)? {
         crate::io::FileKind::Exr => Precision::F32,
         crate::io::FileKind::Png => Precision::U8,

@@ -106,6 +106,10 @@ pub enum PortValue {
     /// A baked transfer function, `RGBA32F`, N×N: texel (i, j) holds the colour at
     /// u = V̄ = (i + 0.5)/N, v = normalised depth = (j + 0.5)/N.
     Lut2D(Arc<GpuTexture>),
+    /// A tabulated phase function, `RGBA32F`, W×1: texel i holds p(θ) per RGB channel (680 /
+    /// 550 / 440 nm) at θ = π (i + 0.5)/W, in 1/sr, normalised so that
+    /// 2π Σ p(θ_i) sin θ_i · π/W = 1 per channel; alpha 1.
+    Phase(Arc<GpuTexture>),
     /// A volume (noise, painted blend volume) and the world-space box `[min, max]` it covers.
     Volume(Arc<crate::gpu::GpuVolume>, [[f32; 3]; 2]),
     /// A light map, `RGBA32F`: the colour multiplying the sun at a point is the bilinear lookup
@@ -126,6 +130,7 @@ impl PortValue {
             PortValue::Image(_) => PortType::Image,
             PortValue::Lut2D(_) => PortType::Lut2D,
             PortValue::LightMap(..) => PortType::LightMap,
+            PortValue::Phase(_) => PortType::Phase,
             PortValue::Volume(..) => PortType::Volume,
             PortValue::Other(t, _) => *t,
         }
@@ -139,6 +144,7 @@ impl PortValue {
             | PortValue::Scalar(t)
             | PortValue::Image(t)
             | PortValue::Lut2D(t)
+            | PortValue::Phase(t)
             | PortValue::LightMap(t, _) => Some(t),
             PortValue::Other(..) | PortValue::Volume(..) => None,
         }

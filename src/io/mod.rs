@@ -234,8 +234,9 @@ fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
     }
 }
 
-/// Write a raster as EXR (`F32`/`F16`; one channel is written as `Y`, four as `R`,`G`,`B`,`A`) or
-/// PNG (`U8`/`U16`; one channel as grey, four as RGBA, colour channels sRGB-encoded when
+/// Write a raster as EXR (`F32`/`F16`; one channel is written as `Y`, three as `R`,`G`,`B`, four
+/// as `R`,`G`,`B`,`A`) or PNG (`U8`/`U16`; one channel as grey, three or four as RGBA (alpha 1
+/// for three), colour channels sRGB-encoded when
 /// `srgb`). Missing parent folders are created. Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
 /// atomic (temporary file, then rename).
 pub fn write_image(
@@ -260,8 +261,8 @@ pub fn write_image(
             reason: format!("precision {precision:?} cannot be written to this format (EXR: F32/F16, PNG: U8/U16)"),
         });
     }
-    if r.channels != 1 && r.channels != 4 {
-        return Err(err(format!("{} channels (expected 1 or 4)", r.channels)));
+    if !matches!(r.channels, 1 | 3 | 4) {
+        return Err(err(format!("{} channels (expected 1, 3 or 4)", r.channels)));
     }
     let dir = path
         .parent()
@@ -280,6 +281,17 @@ pub fn write_image(
         if !v.is_finite() {
             *v = 0.0;
         }
+    }
+    if clean.channels == 3 && kind == FileKind::Png {
+        clean = Raster {
+            channels: 4,
+            data: clean
+                .data
+                .chunks(3)
+                .flat_map(|p| [p[0], p[1], p[2], 1.0])
+                .collect(),
+            ..clean
+        };
     }
     let r = &clean;
     let res = match kind {
@@ -309,7 +321,7 @@ fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
     let list: exrp::SmallVec<[exrp::AnyChannel<exrp::FlatSamples>; 4]> = if r.channels == 1 {
         exrp::SmallVec::from_vec(vec![exrp::AnyChannel::new("Y", samples(0))])
     } else {
-        ["R", "G", "B", "A"]
+        ["R", "G", "B", "A"][..r.channels as usize]
             .iter()
             .enumerate()
             .map(|(i, n)| exrp::AnyChannel::new(*n, samples(i)))
