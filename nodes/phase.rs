@@ -32,7 +32,7 @@
 //! |---|---|---|
 //! | HenyeyGreenstein | out `phase` | `g` (0.5, −0.999…0.999), `samples` (1800, 900…8192) |
 //! | Rayleigh | out `phase` | `samples` |
-//! | Mie | out `phase` | `preset` (cloud; custom, cloud, rain), `radius` (10 µm, 0.001…2000), `spread` (1.5, 1…3), `n_real` (1.33, 1…3), `n_imag` (0, 0…10), `radii` (16, 1…64), `samples` |
+//! | Mie | out `phase` | `preset` (cloud; custom, cloud, rain), `radius` (10 µm, 0.001…2000), `spread` (1.5, 1…3), `n_real` (1.33, 1…3), `n_imag` (0, 0…10), `radii` (64, 1…256), `samples` |
 //! | MultipleScatteringPhase | in `phase` (required); out `phase`, `forward` | `select` (count; count, transmittance), `n` (2, 1…26), `albedo` (1, 0…1), `transmittance` (0.5, 1e-12…1) |
 
 use std::sync::Arc;
@@ -131,7 +131,7 @@ static MIE: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("spread", 1.5, 1.0, 3.0, "", "Geometric standard deviation of the radius; 1 = a single size (custom)."),
         ParamSpec::float("n_real", 1.33, 1.0, 3.0, "", "Real refractive index relative to air (custom; water 1.33)."),
         ParamSpec::float("n_imag", 0.0, 0.0, 10.0, "", "Imaginary refractive index, ≥ 0 absorbs (custom)."),
-        ParamSpec::int("radii", 16, 1, 64, "sizes", "Radii sampled over ±3 ln(spread) (quality knob)."),
+        ParamSpec::int("radii", 64, 1, 256, "sizes", "Radii sampled over ±3 ln(spread) (quality knob; time is linear in it)."),
         SAMPLES,
     ],
 })
@@ -383,14 +383,26 @@ pub fn sub_angles(p: &Population, radii: usize, w: usize) -> usize {
     ((x_max * dtheta / 4.0).ceil() as usize).clamp(1, 4)
 }
 
-/// The Mie table before normalisation (what the node uploads), on `threads` threads.
-pub fn mie_raw(p: &Population, radii: usize, w: usize, threads: usize) -> PhaseTable {
+/// The Mie table before normalisation (what the node uploads), on `threads` threads;
+/// `done(k)` is called after channel k.
+pub fn mie_raw(
+    p: &Population,
+    radii: usize,
+    w: usize,
+    threads: usize,
+    done: impl Fn(usize),
+) -> PhaseTable {
     let thetas: Vec<f64> = (0..w).map(|i| PhaseTable::theta(i, w)).collect();
     let sub = sub_angles(p, radii, w);
     let dtheta = std::f64::consts::PI / w as f64;
     let ch: Vec<Vec<f64>> = WAVELENGTHS_NM
         .iter()
-        .map(|l| lorenz_mie::phase(p, *l, &thetas, dtheta, sub, radii, threads))
+        .enumerate()
+        .map(|(k, l)| {
+            let v = lorenz_mie::phase(p, *l, &thetas, dtheta, sub, radii, threads);
+            done(k);
+            v
+        })
         .collect();
     PhaseTable {
         rgb: (0..w).map(|i| [ch[0][i], ch[1][i], ch[2][i]]).collect(),
@@ -399,7 +411,7 @@ pub fn mie_raw(p: &Population, radii: usize, w: usize, threads: usize) -> PhaseT
 
 /// CPU reference of `Mie`.
 pub fn mie(p: &Population, radii: usize, w: usize) -> PhaseTable {
-    mie_raw(p, radii, w, threads()).normalised()
+    mie_raw(p, radii, w, threads(), |_| {}).normalised()
 }
 
 /// The number of scatters `MultipleScatteringPhase` uses.
@@ -575,10 +587,13 @@ impl NodeKind for PhaseNode {
                     m: Complex64::new(ctx.f64("n_real")?, ctx.f64("n_imag")?),
                 };
                 let p = population(ctx.choice::<Preset>("preset")?, custom);
-                let radii = ctx.int("radii")?.clamp(1, 64) as usize;
-                ctx.report(0, 1, "Lorenz–Mie series");
-                let raw = mie_raw(&p, radii, w as usize, threads());
-                ctx.report(1, 1, "Lorenz–Mie series");
+                let radii = ctx.int("radii")?.clamp(1, 256) as usize;
+                let report = |k: usize| {
+                    let nm = WAVELENGTHS_NM[k.min(2)];
+                    ctx.report(k as u64 + 1, 3, format!("Lorenz–Mie series at {nm} nm"));
+                };
+                ctx.report(0, 3, "Lorenz–Mie series");
+                let raw = mie_raw(&p, radii, w as usize, threads(), report);
                 let t = ctx.gpu.upload(w, 1, 4, &raw.texels())?;
                 normalise(ctx.gpu, &t)?
             }
