@@ -1,7 +1,9 @@
 //! `Composite`: surfaces lit by the sun (Lambert) and an ambient term, shadowed with the
 //! ORIGINAL shadow map on its own port, seen through the medium, plus the in-scatter (SPEC §1).
 //!
-//! `out = (albedo · (ambient + E · max(0, n·l) · S) or sky) · T + L_scat`, with `E` the sun's
+//! `out = ((albedo · (ambient + E · max(0, n·l) · S) or sky) · T + L_scat) · T_air + L_air`,
+//! with `T_air`, `L_air` the atmosphere's transmittance and in-scatter (`Sky`: on the background
+//! T_air = 0 and L_air is the sky; 1 and 0 when unconnected), `E` the sun's
 //! radiance carried by the shadow map, `S` the surface shadow (percentage-closer filtered over
 //! (2·pcf + 1)² texels), `T` the transmittance (1 when unconnected), `L_scat` the in-scatter
 //! (0 when unconnected). Surface shadows always use the unmodified map: only the scattering
@@ -14,6 +16,7 @@
 //! | `shadow` | in | ShadowMap (required: the original map) |
 //! | `inscatter` | in | Image (optional) |
 //! | `transmittance` | in | Scalar (optional) |
+//! | `aerial_transmittance`, `aerial_inscatter` | in | Image (optional, from `Sky`) |
 //! | `image` | out | Image (linear RGB, alpha 1) |
 //!
 //! | param | type | default | range | |
@@ -45,6 +48,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::required("shadow", &[PortType::ShadowMap], "The ORIGINAL shadow map, for surface shadows."),
         PortSpec::input("inscatter", &[PortType::Image], "In-scattered light added on top."),
         PortSpec::input("transmittance", &[PortType::Scalar], "Attenuation of surfaces by the medium."),
+        PortSpec::input("aerial_transmittance", &[PortType::Image], "Per-channel attenuation by the atmosphere (Sky.transmittance), applied last."),
+        PortSpec::input("aerial_inscatter", &[PortType::Image], "The atmosphere's in-scatter and sky (Sky.inscatter), added last."),
     ],
     outputs: &[PortSpec::output("image", &[PortType::Image], "Linear radiance.")],
     params: &[
@@ -84,10 +89,10 @@ crate::uniforms! {
         pub sky: [f32; 4],
         /// 1 when transmittance is connected.
         pub has_transmittance: u32,
-        /// Padding.
-        pub _pad0: u32,
-        /// Padding.
-        pub _pad1: u32,
+        /// 1 when aerial_transmittance is connected.
+        pub has_aerial_transmittance: u32,
+        /// 1 when aerial_inscatter is connected.
+        pub has_aerial_inscatter: u32,
         /// Padding.
         pub _pad2: u32,
     }
@@ -133,6 +138,12 @@ impl NodeKind for Composite {
         let transmittance = ctx
             .input("transmittance")
             .and_then(|v| v.texture().cloned());
+        let aerial_t = ctx
+            .input("aerial_transmittance")
+            .and_then(|v| v.texture().cloned());
+        let aerial_l = ctx
+            .input("aerial_inscatter")
+            .and_then(|v| v.texture().cloned());
         let (vp, lvp) = (cam.view_proj(), light.view_proj());
         let c = |name: &str| -> Result<[f32; 4], NodeError> { ctx.colour(name) };
         let u = CompositeParams {
@@ -147,13 +158,15 @@ impl NodeKind for Composite {
             ambient: c("ambient")?,
             sky: c("sky")?,
             has_transmittance: transmittance.is_some() as u32,
-            _pad0: 0,
-            _pad1: 0,
+            has_aerial_transmittance: aerial_t.is_some() as u32,
+            has_aerial_inscatter: aerial_l.is_some() as u32,
             _pad2: 0,
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());
-        let tr = transmittance.unwrap_or(dummy);
+        let tr = transmittance.unwrap_or_else(|| dummy.clone());
+        let at = aerial_t.unwrap_or_else(|| dummy.clone());
+        let al = aerial_l.unwrap_or(dummy);
         ctx.gpu.dispatch(
             SHADER,
             "composite",
@@ -166,6 +179,8 @@ impl NodeKind for Composite {
                 (5, Bind::Texture(&ins)),
                 (6, Bind::Texture(&tr)),
                 (7, Bind::Storage(&out)),
+                (8, Bind::Texture(&at)),
+                (9, Bind::Texture(&al)),
             ],
             w,
             h,

@@ -36,6 +36,7 @@ pub mod scene;
 pub mod shadow_map;
 pub mod side_by_side;
 pub mod single_scattering;
+pub mod sky;
 pub mod tonemap;
 pub mod transfer_function;
 pub mod util;
@@ -82,6 +83,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(shadow_map::ShadowMapNode));
     r.add(Arc::new(side_by_side::SideBySide));
     r.add(Arc::new(single_scattering::SingleScattering));
+    r.add(Arc::new(sky::Sky));
     r.add(Arc::new(tonemap::Tonemap));
     r.add(Arc::new(transfer_function::TransferFunction));
     r

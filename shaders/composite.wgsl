@@ -13,8 +13,8 @@ struct Params {
     ambient: vec4<f32>,
     sky: vec4<f32>,
     has_transmittance: u32,
-    _pad0: u32,
-    _pad1: u32,
+    has_aerial_transmittance: u32,
+    has_aerial_inscatter: u32,
     _pad2: u32,
 }
 
@@ -26,6 +26,8 @@ struct Params {
 @group(0) @binding(5) var inscatter: texture_2d<f32>;
 @group(0) @binding(6) var transmittance: texture_2d<f32>;
 @group(0) @binding(7) var out_image: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(8) var aerial_transmittance: texture_2d<f32>;
+@group(0) @binding(9) var aerial_inscatter: texture_2d<f32>;
 
 fn surface_shadow(x: vec3<f32>) -> f32 {
     let c = P.light_view_proj * vec4<f32>(x, 1.0);
@@ -73,6 +75,12 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     if P.has_inscatter != 0u {
         colour += textureLoad(inscatter, id.xy, 0).rgb;
+    }
+    if P.has_aerial_transmittance != 0u {
+        colour *= textureLoad(aerial_transmittance, id.xy, 0).rgb;
+    }
+    if P.has_aerial_inscatter != 0u {
+        colour += textureLoad(aerial_inscatter, id.xy, 0).rgb;
     }
     textureStore(out_image, id.xy, vec4<f32>(colour, 1.0));
 }
