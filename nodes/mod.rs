@@ -37,6 +37,7 @@ pub mod shadow_map;
 pub mod side_by_side;
 pub mod single_scattering;
 pub mod sky;
+pub mod soft_visibility;
 pub mod tonemap;
 pub mod transfer_function;
 pub mod util;
@@ -84,6 +85,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(side_by_side::SideBySide));
     r.add(Arc::new(single_scattering::SingleScattering));
     r.add(Arc::new(sky::Sky));
+    r.add(Arc::new(soft_visibility::SoftVisibility));
     r.add(Arc::new(tonemap::Tonemap));
     r.add(Arc::new(transfer_function::TransferFunction));
     r

@@ -44,6 +44,7 @@
 //! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
 //! | `light_map` | in | LightMap (optional) | multiplies the incoming light (BruteForce only); unconnected: 1 |
 //! | `phase` | in | Phase (optional) | tabulated phase function per RGB channel (`HenyeyGreenstein`, `Rayleigh`, `Mie`, `MultipleScatteringPhase`), read linearly between its texel centres; unconnected: Henyey–Greenstein `g` |
+//! | `soft` | in | SoftShadow (optional) | visibility 1 − A from a `SoftVisibility` volume (nearest light texel, linear between slice ends) instead of the hard test; BruteForce only |
 //! | `scene` | in | Scene (optional) | for `bounds = tagged`: its objects tagged `medium` |
 //! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
 //! | `depth` | out | Depth | the input depth, passed on for transfer functions |
@@ -106,6 +107,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::required("depth", &[PortType::Depth], "Camera linear depth (from GBuffer)."),
         PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the incoming light (unconnected: 1)."),
         PortSpec::input("phase", &[PortType::Phase], "Tabulated phase function (unconnected: Henyey–Greenstein g)."),
+        PortSpec::input("soft", &[PortType::SoftShadow], "Soft visibility (SoftVisibility) instead of the hard shadow-map test; BruteForce only."),
         PortSpec::input("scene", &[PortType::Scene], "The scene whose objects tagged `medium` bound the medium (bounds = tagged)."),
     ],
     outputs: &[
@@ -177,8 +179,8 @@ crate::uniforms! {
         pub light_extinction: u32,
         /// Width of the connected phase table (0: Henyey–Greenstein `g`).
         pub phase_width: u32,
-        /// Padding.
-        pub _pad0: u32,
+        /// Slices of the connected soft visibility volume (0: the hard shadow-map test).
+        pub soft_slices: u32,
         /// Padding.
         pub _pad1: u32,
         /// Padding.
@@ -209,7 +211,7 @@ impl ScatterParams {
             box_max: [0.0; 3],
             light_extinction: 0,
             phase_width: 0,
-            _pad0: 0,
+            soft_slices: 0,
             _pad1: 0,
             _pad2: 0,
         }
@@ -223,6 +225,14 @@ impl ScatterParams {
         }
         self.light_extinction = light_extinction as u32;
         self
+    }
+}
+
+crate::uniforms! {
+    /// Uniforms of the soft visibility lookup (struct `SoftView`).
+    pub struct SoftView as "SoftView" {
+        /// World → light clip of the soft volume.
+        pub view_proj: [[f32; 4]; 4],
     }
 }
 
@@ -616,6 +626,16 @@ impl NodeKind for SingleScattering {
                 })
             }
         };
+        let soft = match ctx.input("soft") {
+            None => None,
+            Some(PortValue::SoftShadow(v, m)) => Some((v.clone(), *m)),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "soft".into(),
+                    message: "is not a soft visibility volume".into(),
+                })
+            }
+        };
         let light_map = match ctx.input("light_map") {
             None => None,
             Some(PortValue::LightMap(t, m)) => Some((t.clone(), *m)),
@@ -678,6 +698,26 @@ impl NodeKind for SingleScattering {
         let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
         let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let tr = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        let soft_volume = match &soft {
+            Some((v, _)) => v.clone(),
+            None => Arc::new(ctx.gpu.volume([1, 1, 1])?),
+        };
+        let sv = SoftView {
+            view_proj: soft
+                .as_ref()
+                .map_or(light, |(_, m)| *m)
+                .view_proj()
+                .to_cols_array_2d(),
+        };
+        if soft.is_some() {
+            if ctx.choice::<Method>("method")? != Method::BruteForce {
+                return Err(NodeError::Input {
+                    port: "soft".into(),
+                    message: "needs method BruteForce (MinMax walks the hard shadow map)".into(),
+                });
+            }
+            u.soft_slices = soft_volume.size[2];
+        }
         let mut binds = vec![
             (0, Bind::Uniform(bytemuck::bytes_of(&u))),
             (1, Bind::Texture(&shadow)),
@@ -688,6 +728,8 @@ impl NodeKind for SingleScattering {
             (13, Bind::Texture(&phase)),
         ];
         let method = ctx.choice::<Method>("method")?;
+        binds.push((14, Bind::Volume(&soft_volume)));
+        binds.push((15, Bind::Uniform(bytemuck::bytes_of(&sv))));
         if let Some((map, m)) = &light_map {
             if method != Method::BruteForce {
                 return Err(NodeError::Input {

@@ -19,7 +19,7 @@ struct Params {
     box_max: vec3<f32>,
     light_extinction: u32,
     phase_width: u32,
-    _pad0: u32,
+    soft_slices: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -31,6 +31,13 @@ struct Params {
 @group(0) @binding(4) var out_inscatter: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(5) var out_transmittance: texture_storage_2d<r32float, write>;
 @group(0) @binding(13) var phase_table: texture_2d<f32>;
+
+struct SoftView {
+    view_proj: mat4x4<f32>,
+}
+
+@group(0) @binding(14) var soft_volume: texture_3d<f32>;
+@group(0) @binding(15) var<uniform> SV: SoftView;
 
 const PI: f32 = 3.14159265358979;
 
@@ -70,7 +77,32 @@ fn phase(cos_theta: f32) -> vec3<f32> {
     return mix(a, b, f);
 }
 
+// Visibility from a SoftVisibility volume: 1 − A at the nearest light texel, A linear between
+// the slices' far ends (0 at light depth 0).
+fn soft_visible(x: vec3<f32>) -> f32 {
+    let c = SV.view_proj * vec4<f32>(x, 1.0);
+    let uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    if uvz.x < 0.0 || uvz.x >= 1.0 || uvz.y < 0.0 || uvz.y >= 1.0 || uvz.z < 0.0 || uvz.z > 1.0 {
+        return 1.0;
+    }
+    let dims = textureDimensions(soft_volume);
+    let t = min(vec2<u32>(uvz.xy * vec2<f32>(dims.xy)), dims.xy - 1u);
+    let p = uvz.z * f32(P.soft_slices) - 1.0;
+    let k0 = floor(p);
+    let f = p - k0;
+    var a0 = 0.0;
+    if k0 >= 0.0 {
+        a0 = textureLoad(soft_volume, vec3<u32>(t, u32(k0)), 0).r;
+    }
+    let k1 = min(u32(max(k0 + 1.0, 0.0)), P.soft_slices - 1u);
+    let a1 = textureLoad(soft_volume, vec3<u32>(t, k1), 0).r;
+    return 1.0 - mix(a0, a1, f);
+}
+
 fn visible(x: vec3<f32>) -> f32 {
+    if P.soft_slices != 0u {
+        return soft_visible(x);
+    }
     let c = P.light_view_proj * vec4<f32>(x, 1.0);
     let uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
     if uvz.x < 0.0 || uvz.x >= 1.0 || uvz.y < 0.0 || uvz.y >= 1.0 || uvz.z < 0.0 || uvz.z > 1.0 {

@@ -20,6 +20,7 @@ pub fn port_colour(t: PortType) -> egui::Color32 {
         PortType::Scalar => egui::Color32::from_rgb(180, 180, 180),
         PortType::Image => egui::Color32::from_rgb(230, 220, 90),
         PortType::Volume => egui::Color32::from_rgb(160, 110, 220),
+        PortType::SoftShadow => egui::Color32::from_rgb(200, 160, 90),
         PortType::Lut2D => egui::Color32::from_rgb(220, 100, 160),
         PortType::LightMap => egui::Color32::from_rgb(250, 240, 200),
         PortType::Scene => egui::Color32::from_rgb(100, 200, 120),

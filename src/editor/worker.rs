@@ -181,7 +181,10 @@ pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String
         .iter()
         .filter(|p| {
             let t = graph.output_type(cat, id, p.name).unwrap_or(p.types[0]);
-            !matches!(t, PortType::Scene | PortType::Phase | PortType::Volume)
+            !matches!(
+                t,
+                PortType::Scene | PortType::Phase | PortType::Volume | PortType::SoftShadow
+            )
         })
         .map(|p| p.name.to_string())
         .collect()

@@ -110,6 +110,10 @@ pub enum PortValue {
     /// 550 / 440 nm) at θ = π (i + 0.5)/W, in 1/sr, normalised so that
     /// 2π Σ p(θ_i) sin θ_i · π/W = 1 per channel; alpha 1.
     Phase(Arc<GpuTexture>),
+    /// A soft visibility volume in light space (`SoftVisibility`): R32F, x/y over the light
+    /// matrices' clip square (u = x/2 + 1/2, v = 1/2 − y/2), z over light depth 0…1 in equal
+    /// slices; texel (i, j, k) holds the occlusion in [0, 1] at the far end of slice k.
+    SoftShadow(Arc<crate::gpu::GpuVolume>, Matrices),
     /// A volume (noise, painted blend volume) and the world-space box `[min, max]` it covers.
     Volume(Arc<crate::gpu::GpuVolume>, [[f32; 3]; 2]),
     /// A light map, `RGBA32F`: the colour multiplying the sun at a point is the bilinear lookup
@@ -132,6 +136,7 @@ impl PortValue {
             PortValue::LightMap(..) => PortType::LightMap,
             PortValue::Phase(_) => PortType::Phase,
             PortValue::Volume(..) => PortType::Volume,
+            PortValue::SoftShadow(..) => PortType::SoftShadow,
             PortValue::Other(t, _) => *t,
         }
     }
@@ -146,7 +151,7 @@ impl PortValue {
             | PortValue::Lut2D(t)
             | PortValue::Phase(t)
             | PortValue::LightMap(t, _) => Some(t),
-            PortValue::Other(..) | PortValue::Volume(..) => None,
+            PortValue::Other(..) | PortValue::Volume(..) | PortValue::SoftShadow(..) => None,
         }
     }
 
@@ -161,7 +166,7 @@ impl PortValue {
     /// GPU memory held, in bytes (0 for payloads of unknown size).
     pub fn bytes(&self) -> usize {
         match self {
-            PortValue::Volume(v, _) => v.bytes(),
+            PortValue::Volume(v, _) | PortValue::SoftShadow(v, _) => v.bytes(),
             _ => self.texture().map_or(0, |t| t.bytes()),
         }
     }

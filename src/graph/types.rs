@@ -24,11 +24,14 @@ pub enum PortType {
     Scene,
     /// A tabulated phase function.
     Phase,
+    /// A light-space soft visibility volume (occlusion per light texel and depth slice) plus
+    /// the light's matrices.
+    SoftShadow,
 }
 
 impl PortType {
     /// Every port type, in declaration order.
-    pub const ALL: [PortType; 9] = [
+    pub const ALL: [PortType; 10] = [
         PortType::ShadowMap,
         PortType::Depth,
         PortType::Scalar,
@@ -38,6 +41,7 @@ impl PortType {
         PortType::LightMap,
         PortType::Scene,
         PortType::Phase,
+        PortType::SoftShadow,
     ];
 
     /// Stable name used in files, the catalog and messages.
@@ -52,6 +56,7 @@ impl PortType {
             PortType::LightMap => "LightMap",
             PortType::Scene => "Scene",
             PortType::Phase => "Phase",
+            PortType::SoftShadow => "SoftShadow",
         }
     }
 

@@ -1,0 +1,460 @@
+//! `SoftVisibility`: soft shadows of a sun of finite size by iterative convolution (SPEC §7,
+//! seed 004 §3), as a light-space volume `SingleScattering` reads instead of its hard
+//! shadow-map test (its `soft` input), so shafts get penumbrae.
+//!
+//! The light's box (the shadow map's orthographic frustum) is cut into `slices` planes of
+//! equal light depth, spacing e. Slice k's occlusion o_k(p) is the part of light texel p's
+//! footprint in the shadow map whose first occluder (map depth + `bias`) lies in slice k. An
+//! accumulated occlusion buffer is carried from slice to slice,
+//!
+//! A_0 = o_0,  A_k = min(1, (A_{k−1} ∗ κ_k) + o_k),
+//!
+//! and A_k is stored as slice k of the output (the occlusion at the slice's far end). The
+//! kernel κ has mean −e μ_l = 0 (the light direction is the sun's centre) and variance
+//! σ_κ² = d1 e σ_l² (seed 004 eq. 7), with σ_l = tan(`sun_radius`)/2 the per-axis standard
+//! deviation of directions over a uniform disk, so the penumbra is exact at distance `d1`
+//! behind an occluder; elsewhere it grows as √d (seed 004 App. A.4), and the half-shadow line
+//! lies where the exact shadow puts it at every distance (eq. 10). Any kernel of that mean and
+//! variance converges to the same result; the `kernel` choices differ in cost and artefacts:
+//!
+//! - `TopHat`: an N×N box (N = ⌈√12 σ⌉, at least 2), `Dirac2`: the four corners (±σ, ±σ),
+//! - `StochasticDirac`: the corners at ±r with r = σ √(2u), u uniform per slice (E r² = σ²),
+//! - `Ellipse2`: two opposite points on an ellipse at a random angle per slice,
+//! - `Poisson`: `samples` points of a Poisson disk, randomly rotated per slice,
+//! - `Gaussian`: a `size` × `size` grid of Gaussian weights.
+//!
+//! The light's shape scales the variance by `ellipse_x`, `ellipse_y` along light-space x and y
+//! and turns it by `rotation`. Each slice's kernel is splatted bilinearly onto integer texel
+//! offsets (the stencil the GPU applies), its spread scaled so the stencil's variance equals
+//! the target exactly — bilinear reads at sub-texel offsets would add their own variance.
+//! With zero variance (`sun_radius` 0) the stencil is the identity and A_k is the hard test
+//! within one slice.
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `shadow` | in | ShadowMap (required) | the occluders and the light's box |
+//! | `soft` | out | SoftShadow | `resolution`² × `slices` occlusion, the light's matrices |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `slices` | Int | 64 | 0…1024 | depth slices (quality knob; 0 acts as 1) |
+//! | `resolution` | Int | 256 | 16…2048 | light texels per side |
+//! | `kernel` | Enum | TopHat | TopHat, Dirac2, StochasticDirac, Ellipse2, Poisson, Gaussian | |
+//! | `sun_radius` | Float | 1 | 0…10 ° | angular radius of the sun |
+//! | `d1` | Float | 4 | 0.01…1e4 m | distance behind an occluder where the penumbra is exact |
+//! | `ellipse_x`, `ellipse_y` | Float | 1 | 0…10 | relative variance along light x, y |
+//! | `rotation` | Float | 0 | ±180 ° | turn of the light's shape |
+//! | `samples` | Int | 8 | 1…64 | Poisson samples |
+//! | `size` | Int | 5 | 1…15 | Gaussian taps per axis |
+//! | `seed` | Int | 1 | 0…2³¹ | stochastic kernels |
+//! | `bias` | Float | 0.002 | 0…0.1 | added to the map depth |
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `SoftVisibility` node kind.
+pub struct SoftVisibility;
+
+crate::choice_enum! {
+    /// Convolution kernels (seed 004 §3.3–3.4).
+    pub enum Kernel {
+        TopHat = "TopHat", Dirac2 = "Dirac2", StochasticDirac = "StochasticDirac",
+        Ellipse2 = "Ellipse2", Poisson = "Poisson", Gaussian = "Gaussian",
+    }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
+    kind: "SoftVisibility",
+    category: "Scattering",
+    doc: "Soft shadows of a sun of finite size by iterative convolution of light-space slices (seed 004), for SingleScattering's `soft` input.",
+    inputs: &[PortSpec::required("shadow", &[PortType::ShadowMap], "The occluders and the light's box.")],
+    outputs: &[PortSpec::output("soft", &[PortType::SoftShadow], "Occlusion per light texel and depth slice.")],
+    params: &[
+        ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
+        ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer."),
+        ParamSpec::choice("kernel", Kernel::NAMES, "TopHat", "Convolution kernel; all share the mean and variance of seed 004 eq. 7."),
+        ParamSpec::float("sun_radius", 1.0, 0.0, 10.0, "°", "Angular radius of the sun (the real sun: 0.27°)."),
+        ParamSpec::float("d1", 4.0, 0.01, 1e4, "m", "Distance behind an occluder where the penumbra is exact (seed 004's optimal distance)."),
+        ParamSpec::float("ellipse_x", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space x."),
+        ParamSpec::float("ellipse_y", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space y."),
+        ParamSpec::float("rotation", 0.0, -180.0, 180.0, "°", "Turn of the light's shape."),
+        ParamSpec::int("samples", 8, 1, 64, "samples", "Poisson disk samples."),
+        ParamSpec::int("size", 5, 1, 15, "taps", "Gaussian taps per axis."),
+        ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
+        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
+    ],
+})
+.shader(SHADER)
+.uniforms(&[SoftParams::LAYOUT]);
+
+const SHADER: Shader = Shader::new(
+    "soft_visibility",
+    include_str!("../shaders/soft_visibility.wgsl"),
+);
+
+crate::uniforms! {
+    /// Uniforms of `shaders/soft_visibility.wgsl` (struct `Params`).
+    pub struct SoftParams as "Params" {
+        /// Buffer side.
+        pub res: u32,
+        /// The slice written.
+        pub slice: u32,
+        /// Number of slices.
+        pub slices: u32,
+        /// Stencil entries per slice.
+        pub taps: u32,
+        /// Shadow map size.
+        pub map_size: [u32; 2],
+        /// Footprint samples per axis.
+        pub footprint: u32,
+        /// Depth bias.
+        pub bias: f32,
+    }
+}
+
+/// Everything that shapes the kernels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KernelSpec {
+    /// Which kernel.
+    pub kernel: Kernel,
+    /// Per-axis variance of the kernel in texels² (x, y) before rotation.
+    pub variance: [f64; 2],
+    /// Rotation, radians.
+    pub rotation: f64,
+    /// Poisson samples.
+    pub samples: u32,
+    /// Gaussian taps per axis.
+    pub size: u32,
+    /// Seed.
+    pub seed: u32,
+}
+
+/// A stencil: integer texel offsets and weights (summing to 1).
+pub type Stencil = Vec<(i32, i32, f64)>;
+
+/// A small deterministic generator (SplitMix64) for the stochastic kernels.
+fn random(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1);
+    move || {
+        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = s;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// The continuous taps of slice `k` for a unit per-axis variance: (x, y, weight).
+fn unit_taps(spec: &KernelSpec, k: u32, sigma: f64) -> Vec<(f64, f64, f64)> {
+    let mut rng = random(((spec.seed as u64) << 32) ^ k as u64);
+    match spec.kernel {
+        Kernel::TopHat => {
+            let n = ((12f64.sqrt() * sigma).ceil() as usize).clamp(2, 15);
+            let s = (12.0 / ((n * n - 1) as f64)).sqrt();
+            let c = (n as f64 - 1.0) / 2.0;
+            let w = 1.0 / (n * n) as f64;
+            (0..n * n)
+                .map(|i| (((i % n) as f64 - c) * s, ((i / n) as f64 - c) * s, w))
+                .collect()
+        }
+        Kernel::Dirac2 => [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+            .map(|(x, y)| (x, y, 0.25))
+            .to_vec(),
+        Kernel::StochasticDirac => {
+            let rx = (2.0 * rng()).sqrt();
+            let ry = (2.0 * rng()).sqrt();
+            [(-rx, -ry), (rx, -ry), (-rx, ry), (rx, ry)]
+                .map(|(x, y)| (x, y, 0.25))
+                .to_vec()
+        }
+        Kernel::Ellipse2 => {
+            let phi = rng() * std::f64::consts::TAU;
+            let (x, y) = (2f64.sqrt() * phi.cos(), 2f64.sqrt() * phi.sin());
+            vec![(x, y, 0.5), (-x, -y, 0.5)]
+        }
+        Kernel::Poisson => {
+            let pts = poisson_disk(spec.samples.max(1) as usize, spec.seed);
+            let turn = rng() * std::f64::consts::TAU;
+            let (c, s) = (turn.cos(), turn.sin());
+            let m2: f64 = pts.iter().map(|(x, y)| x * x + y * y).sum::<f64>() / pts.len() as f64;
+            let scale = if m2 > 0.0 { (2.0 / m2).sqrt() } else { 0.0 };
+            let w = 1.0 / pts.len() as f64;
+            pts.iter()
+                .map(|(x, y)| ((c * x - s * y) * scale, (s * x + c * y) * scale, w))
+                .collect()
+        }
+        Kernel::Gaussian => {
+            let n = spec.size.max(1) as usize;
+            let c = (n as f64 - 1.0) / 2.0;
+            let h = if n > 1 { 6.0 / (n as f64 - 1.0) } else { 0.0 };
+            let g: Vec<f64> = (0..n)
+                .map(|i| (-0.5 * ((i as f64 - c) * h).powi(2)).exp())
+                .collect();
+            let total: f64 = g.iter().sum::<f64>().powi(2);
+            (0..n * n)
+                .map(|i| {
+                    let (a, b) = (i % n, i / n);
+                    ((a as f64 - c) * h, (b as f64 - c) * h, g[a] * g[b] / total)
+                })
+                .collect()
+        }
+    }
+}
+
+/// `n` points of a Poisson disk in the unit disk (dart throwing with a shrinking radius).
+pub fn poisson_disk(n: usize, seed: u32) -> Vec<(f64, f64)> {
+    let mut rng = random(seed as u64 ^ 0xD15C);
+    let mut pts: Vec<(f64, f64)> = Vec::with_capacity(n);
+    let mut r = 2.0 / (n as f64).sqrt();
+    while pts.len() < n {
+        let mut placed = false;
+        for _ in 0..200 {
+            let (x, y) = (rng() * 2.0 - 1.0, rng() * 2.0 - 1.0);
+            if x * x + y * y > 1.0 {
+                continue;
+            }
+            if pts
+                .iter()
+                .all(|(a, b)| (a - x).powi(2) + (b - y).powi(2) >= r * r)
+            {
+                pts.push((x, y));
+                placed = true;
+                break;
+            }
+        }
+        if !placed {
+            r *= 0.9;
+        }
+    }
+    pts
+}
+
+/// Splat continuous taps, scaled by `scale` and shaped by the light, onto integer offsets.
+fn splat(spec: &KernelSpec, taps: &[(f64, f64, f64)], scale: f64) -> Stencil {
+    let (c, s) = (spec.rotation.cos(), spec.rotation.sin());
+    let (sx, sy) = (spec.variance[0].sqrt(), spec.variance[1].sqrt());
+    let mut map: BTreeMap<(i32, i32), f64> = BTreeMap::new();
+    for (x, y, w) in taps {
+        let (x, y) = (x * scale * sx, y * scale * sy);
+        let (x, y) = (c * x - s * y, s * x + c * y);
+        let (fx, fy) = (x.floor(), y.floor());
+        let (ax, ay) = (x - fx, y - fy);
+        for (dx, dy, f) in [
+            (0, 0, (1.0 - ax) * (1.0 - ay)),
+            (1, 0, ax * (1.0 - ay)),
+            (0, 1, (1.0 - ax) * ay),
+            (1, 1, ax * ay),
+        ] {
+            if f > 0.0 {
+                *map.entry((fx as i32 + dx, fy as i32 + dy)).or_default() += w * f;
+            }
+        }
+    }
+    map.into_iter().map(|((x, y), w)| (x, y, w)).collect()
+}
+
+/// The mean per-axis variance of a stencil, in texels².
+pub fn stencil_variance(st: &Stencil) -> f64 {
+    let w: f64 = st.iter().map(|t| t.2).sum();
+    let mx: f64 = st.iter().map(|t| t.0 as f64 * t.2).sum::<f64>() / w;
+    let my: f64 = st.iter().map(|t| t.1 as f64 * t.2).sum::<f64>() / w;
+    let vx: f64 = st
+        .iter()
+        .map(|t| (t.0 as f64 - mx).powi(2) * t.2)
+        .sum::<f64>()
+        / w;
+    let vy: f64 = st
+        .iter()
+        .map(|t| (t.1 as f64 - my).powi(2) * t.2)
+        .sum::<f64>()
+        / w;
+    0.5 * (vx + vy)
+}
+
+/// The stencil of slice `k`: the kernel's taps, their spread scaled (bisection) so that the
+/// stencil's mean per-axis variance equals the target's.
+pub fn stencil(spec: &KernelSpec, k: u32) -> Stencil {
+    let target = 0.5 * (spec.variance[0] + spec.variance[1]);
+    if target <= 0.0 {
+        return vec![(0, 0, 1.0)];
+    }
+    let taps = unit_taps(spec, k, target.sqrt());
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while stencil_variance(&splat(spec, &taps, hi)) < target && hi < 1e6 {
+        hi *= 2.0;
+    }
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if stencil_variance(&splat(spec, &taps, mid)) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    splat(spec, &taps, 0.5 * (lo + hi))
+}
+
+/// Kernel variance per axis in texels² for a light box (`light` matrices), `res` texels and
+/// `slices`: σ_κ² = d1 e σ_l², σ_l = tan(radius)/2, scaled by the light's shape.
+pub fn variance_texels(
+    light: &Matrices,
+    res: u32,
+    slices: u32,
+    sun_radius_deg: f64,
+    d1: f64,
+    shape: [f64; 2],
+) -> [f64; 2] {
+    let width = 2.0 / (light.proj[0][0] as f64).abs().max(1e-12);
+    let height = 2.0 / (light.proj[1][1] as f64).abs().max(1e-12);
+    let depth = 1.0 / (light.proj[2][2] as f64).abs().max(1e-12);
+    let e = depth / slices.max(1) as f64;
+    let sigma_l = (sun_radius_deg.to_radians()).tan() / 2.0;
+    let var_m = d1 * e * sigma_l * sigma_l;
+    let (tx, ty) = (width / res as f64, height / res as f64);
+    [var_m / (tx * tx) * shape[0], var_m / (ty * ty) * shape[1]]
+}
+
+/// Footprint samples per axis of a buffer texel in a `map`-texel shadow map.
+pub fn footprint(map: u32, res: u32) -> u32 {
+    map.div_ceil(res).clamp(1, 4)
+}
+
+/// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map.
+pub fn reference(map: &Raster, res: u32, slices: u32, spec: &KernelSpec, bias: f32) -> Vec<f32> {
+    let slices = slices.max(1);
+    let n = footprint(map.width.max(map.height), res);
+    let mut prev = vec![0.0f32; (res * res) as usize];
+    let mut out = Vec::with_capacity((res * res * slices) as usize);
+    for k in 0..slices {
+        let st = stencil(spec, k);
+        let (lo, hi) = (k as f32 / slices as f32, (k + 1) as f32 / slices as f32);
+        let mut next = vec![0.0f32; (res * res) as usize];
+        for y in 0..res {
+            for x in 0..res {
+                let mut acc = 0.0f32;
+                if k > 0 {
+                    for (dx, dy, w) in &st {
+                        let (qx, qy) = (x as i32 + dx, y as i32 + dy);
+                        if qx >= 0 && qy >= 0 && qx < res as i32 && qy < res as i32 {
+                            acc += *w as f32 * prev[(qy as u32 * res + qx as u32) as usize];
+                        }
+                    }
+                }
+                let mut hit = 0.0f32;
+                for j in 0..n {
+                    for i in 0..n {
+                        let u = (x as f32 + (i as f32 + 0.5) / n as f32) / res as f32;
+                        let v = (y as f32 + (j as f32 + 0.5) / n as f32) / res as f32;
+                        let tx = ((u * map.width as f32) as u32).min(map.width - 1);
+                        let ty = ((v * map.height as f32) as u32).min(map.height - 1);
+                        let d = map.pixel(tx, ty)[0] + bias;
+                        if d >= lo && d < hi {
+                            hit += 1.0;
+                        }
+                    }
+                }
+                next[(y * res + x) as usize] = (acc + hit / (n * n) as f32).min(1.0);
+            }
+        }
+        out.extend_from_slice(&next);
+        prev = next;
+    }
+    out
+}
+
+/// The kernel settings of a run.
+fn spec_of(ctx: &RunCtx, light: &Matrices, res: u32, slices: u32) -> Result<KernelSpec, NodeError> {
+    Ok(KernelSpec {
+        kernel: ctx.choice::<Kernel>("kernel")?,
+        variance: variance_texels(
+            light,
+            res,
+            slices,
+            ctx.f64("sun_radius")?,
+            ctx.f64("d1")?,
+            [ctx.f64("ellipse_x")?, ctx.f64("ellipse_y")?],
+        ),
+        rotation: ctx.f64("rotation")?.to_radians(),
+        samples: ctx.int("samples")?.clamp(1, 64) as u32,
+        size: ctx.int("size")?.clamp(1, 15) as u32,
+        seed: ctx.int("seed")?.max(0) as u32,
+    })
+}
+
+impl NodeKind for SoftVisibility {
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (map, light) = match ctx.require("shadow")? {
+            PortValue::ShadowMap(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "shadow".into(),
+                    message: "is not a shadow map".into(),
+                })
+            }
+        };
+        let res = ctx.int("resolution")?.clamp(16, 2048) as u32;
+        let slices = ctx.int("slices")?.clamp(1, 1024) as u32;
+        let spec = spec_of(ctx, &light, res, slices)?;
+        let stencils: Vec<Stencil> = (0..slices).map(|k| stencil(&spec, k)).collect();
+        let taps = stencils.iter().map(Vec::len).max().unwrap_or(1).max(1);
+        if taps as u32 > ctx.gpu.limits.max_texture_dimension_2d {
+            return Err(NodeError::Param {
+                param: "sun_radius".into(),
+                message: format!("the kernel needs {taps} taps per slice, more than the GPU allows: use more slices or a smaller d1"),
+            });
+        }
+        let mut texels = vec![0.0f32; taps * slices as usize * 4];
+        for (k, st) in stencils.iter().enumerate() {
+            for (i, (dx, dy, w)) in st.iter().enumerate() {
+                let o = (k * taps + i) * 4;
+                texels[o..o + 3].copy_from_slice(&[*dx as f32, *dy as f32, *w as f32]);
+            }
+        }
+        let stencil_tex = ctx.gpu.upload(taps as u32, slices, 4, &texels)?;
+        let volume = ctx.gpu.volume([res, res, slices])?;
+        let a = ctx.gpu.texture(res, res, TexFormat::R32F)?;
+        let b = ctx.gpu.texture(res, res, TexFormat::R32F)?;
+        let bias = ctx.f32("bias")?;
+        for k in 0..slices {
+            let (prev, next) = if k % 2 == 0 { (&a, &b) } else { (&b, &a) };
+            let u = SoftParams {
+                res,
+                slice: k,
+                slices,
+                taps: taps as u32,
+                map_size: [map.width, map.height],
+                footprint: footprint(map.width.max(map.height), res),
+                bias,
+            };
+            ctx.gpu.dispatch(
+                SHADER,
+                "propagate",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (1, Bind::Texture(prev)),
+                    (2, Bind::Texture(&stencil_tex)),
+                    (3, Bind::Texture(&map)),
+                    (4, Bind::Storage(next)),
+                    (5, Bind::VolumeLevel(&volume, 0)),
+                ],
+                res,
+                res,
+            )?;
+            if k % 16 == 15 {
+                ctx.report(k as u64 + 1, slices as u64, "slices");
+            }
+        }
+        ctx.set("soft", PortValue::SoftShadow(Arc::new(volume), light));
+        Ok(())
+    }
+}
