@@ -134,7 +134,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     ],
 })
 .shader(SHADER)
-.uniforms(&[ScatterParams::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT]);
+.uniforms(&[ScatterParams::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT]);
 
 const SHADER: Shader = Shader::new(
     "single_scattering",

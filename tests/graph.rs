@@ -26,7 +26,8 @@ fn every_kind_graph() -> Graph {
                     ParamValue::Float(lo + (hi - lo) * 0.375)
                 }
                 ParamKind::Int => {
-                    ParamValue::Int(((p.min + p.max.min(100.0)) / 2.0).round() as i64)
+                    // Midway into the range, at most 50 above its minimum.
+                    ParamValue::Int(((p.min + p.max.min(p.min + 100.0)) / 2.0).round() as i64)
                 }
                 ParamKind::Bool => {
                     ParamValue::Bool(!matches!(p.default.value(), ParamValue::Bool(true)))
