@@ -221,3 +221,53 @@ fn gpu_equals_cpu_and_composite_applies_it() {
         }
     }
 }
+
+/// The node itself at the extremes: the sun on and below the horizon, straight overhead, no
+/// air, a thick aerosol and a huge distance scale — every output finite and non-negative.
+#[test]
+fn node_extremes_stay_finite() {
+    let Some(gpu) = common::gpu() else { return };
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    for (elev, aerosol, scale, beta) in [
+        (0.0, 0.0, 1.0, 1.35e-5),
+        (-5.0, 1e-3, 1e6, 1.35e-5),
+        (90.0, 1.0, 1e-3, 0.0),
+        (0.01, 0.0, 1e6, 1.0),
+    ] {
+        let text = format!(
+            r#"(version: 2, nodes: {{
+            "scene": (kind: "Scene", params: {{"name": "fence"}}),
+            "gbuffer": (kind: "GBuffer"),
+            "sky": (kind: "Sky", params: {{"sun_elevation": {elev}, "aerosol": {aerosol}, "distance_scale": {scale}, "beta_sea_level": [{beta}, {beta}, {beta}]}}),
+        }}, edges: [("scene.scene", "gbuffer.scene"), ("gbuffer.depth", "sky.depth")])"#
+        );
+        let g =
+            tyndall::graph::load_str(&text, std::path::Path::new("g.ron"), &cat).expect("graph");
+        let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+        let ports = ["inscatter", "transmittance", "sky"];
+        let targets: Vec<Target> = ports
+            .iter()
+            .map(|p| Target::Port("sky".into(), p.to_string()))
+            .collect();
+        let r = ev
+            .evaluate(
+                &g,
+                &targets,
+                &EvalOptions {
+                    size: (24, 14),
+                    ..Default::default()
+                },
+            )
+            .expect("evaluate");
+        for p in ports {
+            let img =
+                tyndall::eval::download(&gpu, &r.outputs[&("sky".to_string(), p.to_string())])
+                    .expect("download");
+            assert!(
+                img.data.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "sun {elev}°, aerosol {aerosol}, scale {scale}, β {beta}: {p}"
+            );
+        }
+    }
+}
