@@ -11,8 +11,11 @@
 //! - sun at a point of height h (eq. 12): I e^{−τ_s(h)}, τ_s(h) = β_sl e^{−γh}/(γ l_y);
 //! - in-scatter (eq. 15, derived again here in a form that stays finite everywhere):
 //!   L = I P_eff τ_e (e^{−τ_s(h₀)} − e^{−τ_e − τ_s(h_K)}) / z, z = τ_e − τ_s(h₀) + τ_s(h_K),
-//!   with L = I P_eff τ_e e^{−τ_e − τ_s(h_K)} (1 + z/2) for |z| < 1e-4 — the limit where the
-//!   seed's eq. 15 divides by zero (p_Ωy = l_y) — and P_eff = (β_air P_Rayleigh + β_aer P_aer)/β.
+//!   evaluated as I P_eff τ_e e^{−min(τ_s(h₀), τ_e + τ_s(h_K))} e1(|z|), e1(x) = (1 − e^{−x})/x
+//!   (→ 1 at x = 0: the limit where the seed's eq. 15 divides by zero, p_Ωy = l_y; no overflow
+//!   for either sign of z), P_eff = (β_air P_Rayleigh + β_aer P_aer)/β. Optical depths are
+//!   taken as differences of e^{−γh} where γ d_y K is large and capped at 1e30, so an underflowing
+//!   density never meets an infinite length.
 //!
 //! The sun's irradiance I (W/m², outside the atmosphere) and direction come from the `scene`
 //! (its sun, × `intensity`) or from `sun_azimuth`, `sun_elevation`, `sun_irradiance`. A sun at
@@ -165,26 +168,29 @@ pub fn reference_pixel(
             -(-x).exp_m1() / x
         }
     };
+    let finite = |x: f64| if x < 1e30 { x } else { 1e30 };
     let ly = to_sun.y;
     let (mut ins, mut t, mut sky) = ([0.0; 3], [0.0; 3], [0.0; 3]);
     for ch in 0..3 {
         let air = u.beta_air[ch] as f64;
         let beta = air + u.aerosol as f64;
-        let beta_eye = beta * (-gamma * h).exp();
-        let tau_e = beta_eye * k * e1(gamma * dy * k);
+        let x = gamma * dy * k;
+        let tau_e = finite(if x.abs() < 1.0 {
+            beta * (-gamma * h).exp() * k * e1(x)
+        } else {
+            beta * ((-gamma * h).exp() - (-gamma * (h + dy * k)).exp()) / (gamma * dy)
+        });
         let p_eff = (air * ray + u.aerosol as f64 * aer[ch]) / beta.max(1e-30);
         let mut l = 0.0;
         if ly > 1e-4 {
-            let tau_s0 = beta_eye / (gamma * ly);
-            let tau_sk = tau_s0 * (-gamma * dy * k).exp();
+            let tau_s0 = finite(beta * (-gamma * h).exp() / (gamma * ly));
+            let tau_sk = finite(beta * (-gamma * (h + dy * k)).exp() / (gamma * ly));
             let z = tau_e - tau_s0 + tau_sk;
-            let far_term = (-tau_e - tau_sk).exp();
-            let j = if z.abs() < 1e-4 {
-                far_term * (1.0 + 0.5 * z)
-            } else {
-                ((-tau_s0).exp() - far_term) / z
-            };
-            l = u.sun[ch] as f64 * p_eff * tau_e * j;
+            l = u.sun[ch] as f64
+                * p_eff
+                * tau_e
+                * (-(tau_s0.min(tau_e + tau_sk))).exp()
+                * e1(z.abs());
         }
         let tr = (-tau_e).exp();
         if background {

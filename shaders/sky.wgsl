@@ -39,6 +39,22 @@ fn e1(x: f32) -> f32 {
     return -(exp(-x) - 1.0) / x;
 }
 
+// x, or 1e30 where it is larger, infinite or NaN (no NaN comparison is true).
+fn finite(x: vec3<f32>) -> vec3<f32> {
+    return select(vec3<f32>(1e30), x, x < vec3<f32>(1e30));
+}
+
+// Optical depth from height h along a ray of vertical component dy to distance k (eq. 11's
+// exponent): β e^{−γh} k e1(γ dy k), or β (e^{−γh} − e^{−γ(h + dy k)})/(γ dy) where γ dy k is
+// large (no 0 · ∞ when the density underflows); capped at 1e30.
+fn optical_depth(beta: vec3<f32>, h: f32, dy: f32, k: f32) -> vec3<f32> {
+    let x = P.gamma * dy * k;
+    if abs(x) < 1.0 {
+        return finite(beta * exp(-P.gamma * h) * k * e1(x));
+    }
+    return finite(beta * (exp(-P.gamma * h) - exp(-P.gamma * (h + dy * k))) / (P.gamma * dy));
+}
+
 fn aerosol_phase(c: f32) -> vec3<f32> {
     if P.phase_width == 0u {
         let g = P.aerosol_g;
@@ -75,26 +91,19 @@ fn sky(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let beta = P.beta_air + vec3<f32>(P.aerosol);
-    let density = exp(-P.gamma * h);
-    let beta_eye = beta * density;
-    let tau_e = beta_eye * k * e1(P.gamma * dy * k);
+    let tau_e = optical_depth(beta, h, dy, k);
     let c = dot(dir, P.to_sun);
     let ray = 3.0 / (16.0 * PI) * (1.0 + c * c);
     let p_eff = (P.beta_air * ray + P.aerosol * aerosol_phase(c)) / max(beta, vec3<f32>(1e-30));
     var l = vec3<f32>(0.0);
     let ly = P.to_sun.y;
     if ly > 1e-4 {
-        let tau_s0 = beta_eye / (P.gamma * ly);
-        let tau_sk = tau_s0 * exp(-P.gamma * dy * k);
+        // τ_s at the eye and at distance k; L = I P τ_e e^{−min(τ_s0, τ_e + τ_sk)} e1(|z|).
+        let tau_s0 = finite(beta * exp(-P.gamma * h) / (P.gamma * ly));
+        let tau_sk = finite(beta * exp(-P.gamma * (h + dy * k)) / (P.gamma * ly));
         let z = tau_e - tau_s0 + tau_sk;
-        let far_term = exp(-tau_e - tau_sk);
-        var j = far_term * (1.0 + 0.5 * z);
-        for (var ch = 0; ch < 3; ch++) {
-            if abs(z[ch]) >= 1e-4 {
-                j[ch] = (exp(-tau_s0[ch]) - far_term[ch]) / z[ch];
-            }
-        }
-        l = P.sun * p_eff * tau_e * j;
+        let e = vec3<f32>(e1(abs(z.x)), e1(abs(z.y)), e1(abs(z.z)));
+        l = P.sun * p_eff * tau_e * exp(-min(tau_s0, tau_e + tau_sk)) * e;
     }
     let t = exp(-tau_e);
     if background {
