@@ -30,6 +30,16 @@
 //! With zero variance (`sun_radius` 0) the stencil is the identity and A_k is the hard test
 //! within one slice.
 //!
+//! `growth = linear` (beyond the seed) makes the penumbra exact at every distance behind a
+//! single occluder plane instead of only at d1: a second buffer Z carries the occlusion-weighted
+//! slice index of the occluders (Z_k = Z_{k−1} ∗ κ + k o_k), so n̄ = k − Z/A is their mean age
+//! in slices (probed over two standard deviations of the widest possible spread around each
+//! texel, so lit texels beside a shadow see it too), and the slice adds the variance
+//! max(2 n̄ − 1, 1) e² σ_l² — summing to n² e² σ_l², the exact (d σ_l)² at d = n e — with four
+//! bilinear Dirac taps at ±s, s = m + (v − m²)/(2m + 1), m = ⌊√v⌋ (the offset whose bilinear
+//! pair has variance v). The kernel choice and `rotation` do not apply to it; several
+//! occluders at different depths share one mean age (as PCSS shares one blocker distance).
+//!
 //! | port | dir | type | |
 //! |---|---|---|---|
 //! | `shadow` | in | ShadowMap (required) | the occluders and the light's box |
@@ -48,6 +58,7 @@
 //! | `size` | Int | 5 | 1…15 | Gaussian taps per axis |
 //! | `seed` | Int | 1 | 0…2³¹ | stochastic kernels |
 //! | `bias` | Float | 0.002 | 0…0.1 | added to the map depth |
+//! | `growth` | Enum | seed | seed, linear | penumbra ∝ √d (seed 004) or ∝ d |
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -59,6 +70,11 @@ use crate::io::Raster;
 
 /// The `SoftVisibility` node kind.
 pub struct SoftVisibility;
+
+crate::choice_enum! {
+    /// How the penumbra grows with the distance behind an occluder.
+    pub enum Growth { Seed = "seed", Linear = "linear" }
+}
 
 crate::choice_enum! {
     /// Convolution kernels (seed 004 §3.3–3.4).
@@ -88,6 +104,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("size", 5, 1, 15, "taps", "Gaussian taps per axis."),
         ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
         ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
+        ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
     ],
 })
 .shader(SHADER)
@@ -115,6 +132,12 @@ crate::uniforms! {
         pub footprint: u32,
         /// Depth bias.
         pub bias: f32,
+        /// growth = linear: per-axis variance e² σ_l² of one slice, texels².
+        pub step_var: [f32; 2],
+        /// 1 for growth = linear.
+        pub linear: u32,
+        /// Padding.
+        pub _pad0: u32,
     }
 }
 
@@ -325,24 +348,102 @@ pub fn footprint(map: u32, res: u32) -> u32 {
     map.div_ceil(res).clamp(1, 4)
 }
 
-/// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map.
-pub fn reference(map: &Raster, res: u32, slices: u32, spec: &KernelSpec, bias: f32) -> Vec<f32> {
+/// The offset s ≥ 0 whose symmetric pair ±s read bilinearly has variance `v` (texels²).
+pub fn pair_offset(v: f32) -> f32 {
+    let v = v.max(0.0);
+    let m = v.sqrt().floor();
+    m + (v - m * m) / (2.0 * m + 1.0)
+}
+
+/// One slice's per-axis variance e² σ_l² in texels² (`growth = linear`).
+pub fn step_variance(
+    light: &Matrices,
+    res: u32,
+    slices: u32,
+    sun_radius_deg: f64,
+    shape: [f64; 2],
+) -> [f64; 2] {
+    let width = 2.0 / (light.proj[0][0] as f64).abs().max(1e-12);
+    let height = 2.0 / (light.proj[1][1] as f64).abs().max(1e-12);
+    let depth = 1.0 / (light.proj[2][2] as f64).abs().max(1e-12);
+    let e = depth / slices.max(1) as f64;
+    let sigma_l = (sun_radius_deg.to_radians()).tan() / 2.0;
+    let (tx, ty) = (width / res as f64, height / res as f64);
+    [
+        (e * sigma_l / tx).powi(2) * shape[0],
+        (e * sigma_l / ty).powi(2) * shape[1],
+    ]
+}
+
+/// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map; with
+/// `linear` = Some(per-axis step variance), the distance-aware Dirac pairs instead of `spec`.
+pub fn reference(
+    map: &Raster,
+    res: u32,
+    slices: u32,
+    spec: &KernelSpec,
+    bias: f32,
+    linear: Option<[f32; 2]>,
+) -> Vec<f32> {
     let slices = slices.max(1);
     let n = footprint(map.width.max(map.height), res);
-    let mut prev = vec![0.0f32; (res * res) as usize];
-    let mut out = Vec::with_capacity((res * res * slices) as usize);
+    let r = res as usize;
+    let mut prev = vec![[0.0f32; 2]; r * r];
+    let mut out = Vec::with_capacity(r * r * slices as usize);
+    let load = |buf: &[[f32; 2]], x: i32, y: i32| -> [f32; 2] {
+        if x < 0 || y < 0 || x >= res as i32 || y >= res as i32 {
+            [0.0; 2]
+        } else {
+            buf[y as usize * r + x as usize]
+        }
+    };
+    let bilinear = |buf: &[[f32; 2]], x: i32, y: i32, o: [f32; 2]| -> [f32; 2] {
+        let (fx, fy) = (o[0].floor(), o[1].floor());
+        let (ax, ay) = (o[0] - fx, o[1] - fy);
+        let (qx, qy) = (x + fx as i32, y + fy as i32);
+        let mix =
+            |a: [f32; 2], b: [f32; 2], t: f32| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+        mix(
+            mix(load(buf, qx, qy), load(buf, qx + 1, qy), ax),
+            mix(load(buf, qx, qy + 1), load(buf, qx + 1, qy + 1), ax),
+            ay,
+        )
+    };
     for k in 0..slices {
         let st = stencil(spec, k);
         let (lo, hi) = (k as f32 / slices as f32, (k + 1) as f32 / slices as f32);
-        let mut next = vec![0.0f32; (res * res) as usize];
-        for y in 0..res {
-            for x in 0..res {
-                let mut acc = 0.0f32;
+        let mut next = vec![[0.0f32; 2]; r * r];
+        for y in 0..res as i32 {
+            for x in 0..res as i32 {
+                let mut acc = [0.0f32; 2];
                 if k > 0 {
-                    for (dx, dy, w) in &st {
-                        let (qx, qy) = (x as i32 + dx, y as i32 + dy);
-                        if qx >= 0 && qy >= 0 && qx < res as i32 && qy < res as i32 {
-                            acc += *w as f32 * prev[(qy as u32 * res + qx as u32) as usize];
+                    match linear {
+                        Some(sv) => {
+                            let rad = [
+                                2.0 * k as f32 * sv[0].sqrt() + 1.0,
+                                2.0 * k as f32 * sv[1].sqrt() + 1.0,
+                            ];
+                            let mut c = load(&prev, x, y);
+                            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                                let b = bilinear(&prev, x, y, [sx * rad[0], sy * rad[1]]);
+                                c = [c[0] + b[0], c[1] + b[1]];
+                            }
+                            let age = if c[0] > 0.0 {
+                                k as f32 - c[1] / c[0]
+                            } else {
+                                0.0
+                            };
+                            let s = [0, 1].map(|a| pair_offset((2.0 * age - 1.0).max(1.0) * sv[a]));
+                            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+                                let b = bilinear(&prev, x, y, [sx * s[0], sy * s[1]]);
+                                acc = [acc[0] + 0.25 * b[0], acc[1] + 0.25 * b[1]];
+                            }
+                        }
+                        None => {
+                            for (dx, dy, w) in &st {
+                                let b = load(&prev, x + dx, y + dy);
+                                acc = [acc[0] + *w as f32 * b[0], acc[1] + *w as f32 * b[1]];
+                            }
                         }
                     }
                 }
@@ -359,10 +460,11 @@ pub fn reference(map: &Raster, res: u32, slices: u32, spec: &KernelSpec, bias: f
                         }
                     }
                 }
-                next[(y * res + x) as usize] = (acc + hit / (n * n) as f32).min(1.0);
+                let o = hit / (n * n) as f32;
+                next[y as usize * r + x as usize] = [(acc[0] + o).min(1.0), acc[1] + o * k as f32];
             }
         }
-        out.extend_from_slice(&next);
+        out.extend(next.iter().map(|v| v[0]));
         prev = next;
     }
     out
@@ -422,9 +524,18 @@ impl NodeKind for SoftVisibility {
         }
         let stencil_tex = ctx.gpu.upload(taps as u32, slices, 4, &texels)?;
         let volume = ctx.gpu.volume([res, res, slices])?;
-        let a = ctx.gpu.texture(res, res, TexFormat::R32F)?;
-        let b = ctx.gpu.texture(res, res, TexFormat::R32F)?;
+        let a = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
+        let b = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
         let bias = ctx.f32("bias")?;
+        let linear = ctx.choice::<Growth>("growth")? == Growth::Linear;
+        let step_var = step_variance(
+            &light,
+            res,
+            slices,
+            ctx.f64("sun_radius")?,
+            [ctx.f64("ellipse_x")?, ctx.f64("ellipse_y")?],
+        )
+        .map(|v| v as f32);
         for k in 0..slices {
             let (prev, next) = if k % 2 == 0 { (&a, &b) } else { (&b, &a) };
             let u = SoftParams {
@@ -435,6 +546,9 @@ impl NodeKind for SoftVisibility {
                 map_size: [map.width, map.height],
                 footprint: footprint(map.width.max(map.height), res),
                 bias,
+                step_var,
+                linear: linear as u32,
+                _pad0: 0,
             };
             ctx.gpu.dispatch(
                 SHADER,

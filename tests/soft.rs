@@ -87,7 +87,7 @@ fn gpu_equals_cpu_for_every_kernel() {
             ("d1", p_f(6.0)),
         ];
         let got = run(&gpu, &map, &params).expect("run");
-        let want = sv::reference(&map, 16, 8, &spec_for(k, 16, 8, 6.0, 6.0), 0.002);
+        let want = sv::reference(&map, 16, 8, &spec_for(k, 16, 8, 6.0, 6.0), 0.002, None);
         let d = got
             .iter()
             .zip(&want)
@@ -202,7 +202,12 @@ fn extremes_stay_finite_and_in_range() {
     let full = Raster::new(res, res, 1, 0.0);
     for (what, map) in [("empty", &empty), ("fully occluded", &full)] {
         for (slices, radius) in [(0, 0.0), (1, 10.0), (3, 10.0), (64, 0.001)] {
-            for kernel in Kernel::NAMES {
+            // Every kernel with the seed's growth, and the linear growth.
+            let cases = Kernel::NAMES
+                .iter()
+                .map(|k| (*k, "seed"))
+                .chain([("Dirac2", "linear")]);
+            for (kernel, growth) in cases {
                 let got = run(
                     &gpu,
                     map,
@@ -211,6 +216,7 @@ fn extremes_stay_finite_and_in_range() {
                         ("slices", p_int(slices)),
                         ("sun_radius", p_f(radius)),
                         ("kernel", ParamValue::Enum(kernel.to_string())),
+                        ("growth", ParamValue::Enum(growth.to_string())),
                     ],
                 )
                 .expect("run");
@@ -302,4 +308,68 @@ fn scattering_with_a_hard_soft_volume_matches_the_hard_test() {
         )
         .expect_err("MinMax with soft");
     assert!(err.to_string().contains("soft"), "{err}");
+}
+
+/// `growth = linear`: GPU = CPU, and behind the straight edge the profile's variance is n² times
+/// one slice's e² σ_l² — its width grows linearly with the distance, as the exact penumbra's.
+#[test]
+fn linear_growth_matches_the_exact_penumbra_at_every_distance() {
+    let Some(gpu) = common::gpu() else { return };
+    let (res, slices) = (64u32, 40u32);
+    let mut map = Raster::new(res, res, 1, 1.0);
+    for y in 0..res {
+        for x in 0..res / 2 {
+            map.data[(y * res + x) as usize] = 0.1;
+        }
+    }
+    let radius = 4.0;
+    let params = [
+        ("resolution", p_int(res as i64)),
+        ("slices", p_int(slices as i64)),
+        ("sun_radius", p_f(radius)),
+        ("growth", ParamValue::Enum("linear".into())),
+    ];
+    let got = run(&gpu, &map, &params).expect("run");
+    let step = sv::step_variance(&light(), res, slices, radius, [1.0, 1.0]);
+    let step32 = step.map(|v| v as f32);
+    let want = sv::reference(
+        &map,
+        res,
+        slices,
+        &spec_for(Kernel::Dirac2, res, slices, radius, 1.0),
+        0.002,
+        Some(step32),
+    );
+    let d = got
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    // 1e-4: bilinear weights and the mean-age division in f32 on both sides, in other orders.
+    assert!(d <= 1e-4, "GPU vs CPU: {d}");
+    let k0 = ((0.1 + 0.002) * slices as f64) as u32;
+    let row = res / 2;
+    for k in [k0 + 3, k0 + 8, k0 + 16, k0 + 30] {
+        let a = |x: u32| got[((k * res + row) * res + x) as usize] as f64;
+        let mid = a(res / 2 - 1) + a(res / 2);
+        assert!(
+            (mid - 1.0).abs() < 1e-3,
+            "slice {k}: half shadow on the edge ({mid})"
+        );
+        let (mut m0, mut m2) = (0.0, 0.0);
+        for x in res / 2 - 20..res / 2 + 21 {
+            let w = a(x - 1) - a(x);
+            let pos = x as f64 - res as f64 / 2.0;
+            m0 += w;
+            m2 += w * pos * pos;
+        }
+        let n = (k - k0) as f64;
+        let var = m2 / m0;
+        let want = n * n * step[0];
+        // 5 % + 1/12 texel²: as for the seed kernel's edge test above.
+        assert!(
+            (var - want).abs() <= 0.05 * want + 1.0 / 12.0,
+            "slice {k} (n = {n}): variance {var} texels² vs n² e² σ_l² = {want}"
+        );
+    }
 }
