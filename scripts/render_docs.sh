@@ -23,4 +23,4 @@ done
 ./target/release/tyndall render graphs/medium/tree_intensity.ron -o docs/medium/tree_intensity.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
-./target/release/tyndall render graphs/atmosphere/tree_soft_kernels.ron -o docs/atmosphere/tree_soft_kernels.png --size 400x225
+./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180
