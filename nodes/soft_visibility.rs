@@ -20,7 +20,7 @@
 //! - `TopHat`: an N×N box (N = ⌈√12 σ⌉, at least 2), `Dirac2`: the four corners (±σ, ±σ),
 //! - `StochasticDirac`: the corners at ±r with r = σ √(2u), u uniform per slice (E r² = σ²),
 //! - `Ellipse2`: two opposite points on an ellipse at a random angle per slice,
-//! - `Poisson`: `samples` points of a Poisson disk, randomly rotated per slice,
+//! - `Poisson`: `samples` points of a Poisson disk (centred), randomly rotated per slice,
 //! - `Gaussian`: a `size` × `size` grid of Gaussian weights.
 //!
 //! The light's shape scales the variance by `ellipse_x`, `ellipse_y` along light-space x and y
@@ -54,8 +54,8 @@
 //! | `d1` | Float | 4 | 0.01…1e4 m | distance behind an occluder where the penumbra is exact |
 //! | `ellipse_x`, `ellipse_y` | Float | 1 | 0…10 | relative variance along light x, y |
 //! | `rotation` | Float | 0 | ±180 ° | turn of the light's shape |
-//! | `samples` | Int | 8 | 1…64 | Poisson samples |
-//! | `size` | Int | 5 | 1…15 | Gaussian taps per axis |
+//! | `samples` | Int | 8 | 2…64 | Poisson samples |
+//! | `size` | Int | 5 | 2…15 | Gaussian taps per axis |
 //! | `seed` | Int | 1 | 0…2³¹ | stochastic kernels |
 //! | `bias` | Float | 0.002 | 0…0.1 | added to the map depth |
 //! | `growth` | Enum | seed | seed, linear | penumbra ∝ √d (seed 004) or ∝ d |
@@ -100,8 +100,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("ellipse_x", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space x."),
         ParamSpec::float("ellipse_y", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space y."),
         ParamSpec::float("rotation", 0.0, -180.0, 180.0, "°", "Turn of the light's shape."),
-        ParamSpec::int("samples", 8, 1, 64, "samples", "Poisson disk samples."),
-        ParamSpec::int("size", 5, 1, 15, "taps", "Gaussian taps per axis."),
+        ParamSpec::int("samples", 8, 2, 64, "samples", "Poisson disk samples."),
+        ParamSpec::int("size", 5, 2, 15, "taps", "Gaussian taps per axis."),
         ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
         ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
         ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
@@ -202,7 +202,11 @@ fn unit_taps(spec: &KernelSpec, k: u32, sigma: f64) -> Vec<(f64, f64, f64)> {
             vec![(x, y, 0.5), (-x, -y, 0.5)]
         }
         Kernel::Poisson => {
-            let pts = poisson_disk(spec.samples.max(1) as usize, spec.seed);
+            // Centred, so the kernel's mean is 0 for any sample count.
+            let raw = poisson_disk(spec.samples.max(1) as usize, spec.seed);
+            let (mx, my) = raw.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+            let (mx, my) = (mx / raw.len() as f64, my / raw.len() as f64);
+            let pts: Vec<(f64, f64)> = raw.iter().map(|(x, y)| (x - mx, y - my)).collect();
             let turn = rng() * std::f64::consts::TAU;
             let (c, s) = (turn.cos(), turn.sin());
             let m2: f64 = pts.iter().map(|(x, y)| x * x + y * y).sum::<f64>() / pts.len() as f64;
@@ -483,8 +487,8 @@ fn spec_of(ctx: &RunCtx, light: &Matrices, res: u32, slices: u32) -> Result<Kern
             [ctx.f64("ellipse_x")?, ctx.f64("ellipse_y")?],
         ),
         rotation: ctx.f64("rotation")?.to_radians(),
-        samples: ctx.int("samples")?.clamp(1, 64) as u32,
-        size: ctx.int("size")?.clamp(1, 15) as u32,
+        samples: ctx.int("samples")?.clamp(2, 64) as u32,
+        size: ctx.int("size")?.clamp(2, 15) as u32,
         seed: ctx.int("seed")?.max(0) as u32,
     })
 }
