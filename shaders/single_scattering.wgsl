@@ -444,14 +444,9 @@ fn lit_part(t0: f32, t1: f32, z0: f32, z1: f32, c: f32) -> f32 {
 
 const MAX_ITER: u32 = 16384u;
 
-@compute @workgroup_size(8, 8)
-fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(depth);
-    if id.x >= size.x || id.y >= size.y {
-        return;
-    }
-    let dir = view_ray(id.xy, size);
-    let s = textureLoad(depth, id.xy, 0).r;
+// The MinMax traversal of one view ray (direction `dir`, surface at `s`): (V̄, medium length,
+// extinction-weighted lit integral).
+fn min_max_ray(dir: vec3<f32>, s: f32) -> vec3<f32> {
     let seg = medium_segment(dir, s);
     let t0 = seg.x;
     let t1 = max(seg.y, seg.x);
@@ -581,5 +576,16 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let len = t1 - t0;
     let vbar = select(1.0, clamp(lit / len, 0.0, 1.0), len > 0.0);
-    store(id.xy, dir, vbar, len, weighted);
+    return vec3<f32>(vbar, len, weighted);
+}
+
+@compute @workgroup_size(8, 8)
+fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(depth);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let dir = view_ray(id.xy, size);
+    let r = min_max_ray(dir, textureLoad(depth, id.xy, 0).r);
+    store(id.xy, dir, r.x, r.y, r.z);
 }
