@@ -9,7 +9,7 @@
 //! read trilinearly between texel centres in their own world box, clamped to its edges (a point
 //! outside takes the nearest face's value). With α = 0 and I = 1 (parameters, no volumes) h ≡ 1:
 //! the node passes `inscatter` through without marching, and the evaluator's statistics show it
-//! as `passed through` (`tyndall run --stats`).
+//! as `passed through` (`tyndall eval --stats`).
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|

@@ -206,7 +206,7 @@ impl fmt::Display for Stats {
             .max(4);
         writeln!(
             f,
-            "{:<w$}  {:<k$}  {:<10}  {:>10}  {:>10}",
+            "{:<w$}  {:<k$}  {:<14}  {:>10}  {:>10}",
             "node", "kind", "status", "wall ms", "gpu ms"
         )?;
         let ms = |d: Duration| format!("{:.3}", d.as_secs_f64() * 1e3);
@@ -218,7 +218,7 @@ impl fmt::Display for Stats {
             };
             writeln!(
                 f,
-                "{:<w$}  {:<k$}  {:<10}  {:>10}  {:>10}",
+                "{:<w$}  {:<k$}  {:<14}  {:>10}  {:>10}",
                 n.id,
                 n.kind,
                 n.status.to_string(),
