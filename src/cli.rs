@@ -83,7 +83,7 @@ pub struct Common {
     /// Default image size for nodes that create images, WIDTHxHEIGHT.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Print per-node statistics (ran | reused | not needed, time).
+    /// Print per-node statistics (ran | passed through | reused | not needed, time).
     #[arg(long)]
     pub stats: bool,
     /// Evaluate once per value of NODE.PARAM in one process: NODE.PARAM=v1,v2,... Output files
