@@ -122,11 +122,5 @@ pub fn render(
             ranges: &scene.ranges,
         },
     )?;
-    let m = Matrices {
-        view: view.to_cols_array_2d(),
-        proj: proj.to_cols_array_2d(),
-        far: cam.far,
-        radiance: [0.0; 3],
-    };
-    Ok((depth, normal, albedo, m))
+    Ok((depth, normal, albedo, cam.matrices(w, h)))
 }

@@ -269,19 +269,7 @@ impl PhaseTable {
         for (i, v) in self.rgb.iter().enumerate() {
             let t = Self::theta(i, w);
             let (mu, s) = (t.cos(), t.sin() * dt * 2.0 * std::f64::consts::PI);
-            let (mut p0, mut p1) = (1.0, mu);
-            for (l, o) in out.iter_mut().enumerate() {
-                let pl = match l {
-                    0 => 1.0,
-                    1 => mu,
-                    _ => {
-                        let lf = l as f64;
-                        let p2 = ((2.0 * lf - 1.0) * mu * p1 - (lf - 1.0) * p0) / lf;
-                        p0 = p1;
-                        p1 = p2;
-                        p2
-                    }
-                };
+            for (o, pl) in out.iter_mut().zip(legendre(mu)) {
                 for c in 0..3 {
                     o[c] += v[c] * pl * s;
                 }
@@ -293,21 +281,8 @@ impl PhaseTable {
     /// Σ_l (2l + 1)/(4π) c_l P_l(cos θ) on `w` angles, clamped at 0 (not normalised).
     pub fn series(coeffs: &[[f64; 3]], w: usize) -> Self {
         Self::from_fn(w, |t| {
-            let mu = t.cos();
-            let (mut p0, mut p1) = (1.0, mu);
             let mut acc = [0.0; 3];
-            for (l, c) in coeffs.iter().enumerate() {
-                let pl = match l {
-                    0 => 1.0,
-                    1 => mu,
-                    _ => {
-                        let lf = l as f64;
-                        let p2 = ((2.0 * lf - 1.0) * mu * p1 - (lf - 1.0) * p0) / lf;
-                        p0 = p1;
-                        p1 = p2;
-                        p2
-                    }
-                };
+            for (l, (c, pl)) in coeffs.iter().zip(legendre(t.cos())).enumerate() {
                 for k in 0..3 {
                     acc[k] += (2.0 * l as f64 + 1.0) * c[k] * pl;
                 }
@@ -337,21 +312,44 @@ impl PhaseTable {
     }
 }
 
+/// The Legendre polynomials P_0(μ), P_1(μ), … by the three-term recurrence
+/// l P_l = (2l − 1) μ P_{l−1} − (l − 1) P_{l−2} (as the shader's `legendre_series`).
+pub fn legendre(mu: f64) -> impl Iterator<Item = f64> {
+    let mut prev = (0.0, 1.0); // (P_{l−2}, P_{l−1}) before l = 1: P_{−1} taken as 0
+    (0..).map(move |l: u32| {
+        let pl = match l {
+            0 => 1.0,
+            _ => {
+                let lf = l as f64;
+                ((2.0 * lf - 1.0) * mu * prev.1 - (lf - 1.0) * prev.0) / lf
+            }
+        };
+        if l > 0 {
+            prev = (prev.1, pl);
+        }
+        pl
+    })
+}
+
+/// Henyey–Greenstein (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}), 1/sr.
+pub fn hg_value(g: f64, cos_theta: f64) -> f64 {
+    let d = (1.0 + g * g - 2.0 * g * cos_theta).max(1e-12);
+    (1.0 - g * g) / (4.0 * std::f64::consts::PI * d * d.sqrt())
+}
+
+/// Rayleigh 3/(16π) (1 + cos²θ), 1/sr.
+pub fn rayleigh_value(cos_theta: f64) -> f64 {
+    3.0 / (16.0 * std::f64::consts::PI) * (1.0 + cos_theta * cos_theta)
+}
+
 /// CPU reference of `HenyeyGreenstein`.
 pub fn henyey_greenstein(g: f64, w: usize) -> PhaseTable {
-    PhaseTable::from_fn(w, |t| {
-        let d = (1.0 + g * g - 2.0 * g * t.cos()).max(1e-12);
-        [(1.0 - g * g) / (4.0 * std::f64::consts::PI * d * d.sqrt()); 3]
-    })
-    .normalised()
+    PhaseTable::from_fn(w, |t| [hg_value(g, t.cos()); 3]).normalised()
 }
 
 /// CPU reference of `Rayleigh`.
 pub fn rayleigh(w: usize) -> PhaseTable {
-    PhaseTable::from_fn(w, |t| {
-        [3.0 / (16.0 * std::f64::consts::PI) * (1.0 + t.cos() * t.cos()); 3]
-    })
-    .normalised()
+    PhaseTable::from_fn(w, |t| [rayleigh_value(t.cos()); 3]).normalised()
 }
 
 /// The particles of a Mie preset (`custom`: `custom` itself).

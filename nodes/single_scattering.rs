@@ -70,7 +70,7 @@
 use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
@@ -241,6 +241,14 @@ crate::uniforms! {
     pub struct LightMapView as "LightMapView" {
         /// World → light clip of the light map.
         pub view_proj: [[f32; 4]; 4],
+        /// 1 when a light map is connected (BruteForce multiplies each sample by it).
+        pub enabled: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
     }
 }
 
@@ -739,17 +747,30 @@ impl NodeKind for SingleScattering {
             }
             let lm = LightMapView {
                 view_proj: m.view_proj().to_cols_array_2d(),
+                enabled: 1,
+                _pad0: 0,
+                _pad1: 0,
+                _pad2: 0,
             };
             binds.push((11, Bind::Texture(map)));
             binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
-            ctx.gpu
-                .dispatch(SHADER, "brute_force_light_map", &binds, w, h)?;
+            ctx.gpu.dispatch(SHADER, "brute_force", &binds, w, h)?;
         } else if method == Method::MinMax {
             let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
             binds.push((6, Bind::Texture(&atlas)));
             binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
             ctx.gpu.dispatch(SHADER, "min_max", &binds, w, h)?;
         } else {
+            let lm = LightMapView {
+                view_proj: IDENTITY,
+                enabled: 0,
+                _pad0: 0,
+                _pad1: 0,
+                _pad2: 0,
+            };
+            let none = ctx.gpu.upload(1, 1, 4, &[1.0; 4])?;
+            binds.push((11, Bind::Texture(&none)));
+            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
             ctx.gpu.dispatch(SHADER, "brute_force", &binds, w, h)?;
         }
         ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));

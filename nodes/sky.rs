@@ -51,7 +51,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::phase::PhaseTable;
+use super::phase::{hg_value, rayleigh_value, PhaseTable};
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
@@ -152,14 +152,10 @@ pub fn reference_pixel(
     }
     let to_sun = Vec3::from(u.to_sun).as_dvec3();
     let c = dir.dot(to_sun);
-    let ray = 3.0 / (16.0 * std::f64::consts::PI) * (1.0 + c * c);
+    let ray = rayleigh_value(c);
     let aer = match phase {
         Some(t) => t.lookup(c as f32).map(|v| v as f64),
-        None => {
-            let g = u.aerosol_g as f64;
-            let d = (1.0 + g * g - 2.0 * g * c).max(1e-12);
-            [(1.0 - g * g) / (4.0 * std::f64::consts::PI * d * d.sqrt()); 3]
-        }
+        None => [hg_value(u.aerosol_g as f64, c); 3],
     };
     let e1 = |x: f64| {
         if x.abs() < 1e-4 {
@@ -220,9 +216,8 @@ pub fn integrate_inscatter(u: &SkyParams, ch: usize, dir: Vec3, k: f64, steps: u
     let h0 = u.altitude as f64 + u.eye[1] as f64 * u.distance_scale as f64;
     let (air, aer) = (u.beta_air[ch] as f64, u.aerosol as f64);
     let c = dir.dot(to_sun);
-    let g = u.aerosol_g as f64;
-    let hg = (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * c).powf(1.5));
-    let ray = 3.0 / (16.0 * std::f64::consts::PI) * (1.0 + c * c);
+    let hg = hg_value(u.aerosol_g as f64, c);
+    let ray = rayleigh_value(c);
     let dt = k / steps as f64;
     let mut tau_e = 0.0;
     let mut acc = 0.0;

@@ -327,8 +327,19 @@ pub fn stencil(spec: &KernelSpec, k: u32) -> Stencil {
     splat(spec, &taps, 0.5 * (lo + hi))
 }
 
+/// The light box's width, height and depth in metres (from its orthographic projection).
+fn box_metres(light: &Matrices) -> [f64; 3] {
+    let p = light.proj;
+    [
+        2.0 / (p[0][0] as f64).abs().max(1e-12),
+        2.0 / (p[1][1] as f64).abs().max(1e-12),
+        1.0 / (p[2][2] as f64).abs().max(1e-12),
+    ]
+}
+
 /// Kernel variance per axis in texels² for a light box (`light` matrices), `res` texels and
-/// `slices`: σ_κ² = d1 e σ_l², σ_l = tan(radius)/2, scaled by the light's shape.
+/// `slices`: σ_κ² = d1 e σ_l², σ_l = tan(radius)/2, scaled by the light's shape — the
+/// [`step_variance`] e² σ_l² times d1/e.
 pub fn variance_texels(
     light: &Matrices,
     res: u32,
@@ -337,14 +348,8 @@ pub fn variance_texels(
     d1: f64,
     shape: [f64; 2],
 ) -> [f64; 2] {
-    let width = 2.0 / (light.proj[0][0] as f64).abs().max(1e-12);
-    let height = 2.0 / (light.proj[1][1] as f64).abs().max(1e-12);
-    let depth = 1.0 / (light.proj[2][2] as f64).abs().max(1e-12);
-    let e = depth / slices.max(1) as f64;
-    let sigma_l = (sun_radius_deg.to_radians()).tan() / 2.0;
-    let var_m = d1 * e * sigma_l * sigma_l;
-    let (tx, ty) = (width / res as f64, height / res as f64);
-    [var_m / (tx * tx) * shape[0], var_m / (ty * ty) * shape[1]]
+    let e = box_metres(light)[2] / slices.max(1) as f64;
+    step_variance(light, res, slices, sun_radius_deg, shape).map(|v| v * d1 / e)
 }
 
 /// Footprint samples per axis of a buffer texel in a `map`-texel shadow map.
@@ -359,7 +364,8 @@ pub fn pair_offset(v: f32) -> f32 {
     m + (v - m * m) / (2.0 * m + 1.0)
 }
 
-/// One slice's per-axis variance e² σ_l² in texels² (`growth = linear`).
+/// One slice's per-axis variance e² σ_l² in texels² (`growth = linear`), scaled by the
+/// light's shape.
 pub fn step_variance(
     light: &Matrices,
     res: u32,
@@ -367,9 +373,7 @@ pub fn step_variance(
     sun_radius_deg: f64,
     shape: [f64; 2],
 ) -> [f64; 2] {
-    let width = 2.0 / (light.proj[0][0] as f64).abs().max(1e-12);
-    let height = 2.0 / (light.proj[1][1] as f64).abs().max(1e-12);
-    let depth = 1.0 / (light.proj[2][2] as f64).abs().max(1e-12);
+    let [width, height, depth] = box_metres(light);
     let e = depth / slices.max(1) as f64;
     let sigma_l = (sun_radius_deg.to_radians()).tan() / 2.0;
     let (tx, ty) = (width / res as f64, height / res as f64);

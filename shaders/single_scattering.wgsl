@@ -267,35 +267,6 @@ fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
     return select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
 }
 
-@compute @workgroup_size(8, 8)
-fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(depth);
-    if id.x >= size.x || id.y >= size.y {
-        return;
-    }
-    let dir = view_ray(id.xy, size);
-    let s = textureLoad(depth, id.xy, 0).r;
-    let seg = medium_segment(dir, s);
-    let t0 = seg.x;
-    let len = max(seg.y - seg.x, 0.0);
-    let offset = P.jitter * (hash(id.x, id.y) - 0.5);
-    var lit = 0.0;
-    var weighted = 0.0;
-    for (var i = 0u; i < P.steps; i++) {
-        let t = t0 + (f32(i) + 0.5 + offset) / f32(P.steps) * len;
-        let v = visible(P.eye + dir * t);
-        lit += v;
-        if P.light_extinction != 0u && v > 0.0 {
-            // Sample i stands for its interval of the segment.
-            let a = t0 + f32(i) / f32(P.steps) * len;
-            let b = t0 + f32(i + 1u) / f32(P.steps) * len;
-            weighted += weight(dir, t0, a, b);
-        }
-    }
-    let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
-    store(id.xy, dir, vbar, len, weighted);
-}
-
 // ---- Light map (BruteForce only): the sun is multiplied by a light-space RGB texture --------
 //
 // The factored form no longer holds: L_scat = σt ρ f E ∫ V(t) M(x_t) E(t) dt, with E(t) the
@@ -304,6 +275,10 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
 
 struct LightMapView {
     view_proj: mat4x4<f32>,
+    enabled: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(11) var light_map: texture_2d<f32>;
@@ -324,8 +299,12 @@ fn light_map_at(x: vec3<f32>) -> vec3<f32> {
     return mix(top, bottom, f.y).rgb;
 }
 
+// BruteForce: `steps` samples at the centres of equal intervals of the medium's part of the
+// ray (moved by the per-pixel jitter). With a light map (LM.enabled) each lit sample adds its
+// interval's weight times the map's colour; otherwise the factored form (or, with light
+// extinction, the weighted integral) goes to `store`.
 @compute @workgroup_size(8, 8)
-fn brute_force_light_map(@builtin(global_invocation_id) id: vec3<u32>) {
+fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(depth);
     if id.x >= size.x || id.y >= size.y {
         return;
@@ -336,24 +315,35 @@ fn brute_force_light_map(@builtin(global_invocation_id) id: vec3<u32>) {
     let t0 = seg.x;
     let len = max(seg.y - seg.x, 0.0);
     let offset = P.jitter * (hash(id.x, id.y) - 0.5);
+    let map = LM.enabled != 0u;
     var lit = 0.0;
+    var weighted = 0.0;
     var acc = vec3<f32>(0.0);
     for (var i = 0u; i < P.steps; i++) {
         let t = t0 + (f32(i) + 0.5 + offset) / f32(P.steps) * len;
         let x = P.eye + dir * t;
         let v = visible(x);
         lit += v;
-        if v > 0.0 {
+        if v > 0.0 && (map || P.light_extinction != 0u) {
+            // Sample i stands for its interval of the segment.
             let a = t0 + f32(i) / f32(P.steps) * len;
             let b = t0 + f32(i + 1u) / f32(P.steps) * len;
-            acc += weight(dir, t0, a, b) * light_map_at(x);
+            let w = weight(dir, t0, a, b);
+            weighted += w;
+            if map {
+                acc += w * light_map_at(x);
+            }
         }
     }
     let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
-    let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
-    textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * base * acc, 1.0));
-    textureStore(out_transmittance, id.xy, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
+    if map {
+        let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
+        textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
+        textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * base * acc, 1.0));
+        textureStore(out_transmittance, id.xy, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
+    } else {
+        store(id.xy, dir, vbar, len, weighted);
+    }
 }
 
 // Write the outputs of one pixel. Light extinction off: the seed's factored form (eq. 2),

@@ -31,6 +31,14 @@ fn tf_data(h: &Harness<'static, EditorApp>, id: &str) -> TfData {
         .unwrap_or_default()
 }
 
+/// The editor on [`TF_ONLY`] with its TransferFunction selected.
+fn tf_selected(dir: &Path) -> Harness<'static, EditorApp> {
+    let mut h = harness_for(TF_ONLY, dir);
+    h.state_mut().selected = Some("tf".into());
+    h.run_steps(3);
+    h
+}
+
 const TF_ONLY: &str = r#"(version: 2, nodes: {
     "tf": (kind: "TransferFunction", params: {"resolution": 16},
            data: (layers: [(layer: Solid(colour: (0.1, 0.2, 0.3, 1.0)))])),
@@ -51,9 +59,7 @@ fn tf_layers_add_reorder_remove_and_undo() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_for(TF_ONLY, dir.path());
-    h.state_mut().selected = Some("tf".into());
-    h.run_steps(3);
+    let mut h = tf_selected(dir.path());
     h.get_by_label("Add layer").click();
     h.run_steps(2);
     h.get_by_label("Gradient").click();
@@ -134,9 +140,7 @@ fn tf_square_click_adds_and_drag_moves_a_constraint_in_one_step() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_for(TF_ONLY, dir.path());
-    h.state_mut().selected = Some("tf".into());
-    h.run_steps(3);
+    let mut h = tf_selected(dir.path());
     let rect = h.get_by_label("TF square").rect();
     h.get_by_label("TF square").click();
     h.run_steps(3);

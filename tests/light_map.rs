@@ -35,12 +35,7 @@ fn camera(position: Vec3, w: u32, h: u32) -> Matrices {
         near: 0.1,
         far: 40.0,
     };
-    Matrices {
-        view: c.view().to_cols_array_2d(),
-        proj: c.proj(w as f32 / h as f32).to_cols_array_2d(),
-        far: 40.0,
-        radiance: [0.0; 3],
-    }
+    c.matrices(w, h)
 }
 
 /// A shadow map with one occluder block (so some rays are partly shadowed).

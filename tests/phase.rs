@@ -414,8 +414,6 @@ fn extremes_stay_finite_and_normalised() {
 #[test]
 fn scattering_reads_a_connected_phase_per_channel() {
     let Some(gpu) = common::gpu() else { return };
-    let registry = Arc::new(tyndall::nodes::registry());
-    let cat = registry.catalog().clone();
     let text = r#"(version: 2, nodes: {
         "scene": (kind: "Scene", params: {"name": "fence"}),
         "shadow": (kind: "ShadowMap", params: {"resolution": 256}),
@@ -424,28 +422,21 @@ fn scattering_reads_a_connected_phase_per_channel() {
         "scatter": (kind: "SingleScattering", params: {"method": "BruteForce", "steps": 24}),
     }, edges: [("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
         ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"), ("mie.phase", "scatter.phase")])"#;
-    let g = tyndall::graph::load_str(text, std::path::Path::new("g.ron"), &cat).expect("graph");
-    let port = |n: &str, p: &str| Target::Port(n.into(), p.into());
-    let mut ev = Evaluator::new(registry, gpu.clone());
     let (w, h) = (40, 24);
-    let r = ev
-        .evaluate(
-            &g,
-            &[
-                port("shadow", "map"),
-                port("gbuffer", "depth"),
-                port("mie", "phase"),
-                port("scatter", "visibility"),
-                port("scatter", "inscatter"),
-            ],
-            &EvalOptions {
-                size: (w, h),
-                ..Default::default()
-            },
-        )
-        .expect("evaluate");
-    let get = |n: &str, p: &str| &r.outputs[&(n.to_string(), p.to_string())];
-    let dl = |n: &str, p: &str| tyndall::eval::download(&gpu, get(n, p)).expect("download");
+    let out = common::eval_ron(
+        &gpu,
+        text,
+        &[
+            ("shadow", "map"),
+            ("gbuffer", "depth"),
+            ("mie", "phase"),
+            ("scatter", "visibility"),
+            ("scatter", "inscatter"),
+        ],
+        (w, h),
+    );
+    let get = |n: &str, p: &str| out.get(n, p);
+    let dl = |n: &str, p: &str| out.read(n, p);
     let (light, camera) = match (get("shadow", "map"), get("gbuffer", "depth")) {
         (tyndall::eval::PortValue::ShadowMap(_, l), tyndall::eval::PortValue::Depth(_, c)) => {
             (*l, *c)

@@ -351,14 +351,7 @@ fn slit_matches_the_analytic_visibility() {
         let mut spread = (1.0f32, 0.0f32);
         for y in 0..h {
             for x in 0..w {
-                let ndc = glam::Vec4::new(
-                    (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                    1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                    1.0,
-                    1.0,
-                );
-                let far = inv * ndc;
-                let dir = (far.truncate() / far.w - eye).normalize();
+                let dir = tyndall::eval::pixel_ray(inv, eye, x, y, w, h);
                 let s = depth.pixel(x, y)[0];
                 let want = analytic_slit(eye, dir, s, 0.0);
                 let got = out["visibility"].pixel(x, y)[0];

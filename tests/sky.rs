@@ -4,10 +4,8 @@
 
 mod common;
 
-use std::sync::Arc;
-
 use glam::Vec3;
-use tyndall::eval::{EvalOptions, Evaluator, PortValue, Target};
+use tyndall::eval::PortValue;
 use tyndall::nodes::sky::{integrate_inscatter, reference_pixel, SkyParams};
 
 /// Sky parameters for an eye at height `h` (m) and a sun at `elevation` degrees (azimuth 0).
@@ -114,8 +112,6 @@ fn the_sky_reddens_as_the_sun_lowers() {
 #[test]
 fn gpu_equals_cpu_and_composite_applies_it() {
     let Some(gpu) = common::gpu() else { return };
-    let registry = Arc::new(tyndall::nodes::registry());
-    let cat = registry.catalog().clone();
     let text = r#"(version: 2, nodes: {
         "scene": (kind: "Scene", params: {"name": "fence", "light": "custom", "sun_elevation": 12.0}),
         "shadow": (kind: "ShadowMap", params: {"resolution": 256}),
@@ -127,29 +123,22 @@ fn gpu_equals_cpu_and_composite_applies_it() {
         ("gbuffer.albedo", "comp.albedo"), ("gbuffer.normal", "comp.normal"),
         ("gbuffer.depth", "comp.depth"), ("shadow.map", "comp.shadow"),
         ("sky.transmittance", "comp.aerial_transmittance"), ("sky.inscatter", "comp.aerial_inscatter")])"#;
-    let g = tyndall::graph::load_str(text, std::path::Path::new("g.ron"), &cat).expect("graph");
-    let port = |n: &str, p: &str| Target::Port(n.into(), p.into());
     let (w, h) = (48, 27);
-    let mut ev = Evaluator::new(registry, gpu.clone());
-    let r = ev
-        .evaluate(
-            &g,
-            &[
-                port("gbuffer", "depth"),
-                port("scene", "scene"),
-                port("sky", "inscatter"),
-                port("sky", "transmittance"),
-                port("sky", "sky"),
-                port("comp", "image"),
-            ],
-            &EvalOptions {
-                size: (w, h),
-                ..Default::default()
-            },
-        )
-        .expect("evaluate");
-    let get = |n: &str, p: &str| &r.outputs[&(n.to_string(), p.to_string())];
-    let dl = |n: &str, p: &str| tyndall::eval::download(&gpu, get(n, p)).expect("download");
+    let out = common::eval_ron(
+        &gpu,
+        text,
+        &[
+            ("gbuffer", "depth"),
+            ("scene", "scene"),
+            ("sky", "inscatter"),
+            ("sky", "transmittance"),
+            ("sky", "sky"),
+            ("comp", "image"),
+        ],
+        (w, h),
+    );
+    let get = |n: &str, p: &str| out.get(n, p);
+    let dl = |n: &str, p: &str| out.read(n, p);
     let PortValue::Depth(_, cam) = get("gbuffer", "depth") else {
         panic!("depth")
     };
@@ -227,8 +216,6 @@ fn gpu_equals_cpu_and_composite_applies_it() {
 #[test]
 fn node_extremes_stay_finite() {
     let Some(gpu) = common::gpu() else { return };
-    let registry = Arc::new(tyndall::nodes::registry());
-    let cat = registry.catalog().clone();
     for (elev, aerosol, scale, beta) in [
         (0.0, 0.0, 1.0, 1.35e-5),
         (-5.0, 1e-3, 1e6, 1.35e-5),
@@ -242,28 +229,10 @@ fn node_extremes_stay_finite() {
             "sky": (kind: "Sky", params: {{"sun_elevation": {elev}, "aerosol": {aerosol}, "distance_scale": {scale}, "beta_sea_level": [{beta}, {beta}, {beta}]}}),
         }}, edges: [("scene.scene", "gbuffer.scene"), ("gbuffer.depth", "sky.depth")])"#
         );
-        let g =
-            tyndall::graph::load_str(&text, std::path::Path::new("g.ron"), &cat).expect("graph");
-        let mut ev = Evaluator::new(registry.clone(), gpu.clone());
         let ports = ["inscatter", "transmittance", "sky"];
-        let targets: Vec<Target> = ports
-            .iter()
-            .map(|p| Target::Port("sky".into(), p.to_string()))
-            .collect();
-        let r = ev
-            .evaluate(
-                &g,
-                &targets,
-                &EvalOptions {
-                    size: (24, 14),
-                    ..Default::default()
-                },
-            )
-            .expect("evaluate");
+        let out = common::eval_ron(&gpu, &text, &ports.map(|p| ("sky", p)), (24, 14));
         for p in ports {
-            let img =
-                tyndall::eval::download(&gpu, &r.outputs[&("sky".to_string(), p.to_string())])
-                    .expect("download");
+            let img = out.read("sky", p);
             assert!(
                 img.data.iter().all(|v| v.is_finite() && *v >= 0.0),
                 "sun {elev}°, aerosol {aerosol}, scale {scale}, β {beta}: {p}"

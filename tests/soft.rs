@@ -55,6 +55,35 @@ fn run(
     }
 }
 
+/// A straight edge: an occluder at light depth 0.1 over the left half of a `res`² map, nothing
+/// (depth 1) over the right half.
+fn edge_map(res: u32) -> Raster {
+    let mut map = Raster::new(res, res, 1, 1.0);
+    for y in 0..res {
+        for x in 0..res / 2 {
+            map.data[(y * res + x) as usize] = 0.1;
+        }
+    }
+    map
+}
+
+/// Across the edge of [`edge_map`], on the middle row of slice `k`: the sum of the two texels
+/// beside the edge (1 when the half shadow lies on it) and the variance of the profile's
+/// derivative — the blur applied to the edge — over `half` texels each side (the buffer's own
+/// border, where the occluder meets the zero outside, also falls off, so stay clear of it).
+fn edge_profile(volume: &[f32], res: u32, k: u32, half: u32) -> (f64, f64) {
+    let row = res / 2;
+    let a = |x: u32| volume[((k * res + row) * res + x) as usize] as f64;
+    let (mut m0, mut m2) = (0.0, 0.0);
+    for x in res / 2 - half..res / 2 + half + 1 {
+        let w = a(x - 1) - a(x);
+        let pos = x as f64 - res as f64 / 2.0;
+        m0 += w;
+        m2 += w * pos * pos;
+    }
+    (a(res / 2 - 1) + a(res / 2), m2 / m0)
+}
+
 fn p_int(v: i64) -> ParamValue {
     ParamValue::Int(v)
 }
@@ -135,12 +164,7 @@ fn zero_light_variance_is_the_hard_test() {
 fn penumbra_behind_a_straight_edge() {
     let Some(gpu) = common::gpu() else { return };
     let (res, slices) = (64u32, 40u32);
-    let mut map = Raster::new(res, res, 1, 1.0);
-    for y in 0..res {
-        for x in 0..res / 2 {
-            map.data[(y * res + x) as usize] = 0.1;
-        }
-    }
+    let map = edge_map(res);
     let (radius, d1) = (8.0, 5.0);
     let got = run(
         &gpu,
@@ -156,23 +180,12 @@ fn penumbra_behind_a_straight_edge() {
     .expect("run");
     let target = sv::variance_texels(&light(), res, slices, radius, d1, [1.0, 1.0])[0];
     let k0 = ((0.1 + 0.002) * slices as f64) as u32; // the occluder's slice
-    let row = res / 2;
     for k in [k0 + 4, k0 + 10, k0 + 20, slices - 1] {
-        let a = |x: u32| got[((k * res + row) * res + x) as usize] as f64;
-        // Half shadow on the edge: the two texels beside it sum to one.
-        let mid = a(res / 2 - 1) + a(res / 2);
-        assert!((mid - 1.0).abs() < 1e-3, "slice {k}: {mid}");
-        // Variance of the profile's derivative (the blur kernel applied to the edge), over 16
-        // texels each side (the buffer's own border, where the occluder meets the zero outside,
-        // also falls off).
-        let (mut m0, mut m2) = (0.0, 0.0);
-        for x in res / 2 - 15..res / 2 + 16 {
-            let w = a(x - 1) - a(x);
-            let pos = x as f64 - res as f64 / 2.0;
-            m0 += w;
-            m2 += w * pos * pos;
-        }
-        let var = m2 / m0;
+        let (mid, var) = edge_profile(&got, res, k, 15);
+        assert!(
+            (mid - 1.0).abs() < 1e-3,
+            "slice {k}: half shadow on the edge ({mid})"
+        );
         let want = (k - k0) as f64 * target;
         // 5 %: the derivative's texel sampling adds 1/12 texel², a few % of these variances.
         assert!(
@@ -317,12 +330,7 @@ fn scattering_with_a_hard_soft_volume_matches_the_hard_test() {
 fn linear_growth_matches_the_exact_penumbra_at_every_distance() {
     let Some(gpu) = common::gpu() else { return };
     let (res, slices) = (64u32, 40u32);
-    let mut map = Raster::new(res, res, 1, 1.0);
-    for y in 0..res {
-        for x in 0..res / 2 {
-            map.data[(y * res + x) as usize] = 0.1;
-        }
-    }
+    let map = edge_map(res);
     let radius = 4.0;
     let params = [
         ("resolution", p_int(res as i64)),
@@ -349,23 +357,13 @@ fn linear_growth_matches_the_exact_penumbra_at_every_distance() {
     // 1e-4: bilinear weights and the mean-age division in f32 on both sides, in other orders.
     assert!(d <= 1e-4, "GPU vs CPU: {d}");
     let k0 = ((0.1 + 0.002) * slices as f64) as u32;
-    let row = res / 2;
     for k in [k0 + 3, k0 + 8, k0 + 16, k0 + 30] {
-        let a = |x: u32| got[((k * res + row) * res + x) as usize] as f64;
-        let mid = a(res / 2 - 1) + a(res / 2);
+        let (mid, var) = edge_profile(&got, res, k, 20);
         assert!(
             (mid - 1.0).abs() < 1e-3,
             "slice {k}: half shadow on the edge ({mid})"
         );
-        let (mut m0, mut m2) = (0.0, 0.0);
-        for x in res / 2 - 20..res / 2 + 21 {
-            let w = a(x - 1) - a(x);
-            let pos = x as f64 - res as f64 / 2.0;
-            m0 += w;
-            m2 += w * pos * pos;
-        }
         let n = (k - k0) as f64;
-        let var = m2 / m0;
         let want = n * n * step[0];
         // 5 % + 1/12 texel²: as for the seed kernel's edge test above.
         assert!(

@@ -177,12 +177,7 @@ fn camera(w: u32, h: u32) -> Matrices {
         near: 0.1,
         far: 40.0,
     };
-    Matrices {
-        view: c.view().to_cols_array_2d(),
-        proj: c.proj(w as f32 / h as f32).to_cols_array_2d(),
-        far: 40.0,
-        radiance: [0.0; 3],
-    }
+    c.matrices(w, h)
 }
 
 /// A graph: noise (and optionally α and I volumes, other noises) → Heterogeneity, with the

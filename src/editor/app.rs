@@ -576,7 +576,7 @@ impl EditorApp {
         ui.heading(format!("{id} - {}", node.kind));
         ui.label(schema.doc);
         if let Some(err) = self.reports.get(&id).and_then(|r| r.error.clone()) {
-            ui.colored_label(egui::Color32::from_rgb(240, 90, 80), err);
+            ui.colored_label(super::panel::ERROR, err);
         }
         ui.separator();
         for p in schema.params {

@@ -410,16 +410,7 @@ pub fn show(
             .on_hover_text("Distance between splats along a drag, × the smaller in-plane radius");
         ui.end_row();
     });
-    let mut data = match state.node_data::<BlendData>(&target) {
-        Ok(d) => d,
-        Err(e) => {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 90, 80),
-                format!("data block: {e}"),
-            );
-            return None;
-        }
-    };
+    let mut data = super::panel::data_block::<BlendData>(ui, state, &target)?;
     let mut changed = false;
     ui.horizontal(|ui| {
         ui.label(format!("{} splat(s) in {target}", data.splats.len()));
@@ -452,12 +443,7 @@ mod tests {
             near: 0.1,
             far: 80.0,
         };
-        Matrices {
-            view: c.view().to_cols_array_2d(),
-            proj: c.proj(size.0 as f32 / size.1 as f32).to_cols_array_2d(),
-            far: c.far,
-            radiance: [0.0; 3],
-        }
+        c.matrices(size.0, size.1)
     }
 
     #[test]

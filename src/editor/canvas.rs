@@ -173,9 +173,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
                     let msg = r.error.clone().unwrap_or_default();
                     ui.add(
                         egui::Label::new(
-                            egui::RichText::new(msg)
-                                .color(egui::Color32::from_rgb(240, 90, 80))
-                                .small(),
+                            egui::RichText::new(msg).color(super::panel::ERROR).small(),
                         )
                         .wrap(),
                     );

@@ -7,6 +7,7 @@
 mod app;
 pub mod brush_panel;
 mod canvas;
+mod panel;
 mod state;
 pub mod stroke_panel;
 pub mod tf_panel;

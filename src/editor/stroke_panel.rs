@@ -126,16 +126,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Strokes");
-    let mut data = match state.node_data::<SolveData>(id) {
-        Ok(d) => d,
-        Err(e) => {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 90, 80),
-                format!("data block: {e}"),
-            );
-            return None;
-        }
-    };
+    let mut data = super::panel::data_block::<SolveData>(ui, state, id)?;
     let before = data.clone();
     ui.horizontal(|ui| {
         ui.label("brush");

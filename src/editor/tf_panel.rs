@@ -106,16 +106,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Transfer function");
-    let mut data = match state.node_data::<TfData>(id) {
-        Ok(d) => d,
-        Err(e) => {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 90, 80),
-                format!("data block: {e}"),
-            );
-            return None;
-        }
-    };
+    let mut data = super::panel::data_block::<TfData>(ui, state, id)?;
     let before = data.clone();
     let mut merge: Option<&str> = None;
     let mut message = None;

@@ -173,3 +173,48 @@ pub fn two_branches_ron(dir: &std::path::Path) -> String {
         dir.display()
     )
 }
+
+/// The outputs of one evaluation, by (node, port).
+pub struct Outputs {
+    gpu: Arc<tyndall::gpu::Gpu>,
+    values: BTreeMap<(String, String), PortValue>,
+}
+
+impl Outputs {
+    /// The value on `node.port`.
+    pub fn get(&self, node: &str, port: &str) -> &PortValue {
+        &self.values[&(node.to_string(), port.to_string())]
+    }
+
+    /// The value on `node.port`, read back.
+    pub fn read(&self, node: &str, port: &str) -> Raster {
+        tyndall::eval::download(&self.gpu, self.get(node, port)).expect("download")
+    }
+}
+
+/// Evaluate a graph written as RON for the `(node, port)` outputs at `size`.
+pub fn eval_ron(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    text: &str,
+    ports: &[(&str, &str)],
+    size: (u32, u32),
+) -> Outputs {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let g = tyndall::graph::load_str(text, std::path::Path::new("g.ron"), registry.catalog())
+        .expect("graph");
+    let targets: Vec<tyndall::eval::Target> = ports
+        .iter()
+        .map(|(n, p)| tyndall::eval::Target::Port(n.to_string(), p.to_string()))
+        .collect();
+    let opts = tyndall::eval::EvalOptions {
+        size,
+        ..Default::default()
+    };
+    let r = tyndall::eval::Evaluator::new(registry, gpu.clone())
+        .evaluate(&g, &targets, &opts)
+        .expect("evaluate");
+    Outputs {
+        gpu: gpu.clone(),
+        values: r.outputs,
+    }
+}
