@@ -17,7 +17,7 @@ use thiserror::Error;
 
 pub use convert::{download, upload_raster};
 pub use node::{with_suffix, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx};
-pub use value::{pixel_ray, Mat4, Matrices, PortValue, IDENTITY};
+pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;
 use crate::graph::{Graph, GraphError, NodeSchema, ParamValue};

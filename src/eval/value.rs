@@ -82,9 +82,23 @@ pub fn pixel_ray(
     w: u32,
     h: u32,
 ) -> glam::Vec3 {
+    let q = glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+    screen_ray(inv_view_proj, eye, q, w, h)
+}
+
+/// The unit world direction from `eye` through the screen point `q` (pixel units, continuous:
+/// (0, 0) is the top-left corner of a `w × h` image, y down): the CPU twin of the shaders'
+/// `screen_ray`.
+pub fn screen_ray(
+    inv_view_proj: glam::Mat4,
+    eye: glam::Vec3,
+    q: glam::Vec2,
+    w: u32,
+    h: u32,
+) -> glam::Vec3 {
     let ndc = glam::Vec4::new(
-        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+        q.x / w as f32 * 2.0 - 1.0,
+        1.0 - q.y / h as f32 * 2.0,
         1.0,
         1.0,
     );
