@@ -25,7 +25,8 @@
 //! Light map (SPEC §5): with `light_map` connected the sun reaching x is multiplied by the map's
 //! colour at x (bilinear, clamp to edge, in the map's own light projection), so the factored
 //! form no longer holds: `L_scat = σt ρ f E Σ_i V_i M(x_i) ∫_{interval i} E(t) dt` — the same
-//! interval weights as light extinction. `BruteForce` only; `MinMax` with a light map is refused.
+//! interval weights as light extinction. `BruteForce` only; `MinMax` or `Epipolar` with a light
+//! map is refused.
 //!
 //! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
 //! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
@@ -36,7 +37,12 @@
 //! mixed blocks are refined down to texels, where the lit length is solved exactly. It computes
 //! the limit of `BruteForce` as steps → ∞ (the same nearest-texel test and bias), so `steps`
 //! and `jitter` do not apply to it; its cost grows with the number of light/shadow transitions
-//! along a ray, not with the ray's length in texels.
+//! along a ray, not with the ray's length in texels. `Epipolar` (the fast method, after
+//! Engelhardt & Dachsbacher 2010, Yusov 2013 and Chen et al. 2011) traces only `epi_slices` ×
+//! `epi_samples` rays placed on epipolar lines through the sun's screen position, each through a
+//! 1D min-max tree over its line's rectified shadow-map texels, and interpolates every pixel from
+//! the four nearest samples whose depth is within `epi_threshold` of its own; pixels without one
+//! (depth discontinuities) trace their own ray as `MinMax` does. See "Method Epipolar" below.
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
@@ -61,11 +67,15 @@
 //! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
-//! | `method` | Enum | BruteForce | BruteForce, MinMax | visibility algorithm |
+//! | `method` | Enum | BruteForce | BruteForce, MinMax, Epipolar | visibility algorithm |
 //! | `bounds` | Enum | none | none, box, tagged | where the medium is |
 //! | `box_min`, `box_max` | Vec3 | (−5, 0, −5), (5, 5, 5) | ±1e6 m | the box (bounds = box) |
 //! | `light_extinction` | Enum | off | off, on | attenuate the sun through the medium |
 //! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
+//! | `epi_slices` | Int | 512 | 4…2048 | Epipolar quality knob: slices (lines through the epipole) |
+//! | `epi_samples` | Int | 256 | 2…4096 | Epipolar quality knob: traced rays per slice, ends included |
+//! | `epi_threshold` | Float | 0.02 | 0…100 | Epipolar quality knob: relative depth / medium-length difference above which a sample is not used for a pixel (0: every pixel traces its own ray) |
+//! | `tree_level` | Int | 0 | 0…14 | Epipolar quality knob: 1D tree nodes of 2^level texels at and below this level are estimated like `min_level`; 0 = exact |
 
 use glam::{Mat4, Vec3};
 use std::sync::Arc;
@@ -316,7 +326,7 @@ crate::uniforms! {
         pub tree_level: u32,
         /// Relative depth / medium-length threshold of a usable sample.
         pub threshold: f32,
-        /// Level being built (pass `epi_tree`).
+        /// Level being built (pass `epi_tree`); pixels in the fall-back list (`epi_fallback`).
         pub level: u32,
         /// Padding.
         pub _pad0: u32,
@@ -822,7 +832,11 @@ pub fn epipolar_geometry(
             let across = sun.cross(v).cross(sun);
             let line_d =
                 (light_texel(eye + across.normalize_or_zero()) - eye_texel).normalize_or(DVec2::X);
+            // Every ray of the slice leaves the eye's texel towards +line_d (its component
+            // across the sun points the way `across` does), so the line before the eye's texel
+            // is never walked.
             let (s_in, s_out) = clip_line(eye_texel, line_d, msize);
+            let s_in = s_in.max(0.0);
             let chord = (s_out - s_in).max(0.0);
             let line_o = if chord > 0.0 {
                 eye_texel + line_d * s_in
@@ -1367,8 +1381,9 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
 }
 
 /// Method `Epipolar` on the GPU: rectify each slice's line of the map and build its min-max
-/// tree (`epi_rectify`, `epi_tree` per level), trace the slices' samples (`epi_sample`), then
-/// interpolate every pixel or trace its own ray (`epi_gather`, which writes the outputs).
+/// tree (`epi_rectify`, `epi_tree` per level), trace the slices' samples (`epi_sample`),
+/// interpolate every pixel (`epi_gather`), and trace their own ray for the pixels it listed as
+/// having no usable sample (`epi_fallback`).
 /// `binds` are the `MinMax` dispatch's.
 fn dispatch_epipolar(
     gpu: &Gpu,
@@ -1398,6 +1413,11 @@ fn dispatch_epipolar(
     let tree = gpu.buffer_zeroed(u32::try_from(words).map_err(|_| too_many())?)?;
     let samples = gpu.texture(knobs.samples, knobs.slices, TexFormat::Rgba32F)?;
     let base = EpiParams::new(&g, knobs);
+    let constants = [
+        ("EXTINCTION", u.light_extinction as f64),
+        ("LIGHT_MAP", 0.0),
+        ("SOFT", 0.0),
+    ];
     let pass = |entry: &str, level: u32, extra: Option<(u32, Bind)>, size: (u32, u32)| {
         let e = EpiParams { level, ..base };
         let mut b = binds.to_vec();
@@ -1405,7 +1425,7 @@ fn dispatch_epipolar(
         b.push((17, Bind::Texture(&table)));
         b.push((18, Bind::Buffer(&tree)));
         b.extend(extra);
-        gpu.dispatch(SHADER, entry, &b, size.0, size.1)
+        gpu.dispatch_with(SHADER, entry, &b, size, &constants)
     };
     pass("epi_rectify", 0, None, (g.tree_n, knobs.slices))?;
 
@@ -1418,7 +1438,34 @@ fn dispatch_epipolar(
         Some((19, Bind::Storage(&samples))),
         (knobs.samples, knobs.slices),
     )?;
-    pass("epi_gather", 0, Some((20, Bind::Texture(&samples))), (w, h))?;
+    let list = gpu.buffer_zeroed(w * h)?;
+    let count = gpu.buffer_zeroed(1)?;
+    let with_list = |entry: &str, level: u32, size: (u32, u32)| {
+        let e = EpiParams { level, ..base };
+        let mut b = binds.to_vec();
+        b.push((16, Bind::Uniform(bytemuck::bytes_of(&e))));
+        b.push((17, Bind::Texture(&table)));
+        b.push((20, Bind::Texture(&samples)));
+        b.push((21, Bind::Buffer(&list)));
+        b.push((22, Bind::Buffer(&count)));
+        gpu.dispatch_with(SHADER, entry, &b, size, &constants)
+    };
+    with_list("epi_gather", 0, (w, h))?;
+    // The fall-back pixels (depth discontinuities) trace their own ray: one read-back of the
+    // count sizes that dispatch.
+    let n = gpu
+        .read_buffer_i32(&count)?
+        .first()
+        .copied()
+        .unwrap_or(0)
+        .max(0) as u32;
+    if n > 0 {
+        with_list(
+            "epi_fallback",
+            n.min(w * h),
+            (256, n.min(w * h).div_ceil(256)),
+        )?;
+    }
     Ok(())
 }
 
@@ -1577,6 +1624,9 @@ impl NodeKind for SingleScattering {
             (13, Bind::Texture(&phase)),
         ];
         let method = ctx.choice::<Method>("method")?;
+        // Pipeline constant: light extinction's code is compiled away when it is off.
+        let extinction_constant = if extinction { 1.0 } else { 0.0 };
+        let soft_constant = if soft.is_some() { 1.0 } else { 0.0 };
         binds.push((14, Bind::Volume(&soft_volume)));
         binds.push((15, Bind::Uniform(bytemuck::bytes_of(&sv))));
         if let Some((map, m)) = &light_map {
@@ -1597,13 +1647,25 @@ impl NodeKind for SingleScattering {
             };
             binds.push((11, Bind::Texture(map)));
             binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
-            ctx.gpu.dispatch(SHADER, "brute_force", &binds, w, h)?;
+            let constants = [
+                ("EXTINCTION", extinction_constant),
+                ("LIGHT_MAP", 1.0),
+                ("SOFT", soft_constant),
+            ];
+            ctx.gpu
+                .dispatch_with(SHADER, "brute_force", &binds, (w, h), &constants)?;
         } else if method != Method::BruteForce {
             let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
             binds.push((6, Bind::Texture(&atlas)));
             binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
             if method == Method::MinMax {
-                ctx.gpu.dispatch(SHADER, "min_max", &binds, w, h)?;
+                let constants = [
+                    ("EXTINCTION", extinction_constant),
+                    ("LIGHT_MAP", 0.0),
+                    ("SOFT", 0.0),
+                ];
+                ctx.gpu
+                    .dispatch_with(SHADER, "min_max", &binds, (w, h), &constants)?;
             } else {
                 let knobs = EpiKnobs {
                     slices: ctx.int("epi_slices")? as u32,
@@ -1624,7 +1686,13 @@ impl NodeKind for SingleScattering {
             let none = ctx.gpu.upload(1, 1, 4, &[1.0; 4])?;
             binds.push((11, Bind::Texture(&none)));
             binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
-            ctx.gpu.dispatch(SHADER, "brute_force", &binds, w, h)?;
+            let constants = [
+                ("EXTINCTION", extinction_constant),
+                ("LIGHT_MAP", 0.0),
+                ("SOFT", soft_constant),
+            ];
+            ctx.gpu
+                .dispatch_with(SHADER, "brute_force", &binds, (w, h), &constants)?;
         }
         ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
         ctx.set("inscatter", PortValue::Image(Arc::new(ins)));

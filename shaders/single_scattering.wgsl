@@ -41,6 +41,18 @@ struct SoftView {
 
 const PI: f32 = 3.14159265358979;
 
+// Pipeline constants, set by the node for each dispatch (the defaults keep every path): whether
+// light extinction, a light map and a soft visibility volume can be on. With one off, its code is compiled away; a SIMD
+// driver (lavapipe) otherwise steps through it, masked, in every loop iteration.
+override EXTINCTION: bool = true;
+override LIGHT_MAP: bool = true;
+override SOFT: bool = true;
+
+// Light extinction on (the pipeline allows it and the uniforms ask for it).
+fn extinction() -> bool {
+    return EXTINCTION && P.light_extinction != 0u;
+}
+
 fn hash(x: u32, y: u32) -> f32 {
     var v = (x * 1973u + y * 9277u + 26699u) | 1u;
     v = v * 747796405u + 2891336453u;
@@ -100,7 +112,7 @@ fn soft_visible(x: vec3<f32>) -> f32 {
 }
 
 fn visible(x: vec3<f32>) -> f32 {
-    if P.soft_slices != 0u {
+    if SOFT && P.soft_slices != 0u {
         return soft_visible(x);
     }
     let c = P.light_view_proj * vec4<f32>(x, 1.0);
@@ -231,7 +243,7 @@ fn weight(dir: vec3<f32>, t0: f32, a: f32, b: f32) -> f32 {
         return 0.0;
     }
     let sig = P.sigma_t;
-    if P.light_extinction == 0u {
+    if !extinction() {
         return exp(-sig * (a - t0)) * decay_integral(b - a, sig);
     }
     let l0 = light_line(dir, 0);
@@ -312,7 +324,7 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let t0 = seg.x;
     let len = max(seg.y - seg.x, 0.0);
     let offset = P.jitter * (hash(id.x, id.y) - 0.5);
-    let map = LM.enabled != 0u;
+    let map = LIGHT_MAP && LM.enabled != 0u;
     var lit = 0.0;
     var weighted = 0.0;
     var acc = vec3<f32>(0.0);
@@ -321,7 +333,10 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
         let x = P.eye + dir * t;
         let v = visible(x);
         lit += v;
-        if v > 0.0 && (map || P.light_extinction != 0u) {
+        // The uniform test first (see tree_ray): without a light map or light extinction the
+        // weight's code is skipped, not run masked.
+        if map || extinction() {
+            if v > 0.0 {
             // Sample i stands for its interval of the segment.
             let a = t0 + f32(i) / f32(P.steps) * len;
             let b = t0 + f32(i + 1u) / f32(P.steps) * len;
@@ -329,6 +344,7 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
             weighted += w;
             if map {
                 acc += w * light_map_at(x);
+            }
             }
         }
     }
@@ -348,7 +364,7 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
 fn store(p: vec2<u32>, dir: vec3<f32>, vbar: f32, len: f32, weighted: f32) {
     let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
     var k = base * transmittance_integral(len, P.sigma_t) * vbar;
-    if P.light_extinction != 0u {
+    if extinction() {
         k = base * weighted;
     }
     textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
@@ -474,7 +490,7 @@ fn map_ray(dir: vec3<f32>, s: f32) -> MapRay {
 // (V̄, medium length, lit weight) of a ray from the lit length and weight found inside the map.
 fn ray_result(r: MapRay, dir: vec3<f32>, lit_inside: f32, weighted_inside: f32) -> vec3<f32> {
     let len = r.t1 - r.t0;
-    let ext = P.light_extinction != 0u;
+    let ext = extinction();
     var lit = len;
     var weighted = 0.0;
     if ext {
@@ -498,7 +514,7 @@ fn min_max_ray(dir: vec3<f32>, s: f32) -> vec3<f32> {
     let d = r.d;
     let t0 = r.t0;
     let tout = r.tout;
-    let ext = P.light_extinction != 0u;
+    let ext = extinction();
     let msize = vec2<f32>(textureDimensions(shadow));
     var lit = 0.0;
     var weighted = 0.0;
@@ -625,6 +641,7 @@ struct Epi {
     tree_top: u32,
     tree_level: u32,
     threshold: f32,
+    // Level being built (epi_tree); number of listed pixels (epi_fallback).
     level: u32,
     _pad0: u32,
     _pad1: u32,
@@ -715,7 +732,7 @@ fn texel_walk(r: MapRay, dir: vec3<f32>, t_from: f32, t_to: f32, max_cells: u32)
     var lit = 0.0;
     var weighted = 0.0;
     var t = t_from;
-    let ext = P.light_extinction != 0u;
+    let ext = extinction();
     for (var i = 0u; i < max_cells; i++) {
         if t >= t_to {
             break;
@@ -765,7 +782,7 @@ fn tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
     let top = E.tree_top;
     let coarse = E.tree_level;
     let row = k * 2u * n;
-    let ext = P.light_extinction != 0u;
+    let ext = extinction();
     var level = top;
     var t = r.tin;
     var iter = 0u;
@@ -821,8 +838,12 @@ fn tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
             weighted += w.y;
         }
         lit += (lit_end - t) * share;
-        if ext && lit_end > t && share > 0.0 {
-            weighted += weight(dir, r.t0, t, lit_end) * share;
+        // `ext` is uniform: branching on it first lets a SIMD driver (lavapipe) skip the
+        // weight's code when light extinction is off instead of running it masked.
+        if ext {
+            if lit_end > t && share > 0.0 {
+                weighted += weight(dir, r.t0, t, lit_end) * share;
+            }
         }
         t = t_next;
         level = next_level;
@@ -837,7 +858,7 @@ fn tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
 
 // The lit share of a ray's weight (1 when it is 0 or light extinction is off).
 fn lit_fraction(dir: vec3<f32>, len: f32, weighted: f32, s: f32) -> f32 {
-    if P.light_extinction == 0u {
+    if !extinction() {
         return 1.0;
     }
     let t0 = medium_segment(dir, s).x;
@@ -955,7 +976,12 @@ fn epi_interpolate(pc: vec2<f32>, s: f32, len: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// Every pixel: interpolated from the samples, or its own MinMax ray where none is usable.
+@group(0) @binding(21) var<storage, read_write> fallback: array<u32>;
+@group(0) @binding(22) var<storage, read_write> fallback_count: array<atomic<u32>>;
+
+// Every pixel interpolated from the samples; one with no usable sample is appended to the
+// fall-back list (its own ray is traced by `epi_fallback`: kept out of this pass, whose SIMD
+// lanes would otherwise all step through the MinMax walk's code masked).
 @compute @workgroup_size(8, 8)
 fn epi_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(depth);
@@ -969,12 +995,27 @@ fn epi_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let got = epi_interpolate(vec2<f32>(id.xy) + 0.5, s, len);
     if got.z > 0.5 {
         var weighted = 0.0;
-        if P.light_extinction != 0u {
+        if extinction() {
             weighted = got.y * weight(dir, seg.x, seg.x, seg.x + len);
         }
         store(id.xy, dir, got.x, len, weighted);
     } else {
-        let r = min_max_ray(dir, s);
-        store(id.xy, dir, r.x, r.y, r.z);
+        let slot = atomicAdd(&fallback_count[0], 1u);
+        fallback[min(slot, arrayLength(&fallback) - 1u)] = id.y * size.x + id.x;
     }
+}
+
+// The listed pixels (E.level of them, 256 per row of the dispatch) trace their own MinMax ray.
+@compute @workgroup_size(8, 8)
+fn epi_fallback(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.y * 256u + id.x;
+    if id.x >= 256u || i >= E.level {
+        return;
+    }
+    let size = textureDimensions(depth);
+    let index = fallback[i];
+    let p = vec2<u32>(index % size.x, min(index / size.x, size.y - 1u));
+    let dir = view_ray(p, size);
+    let r = min_max_ray(dir, textureLoad(depth, p, 0).r);
+    store(p, dir, r.x, r.y, r.z);
 }

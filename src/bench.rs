@@ -49,13 +49,14 @@ pub struct Suite {
     pub references: BTreeMap<String, BTreeMap<String, String>>,
     /// The measured settings.
     pub configs: Vec<BTreeMap<String, String>>,
-    /// Error bound for the speed-up comparison.
+    /// Error bounds of the speed-up comparison (one speed-up line per bound).
     #[serde(default)]
-    pub target_rmse: f64,
-    /// `(parameter, baseline value, accelerated value)`: the speed-up reported is the time of the
-    /// fastest baseline setting within `target_rmse` over that of the fastest accelerated one.
+    pub target_rmse: Vec<f64>,
+    /// `(parameter, baseline value, accelerated values)`: for each accelerated value and each
+    /// bound, the speed-up reported is the time of the fastest baseline setting within the bound
+    /// over that of the fastest setting with the accelerated value within it.
     #[serde(default)]
-    pub compare: Option<(String, String, String)>,
+    pub compare: Option<(String, String, Vec<String>)>,
     /// Kernel-size parameters: rows equal in every other key form a group, and each row's time
     /// is also given relative to its group's first row (cost growth with kernel size).
     #[serde(default)]
@@ -468,20 +469,41 @@ fn describe(p: &BTreeMap<String, String>) -> String {
         .join(" ")
 }
 
-/// The speed-up of the fastest accelerated setting over the fastest baseline setting, both within
-/// the suite's RMSE bound: `(baseline row, accelerated row, factor)`.
-pub fn speedup<'a>(suite: &Suite, rows: &'a [Row]) -> Option<(&'a Row, &'a Row, f64)> {
-    let (param, base, acc) = suite.compare.as_ref()?;
+/// The speed-up of the fastest setting with parameter value `acc` over the fastest baseline
+/// setting, both within RMSE `bound`: `(baseline row, accelerated row, factor)`.
+pub fn speedup<'a>(
+    suite: &Suite,
+    rows: &'a [Row],
+    acc: &str,
+    bound: f64,
+) -> Option<(&'a Row, &'a Row, f64)> {
+    let (param, base, _) = suite.compare.as_ref()?;
     let best = |value: &str| {
         rows.iter()
-            .filter(|r| {
-                r.params.get(param).map(String::as_str) == Some(value)
-                    && r.rmse <= suite.target_rmse
-            })
+            .filter(|r| r.params.get(param).map(String::as_str) == Some(value) && r.rmse <= bound)
             .min_by(|a, b| a.median_ms.total_cmp(&b.median_ms))
     };
     let (b, a) = (best(base)?, best(acc)?);
     Some((b, a, b.median_ms / a.median_ms.max(1e-9)))
+}
+
+/// The suite files a bench name stands for: `benches/NAME.ron`, every `.ron` file of the folder
+/// `benches/NAME/` (in name order), or the path itself.
+pub fn suite_files(name: &str) -> Result<Vec<PathBuf>, BenchError> {
+    if name.ends_with(".ron") {
+        return Ok(vec![PathBuf::from(name)]);
+    }
+    let dir = Path::new("benches").join(name);
+    if dir.is_dir() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .map_err(|e| BenchError::Input(format!("{}: {e}", dir.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+            .collect();
+        files.sort();
+        return Ok(files);
+    }
+    Ok(vec![dir.with_extension("ron")])
 }
 
 fn cell(v: f64, digits: usize) -> String {

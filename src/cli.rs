@@ -48,7 +48,7 @@ pub enum Command {
     },
     /// Measure speed against accuracy of a node's quality settings (suites in benches/).
     Bench {
-        /// Suite name (`benches/NAME.ron`) or path.
+        /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path.
         #[arg(default_value = "visibility")]
         suite: String,
         /// Runs per setting (default: the suite's).
@@ -57,7 +57,8 @@ pub enum Command {
         /// Evaluation size WIDTHxHEIGHT (default: the suite's).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
-        /// CSV file to write (default: out/bench/NAME.csv).
+        /// CSV file to write (default: out/bench/NAME.csv); for a folder of suites, the folder
+        /// to write one CSV per suite in (default: out/bench/NAME/).
         #[arg(long)]
         csv: Option<PathBuf>,
     },
@@ -703,17 +704,46 @@ fn run_bench(
     size: Option<(u32, u32)>,
     csv: Option<PathBuf>,
 ) -> Result<(), CliError> {
-    let path = if suite.ends_with(".ron") {
-        PathBuf::from(suite)
-    } else {
-        PathBuf::from(format!("benches/{suite}.ron"))
-    };
-    let spec = crate::bench::load_suite(&path).map_err(bad)?;
+    let files = crate::bench::suite_files(suite).map_err(bad)?;
+    let several = files.len() > 1;
+    for (i, path) in files.iter().enumerate() {
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "bench".into());
+        // One suite: the CSV file given or out/bench/NAME.csv; a folder of suites: one CSV per
+        // suite in the folder given or out/bench/SUITE/.
+        let csv_path = match (&csv, several) {
+            (Some(c), false) => c.clone(),
+            (Some(c), true) => c.join(format!("{name}.csv")),
+            (None, false) => PathBuf::from(format!("out/bench/{name}.csv")),
+            (None, true) => PathBuf::from(format!("out/bench/{suite}/{name}.csv")),
+        };
+        if i > 0 {
+            println!();
+        }
+        run_suite(
+            registry.clone(),
+            suite,
+            path,
+            &name,
+            (runs, size),
+            &csv_path,
+        )?;
+    }
+    Ok(())
+}
+
+fn run_suite(
+    registry: Arc<Registry>,
+    suite: &str,
+    path: &Path,
+    name: &str,
+    (runs, size): (Option<usize>, Option<(u32, u32)>),
+    csv_path: &Path,
+) -> Result<(), CliError> {
+    let spec = crate::bench::load_suite(path).map_err(bad)?;
     let gpu = gpu()?;
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "bench".into());
     println!("{}", spec.title);
     println!("adapter: {}", gpu.describe());
     let size = size.unwrap_or(spec.size);
@@ -722,7 +752,7 @@ fn run_bench(
         "size {}x{}, {runs} runs per setting, command: tyndall bench {suite}",
         size.0, size.1
     );
-    let rows = crate::bench::run(registry, gpu, &path, &spec, runs, size, |line| {
+    let rows = crate::bench::run(registry, gpu, path, &spec, runs, size, |line| {
         eprintln!("bench {name}: {line}")
     })
     .map_err(|e| match e {
@@ -730,23 +760,26 @@ fn run_bench(
         other => bad(other),
     })?;
     print!("{}", crate::bench::table(&rows));
-    if spec.compare.is_some() {
-        match crate::bench::speedup(&spec, &rows) {
-            Some((b, a, f)) => println!(
-                "speed-up at RMSE <= {}: {:.2}x ({} {:.3} ms vs {} {:.3} ms)",
-                spec.target_rmse, f, b.setting, b.median_ms, a.setting, a.median_ms
-            ),
-            None => println!(
-                "speed-up at RMSE <= {}: not measurable (a method never reached it)",
-                spec.target_rmse
-            ),
+    if let Some((_, _, accelerated)) = &spec.compare {
+        for acc in accelerated {
+            for &bound in &spec.target_rmse {
+                match crate::bench::speedup(&spec, &rows, acc, bound) {
+                    Some((b, a, f)) => println!(
+                        "speed-up of {acc} at RMSE <= {bound}: {f:.2}x ({} {:.3} ms vs {} {:.3} ms)",
+                        b.setting, b.median_ms, a.setting, a.median_ms
+                    ),
+                    None => println!(
+                        "speed-up of {acc} at RMSE <= {bound}: not measurable (a method never \
+                         reached it)"
+                    ),
+                }
+            }
         }
     }
-    let csv_path = csv.unwrap_or_else(|| PathBuf::from(format!("out/bench/{name}.csv")));
     if let Some(dir) = csv_path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| bad(format!("{}: {e}", dir.display())))?;
     }
-    std::fs::write(&csv_path, crate::bench::csv(&rows))
+    std::fs::write(csv_path, crate::bench::csv(&rows))
         .map_err(|e| bad(format!("{}: {e}", csv_path.display())))?;
     println!("csv: {}", csv_path.display());
     Ok(())

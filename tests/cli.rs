@@ -303,7 +303,7 @@ fn bench_visibility_runs_and_writes_its_csv() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let csv = dir.path().join("v.csv");
-    let suite = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/visibility.ron");
+    let suite = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/visibility/tree.ron");
     let o = tyndall(&[
         "bench",
         &suite.display().to_string(),
@@ -316,18 +316,61 @@ fn bench_visibility_runs_and_writes_its_csv() {
     ]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for line in [
+        "method=MinMax",
+        "method=Epipolar",
+        "speed-up of MinMax at RMSE <= 0.005",
+        "speed-up of Epipolar at RMSE <= 0.005",
+        "speed-up of Epipolar at RMSE <= 0.001",
+    ] {
+        assert!(out.contains(line), "{line}: {out}");
+    }
+    let rows = std::fs::read_to_string(&csv).expect("csv");
+    assert_eq!(rows.lines().count(), 34, "{rows}");
+    // MinMax at min_level 0 is exact: within the 4096-step reference's own sampling error.
+    let exact = rows
+        .lines()
+        .find(|l| l.contains("min_level=0"))
+        .expect("MinMax row");
+    let rmse: f64 = exact
+        .split(',')
+        .nth(3)
+        .expect("rmse column")
+        .parse()
+        .expect("number");
+    assert!(rmse <= 2e-3, "{exact}");
+}
+
+/// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
+#[test]
+fn bench_folder_runs_every_suite() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "bench",
+            "visibility",
+            "--runs",
+            "1",
+            "--size",
+            "8x4",
+            "--csv",
+        ])
+        .arg(dir.path())
+        .output()
+        .expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
     assert!(
-        out.contains("method=MinMax") && out.contains("speed-up at RMSE <= 0.005"),
+        out.contains("(tree, 2048² map)") && out.contains("(window, 2048² map)"),
         "{out}"
     );
-    let rows = std::fs::read_to_string(&csv).expect("csv");
-    assert_eq!(rows.lines().count(), 15, "{rows}");
-    // The reference setting measured again reproduces the reference exactly.
-    let again = rows
-        .lines()
-        .find(|l| l.contains("steps=4096"))
-        .expect("4096 row");
-    assert!(again.contains(",0.00000000,0.00000000,"), "{again}");
+    for name in ["tree.csv", "window.csv"] {
+        assert!(dir.path().join(name).is_file(), "{name} missing");
+    }
 }
 
 #[test]

@@ -11,7 +11,8 @@ use tyndall::eval::{download, EvalOptions, Evaluator, Matrices, PortValue, Targe
 use tyndall::graph::{Graph, ParamValue};
 use tyndall::io::Raster;
 use tyndall::nodes::single_scattering::{
-    henyey_greenstein, reference_pixel, transmittance_integral, Medium, ScatterParams,
+    epipolar_reference, henyey_greenstein, reference_pixel, transmittance_integral, EpiKnobs,
+    Medium, ScatterParams,
 };
 
 /// What a scattering evaluation produced, read back.
@@ -415,7 +416,12 @@ fn synthetic(gpu: &Arc<tyndall::gpu::Gpu>, fill: f32, method: &str, steps: i64) 
 #[test]
 fn empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly() {
     let gpu = require_gpu!();
-    for (method, steps) in [("BruteForce", 1), ("BruteForce", 97), ("MinMax", 1)] {
+    for (method, steps) in [
+        ("BruteForce", 1),
+        ("BruteForce", 97),
+        ("MinMax", 1),
+        ("Epipolar", 1),
+    ] {
         assert!(
             synthetic(&gpu, 1.0, method, steps)
                 .data
@@ -1219,4 +1225,242 @@ fn tagged_medium_from_gltf_equals_the_same_box() {
     assert_eq!(a.inscatter, b.inscatter);
     assert_eq!(a.transmittance, b.transmittance);
     assert!(a.inscatter.data.iter().any(|v| *v > 0.0));
+}
+
+// ---- Method Epipolar ---------------------------------------------------------------------
+
+fn int(v: i64) -> ParamValue {
+    ParamValue::Int(v)
+}
+
+/// SingleScattering parameters of method Epipolar with these knobs.
+fn epipolar(k: EpiKnobs) -> Params {
+    vec![
+        ("method", en("Epipolar")),
+        ("epi_slices", int(k.slices as i64)),
+        ("epi_samples", int(k.samples as i64)),
+        ("epi_threshold", p(k.threshold as f64)),
+        ("tree_level", int(k.tree_level as i64)),
+    ]
+}
+
+fn rmse(a: &Raster, b: &Raster) -> f64 {
+    let sq: f64 = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| ((x - y) as f64).powi(2))
+        .sum();
+    (sq / a.data.len() as f64).sqrt()
+}
+
+/// The tree scene seen by a custom camera at the scene camera's position, looking along `look`
+/// (e.g. towards the sun: the epipole at the image centre).
+fn tree_looking(look: impl Fn(Vec3) -> Vec3) -> Params {
+    let gpu = tyndall::gpu::Gpu::shared().expect("gpu");
+    let r = run_scene(&gpu, &[("name", en("tree"))], 64, (8, 8), &[]);
+    let eye = r.camera.eye();
+    let target = eye + look(r.light.backward()) * 10.0;
+    vec![
+        ("name", en("tree")),
+        ("camera", en("custom")),
+        ("cam_x", p(eye.x as f64)),
+        ("cam_y", p(eye.y as f64)),
+        ("cam_z", p(eye.z as f64)),
+        ("target_x", p(target.x as f64)),
+        ("target_y", p(target.y as f64)),
+        ("target_z", p(target.z as f64)),
+    ]
+}
+
+/// The GPU's Epipolar V̄ equals its CPU reference (`epipolar_reference`: the same slices,
+/// trees, samples, interpolation and fall-back, in Rust) with the epipole off screen (the tree's
+/// camera), on screen (looking at the sun) and behind the camera, exact and with estimated tree
+/// levels. A pixel may flip between interpolation and fall-back where a depth difference lies
+/// within rounding of the threshold, so up to 1 % of pixels may differ by more than 1e-3.
+#[test]
+fn epipolar_matches_its_cpu_reference() {
+    let gpu = require_gpu!();
+    let cases: [(&str, Params, u32); 4] = [
+        ("scene camera", vec![("name", en("tree"))], 0),
+        ("towards the sun", tree_looking(|s| s), 0),
+        ("away from the sun", tree_looking(|s| -s), 0),
+        ("estimated tree levels", vec![("name", en("tree"))], 3),
+    ];
+    for (what, scene, tree_level) in cases {
+        let knobs = EpiKnobs {
+            slices: 48,
+            samples: 24,
+            threshold: 0.02,
+            tree_level,
+        };
+        let r = run_scene(&gpu, &scene, 256, (64, 36), &epipolar(knobs));
+        let params = ScatterParams::new(&r.camera, &r.light, medium(1, 0.0));
+        let cpu = epipolar_reference(&params, &r.shadow, &r.depth, knobs);
+        let diffs: Vec<f32> = r
+            .vis
+            .data
+            .iter()
+            .zip(&cpu)
+            .map(|(a, b)| (a - b).abs())
+            .collect();
+        let off = diffs.iter().filter(|d| **d > 1e-3).count();
+        let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
+        assert!(
+            off * 100 <= diffs.len(),
+            "{what}: {off} of {} pixels differ by more than 1e-3",
+            diffs.len()
+        );
+        assert!(mean <= 2e-4, "{what}: mean difference {mean}");
+        assert_finite(&r, what);
+    }
+}
+
+/// At its finest setting Epipolar converges to the brute-force limit: RMSE ≤ 1e-3 against 4096
+/// steps (the issue's bound; 4096 steps is itself within ~3e-4 of the limit on this map).
+#[test]
+fn epipolar_finest_setting_converges_to_brute_force() {
+    let gpu = require_gpu!();
+    let scene = [("name", en("tree"))];
+    let size = (96, 54);
+    let reference = run_scene(
+        &gpu,
+        &scene,
+        1024,
+        size,
+        &[("method", en("BruteForce")), ("steps", int(4096))],
+    );
+    let finest = EpiKnobs {
+        slices: 2048,
+        samples: 1024,
+        threshold: 0.005,
+        tree_level: 0,
+    };
+    let coarse = EpiKnobs {
+        slices: 16,
+        samples: 8,
+        threshold: 1.0,
+        tree_level: 6,
+    };
+    let fine = rmse(
+        &run_scene(&gpu, &scene, 1024, size, &epipolar(finest)).vis,
+        &reference.vis,
+    );
+    let rough = rmse(
+        &run_scene(&gpu, &scene, 1024, size, &epipolar(coarse)).vis,
+        &reference.vis,
+    );
+    assert!(fine <= 1e-3, "finest setting: RMSE {fine}");
+    assert!(
+        rough > fine,
+        "the knobs trade accuracy: coarse {rough} vs finest {fine}"
+    );
+}
+
+/// Epipolar with a bounded medium and light extinction, and on a manipulated (closed) map,
+/// agrees with MinMax (exact) on the same inputs. On the closed map V̄ is within the bench's
+/// target (RMSE 0.005). In the box the in-scatter is (RMSE ≤ 0.5 % of its peak; measured 0.2 %);
+/// V̄ itself is allowed 0.02 (measured 0.013): rays grazing the box's top face have short
+/// stretches in the medium whose average visibility changes faster across pixels than depth or
+/// medium length tell, and carry little in-scatter.
+#[test]
+fn epipolar_works_with_bounded_media_and_manipulated_maps() {
+    let gpu = require_gpu!();
+    let knobs = EpiKnobs {
+        slices: 256,
+        samples: 128,
+        threshold: 0.02,
+        tree_level: 0,
+    };
+    let (lo, hi) = tree_box().expect("box");
+    let bounds = vec![
+        ("bounds", en("box")),
+        ("box_min", v3([lo.x as f64, lo.y as f64, lo.z as f64])),
+        ("box_max", v3([hi.x as f64, hi.y as f64, hi.z as f64])),
+        ("light_extinction", en("on")),
+        ("sigma_t", p(0.3)),
+    ];
+    let scene = [("name", en("tree"))];
+    let mut epi = epipolar(knobs);
+    epi.extend(bounds.clone());
+    let mut exact = vec![("method", en("MinMax"))];
+    exact.extend(bounds);
+    let a = run_scene(&gpu, &scene, 512, (128, 72), &epi);
+    let b = run_scene(&gpu, &scene, 512, (128, 72), &exact);
+    let vis = rmse(&a.vis, &b.vis);
+    let peak = b.inscatter.data.iter().cloned().fold(0.0f32, f32::max) as f64;
+    let ins = rmse(&a.inscatter, &b.inscatter) / peak;
+    assert!(vis <= 0.02, "bounded V̄ RMSE {vis}");
+    assert!(ins <= 0.005, "bounded in-scatter RMSE / peak {ins}");
+    assert_finite(&a, "bounded");
+
+    // A closed map: shadow → Closure2D → both methods.
+    let graph = |method: &str| {
+        format!(
+            r#"(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"name": "tree"}}),
+        "shadow": (kind: "ShadowMap", params: {{"resolution": 512}}),
+        "close": (kind: "Closure2D", params: {{"radius": 6.0}}),
+        "gbuffer": (kind: "GBuffer"),
+        "scatter": (kind: "SingleScattering", params: {{"method": "{method}", "epi_slices": 256, "epi_samples": 128}}),
+    }},
+    edges: [
+        ("scene.scene", "shadow.scene"),
+        ("scene.scene", "gbuffer.scene"),
+        ("shadow.map", "close.map"),
+        ("close.map", "scatter.shadow"),
+        ("gbuffer.depth", "scatter.depth"),
+    ],
+)"#
+        )
+    };
+    let run = |method: &str| {
+        common::eval_ron(
+            &gpu,
+            &graph(method),
+            &[("scatter", "visibility")],
+            (128, 72),
+        )
+        .read("scatter", "visibility")
+    };
+    let closed = rmse(&run("Epipolar"), &run("MinMax"));
+    assert!(closed <= 0.005, "closed map V̄ RMSE {closed}");
+}
+
+/// Stability: the sun on the view axis (epipole at the image centre, exactly on a pixel centre
+/// for an odd size and on a pixel corner for an even one), behind the camera, a one-pixel-wide
+/// and a one-pixel-high image: every output finite, V̄ in [0, 1], and V̄ close to MinMax (RMSE ≤
+/// 0.02 at these tiny sizes, where a few slices span the whole image).
+#[test]
+fn epipolar_stability_at_the_epipole_extremes() {
+    let gpu = require_gpu!();
+    let knobs = EpiKnobs {
+        slices: 64,
+        samples: 32,
+        threshold: 0.02,
+        tree_level: 0,
+    };
+    let towards = tree_looking(|s| s);
+    let away = tree_looking(|s| -s);
+    let cases: [(&str, &Params, (u32, u32)); 6] = [
+        ("epipole on a pixel centre", &towards, (33, 19)),
+        ("epipole on a pixel corner", &towards, (32, 18)),
+        ("sun behind the camera", &away, (33, 19)),
+        ("one pixel wide", &towards, (1, 24)),
+        ("one pixel high", &away, (24, 1)),
+        ("one pixel", &towards, (1, 1)),
+    ];
+    for (what, scene, size) in cases {
+        let a = run_scene(&gpu, scene, 256, size, &epipolar(knobs));
+        assert_finite(&a, what);
+        assert!(
+            a.vis.data.iter().all(|v| (0.0..=1.0).contains(v)),
+            "{what}: V̄ outside [0, 1]"
+        );
+        let b = run_scene(&gpu, scene, 256, size, &[("method", en("MinMax"))]);
+        let e = rmse(&a.vis, &b.vis);
+        assert!(e <= 0.02, "{what}: RMSE against MinMax {e}");
+    }
 }

@@ -348,7 +348,8 @@ impl Gpu {
         })
     }
 
-    /// A storage buffer of `words` 32-bit zeros.
+    /// A storage buffer of `words` 32-bit zeros (WebGPU zero-initialises every new buffer, on
+    /// the device; no zeros are uploaded).
     pub fn buffer_zeroed(&self, words: u32) -> Result<GpuBuffer, GpuError> {
         let size = (words.max(1) as u64) * 4;
         if size > self.limits.max_storage_buffer_binding_size {
@@ -357,16 +358,14 @@ impl Gpu {
             )));
         }
         let raw = self.scoped(|| {
-            let raw = self.device.create_buffer(&wgpu::BufferDescriptor {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("storage"),
                 size,
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::COPY_SRC
                     | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
-            });
-            self.queue.write_buffer(&raw, 0, &vec![0u8; size as usize]);
-            raw
+            })
         })?;
         Ok(GpuBuffer { raw, words })
     }
@@ -519,8 +518,12 @@ impl Gpu {
         shader: Shader,
         entry: &str,
         binds: &[(u32, Bind)],
+        constants: &[(&str, f64)],
     ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
         let mut key = format!("{}:{entry}", shader.stem);
+        for (name, value) in constants {
+            key.push_str(&format!(":{name}={value}"));
+        }
         for (n, b) in binds {
             key.push_str(&format!(":{n}"));
             key.push_str(match b {
@@ -616,7 +619,10 @@ impl Gpu {
                             layout: Some(&layout),
                             module: &module,
                             entry_point: Some(entry),
-                            compilation_options: Default::default(),
+                            compilation_options: wgpu::PipelineCompilationOptions {
+                                constants,
+                                ..Default::default()
+                            },
                             cache: None,
                         }),
                 )
@@ -642,7 +648,23 @@ impl Gpu {
         width: u32,
         height: u32,
     ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds)?;
+        self.dispatch_with(shader, entry, binds, (width, height), &[])
+    }
+
+    /// [`Gpu::dispatch`] with values for the shader's pipeline-overridable constants
+    /// (`override NAME: T = default;` in WGSL): each set of values is its own cached pipeline, and
+    /// the driver compiles branches on them away. For switches that stay fixed over a dispatch
+    /// (a mode of the node): code behind a uniform-buffer flag is still compiled in and, on SIMD
+    /// drivers such as lavapipe, may be stepped through masked in every loop iteration.
+    pub fn dispatch_with(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        (width, height): (u32, u32),
+        constants: &[(&str, f64)],
+    ) -> Result<(), GpuError> {
+        let pipeline = self.pipeline(shader, entry, binds, constants)?;
         let groups = [width.div_ceil(8), height.div_ceil(8), 1];
         self.scoped(|| self.record(&pipeline, shader, binds, groups))?
     }
@@ -656,7 +678,7 @@ impl Gpu {
         binds: &[(u32, Bind)],
         size: [u32; 3],
     ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds)?;
+        let pipeline = self.pipeline(shader, entry, binds, &[])?;
         let groups = size.map(|s| s.div_ceil(4));
         self.scoped(|| self.record(&pipeline, shader, binds, groups))?
     }
