@@ -1430,8 +1430,9 @@ fn epipolar_works_with_bounded_media_and_manipulated_maps() {
 }
 
 /// Stability: the sun on the view axis (epipole at the image centre, exactly on a pixel centre
-/// for an odd size and on a pixel corner for an even one), behind the camera, a one-pixel-wide
-/// and a one-pixel-high image: every output finite, V̄ in [0, 1], and V̄ close to MinMax (RMSE ≤
+/// for an odd size and on a pixel corner for an even one), behind the camera, at right angles to
+/// the view axis (epipole at infinity), far off screen, a one-pixel-wide and a one-pixel-high
+/// image (empty and fully occluded maps: `empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly`): every output finite, V̄ in [0, 1], and V̄ close to MinMax (RMSE ≤
 /// 0.02 at these tiny sizes, where a few slices span the whole image).
 #[test]
 fn epipolar_stability_at_the_epipole_extremes() {
@@ -1444,10 +1445,21 @@ fn epipolar_stability_at_the_epipole_extremes() {
     };
     let towards = tree_looking(|s| s);
     let away = tree_looking(|s| -s);
-    let cases: [(&str, &Params, (u32, u32)); 6] = [
+    // The sun in the image plane (epipole at infinity: slices parallel) and 63° off the view
+    // axis (epipole far off screen).
+    let across = |s: Vec3| s.cross(Vec3::Y).normalize();
+    let right_angle = tree_looking(across);
+    let far_off = tree_looking(|s| (s + 2.0 * across(s)).normalize());
+    let cases: [(&str, &Params, (u32, u32)); 8] = [
         ("epipole on a pixel centre", &towards, (33, 19)),
         ("epipole on a pixel corner", &towards, (32, 18)),
         ("sun behind the camera", &away, (33, 19)),
+        (
+            "sun at right angles to the view axis",
+            &right_angle,
+            (48, 27),
+        ),
+        ("sun far off screen", &far_off, (48, 27)),
         ("one pixel wide", &towards, (1, 24)),
         ("one pixel high", &away, (24, 1)),
         ("one pixel", &towards, (1, 1)),

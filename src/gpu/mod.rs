@@ -45,6 +45,14 @@ pub enum GpuError {
     },
 }
 
+/// Whether `TYNDALL_TRACE_PASSES` is set (and not `0`): every 2D compute pass then waits for the
+/// device before and after it and prints `pass STEM:ENTRY WxH: MS ms` on stderr — a per-pass
+/// profile of a node (it serialises the GPU, so whole-node times grow).
+fn tracing() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("TYNDALL_TRACE_PASSES").is_some_and(|v| v != "0"))
+}
+
 /// One binding of a compute dispatch (paired with its binding number in group 0).
 #[derive(Clone, Copy)]
 pub enum Bind<'a> {
@@ -666,7 +674,20 @@ impl Gpu {
     ) -> Result<(), GpuError> {
         let pipeline = self.pipeline(shader, entry, binds, constants)?;
         let groups = [width.div_ceil(8), height.div_ceil(8), 1];
-        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
+        let start = tracing().then(|| {
+            let _ = self.wait();
+            std::time::Instant::now()
+        });
+        self.scoped(|| self.record(&pipeline, shader, binds, groups))??;
+        if let Some(start) = start {
+            self.wait()?;
+            eprintln!(
+                "pass {}:{entry} {width}x{height}: {:.2} ms",
+                shader.stem,
+                start.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        Ok(())
     }
 
     /// Run compute entry point `entry` (`@workgroup_size(4, 4, 4)`) over `size` invocations in
