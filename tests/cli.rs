@@ -341,6 +341,37 @@ fn bench_visibility_runs_and_writes_its_csv() {
     assert!(rmse <= 2e-3, "{exact}");
 }
 
+/// A first run without `XDG_RUNTIME_DIR` (CI, cron, a farm node) renders without printing the
+/// driver's "error: XDG_RUNTIME_DIR is invalid or not set" lines.
+#[test]
+fn no_driver_error_lines_without_xdg_runtime_dir() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("t.png");
+    let preset = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/tree.ron");
+    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .env_remove("XDG_RUNTIME_DIR")
+        .args([
+            "render",
+            &preset.display().to_string(),
+            "--size",
+            "32x18",
+            "-o",
+        ])
+        .arg(&png)
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(png.is_file());
+    assert!(
+        !err.lines().any(|l| l.trim_start().starts_with("error:")),
+        "{err}"
+    );
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -82,3 +82,30 @@ fn writing_replaces_non_finite_and_refuses_bad_combinations() {
     std::fs::write(dir.path().join("garbage.exr"), b"not an exr").expect("w");
     assert!(read_image(&dir.path().join("garbage.exr"), false).is_err());
 }
+
+/// Image writes are atomic: several threads writing the same file at once each go through
+/// their own temporary file, every write succeeds, the result is one complete image, and no
+/// temporary file is left beside it.
+#[test]
+fn concurrent_writes_of_one_file_leave_one_complete_image() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("same.exr");
+    std::thread::scope(|s| {
+        for k in 0..6 {
+            let path = path.clone();
+            s.spawn(move || {
+                let r = Raster::new(64, 32, 4, k as f32);
+                write_image(&path, &r, Precision::F32, false).expect("write");
+            });
+        }
+    });
+    let back = read_image(&path, false).expect("read");
+    assert_eq!((back.width, back.height), (64, 32));
+    let v = back.data[0];
+    assert!(back.data.iter().all(|x| *x == v), "one writer's image, whole");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, vec!["same.exr".to_string()], "{names:?}");
+}

@@ -238,7 +238,7 @@ fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
 /// as `R`,`G`,`B`,`A`) or PNG (`U8`/`U16`; one channel as grey, three or four as RGBA (alpha 1
 /// for three), colour channels sRGB-encoded when
 /// `srgb`). Missing parent folders are created. Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
-/// atomic (temporary file, then rename).
+/// atomic (temporary file beside the target, flushed to disk, then renamed over it).
 pub fn write_image(
     path: &Path,
     r: &Raster,
@@ -275,7 +275,10 @@ pub fn write_image(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
-    let tmp = dir.join(format!(".{name}.tmp{}.{ext}", std::process::id()));
+    // Unique per process and per write (two evaluations may write the same file at once).
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.tmp{}-{n}.{ext}", std::process::id()));
     let mut clean = r.clone();
     for v in &mut clean.data {
         if !v.is_finite() {
@@ -298,7 +301,16 @@ pub fn write_image(
         FileKind::Exr => write_exr(&tmp, r, precision == Precision::F16),
         FileKind::Png => write_png(&tmp, r, precision == Precision::U16, srgb),
     };
-    match res.and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string())) {
+    // Flushed to disk before the rename, so a crash leaves the old file or the new one.
+    let synced = |()| {
+        std::fs::File::open(&tmp)
+            .and_then(|f| f.sync_all())
+            .map_err(|e| e.to_string())
+    };
+    match res
+        .and_then(synced)
+        .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()))
+    {
         Ok(()) => Ok(()),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
