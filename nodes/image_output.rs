@@ -16,6 +16,31 @@
 //!
 //! `path`, `precision` and `srgb` only affect the file, so changing them does not re-run the
 //! GPU pass (they are exempt from the cache key).
+//!
+//! `AovOutput` (same file, same pass): the compositing hand-off. It writes every connected port
+//! as a named layer of one single-part EXR, the way Nuke and Blender read layers: `rgba` as
+//! plain `R`, `G`, `B`, `A`; `inscatter` as `inscatter.R/G/B`; `visibility` and `transmittance`
+//! as `NAME.Y`; `depth` as `depth.Z`; two free slots `aov1`, `aov2` named by parameters (an
+//! Image as `.R/G/B/A`, a Scalar as `.Y`, Depth or ShadowMap as `.Z`). Layers are half floats
+//! unless listed in `float_layers` (default: depth, whose metres need more than half's 11 bits);
+//! the header carries the camera's `worldToCamera` and `worldToNDC` matrices (from `depth`, or
+//! the first connected Depth) and the frame (`frame`, int).
+//!
+//! | port | dir | type |
+//! |---|---|---|
+//! | `rgba` | in | Image (optional) — the beauty |
+//! | `visibility` | in | Scalar (optional) |
+//! | `depth` | in | Depth (optional) |
+//! | `inscatter` | in | Image (optional) |
+//! | `transmittance` | in | Scalar (optional) |
+//! | `aov1`, `aov2` | in | Image \| Scalar \| ShadowMap \| Depth (optional) |
+//!
+//! | param | type | default | |
+//! |---|---|---|---|
+//! | `path` | Text | "out/aovs.exr" | the .exr file to write |
+//! | `precision` | Enum | half | half or float: storage of the layers not in `float_layers` |
+//! | `float_layers` | Text | "depth" | comma-separated layers always stored as 32-bit floats |
+//! | `aov1_name`, `aov2_name` | Text | "aov1", "aov2" | layer names of the free slots |
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -23,7 +48,9 @@ use std::sync::Arc;
 use crate::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::{file_kind, write_image, FileKind, Precision, Raster};
+use crate::io::{
+    file_kind, write_exr_layers, write_image, ExrHeader, ExrLayer, FileKind, Precision, Raster,
+};
 
 /// The `ImageOutput` node kind.
 pub struct ImageOutput;
@@ -62,6 +89,31 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 
 const SHADER: Shader = Shader::new("image_output", include_str!("../shaders/image_output.wgsl"));
 
+/// The texture on input `port` with non-finite samples replaced by 0 (the GPU pass), as a Scalar
+/// or an Image.
+fn sanitized(ctx: &RunCtx, port: &str) -> Result<PortValue, NodeError> {
+    let tex = ctx.require_texture(port)?;
+    let (entry, slot) = match tex.format {
+        TexFormat::R32F => ("sanitize_scalar", 1),
+        TexFormat::Rgba32F => ("sanitize_image", 2),
+        TexFormat::Rg32F => {
+            return Err(NodeError::Input {
+                port: port.into(),
+                message: "has an internal two-channel format".into(),
+            })
+        }
+    };
+    let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;
+    ctx.gpu.dispatch(
+        SHADER,
+        entry,
+        &[(0, Bind::Texture(&tex)), (slot, Bind::Storage(&out))],
+        tex.width,
+        tex.height,
+    )?;
+    Ok(super::util::image_like(Arc::new(out)))
+}
+
 /// CPU reference of the GPU pass: non-finite samples become 0.
 pub fn reference(input: &Raster) -> Raster {
     let mut out = input.clone();
@@ -90,26 +142,8 @@ impl NodeKind for ImageOutput {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let tex = ctx.require_texture("image")?;
-        let (entry, slot) = match tex.format {
-            TexFormat::R32F => ("sanitize_scalar", 1),
-            TexFormat::Rgba32F => ("sanitize_image", 2),
-            TexFormat::Rg32F => {
-                return Err(NodeError::Input {
-                    port: "image".into(),
-                    message: "has an internal two-channel format".into(),
-                })
-            }
-        };
-        let out = ctx.gpu.texture(tex.width, tex.height, tex.format)?;
-        ctx.gpu.dispatch(
-            SHADER,
-            entry,
-            &[(0, Bind::Texture(&tex)), (slot, Bind::Storage(&out))],
-            tex.width,
-            tex.height,
-        )?;
-        ctx.set("written", super::util::image_like(Arc::new(out)));
+        let value = sanitized(ctx, "image")?;
+        ctx.set("written", value);
         Ok(())
     }
 
@@ -128,6 +162,165 @@ impl NodeKind for ImageOutput {
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;
         let raster = download(ctx.gpu, value)?;
         write_image(&path, &raster, precision, ctx.bool("srgb")?)?;
+        Ok(())
+    }
+}
+
+/// The `AovOutput` node kind: connected ports as named layers of one EXR.
+pub struct AovOutput;
+
+/// Names of `AovOutput`'s `precision` parameter.
+pub const LAYER_PRECISIONS: &[&str] = LayerStorage::NAMES;
+
+crate::choice_enum! {
+    /// `AovOutput`'s `precision`: storage of the layers not listed in `float_layers`.
+    pub enum LayerStorage { Half = "half", Float = "float" }
+}
+
+/// `AovOutput`'s named ports (besides the free slots `aov1`, `aov2`), in layer order.
+const LAYERS: &[&str] = &["rgba", "visibility", "depth", "inscatter", "transmittance"];
+
+#[rustfmt::skip]
+static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
+    kind: "AovOutput",
+    category: "Input/Output",
+    doc: "Writes every connected port as a named layer of one multi-layer EXR (rgba, visibility, depth, inscatter, transmittance, two free slots) with the camera matrices and frame in the header, for Nuke and Blender.",
+    inputs: &[
+        PortSpec::input("rgba", &[PortType::Image], "The beauty, written as plain R, G, B, A."),
+        PortSpec::input("visibility", &[PortType::Scalar], "Average visibility V̄ (layer visibility.Y)."),
+        PortSpec::input("depth", &[PortType::Depth], "Camera depth, m (layer depth.Z); its camera fills the header's matrices."),
+        PortSpec::input("inscatter", &[PortType::Image], "In-scattered radiance, W/(m²·sr) (layer inscatter.R/G/B)."),
+        PortSpec::input("transmittance", &[PortType::Scalar], "Transmittance (layer transmittance.Y)."),
+        PortSpec::input("aov1", ANY, "Any image-like port, as layer `aov1_name`."),
+        PortSpec::input("aov2", ANY, "Any image-like port, as layer `aov2_name`."),
+    ],
+    outputs: &[],
+    params: &[
+        ParamSpec::text("path", "out/aovs.exr", "The .exr file to write."),
+        ParamSpec::choice("precision", LayerStorage::NAMES, "half", "Storage of the layers not in float_layers: half (16-bit) or float (32-bit)."),
+        ParamSpec::text("float_layers", "depth", "Comma-separated layers always stored as 32-bit floats."),
+        ParamSpec::text("aov1_name", "aov1", "Layer name of the aov1 slot."),
+        ParamSpec::text("aov2_name", "aov2", "Layer name of the aov2 slot."),
+    ],
+})
+.shader(SHADER)
+.key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
+.sink();
+
+/// Channel names of the layer on `port` holding `value` (`inscatter` has no alpha).
+fn channel_names(port: &str, value: &PortValue) -> &'static [&'static str] {
+    match value {
+        PortValue::Image(_) if port == "inscatter" => &["R", "G", "B"],
+        PortValue::Image(_) => &["R", "G", "B", "A"],
+        PortValue::Depth(..) | PortValue::ShadowMap(..) => &["Z"],
+        _ => &["Y"],
+    }
+}
+
+impl NodeKind for AovOutput {
+    fn decl(&self) -> &'static NodeDecl {
+        &AOV_DECL
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let connected: Vec<&str> = LAYERS
+            .iter()
+            .chain(&["aov1", "aov2"])
+            .copied()
+            .filter(|p| ctx.input(p).is_some())
+            .collect();
+        if connected.is_empty() {
+            return Err(NodeError::Input {
+                port: "rgba".into(),
+                message: "nothing to write: connect at least one port".into(),
+            });
+        }
+        for port in connected {
+            let value = sanitized(ctx, port)?;
+            ctx.set(port, value);
+        }
+        Ok(())
+    }
+
+    fn commit(&self, ctx: &RunCtx, outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
+        let path = ctx.text("path")?;
+        if path.is_empty() {
+            return Err(NodeError::Param {
+                param: "path".into(),
+                message: "is empty: set the file to write".into(),
+            });
+        }
+        let path = ctx.suffixed(path);
+        let half = ctx.choice::<LayerStorage>("precision")? == LayerStorage::Half;
+        let floats: Vec<String> = ctx
+            .text("float_layers")?
+            .split(',')
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+            .collect();
+        let mut size = None;
+        let mut layers = Vec::new();
+        for (port, written) in outputs {
+            let name = match port.as_str() {
+                "aov1" => ctx.text("aov1_name")?.trim().to_string(),
+                "aov2" => ctx.text("aov2_name")?.trim().to_string(),
+                other => other.to_string(),
+            };
+            if name.is_empty() || name.contains('.') {
+                return Err(NodeError::Param {
+                    param: format!("{port}_name"),
+                    message: format!("'{name}' is not a layer name (non-empty, no '.')"),
+                });
+            }
+            let original = ctx.input(port).unwrap_or(written);
+            let raster = download(ctx.gpu, written)?;
+            let dims = (raster.width, raster.height);
+            if *size.get_or_insert(dims) != dims {
+                return Err(NodeError::Input {
+                    port: port.clone(),
+                    message: format!(
+                        "is {}×{}, other layers are {}×{}: every layer needs the same size",
+                        dims.0,
+                        dims.1,
+                        size.map_or(0, |s| s.0),
+                        size.map_or(0, |s| s.1)
+                    ),
+                });
+            }
+            let c = raster.channels as usize;
+            let channels = channel_names(port, original)
+                .iter()
+                .enumerate()
+                .map(|(i, ch)| {
+                    let k = i.min(c - 1);
+                    let samples = raster.data.chunks(c).map(|p| p[k]).collect();
+                    (ch.to_string(), samples)
+                })
+                .collect();
+            layers.push(ExrLayer {
+                half: half && !floats.contains(&name),
+                name,
+                channels,
+            });
+        }
+        // The rgba layer first, then the rest in port order (BTreeMap: alphabetical).
+        layers.sort_by_key(|l| l.name != "rgba");
+        let camera = ctx
+            .input("depth")
+            .into_iter()
+            .chain(["aov1", "aov2"].iter().filter_map(|p| ctx.input(p)))
+            .find_map(|v| match v {
+                PortValue::Depth(_, m) => Some(*m),
+                _ => None,
+            });
+        let header = ExrHeader {
+            world_to_camera: camera
+                .map(|m| glam::Mat4::from_cols_array_2d(&m.view).to_cols_array()),
+            world_to_ndc: camera.map(|m| m.view_proj().to_cols_array()),
+            frame: Some(ctx.time.round() as i32),
+        };
+        let size = size.unwrap_or((1, 1));
+        write_exr_layers(&path, size, &layers, &header)?;
         Ok(())
     }
 }

@@ -60,6 +60,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(hole_map::HoleMap));
     r.add(Arc::new(image_input::ImageInput));
     r.add(Arc::new(image_output::ImageOutput));
+    r.add(Arc::new(image_output::AovOutput));
     r.add(Arc::new(light_map::LightMap));
     r.add(Arc::new(light_map_solve::LightMapSolve));
     r.add(Arc::new(math::Math));

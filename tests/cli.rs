@@ -372,6 +372,66 @@ fn no_driver_error_lines_without_xdg_runtime_dir() {
     );
 }
 
+/// AovOutput writes one multi-layer EXR that an independent reader (OpenImageIO's `oiiotool`,
+/// Debian's openimageio-tools, installed by .ci/run) lists with the layer channels named as Nuke
+/// and Blender read them, half or float per layer, and the camera matrices and frame in the
+/// header.
+#[test]
+fn aov_output_writes_named_layers_an_independent_reader_lists() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let exr = dir.path().join("aovs.exr");
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/aov_tree.ron");
+    let set = format!("aovs.path={}", exr.display());
+    let o = tyndall(&[
+        "render",
+        &graph.display().to_string(),
+        "--size",
+        "48x27",
+        "--set",
+        &set,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let info = Command::new("oiiotool")
+        .args(["--info", "-v"])
+        .arg(&exr)
+        .output()
+        .expect("oiiotool (Debian: apt install openimageio-tools; .ci/run installs it)");
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let text = String::from_utf8_lossy(&info.stdout);
+    let expected = "channel list: R (half), G (half), B (half), A (half), N.R (half), N.G (half), \
+                    N.B (half), N.A (half), depth.Z (float), inscatter.R (half), inscatter.G (half), \
+                    inscatter.B (half), transmittance.Y (half), visibility.Y (half)";
+    assert!(text.contains(expected), "{text}");
+    assert!(text.contains("48 x   27"), "{text}");
+    for key in [
+        "worldToCamera:",
+        "worldToNDC:",
+        "frame:",
+        "software: \"Tyndall\"",
+    ] {
+        assert!(text.contains(key), "{key} missing: {text}");
+    }
+    // An output path that is not .exr is refused, naming the file.
+    let png = format!("aovs.path={}", dir.path().join("aovs.png").display());
+    let o = tyndall(&[
+        "render",
+        &graph.display().to_string(),
+        "--size",
+        "8x4",
+        "--set",
+        &png,
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("must be an .exr file"));
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -102,7 +102,10 @@ fn concurrent_writes_of_one_file_leave_one_complete_image() {
     let back = read_image(&path, false).expect("read");
     assert_eq!((back.width, back.height), (64, 32));
     let v = back.data[0];
-    assert!(back.data.iter().all(|x| *x == v), "one writer's image, whole");
+    assert!(
+        back.data.iter().all(|x| *x == v),
+        "one writer's image, whole"
+    );
     let names: Vec<String> = std::fs::read_dir(dir.path())
         .expect("dir")
         .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())

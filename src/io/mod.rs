@@ -264,21 +264,6 @@ pub fn write_image(
     if !matches!(r.channels, 1 | 3 | 4) {
         return Err(err(format!("{} channels (expected 1, 3 or 4)", r.channels)));
     }
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir)
-        .map_err(|e| err(format!("cannot create folder {}: {e}", dir.display())))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
-    // Unique per process and per write (two evaluations may write the same file at once).
-    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(".{name}.tmp{}-{n}.{ext}", std::process::id()));
     let mut clean = r.clone();
     for v in &mut clean.data {
         if !v.is_finite() {
@@ -297,17 +282,44 @@ pub fn write_image(
         };
     }
     let r = &clean;
-    let res = match kind {
-        FileKind::Exr => write_exr(&tmp, r, precision == Precision::F16),
-        FileKind::Png => write_png(&tmp, r, precision == Precision::U16, srgb),
+    write_via_temp(path, |tmp| match kind {
+        FileKind::Exr => write_exr(tmp, r, precision == Precision::F16),
+        FileKind::Png => write_png(tmp, r, precision == Precision::U16, srgb),
+    })
+}
+
+/// Write `path` atomically: `write` fills a temporary file beside it (unique per process and
+/// per write: two evaluations may write the same file at once), which is flushed to disk and
+/// renamed over `path`, so a crash leaves the old file or the new one, never a partial one.
+/// Missing parent folders are created.
+fn write_via_temp(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), IoError> {
+    let err = |reason: String| IoError::Write {
+        path: path.to_path_buf(),
+        reason,
     };
-    // Flushed to disk before the rename, so a crash leaves the old file or the new one.
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)
+        .map_err(|e| err(format!("cannot create folder {}: {e}", dir.display())))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.tmp{}-{n}.{ext}", std::process::id()));
     let synced = |()| {
         std::fs::File::open(&tmp)
             .and_then(|f| f.sync_all())
             .map_err(|e| e.to_string())
     };
-    match res
+    match write(&tmp)
         .and_then(synced)
         .and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()))
     {
@@ -317,6 +329,111 @@ pub fn write_image(
             Err(err(e))
         }
     }
+}
+
+/// One layer of a multi-layer EXR: channel names are written as `layer.channel` (the layer
+/// `rgba` as plain `R`, `G`, `B`, `A`, as Nuke and Blender expect the main image).
+#[derive(Clone, Debug)]
+pub struct ExrLayer {
+    /// Layer name (`rgba`, `depth`, `visibility`, …).
+    pub name: String,
+    /// Channel names within the layer (`R`, `G`, `B`, `A`, `Y`, `Z`) and their samples (rows top
+    /// to bottom, one value per pixel).
+    pub channels: Vec<(String, Vec<f32>)>,
+    /// Store as 16-bit half floats (else 32-bit floats).
+    pub half: bool,
+}
+
+/// Header data of a multi-layer EXR: the standard `worldToCamera` and `worldToNDC` matrices
+/// (Imath layout: row vectors, so glam's column-major array), and the frame number as an `int`
+/// attribute `frame`.
+#[derive(Clone, Debug, Default)]
+pub struct ExrHeader {
+    /// World → camera (view) matrix.
+    pub world_to_camera: Option<[f32; 16]>,
+    /// World → normalised device coordinates (projection × view).
+    pub world_to_ndc: Option<[f32; 16]>,
+    /// Frame number.
+    pub frame: Option<i32>,
+}
+
+/// Write a `width × height` single-part EXR with the named layers (atomically; non-finite
+/// samples become 0). Every channel must hold `width × height` samples.
+pub fn write_exr_layers(
+    path: &Path,
+    (width, height): (u32, u32),
+    layers: &[ExrLayer],
+    header: &ExrHeader,
+) -> Result<(), IoError> {
+    let err = |reason: String| IoError::Write {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if file_kind(path)? != FileKind::Exr {
+        return Err(IoError::Format {
+            path: path.to_path_buf(),
+            reason: "a multi-layer image must be an .exr file".into(),
+        });
+    }
+    let n = (width * height) as usize;
+    let mut list: Vec<exrp::AnyChannel<exrp::FlatSamples>> = Vec::new();
+    for layer in layers {
+        for (channel, samples) in &layer.channels {
+            if samples.len() != n {
+                return Err(err(format!(
+                    "layer {} channel {channel}: {} samples for a {width}×{height} image",
+                    layer.name,
+                    samples.len()
+                )));
+            }
+            let clean = samples.iter().map(|v| if v.is_finite() { *v } else { 0.0 });
+            let data = if layer.half {
+                exrp::FlatSamples::F16(clean.map(exrp::f16::from_f32).collect())
+            } else {
+                exrp::FlatSamples::F32(clean.collect())
+            };
+            let name = if layer.name == "rgba" {
+                channel.clone()
+            } else {
+                format!("{}.{channel}", layer.name)
+            };
+            list.push(exrp::AnyChannel::new(name.as_str(), data));
+        }
+    }
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    if let Some(dup) = names
+        .iter()
+        .enumerate()
+        .find(|(i, a)| names[..*i].contains(a))
+    {
+        return Err(err(format!("channel {} appears twice", dup.1)));
+    }
+    let mut attributes = exrp::LayerAttributes::default();
+    attributes.world_to_camera = header.world_to_camera;
+    attributes.world_to_normalized_device = header.world_to_ndc;
+    attributes.software_name = Some(exrp::Text::from("Tyndall"));
+    if let Some(frame) = header.frame {
+        attributes.other.insert(
+            exrp::Text::from("frame"),
+            exr::meta::attribute::AttributeValue::I32(frame),
+        );
+    }
+    let channels = exrp::AnyChannels::sort(exrp::SmallVec::from_vec(list));
+    let layer = exrp::Layer::new(
+        (width as usize, height as usize),
+        attributes,
+        // Scan lines, as compositing packages write them (the crate's default is tiles).
+        exrp::Encoding {
+            blocks: exrp::Blocks::ScanLines,
+            line_order: exrp::LineOrder::Increasing,
+            ..exrp::Encoding::FAST_LOSSLESS
+        },
+        channels,
+    );
+    let img = exrp::Image::from_layer(layer);
+    write_via_temp(path, |tmp| {
+        img.write().to_file(tmp).map_err(|e| e.to_string())
+    })
 }
 
 fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
