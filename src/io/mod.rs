@@ -408,10 +408,12 @@ pub fn write_exr_layers(
     {
         return Err(err(format!("channel {} appears twice", dup.1)));
     }
-    let mut attributes = exrp::LayerAttributes::default();
-    attributes.world_to_camera = header.world_to_camera;
-    attributes.world_to_normalized_device = header.world_to_ndc;
-    attributes.software_name = Some(exrp::Text::from("Tyndall"));
+    let mut attributes = exrp::LayerAttributes {
+        world_to_camera: header.world_to_camera,
+        world_to_normalized_device: header.world_to_ndc,
+        software_name: Some(exrp::Text::from("Tyndall")),
+        ..Default::default()
+    };
     if let Some(frame) = header.frame {
         attributes.other.insert(
             exrp::Text::from("frame"),
