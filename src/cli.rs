@@ -241,9 +241,24 @@ pub struct RenderArgs {
     /// Output file; replaces the `path` of the graph's single output node.
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
-    /// Frame range A-B (inclusive); files get the suffix `_NNNN`.
-    #[arg(long, value_parser = parse_frames)]
-    pub frames: Option<(i64, i64)>,
+    /// Frames to render: `A`, `A-B`, `A-BxS` (every S-th frame), comma-separated (`1,5,7-9`).
+    /// A `####` or `%04d` in an output path becomes the zero-padded frame; other paths get
+    /// `_NNNN` before the extension. Each frame depends only on the graph, its parameters and the
+    /// frame number (noise seeds included), so any subset renders the same pixels.
+    #[arg(long, value_parser = parse_frame_spec)]
+    pub frames: Option<FrameList>,
+    /// Render only chunk K of N (`K/N`, 1-based): the frames split into N contiguous runs, one
+    /// per task of a farm array job (Slurm: `--chunk $((SLURM_ARRAY_TASK_ID + 1))/4`).
+    #[arg(long, value_parser = parse_chunk)]
+    pub chunk: Option<(usize, usize)>,
+    /// Skip frames whose output files all exist (rerunning a killed job resumes it; files are
+    /// written atomically, so a killed frame leaves none).
+    #[arg(long)]
+    pub skip_existing: bool,
+    /// Progress: auto (a bar on a terminal, else `ALF_PROGRESS nn%` lines), bar, alf, json (a
+    /// JSON object per frame on stdout), none.
+    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
+    pub progress: ProgressMode,
     /// Shared options.
     #[command(flatten)]
     pub common: Common,
@@ -258,6 +273,9 @@ pub enum CliError {
     /// Evaluation failed (exit 1).
     #[error(transparent)]
     Eval(Box<EvalError>),
+    /// Some frames of a render failed (exit 1); the others were written.
+    #[error("frames failed: {}", .0.join(", "))]
+    Frames(Vec<String>),
 }
 
 impl From<EvalError> for CliError {
@@ -271,7 +289,7 @@ impl CliError {
     pub fn exit_code(&self) -> i32 {
         match self {
             CliError::BadInput(_) => 2,
-            CliError::Eval(_) => 1,
+            CliError::Eval(_) | CliError::Frames(_) => 1,
         }
     }
 }
@@ -292,14 +310,82 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn parse_frames(s: &str) -> Result<(i64, i64), String> {
-    let (a, b) = s.split_once('-').unwrap_or((s, s));
-    let a: i64 = a.trim().parse().map_err(|_| format!("bad frame '{a}'"))?;
-    let b: i64 = b.trim().parse().map_err(|_| format!("bad frame '{b}'"))?;
-    if b < a {
-        return Err(format!("frame range {a}-{b} is empty"));
+/// A list of frames (`--frames`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameList(pub Vec<i64>);
+
+/// How `render` reports progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProgressMode {
+    /// A bar on a terminal, else `ALF_PROGRESS nn%` lines.
+    Auto,
+    /// A progress bar (hidden when stderr is not a terminal).
+    Bar,
+    /// `ALF_PROGRESS nn%` lines on stdout (Tractor, OpenCue and Deadline parse them).
+    Alf,
+    /// One JSON object per frame on stdout.
+    Json,
+    /// Nothing but the summary.
+    None,
+}
+
+/// Parse a frame spec: `A`, `A-B`, `A-BxS`, comma-separated; frames ≥ 0, in the order given,
+/// repeats dropped.
+pub fn parse_frame_spec(s: &str) -> Result<FrameList, String> {
+    let mut out: Vec<i64> = Vec::new();
+    for part in s.split(',').map(str::trim) {
+        let num = |t: &str| -> Result<i64, String> {
+            t.trim()
+                .parse::<i64>()
+                .ok()
+                .filter(|v| *v >= 0)
+                .ok_or_else(|| format!("bad frame '{t}' in '{s}' (frames are whole numbers ≥ 0)"))
+        };
+        let (range, step) = match part.split_once(['x', 'X']) {
+            Some((r, st)) => (r, num(st)?),
+            None => (part, 1),
+        };
+        if step == 0 {
+            return Err(format!("'{part}': the step must be at least 1"));
+        }
+        let (a, b) = match range.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(range)?, num(range)?),
+        };
+        if b < a {
+            return Err(format!("frame range '{part}' is empty"));
+        }
+        if (b - a) / step > 1_000_000 {
+            return Err(format!("'{part}' is more than a million frames"));
+        }
+        for f in (a..=b).step_by(step as usize) {
+            if !out.contains(&f) {
+                out.push(f);
+            }
+        }
     }
-    Ok((a, b))
+    Ok(FrameList(out))
+}
+
+fn parse_chunk(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("'{s}': expected K/N with 1 ≤ K ≤ N, e.g. 2/4");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// Chunk `k` of `n` (1-based) of `frames`: contiguous runs whose lengths differ by at most one.
+pub fn chunk_of(frames: &[i64], (k, n): (usize, usize)) -> &[i64] {
+    let len = frames.len();
+    let start = (k - 1) * len / n;
+    let end = k * len / n;
+    &frames[start..end]
 }
 
 fn split_eq(s: &str, what: &str) -> Result<(String, String), CliError> {
@@ -705,6 +791,7 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
             time: a.time,
             size: a.common.size.unwrap_or((512, 512)),
             output_suffix: v.suffix.clone(),
+            frame: None,
             gpu_timings: a.common.stats,
             inject: BTreeMap::new(),
             progress: Some(node_progress()),
@@ -835,37 +922,143 @@ fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
         )
         .map_err(bad)?;
     }
-    let frames: Vec<Option<i64>> = match a.frames {
-        Some((s, e)) => (s..=e).map(Some).collect(),
+    let all: Vec<Option<i64>> = match &a.frames {
+        Some(list) => list.0.iter().copied().map(Some).collect(),
+        None if a.chunk.is_some() => return Err(bad("--chunk needs --frames")),
         None => vec![None],
+    };
+    let frames: Vec<Option<i64>> = match a.chunk {
+        Some(c) => {
+            let list: Vec<i64> = all.iter().flatten().copied().collect();
+            chunk_of(&list, c).iter().copied().map(Some).collect()
+        }
+        None => all,
     };
     let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
     let total = frames.len() * vars.len();
-    let bar = progress(total as u64);
+    use std::io::IsTerminal;
+    let mode = match a.progress {
+        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressMode::Auto => ProgressMode::Alf,
+        m => m,
+    };
+    let bar = if mode == ProgressMode::Bar {
+        progress(total as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let clock = std::time::Instant::now();
+    let (mut written, mut skipped, mut failed) = (Vec::new(), 0usize, Vec::new());
+    let mut done = 0usize;
     for f in &frames {
         for v in &vars {
-            let frame_suffix = f.map(|f| format!("_{f:04}")).unwrap_or_default();
-            let opts = EvalOptions {
-                time: f.map_or(0.0, |f| f as f64),
-                size: a.common.size.unwrap_or((960, 540)),
-                output_suffix: format!("{}{frame_suffix}", v.suffix),
-                gpu_timings: a.common.stats,
-                inject: BTreeMap::new(),
-                progress: Some(node_progress()),
-            };
-            let result = ev.evaluate(&v.graph, &targets, &opts)?;
-            if a.common.stats {
-                let label = match f {
-                    Some(f) => format!("frame {f} {}", v.label),
-                    None => v.label.clone(),
+            // The files this frame writes: every sink's `path`, named for the frame.
+            let files: Vec<PathBuf> = targets
+                .iter()
+                .filter_map(|t| match t {
+                    Target::Node(id) => v.graph.node(id),
+                    Target::Port(..) => None,
+                })
+                .filter_map(|n| {
+                    // The node's own path, else its kind's default.
+                    let default = registry.get(&n.kind).and_then(|k| {
+                        k.decl()
+                            .schema
+                            .params
+                            .iter()
+                            .find(|p| p.name == "path")
+                            .map(|p| p.default.value())
+                    });
+                    match n.params.get("path").cloned().or(default) {
+                        Some(ParamValue::Text(p)) if !p.is_empty() => Some(p),
+                        _ => None,
+                    }
+                })
+                .map(|p| crate::eval::output_path(&p, &v.suffix, *f))
+                .collect();
+            let status =
+                if a.skip_existing && !files.is_empty() && files.iter().all(|p| p.is_file()) {
+                    skipped += 1;
+                    "skipped"
+                } else {
+                    let opts = EvalOptions {
+                        time: f.map_or(0.0, |f| f as f64),
+                        size: a.common.size.unwrap_or((960, 540)),
+                        output_suffix: v.suffix.clone(),
+                        frame: *f,
+                        gpu_timings: a.common.stats,
+                        inject: BTreeMap::new(),
+                        progress: Some(node_progress()),
+                    };
+                    match ev.evaluate(&v.graph, &targets, &opts) {
+                        Ok(result) => {
+                            if a.common.stats {
+                                let label = match f {
+                                    Some(f) => format!("frame {f} {}", v.label),
+                                    None => v.label.clone(),
+                                };
+                                print_stats(&result, label.trim());
+                            }
+                            written.extend(files.iter().cloned());
+                            "written"
+                        }
+                        Err(e) if frames.len() * vars.len() > 1 => {
+                            // One bad frame does not stop the others; the exit code says so.
+                            bar.suspend(|| eprintln!("error: frame {}: {e}", frame_label(*f)));
+                            failed.push(frame_label(*f));
+                            "failed"
+                        }
+                        Err(e) => return Err(e.into()),
+                    }
                 };
-                print_stats(&result, label.trim());
-            }
+            done += 1;
             bar.inc(1);
+            report(mode, *f, status, &files, (done, total));
         }
     }
     bar.finish_and_clear();
+    println!(
+        "{} file{} written for {} frame{}, {skipped} skipped (already there), {} failed, {:.1} s",
+        written.len(),
+        if written.len() == 1 { "" } else { "s" },
+        total,
+        if total == 1 { "" } else { "s" },
+        failed.len(),
+        clock.elapsed().as_secs_f64()
+    );
+    if !failed.is_empty() {
+        return Err(CliError::Frames(failed));
+    }
     Ok(())
+}
+
+fn frame_label(f: Option<i64>) -> String {
+    f.map_or_else(|| "-".into(), |f| f.to_string())
+}
+
+/// One progress report after a frame (`mode` is never `Auto` here).
+fn report(
+    mode: ProgressMode,
+    frame: Option<i64>,
+    status: &str,
+    files: &[PathBuf],
+    (done, total): (usize, usize),
+) {
+    match mode {
+        ProgressMode::Alf => println!("ALF_PROGRESS {}%", done * 100 / total.max(1)),
+        ProgressMode::Json => {
+            let files: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+            let line = serde_json::json!({
+                "frame": frame,
+                "status": status,
+                "files": files,
+                "done": done,
+                "total": total,
+            });
+            println!("{line}");
+        }
+        _ => {}
+    }
 }
 
 /// A progress bar on a terminal; hidden otherwise (long work prints plain lines via `--stats`).

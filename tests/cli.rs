@@ -432,6 +432,159 @@ fn aov_output_writes_named_layers_an_independent_reader_lists() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("must be an .exr file"));
 }
 
+/// Frame specs as a farm writes them: ranges, steps and lists, in order, repeats dropped; the
+/// chunks of a list cover every frame exactly once.
+#[test]
+fn frame_specs_and_chunks() {
+    use tyndall::cli::{chunk_of, parse_frame_spec};
+    assert_eq!(
+        parse_frame_spec("1-10x3").expect("spec").0,
+        vec![1, 4, 7, 10]
+    );
+    assert_eq!(
+        parse_frame_spec("1,5,7-9").expect("spec").0,
+        vec![1, 5, 7, 8, 9]
+    );
+    assert_eq!(parse_frame_spec("3,1-3").expect("spec").0, vec![3, 1, 2]);
+    for bad in ["5-1", "1-4x0", "a", "-3", "1-", ""] {
+        assert!(parse_frame_spec(bad).is_err(), "{bad}");
+    }
+    let frames = parse_frame_spec("1-16").expect("spec").0;
+    for n in 1..=7 {
+        let mut seen: Vec<i64> = (1..=n)
+            .flat_map(|k| chunk_of(&frames, (k, n)).to_vec())
+            .collect();
+        seen.sort();
+        assert_eq!(seen, frames, "{n} chunks");
+    }
+    assert_eq!(chunk_of(&frames, (2, 4)), &[5, 6, 7, 8]);
+}
+
+/// `render` as a farm task: a chunk of a frame range with `####` padding and ALF progress, then
+/// a resumed run (`--skip-existing`) that renders only what is missing, with JSON progress and a
+/// one-line summary; `%04d` padding; bad specs exit 2.
+#[test]
+fn render_farm_chunks_padding_progress_and_resume() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/basics/grade.ron");
+    let graph = graph.display().to_string();
+    let hashes = dir.path().join("g.####.png").display().to_string();
+    let listing = |d: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let args = ["--size", "16x9", "-o", &hashes];
+    let o = tyndall(
+        &[
+            &[
+                "render",
+                &graph,
+                "--frames",
+                "1-8",
+                "--chunk",
+                "2/4",
+                "--progress",
+                "alf",
+            ][..],
+            &args[..],
+        ]
+        .concat(),
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(listing(dir.path()), vec!["g.0003.png", "g.0004.png"]);
+    assert!(
+        out.contains("ALF_PROGRESS 50%") && out.contains("ALF_PROGRESS 100%"),
+        "{out}"
+    );
+    assert!(
+        out.contains("2 files written for 2 frames, 0 skipped"),
+        "{out}"
+    );
+    let before = std::fs::metadata(dir.path().join("g.0003.png"))
+        .expect("file")
+        .modified()
+        .expect("mtime");
+
+    let o = tyndall(
+        &[
+            &[
+                "render",
+                &graph,
+                "--frames",
+                "1-8",
+                "--skip-existing",
+                "--progress",
+                "json",
+            ][..],
+            &args[..],
+        ]
+        .concat(),
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let lines: Vec<serde_json::Value> = out
+        .lines()
+        .filter(|l| l.starts_with('{'))
+        .map(|l| serde_json::from_str(l).expect("json line"))
+        .collect();
+    assert_eq!(lines.len(), 8);
+    let skipped: Vec<i64> = lines
+        .iter()
+        .filter(|l| l["status"] == "skipped")
+        .map(|l| l["frame"].as_i64().expect("frame"))
+        .collect();
+    assert_eq!(skipped, vec![3, 4]);
+    assert!(
+        out.contains("6 files written for 8 frames, 2 skipped"),
+        "{out}"
+    );
+    let expected: Vec<String> = (1..=8).map(|f| format!("g.{f:04}.png")).collect();
+    assert_eq!(listing(dir.path()), expected);
+    let after = std::fs::metadata(dir.path().join("g.0003.png"))
+        .expect("file")
+        .modified()
+        .expect("mtime");
+    assert_eq!(before, after, "a skipped frame is not rewritten");
+
+    let printf = dir.path().join("p%04d.exr").display().to_string();
+    let o = tyndall(&[
+        "render",
+        &graph,
+        "--frames",
+        "7,9",
+        "--size",
+        "8x4",
+        "--progress",
+        "none",
+        "-o",
+        &printf,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("p0007.exr").is_file() && dir.path().join("p0009.exr").is_file());
+
+    for bad in [
+        &["--frames", "5-1"][..],
+        &["--frames", "1-4", "--chunk", "5/4"][..],
+        &["--chunk", "1/2"][..],
+    ] {
+        let o = tyndall(&[&["render", &graph][..], bad, &args[..]].concat());
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{bad:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 
 pub use convert::{download, upload_raster};
-pub use node::{with_suffix, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx};
+pub use node::{
+    output_path, with_frame, with_suffix, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx,
+};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;
@@ -71,6 +73,10 @@ pub struct EvalOptions {
     pub size: (u32, u32),
     /// Suffix inserted before the extension of every file a sink writes.
     pub output_suffix: String,
+    /// The frame being rendered, for file names: a `####` run (as many digits as `#`) or a
+    /// `%04d` in a sink's path becomes the zero-padded frame; a path without either gets
+    /// `_NNNN` before its extension. `None`: names are left as they are (a single evaluation).
+    pub frame: Option<i64>,
     /// Measure each node's GPU time with timestamp queries (when the adapter has them); this
     /// waits for every pass, so it is meant for statistics and benchmarks.
     pub gpu_timings: bool,
@@ -111,6 +117,7 @@ impl Default for EvalOptions {
             time: 0.0,
             size: (512, 512),
             output_suffix: String::new(),
+            frame: None,
             gpu_timings: false,
             inject: BTreeMap::new(),
             progress: None,
@@ -368,6 +375,7 @@ impl Evaluator {
                 wanted: want,
                 size: opts.size,
                 output_suffix: &opts.output_suffix,
+                frame: opts.frame,
                 outputs: BTreeMap::new(),
                 passed_through: false,
             };

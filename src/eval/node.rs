@@ -71,6 +71,8 @@ pub struct RunCtx<'a> {
     pub size: (u32, u32),
     /// Suffix added to file names written by sinks (wedges), before the extension.
     pub output_suffix: &'a str,
+    /// The frame, for file names (see [`output_path`]).
+    pub frame: Option<i64>,
     /// Outputs produced so far.
     pub outputs: BTreeMap<String, PortValue>,
     /// Set by [`RunCtx::pass_through`]: the statistics say "passed through" instead of "ran".
@@ -251,8 +253,47 @@ impl RunCtx<'_> {
 
     /// `path` with the evaluation's output suffix inserted before the extension.
     pub fn suffixed(&self, path: &str) -> PathBuf {
-        with_suffix(path, self.output_suffix)
+        output_path(path, self.output_suffix, self.frame)
     }
+}
+
+/// The file a sink writes for `path` with a wedge `suffix` at `frame`: the frame replaces a
+/// `####` run (zero-padded to its length) or a printf `%d` / `%0Nd` in the path, else `_NNNN` is
+/// appended to the suffix; the suffix goes before the extension.
+pub fn output_path(path: &str, suffix: &str, frame: Option<i64>) -> PathBuf {
+    match frame {
+        None => with_suffix(path, suffix),
+        Some(f) => match with_frame(path, f) {
+            Some(p) => with_suffix(&p, suffix),
+            None => with_suffix(path, &format!("{suffix}_{f:04}")),
+        },
+    }
+}
+
+/// `path` with its first `####` run or `%d` / `%0Nd` replaced by `frame` (`None`: no pattern).
+pub fn with_frame(path: &str, frame: i64) -> Option<String> {
+    if let Some(start) = path.find('#') {
+        let run = path[start..].chars().take_while(|c| *c == '#').count();
+        let digits = format!("{frame:0run$}");
+        return Some(format!(
+            "{}{digits}{}",
+            &path[..start],
+            &path[start + run..]
+        ));
+    }
+    let start = path.find('%')?;
+    let rest = &path[start + 1..];
+    let spec: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+    if !rest[spec.len()..].starts_with('d') {
+        return None;
+    }
+    let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
+    let digits = format!("{frame:0width$}");
+    Some(format!(
+        "{}{digits}{}",
+        &path[..start],
+        &rest[spec.len() + 1..]
+    ))
 }
 
 /// Insert `suffix` before a path's extension (`out.exr` + `_w1` → `out_w1.exr`).
