@@ -58,6 +58,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
     ],
 })
+.files(&[("path", crate::eval::FileRole::Read)])
 .shader(SHADER)
 .uniforms(&[ImageInputParams::LAYOUT]);
 

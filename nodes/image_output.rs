@@ -85,6 +85,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shader(SHADER)
 .key_exempt(&["path", "precision", "srgb"])
+.files(&[("path", crate::eval::FileRole::Write)])
 .sink();
 
 const SHADER: Shader = Shader::new("image_output", include_str!("../shaders/image_output.wgsl"));
@@ -205,6 +206,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shader(SHADER)
 .key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
+.files(&[("path", crate::eval::FileRole::Write)])
 .sink();
 
 /// Channel names of the layer on `port` holding `value` (`inscatter` has no alpha).

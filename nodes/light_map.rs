@@ -40,7 +40,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::text("path", "", "PNG (sRGB) or EXR (linear) file with the map; empty: the constant `colour`."),
         ParamSpec::colour("colour", [1.0; 4], 0.0, 1e6, "linear RGB", "The constant map when no image or file is given."),
     ],
-});
+})
+.files(&[("path", crate::eval::FileRole::Read)]);
 
 impl NodeKind for LightMap {
     fn decl(&self) -> &'static NodeDecl {

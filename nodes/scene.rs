@@ -71,7 +71,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
         ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "W/m²", "Sun irradiance on a surface facing it, multiplying the colour (light = custom); a glTF sun's lux are read as lux / 683."),
     ],
-});
+})
+.files(&[("path", crate::eval::FileRole::Read)]);
 
 impl NodeKind for SceneNode {
     fn decl(&self) -> &'static NodeDecl {

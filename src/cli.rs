@@ -94,6 +94,15 @@ pub struct Common {
     /// Override a parameter: NODE.PARAM=VALUE (repeatable).
     #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
     pub set: Vec<String>,
+    /// Folder that the graph's relative output paths are written under (default: the working
+    /// directory). The graph's relative input paths are read from the graph file's folder.
+    #[arg(long, value_name = "DIR")]
+    pub output_dir: Option<PathBuf>,
+    /// Let the graph write to absolute paths and climb out of the output directory with `..`
+    /// (refused by default, so a preset from someone else cannot overwrite your files). Paths
+    /// you give on the command line (-o, --output, --set) are yours and always allowed.
+    #[arg(long)]
+    pub allow_any_path: bool,
 }
 
 /// `tyndall node`.
@@ -148,6 +157,15 @@ pub struct PickArgs {
     /// Override a parameter: NODE.PARAM=VALUE (repeatable).
     #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
     pub set: Vec<String>,
+    /// Folder that the graph's relative output paths are written under (default: the working
+    /// directory). The graph's relative input paths are read from the graph file's folder.
+    #[arg(long, value_name = "DIR")]
+    pub output_dir: Option<PathBuf>,
+    /// Let the graph write to absolute paths and climb out of the output directory with `..`
+    /// (refused by default, so a preset from someone else cannot overwrite your files). Paths
+    /// you give on the command line (-o, --output, --set) are yours and always allowed.
+    #[arg(long)]
+    pub allow_any_path: bool,
 }
 
 fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
@@ -168,6 +186,9 @@ fn run_pick(registry: Arc<Registry>, a: PickArgs) -> Result<(), CliError> {
         stats: false,
         wedge: None,
         set: a.set.clone(),
+        output_dir: None,
+        // pick writes nothing: the graph's output paths do not matter.
+        allow_any_path: true,
     };
     let g = load_graph(&registry, &a.graph, &common)?;
     let gpu = gpu()?;
@@ -695,7 +716,21 @@ fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
 }
 
 fn load_graph(registry: &Registry, path: &Path, common: &Common) -> Result<Graph, CliError> {
-    let mut g = load_file(path, registry.catalog()).map_err(bad)?;
+    let g = load_file(path, registry.catalog()).map_err(bad)?;
+    // The graph's own file paths first (the policy); what the command line sets is the user's.
+    let policy = crate::eval::PathPolicy {
+        graph_dir: path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf(),
+        output_dir: common
+            .output_dir
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(".")),
+        allow_any: common.allow_any_path,
+    };
+    let mut g = crate::eval::resolve_files(registry, &g, &policy).map_err(bad)?;
     for s in &common.set {
         let (target, value) = split_eq(s, "NODE.PARAM=VALUE")?;
         let (node, param) = split_endpoint(&target).map_err(bad)?;

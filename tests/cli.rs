@@ -585,6 +585,74 @@ fn render_farm_chunks_padding_progress_and_resume() {
     }
 }
 
+/// Paths in a graph: a relative input path is read from the graph file's folder (not the
+/// working directory), a relative output path is written under `--output-dir`; an output path
+/// that is absolute or climbs out with `..` is refused (exit 2, naming the node and the path)
+/// unless `--allow-any-path`; paths given on the command line are the user's.
+#[test]
+fn graph_paths_resolve_against_the_graph_folder_and_outputs_stay_inside() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shot = dir.path().join("shot");
+    std::fs::create_dir_all(&shot).expect("mkdir");
+    std::fs::copy(fixture("A.exr"), shot.join("A.exr")).expect("copy");
+    let graph = |out: &str| {
+        format!(
+            r#"(
+    version: 2,
+    nodes: {{
+        "in": (kind: "ImageInput", params: {{"path": "A.exr"}}),
+        "out": (kind: "ImageOutput", params: {{"path": "{out}"}}),
+    }},
+    edges: [("in.image", "out.image")],
+)"#
+        )
+    };
+    let file = shot.join("g.ron");
+    let outs = dir.path().join("outs");
+    let render = |out: &str, extra: &[&str]| {
+        std::fs::write(&file, graph(out)).expect("graph");
+        let mut args = vec![
+            "render",
+            file.to_str().expect("utf8"),
+            "--output-dir",
+            outs.to_str().expect("utf8"),
+        ];
+        args.extend_from_slice(extra);
+        tyndall(&args)
+    };
+    // The working directory is the crate's root, where no A.exr lies: read from the graph's folder.
+    let o = render("frames/res.exr", &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(outs.join("frames/res.exr").is_file());
+
+    let escape = "../escaped.exr";
+    let o = render(escape, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("node 'out'") && err.contains(escape), "{err}");
+    assert!(!dir.path().join("escaped.exr").exists());
+    let absolute = dir.path().join("abs.exr").display().to_string();
+    let o = render(&absolute, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("is absolute") && err.contains(&absolute),
+        "{err}"
+    );
+
+    let o = render(escape, &["--allow-any-path"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("escaped.exr").is_file());
+    // A path given on the command line is the user's choice.
+    let mine = dir.path().join("mine.exr");
+    let o = render("x.exr", &["-o", mine.to_str().expect("utf8")]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(mine.is_file());
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -5,6 +5,7 @@
 
 mod convert;
 mod node;
+mod paths;
 mod value;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -17,8 +18,10 @@ use thiserror::Error;
 
 pub use convert::{download, upload_raster};
 pub use node::{
-    output_path, with_frame, with_suffix, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx,
+    output_path, with_frame, with_suffix, FileRole, KeyInput, NodeDecl, NodeError, NodeKind,
+    Registry, RunCtx,
 };
+pub use paths::{resolve_files, PathPolicy, PathRefused};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::Gpu;

@@ -348,6 +348,19 @@ pub struct NodeDecl {
     /// Whether the node is a sink: it writes something outside the graph and is evaluated when
     /// the graph's outputs are requested.
     pub sink: bool,
+    /// Text parameters naming files, and whether the node reads or writes them (the CLI resolves
+    /// them: see [`crate::eval::resolve_files`]).
+    pub files: &'static [(&'static str, FileRole)],
+}
+
+/// How a node uses a file named by a text parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileRole {
+    /// The node reads the file (relative paths are relative to the graph file's folder).
+    Read,
+    /// The node writes the file (relative paths are relative to the output directory; absolute
+    /// paths and `..` escapes need `--allow-any-path`).
+    Write,
 }
 
 impl NodeDecl {
@@ -359,6 +372,7 @@ impl NodeDecl {
             uniforms: &[],
             key_exempt: &[],
             sink: false,
+            files: &[],
         }
     }
 
@@ -383,6 +397,11 @@ impl NodeDecl {
     /// Mark the node as a sink.
     pub const fn sink(self) -> Self {
         Self { sink: true, ..self }
+    }
+
+    /// Declare the text parameters that name files the node reads or writes.
+    pub const fn files(self, files: &'static [(&'static str, FileRole)]) -> Self {
+        Self { files, ..self }
     }
 }
 

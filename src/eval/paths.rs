@@ -1,0 +1,95 @@
+//! Where the files a graph names are: relative input paths resolve against the graph file's
+//! folder, output paths under the output directory, and an output path that is absolute or
+//! climbs out with `..` is refused unless the user allows any path — so a preset from someone
+//! else cannot overwrite your files. Which parameters name files, and whether they are read or
+//! written, each node declares ([`NodeDecl::files`](super::NodeDecl::files)).
+
+use std::path::{Component, Path, PathBuf};
+
+use thiserror::Error;
+
+use super::{FileRole, Registry};
+use crate::graph::{Graph, ParamValue};
+
+/// How file paths in a graph are resolved.
+#[derive(Clone, Debug)]
+pub struct PathPolicy {
+    /// The graph file's folder: relative input paths are taken from it.
+    pub graph_dir: PathBuf,
+    /// Relative output paths are written under it (`.`: the working directory).
+    pub output_dir: PathBuf,
+    /// Allow absolute output paths and `..` escapes.
+    pub allow_any: bool,
+}
+
+/// An output path the policy refuses.
+#[derive(Debug, Error)]
+#[error("node '{node}': {param} = \"{path}\" {why}; outputs stay under the output directory (--output-dir), or pass --allow-any-path")]
+pub struct PathRefused {
+    /// The node.
+    pub node: String,
+    /// Its parameter.
+    pub param: String,
+    /// The path as written in the graph.
+    pub path: String,
+    /// Why it is refused.
+    pub why: &'static str,
+}
+
+/// `graph` with every declared file parameter resolved by `policy` (parameters left at their
+/// default are resolved too). Empty paths stay empty.
+pub fn resolve_files(
+    registry: &Registry,
+    graph: &Graph,
+    policy: &PathPolicy,
+) -> Result<Graph, PathRefused> {
+    let mut out = graph.clone();
+    for node in graph.nodes() {
+        let Some(kind) = registry.get(&node.kind) else {
+            continue;
+        };
+        let decl = kind.decl();
+        for (param, role) in decl.files {
+            let default = decl
+                .schema
+                .params
+                .iter()
+                .find(|p| p.name == *param)
+                .map(|p| p.default.value());
+            let Some(ParamValue::Text(text)) = node.params.get(*param).cloned().or(default) else {
+                continue;
+            };
+            if text.is_empty() {
+                continue;
+            }
+            let path = Path::new(&text);
+            let resolved = match role {
+                FileRole::Read if path.is_relative() => policy.graph_dir.join(path),
+                FileRole::Read => path.to_path_buf(),
+                FileRole::Write => {
+                    let refuse = |why| PathRefused {
+                        node: node.id.clone(),
+                        param: param.to_string(),
+                        path: text.clone(),
+                        why,
+                    };
+                    if !policy.allow_any && path.is_absolute() {
+                        return Err(refuse("is absolute"));
+                    }
+                    if !policy.allow_any && path.components().any(|c| c == Component::ParentDir) {
+                        return Err(refuse("climbs out with .."));
+                    }
+                    if path.is_relative() && policy.output_dir != Path::new(".") {
+                        policy.output_dir.join(path)
+                    } else {
+                        path.to_path_buf()
+                    }
+                }
+            };
+            let value = ParamValue::Text(resolved.to_string_lossy().into_owned());
+            // A text parameter takes any text: this cannot fail for a declared file parameter.
+            let _ = out.set_param(registry.catalog(), &node.id, param, value);
+        }
+    }
+    Ok(out)
+}
