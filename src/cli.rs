@@ -1052,12 +1052,18 @@ fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
         }
     }
     bar.finish_and_clear();
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let renders = match vars.len() {
+        1 => plural(frames.len(), "frame"),
+        n => format!(
+            "{} × {}",
+            plural(frames.len(), "frame"),
+            plural(n, "wedge value")
+        ),
+    };
     println!(
-        "{} file{} written for {} frame{}, {skipped} skipped (already there), {} failed, {:.1} s",
-        written.len(),
-        if written.len() == 1 { "" } else { "s" },
-        total,
-        if total == 1 { "" } else { "s" },
+        "{} written for {renders}, {skipped} skipped (already there), {} failed, {:.1} s",
+        plural(written.len(), "file"),
         failed.len(),
         clock.elapsed().as_secs_f64()
     );
