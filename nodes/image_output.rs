@@ -115,6 +115,18 @@ fn sanitized(ctx: &RunCtx, port: &str) -> Result<PortValue, NodeError> {
     Ok(super::util::image_like(Arc::new(out)))
 }
 
+/// The file a sink writes: its `path` (not empty) named for the wedge and frame.
+fn file_to_write(ctx: &RunCtx) -> Result<std::path::PathBuf, NodeError> {
+    let path = ctx.text("path")?;
+    if path.is_empty() {
+        return Err(NodeError::Param {
+            param: "path".into(),
+            message: "is empty: set the file to write".into(),
+        });
+    }
+    Ok(ctx.suffixed(path))
+}
+
 /// CPU reference of the GPU pass: non-finite samples become 0.
 pub fn reference(input: &Raster) -> Raster {
     let mut out = input.clone();
@@ -149,14 +161,7 @@ impl NodeKind for ImageOutput {
     }
 
     fn commit(&self, ctx: &RunCtx, outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
-        let path = ctx.text("path")?;
-        if path.is_empty() {
-            return Err(NodeError::Param {
-                param: "path".into(),
-                message: "is empty: set the file to write".into(),
-            });
-        }
-        let path = ctx.suffixed(path);
+        let path = file_to_write(ctx)?;
         let precision = resolve_precision(&path, ctx.choice("precision")?)?;
         let value = outputs
             .get("written")
@@ -245,14 +250,7 @@ impl NodeKind for AovOutput {
     }
 
     fn commit(&self, ctx: &RunCtx, outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
-        let path = ctx.text("path")?;
-        if path.is_empty() {
-            return Err(NodeError::Param {
-                param: "path".into(),
-                message: "is empty: set the file to write".into(),
-            });
-        }
-        let path = ctx.suffixed(path);
+        let path = file_to_write(ctx)?;
         let half = ctx.choice::<LayerStorage>("precision")? == LayerStorage::Half;
         let floats: Vec<String> = ctx
             .text("float_layers")?

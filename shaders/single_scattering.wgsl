@@ -333,18 +333,17 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
         let x = P.eye + dir * t;
         let v = visible(x);
         lit += v;
-        // The uniform test first (see tree_ray): without a light map or light extinction the
-        // weight's code is skipped, not run masked.
+        // Without a light map and light extinction (pipeline constants off) this compiles away.
         if map || extinction() {
             if v > 0.0 {
-            // Sample i stands for its interval of the segment.
-            let a = t0 + f32(i) / f32(P.steps) * len;
-            let b = t0 + f32(i + 1u) / f32(P.steps) * len;
-            let w = weight(dir, t0, a, b);
-            weighted += w;
-            if map {
-                acc += w * light_map_at(x);
-            }
+                // Sample i stands for its interval of the segment.
+                let a = t0 + f32(i) / f32(P.steps) * len;
+                let b = t0 + f32(i + 1u) / f32(P.steps) * len;
+                let w = weight(dir, t0, a, b);
+                weighted += w;
+                if map {
+                    acc += w * light_map_at(x);
+                }
             }
         }
     }
@@ -838,8 +837,7 @@ fn tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
             weighted += w.y;
         }
         lit += (lit_end - t) * share;
-        // `ext` is uniform: branching on it first lets a SIMD driver (lavapipe) skip the
-        // weight's code when light extinction is off instead of running it masked.
+        // `ext` is false at compile time when the pipeline constant EXTINCTION is off.
         if ext {
             if lit_end > t && share > 0.0 {
                 weighted += weight(dir, r.t0, t, lit_end) * share;

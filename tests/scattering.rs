@@ -1431,9 +1431,10 @@ fn epipolar_works_with_bounded_media_and_manipulated_maps() {
 
 /// Stability: the sun on the view axis (epipole at the image centre, exactly on a pixel centre
 /// for an odd size and on a pixel corner for an even one), behind the camera, at right angles to
-/// the view axis (epipole at infinity), far off screen, a one-pixel-wide and a one-pixel-high
-/// image (empty and fully occluded maps: `empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly`): every output finite, V̄ in [0, 1], and V̄ close to MinMax (RMSE ≤
-/// 0.02 at these tiny sizes, where a few slices span the whole image).
+/// the view axis (epipole at infinity), far off screen, a one-pixel-wide, one-pixel-high and
+/// one-pixel image: every output finite, V̄ in [0, 1], and V̄ close to MinMax (RMSE ≤ 0.02 at
+/// these tiny sizes, where a few slices span the whole image). Empty and fully occluded maps:
+/// `empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly`.
 #[test]
 fn epipolar_stability_at_the_epipole_extremes() {
     let gpu = require_gpu!();
