@@ -908,7 +908,7 @@ impl NodeKind for LightMapSolve {
             }
         };
         let data: SolveData = ctx.data()?;
-        let n = ctx.int("resolution")? as u32;
+        let n = ctx.texture_side("resolution", 2)?;
         let sampling = Sampling {
             sigma_t: ctx.f32("sigma_t")?,
             steps: ctx.int("steps")? as u32,

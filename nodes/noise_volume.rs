@@ -227,7 +227,7 @@ impl NodeKind for NoiseVolume {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let n = ctx.int("resolution")? as u32;
+        let n = ctx.texture_side("resolution", 3)?;
         let drift = ctx.f32("speed")? * ctx.time as f32;
         let p = NoiseParams {
             size: [n; 3],

@@ -82,14 +82,7 @@ impl NodeKind for ShadowMapNode {
                     port: "scene".into(),
                     message: "is not a scene".into(),
                 })?;
-        let res = ctx.int("resolution")? as u32;
-        let limit = ctx.gpu.limits.max_texture_dimension_2d;
-        if res > limit {
-            return Err(NodeError::Param {
-                param: "resolution".into(),
-                message: format!("{res} exceeds this device's texture limit of {limit}"),
-            });
-        }
+        let res = ctx.texture_side("resolution", 2)?;
         let (view, proj) = fit_light(scene.scene.sun.to_sun(), scene.scene.bounds());
         let u = ShadowMapParams {
             light_view_proj: (proj * view).to_cols_array_2d(),

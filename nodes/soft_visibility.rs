@@ -512,8 +512,14 @@ impl NodeKind for SoftVisibility {
                 })
             }
         };
-        let res = ctx.int("resolution")?.clamp(16, 2048) as u32;
+        let res = ctx.texture_side("resolution", 3)?;
         let slices = ctx.int("slices")?.clamp(1, 1024) as u32;
+        crate::eval::check_side(
+            "slices",
+            slices as i64,
+            ctx.gpu.limits.max_texture_dimension_3d,
+            3,
+        )?;
         let spec = spec_of(ctx, &light, res, slices)?;
         let stencils: Vec<Stencil> = (0..slices).map(|k| stencil(&spec, k)).collect();
         let taps = stencils.iter().map(Vec::len).max().unwrap_or(1).max(1);

@@ -1230,7 +1230,7 @@ impl NodeKind for TransferFunction {
             Some(PortValue::Lut2D(t)) => t.clone(),
             Some(_) => return Err(input_err("lut", "is not a Lut2D")),
             None => {
-                let n = ctx.int("resolution")? as u32;
+                let n = ctx.texture_side("resolution", 2)?;
                 let cycles = ctx.int("diffusion_cycles")? as u32;
                 let mut layers = stack(ctx)?;
                 resolve_anchors(ctx, &mut layers, frame.as_ref())?;

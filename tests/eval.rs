@@ -423,3 +423,26 @@ fn unknown_choice_is_an_error_naming_node_and_parameter() {
         assert!(msg.contains(part), "'{part}' missing from: {msg}");
     }
 }
+
+/// A texture side beyond the adapter's limit fails naming the parameter and the limit (every
+/// node with a resolution parameter reads it through `RunCtx::texture_side`); lavapipe's limits
+/// are above every parameter's range, so the check itself is tested here.
+#[test]
+fn texture_sides_beyond_the_limit_name_the_parameter_and_the_limit() {
+    use tyndall::eval::{check_side, NodeError};
+    assert_eq!(check_side("resolution", 2048, 8192, 2).expect("fits"), 2048);
+    for bad in [8193, 0, -1, i64::MAX] {
+        match check_side("resolution", bad, 8192, 2) {
+            Err(NodeError::Param { param, message }) => {
+                assert_eq!(param, "resolution");
+                assert!(
+                    message.contains("8192") && message.contains("2D"),
+                    "{message}"
+                );
+            }
+            other => panic!("{bad}: {other:?}"),
+        }
+    }
+    let e = check_side("slices", 4096, 2048, 3).expect_err("3D");
+    assert!(e.to_string().contains("max_texture_dimension_3d"), "{e}");
+}

@@ -112,6 +112,19 @@ impl RunCtx<'_> {
         }
     }
 
+    /// An `Int` parameter giving a texture's side (`dims` = 2 for a 2D texture, 3 for a volume),
+    /// checked against the adapter's limit: a value beyond it fails naming the parameter and
+    /// the limit instead of failing later inside the GPU layer.
+    pub fn texture_side(&self, name: &str, dims: u32) -> Result<u32, NodeError> {
+        let limits = &self.gpu.limits;
+        let limit = if dims == 3 {
+            limits.max_texture_dimension_3d
+        } else {
+            limits.max_texture_dimension_2d
+        };
+        check_side(name, self.int(name)?, limit, dims)
+    }
+
     /// A `Bool` parameter.
     pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
         match self.param(name)? {
@@ -294,6 +307,21 @@ pub fn with_frame(path: &str, frame: i64) -> Option<String> {
         &path[..start],
         &rest[spec.len() + 1..]
     ))
+}
+
+/// `value` as a texture side if it is within 1..=`limit` (the adapter's
+/// `max_texture_dimension_{dims}d`), else an error naming `param` and the limit.
+pub fn check_side(param: &str, value: i64, limit: u32, dims: u32) -> Result<u32, NodeError> {
+    match u32::try_from(value) {
+        Ok(v) if (1..=limit).contains(&v) => Ok(v),
+        _ => Err(NodeError::Param {
+            param: param.to_string(),
+            message: format!(
+                "{value} texels per side is beyond this adapter's limit of {limit} for a {dims}D \
+                 texture (max_texture_dimension_{dims}d)"
+            ),
+        }),
+    }
 }
 
 /// Insert `suffix` before a path's extension (`out.exr` + `_w1` → `out_w1.exr`).
