@@ -112,3 +112,22 @@ fn concurrent_writes_of_one_file_leave_one_complete_image() {
         .collect();
     assert_eq!(names, vec!["same.exr".to_string()], "{names:?}");
 }
+
+/// Inputs found by fuzzing (`scripts/fuzz.sh`, kept in tests/fixtures/fuzz/ and the seed
+/// corpus): an EXR whose header claims 889192434×12 texels (the reader asked for 42 GB and the
+/// process aborted) and a glTF naming an accessor that does not exist (the gltf crate's
+/// validation panicked). Both are now errors naming the file.
+#[test]
+fn fuzzed_inputs_are_errors_not_crashes() {
+    let fixture = |name: &str| {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/fuzz")
+            .join(name)
+    };
+    let e = read_image(&fixture("exr_forged_size.exr"), false).expect_err("forged size");
+    assert!(e.to_string().contains("beyond the 16384×16384"), "{e}");
+    let e = tyndall::scene::load_gltf(&fixture("gltf_missing_accessor.gltf"))
+        .err()
+        .expect("missing accessor");
+    assert!(e.to_string().contains("names accessor 0"), "{e}");
+}

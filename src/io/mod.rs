@@ -135,11 +135,32 @@ pub fn read_image(path: &Path, srgb: bool) -> Result<Raster, IoError> {
     }
 }
 
+/// Largest image Tyndall reads, in texels (16384², the largest texture side it uses): a header
+/// claiming more is refused before anything is allocated (a forged size made the EXR reader
+/// ask for 42 GB; found by fuzzing).
+pub const MAX_READ_TEXELS: u64 = 16384 * 16384;
+
 fn read_exr(path: &Path) -> Result<Raster, IoError> {
     let err = |reason: String| IoError::Read {
         path: path.to_path_buf(),
         reason,
     };
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        let texels = size.width() as u64 * size.height() as u64;
+        let channels = header.channels.list.len().max(1) as u64;
+        if texels > MAX_READ_TEXELS || texels.saturating_mul(channels) > 4 * MAX_READ_TEXELS {
+            return Err(err(format!(
+                "the header claims {}×{} texels × {channels} channels, beyond the {}×{} \
+                 Tyndall reads",
+                size.width(),
+                size.height(),
+                16384,
+                16384
+            )));
+        }
+    }
     let img = exrp::read()
         .no_deep_data()
         .largest_resolution_level()

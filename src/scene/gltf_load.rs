@@ -70,13 +70,34 @@ fn buffers(
     Ok(out)
 }
 
+/// Every accessor a mesh primitive names (attributes, indices) exists.
+fn accessor_indices_exist(root: &gltf::json::Root) -> Result<(), String> {
+    let count = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim.attributes.values().chain(prim.indices.as_ref());
+            if let Some(bad) = named.map(|i| i.value()).find(|i| *i >= count) {
+                return Err(format!(
+                    "mesh {m} primitive {p} names accessor {bad}, but the file has {count}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Load a glTF scene. Camera and sun default to a view of the bounds and a high sun when the
 /// file has none.
 pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| err(path, e))?;
+    // The gltf crate's validation indexes a primitive's POSITION accessor before checking that
+    // it exists (a panic on such a file, found by fuzzing): check the indices first.
+    let unchecked = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(path, e))?;
+    accessor_indices_exist(unchecked.document.as_json()).map_err(|m| err(path, m))?;
     let gltf::Gltf {
         document: doc,
         blob,
-    } = gltf::Gltf::open(path).map_err(|e| err(path, e))?;
+    } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(path, e))?;
     let bufs = buffers(&doc, blob, path)?;
     let mut objects = Vec::new();
     let mut camera = None;
