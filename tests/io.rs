@@ -115,8 +115,9 @@ fn concurrent_writes_of_one_file_leave_one_complete_image() {
 
 /// Inputs found by fuzzing (`scripts/fuzz.sh`, kept in tests/fixtures/fuzz/ and the seed
 /// corpus): an EXR whose header claims 889192434×12 texels (the reader asked for 42 GB and the
-/// process aborted) and a glTF naming an accessor that does not exist (the gltf crate's
-/// validation panicked). Both are now errors naming the file.
+/// process aborted), a glTF naming an accessor that does not exist (the gltf crate's validation
+/// panicked) and one whose position accessor has the wrong shape (the crate's reader asserted).
+/// All are now errors naming the file.
 #[test]
 fn fuzzed_inputs_are_errors_not_crashes() {
     let fixture = |name: &str| {
@@ -131,4 +132,9 @@ fn fuzzed_inputs_are_errors_not_crashes() {
         Err(e) => e,
     };
     assert!(e.to_string().contains("names accessor 0"), "{e}");
+    let e = match tyndall::scene::load_gltf(&fixture("gltf_accessor_size.gltf")) {
+        Ok(_) => panic!("a glTF whose accessor has the wrong shape loaded"),
+        Err(e) => e,
+    };
+    assert!(e.to_string().contains("is not a"), "{e}");
 }

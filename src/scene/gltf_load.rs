@@ -70,8 +70,13 @@ fn buffers(
     Ok(out)
 }
 
-/// Every accessor a mesh primitive names (attributes, indices) exists.
+/// Every accessor a mesh primitive names (attributes, indices) exists, and the ones the loader
+/// reads have the shape it reads them as: POSITION and NORMAL float VEC3, indices unsigned
+/// SCALAR (the gltf crate asserts on a mismatch instead of reporting it; found by fuzzing).
 fn accessor_indices_exist(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::accessor::{ComponentType, Type};
+    use gltf::json::mesh::Semantic;
+    use gltf::json::validation::Checked;
     let count = root.accessors.len();
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
@@ -80,6 +85,45 @@ fn accessor_indices_exist(root: &gltf::json::Root) -> Result<(), String> {
                 return Err(format!(
                     "mesh {m} primitive {p} names accessor {bad}, but the file has {count}"
                 ));
+            }
+            let shape = |i: usize| {
+                let a = &root.accessors[i];
+                let ty = match a.type_ {
+                    Checked::Valid(t) => Some(t),
+                    Checked::Invalid => None,
+                };
+                let component = match a.component_type {
+                    Checked::Valid(c) => Some(c.0),
+                    Checked::Invalid => None,
+                };
+                (ty, component)
+            };
+            for (semantic, index) in &prim.attributes {
+                let read = matches!(
+                    semantic,
+                    Checked::Valid(Semantic::Positions) | Checked::Valid(Semantic::Normals)
+                );
+                if read && shape(index.value()) != (Some(Type::Vec3), Some(ComponentType::F32)) {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: accessor {} for {semantic:?} is not a float VEC3",
+                        index.value()
+                    ));
+                }
+            }
+            if let Some(index) = &prim.indices {
+                let ok = matches!(
+                    shape(index.value()),
+                    (
+                        Some(Type::Scalar),
+                        Some(ComponentType::U8 | ComponentType::U16 | ComponentType::U32)
+                    )
+                );
+                if !ok {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: index accessor {} is not an unsigned SCALAR",
+                        index.value()
+                    ));
+                }
             }
         }
     }
