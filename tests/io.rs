@@ -116,8 +116,9 @@ fn concurrent_writes_of_one_file_leave_one_complete_image() {
 /// Inputs found by fuzzing (`scripts/fuzz.sh`, kept in tests/fixtures/fuzz/ and the seed
 /// corpus): an EXR whose header claims 889192434×12 texels (the reader asked for 42 GB and the
 /// process aborted), a glTF naming an accessor that does not exist (the gltf crate's validation
-/// panicked) and one whose position accessor has the wrong shape (the crate's reader asserted).
-/// All are now errors naming the file.
+/// panicked), one whose position accessor has the wrong shape (the crate's reader asserted) and
+/// a GLB whose header length is under 12 (the crate subtracted with overflow). All are now
+/// errors naming the file.
 #[test]
 fn fuzzed_inputs_are_errors_not_crashes() {
     let fixture = |name: &str| {
@@ -137,4 +138,9 @@ fn fuzzed_inputs_are_errors_not_crashes() {
         Err(e) => e,
     };
     assert!(e.to_string().contains("is not a"), "{e}");
+    let e = match tyndall::scene::load_gltf(&fixture("glb_short_length.gltf")) {
+        Ok(_) => panic!("a GLB with a header length under 12 loaded"),
+        Err(e) => e,
+    };
+    assert!(e.to_string().contains("GLB header length"), "{e}");
 }

@@ -134,6 +134,19 @@ fn accessor_indices_exist(root: &gltf::json::Root) -> Result<(), String> {
 /// file has none.
 pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| err(path, e))?;
+    // A binary glTF whose header length is shorter than the header itself makes the gltf crate
+    // subtract with overflow (a panic in builds with overflow checks; found by fuzzing).
+    if bytes.starts_with(b"glTF") {
+        let length = bytes
+            .get(8..12)
+            .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        if length < 12 {
+            return Err(err(
+                path,
+                format!("GLB header length {length} is shorter than the header"),
+            ));
+        }
+    }
     // The gltf crate's validation indexes a primitive's POSITION accessor before checking that
     // it exists (a panic on such a file, found by fuzzing): check the indices first.
     let unchecked = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(path, e))?;
