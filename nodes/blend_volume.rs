@@ -269,6 +269,7 @@ impl NodeKind for BlendVolume {
         let base = ctx.f32("base")?.clamp(lo, hi);
         let bounds = super::util::volume_box(ctx)?;
         let n = ctx.texture_side("resolution", 3)?;
+        ctx.check_bytes("resolution", u64::from(n).pow(3) * 4)?;
         let v = bake(ctx.gpu, &data.splats, base, n, bounds)?;
         ctx.set("volume", PortValue::Volume(Arc::new(v), bounds));
         Ok(())

@@ -909,6 +909,7 @@ impl NodeKind for LightMapSolve {
         };
         let data: SolveData = ctx.data()?;
         let n = ctx.texture_side("resolution", 2)?;
+        ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;
         let sampling = Sampling {
             sigma_t: ctx.f32("sigma_t")?,
             steps: ctx.int("steps")? as u32,

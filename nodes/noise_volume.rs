@@ -228,6 +228,7 @@ impl NodeKind for NoiseVolume {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let n = ctx.texture_side("resolution", 3)?;
+        ctx.check_bytes("resolution", u64::from(n).pow(3) * 4)?;
         let drift = ctx.f32("speed")? * ctx.time as f32;
         let p = NoiseParams {
             size: [n; 3],

@@ -83,6 +83,7 @@ impl NodeKind for ShadowMapNode {
                     message: "is not a scene".into(),
                 })?;
         let res = ctx.texture_side("resolution", 2)?;
+        ctx.check_bytes("resolution", u64::from(res).pow(2) * 4)?;
         let (view, proj) = fit_light(scene.scene.sun.to_sun(), scene.scene.bounds());
         let u = ShadowMapParams {
             light_view_proj: (proj * view).to_cols_array_2d(),

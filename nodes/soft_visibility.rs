@@ -520,6 +520,11 @@ impl NodeKind for SoftVisibility {
             ctx.gpu.limits.max_texture_dimension_3d,
             3,
         )?;
+        // The Rg32F volume of the light's box: resolution² × slices texels of 8 bytes.
+        ctx.check_bytes(
+            "resolution, slices",
+            u64::from(res).pow(2) * u64::from(slices) * 8,
+        )?;
         let spec = spec_of(ctx, &light, res, slices)?;
         let stencils: Vec<Stencil> = (0..slices).map(|k| stencil(&spec, k)).collect();
         let taps = stencils.iter().map(Vec::len).max().unwrap_or(1).max(1);

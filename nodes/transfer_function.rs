@@ -1231,6 +1231,7 @@ impl NodeKind for TransferFunction {
             Some(_) => return Err(input_err("lut", "is not a Lut2D")),
             None => {
                 let n = ctx.texture_side("resolution", 2)?;
+                ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;
                 let cycles = ctx.int("diffusion_cycles")? as u32;
                 let mut layers = stack(ctx)?;
                 resolve_anchors(ctx, &mut layers, frame.as_ref())?;

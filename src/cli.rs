@@ -46,21 +46,43 @@ pub enum Command {
         /// The graph file.
         graph: PathBuf,
     },
-    /// Measure speed against accuracy of a node's quality settings (suites in benches/).
+    /// Measure speed against accuracy of node quality settings (suites in benches/). With no
+    /// suite: every suite, then bench/results.csv, the plots in bench/plots/ and the tables of
+    /// BENCHMARKS.md.
     Bench {
-        /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path.
-        #[arg(default_value = "visibility")]
-        suite: String,
-        /// Runs per setting (default: the suite's).
+        /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path;
+        /// none: every suite under benches/.
+        suite: Option<String>,
+        /// Runs per setting (default: the suite's; 1 with --quick).
         #[arg(long)]
         runs: Option<usize>,
         /// Evaluation size WIDTHxHEIGHT (default: the suite's).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
-        /// CSV file to write (default: out/bench/NAME.csv); for a folder of suites, the folder
-        /// to write one CSV per suite in (default: out/bench/NAME/).
+        /// A reduced run: each suite's `quick` settings at its `quick_size`, one run each
+        /// (a few minutes for every suite); results go to bench/quick/ and BENCHMARKS.md is left
+        /// alone unless --docs names it.
+        #[arg(long, conflicts_with = "full")]
+        quick: bool,
+        /// Also the settings a suite marks `slow` (left out by default to keep the whole run
+        /// under 15 minutes on two CPU cores).
         #[arg(long)]
+        full: bool,
+        /// CSV file of one suite (default: out/bench/NAME.csv); for a folder of suites, the
+        /// folder to write one CSV per suite in (default: out/bench/NAME/).
+        #[arg(long, conflicts_with = "out")]
         csv: Option<PathBuf>,
+        /// Folder for results.csv and plots/ when every suite runs (default: bench, or
+        /// bench/quick with --quick).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Markdown file whose generated blocks to rewrite (default: BENCHMARKS.md when every
+        /// suite runs without --quick; otherwise none).
+        #[arg(long, conflicts_with = "no_docs")]
+        docs: Option<PathBuf>,
+        /// Leave BENCHMARKS.md alone.
+        #[arg(long)]
+        no_docs: bool,
     },
     /// Open the editor window: node canvas, viewer, parameters, timeline, presets, transfer-function, stroke and 3D-brush panels.
     Edit {
@@ -476,8 +498,26 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             suite,
             runs,
             size,
+            quick,
+            full,
             csv,
-        } => run_bench(registry, &suite, runs, size, csv),
+            out,
+            docs,
+            no_docs,
+        } => run_bench(
+            registry,
+            BenchArgs {
+                suite,
+                runs,
+                size,
+                quick,
+                full,
+                csv,
+                out,
+                docs: if no_docs { None } else { docs },
+                no_docs,
+            },
+        ),
         Command::Eval(a) => run_eval(registry, a),
         Command::Pick(a) => run_pick(registry, a),
         Command::Render(a) => run_render(registry, a),
@@ -844,91 +884,177 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-fn run_bench(
-    registry: Arc<Registry>,
-    suite: &str,
+/// The `bench` command's arguments.
+struct BenchArgs {
+    suite: Option<String>,
     runs: Option<usize>,
     size: Option<(u32, u32)>,
+    quick: bool,
+    full: bool,
     csv: Option<PathBuf>,
-) -> Result<(), CliError> {
-    let files = crate::bench::suite_files(suite).map_err(bad)?;
-    let several = files.len() > 1;
-    for (i, path) in files.iter().enumerate() {
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "bench".into());
-        // One suite: the CSV file given or out/bench/NAME.csv; a folder of suites: one CSV per
-        // suite in the folder given or out/bench/SUITE/.
-        let csv_path = match (&csv, several) {
-            (Some(c), false) => c.clone(),
-            (Some(c), true) => c.join(format!("{name}.csv")),
-            (None, false) => PathBuf::from(format!("out/bench/{name}.csv")),
-            (None, true) => PathBuf::from(format!("out/bench/{suite}/{name}.csv")),
+    out: Option<PathBuf>,
+    docs: Option<PathBuf>,
+    no_docs: bool,
+}
+
+fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
+    use crate::bench::{self, plot, report};
+    let all = a.suite.is_none();
+    let root = Path::new("benches");
+    let list: Vec<(String, PathBuf)> = match &a.suite {
+        None => report::all_suites(root).map_err(bad)?,
+        Some(name) => bench::suite_files(name)
+            .map_err(bad)?
+            .into_iter()
+            .map(|p| {
+                let name = p
+                    .strip_prefix(root)
+                    .unwrap_or(&p)
+                    .with_extension("")
+                    .to_string_lossy()
+                    .into_owned();
+                (name, p)
+            })
+            .collect(),
+    };
+    if list.is_empty() {
+        return Err(bad("no bench suites found under benches/"));
+    }
+    let out_dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(if a.quick { "bench/quick" } else { "bench" }));
+    let docs = match (&a.docs, a.no_docs) {
+        (Some(d), _) => Some(d.clone()),
+        (None, false) if all && !a.quick => Some(PathBuf::from("BENCHMARKS.md")),
+        _ => None,
+    };
+    let command = std::iter::once("tyndall".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let gpu = gpu()?;
+    let adapter = gpu.describe();
+    let started = std::time::Instant::now();
+    let mut results: Vec<(String, String, Vec<bench::Row>)> = Vec::new();
+    let mut failed: Vec<String> = Vec::new();
+    for (i, (name, path)) in list.iter().enumerate() {
+        eprintln!(
+            "bench [{}/{}] {name} ({:.0} s so far)",
+            i + 1,
+            list.len(),
+            started.elapsed().as_secs_f64()
+        );
+        let mut spec = bench::load_suite(path).map_err(bad)?;
+        if !a.full {
+            spec = spec.without_slow();
+        }
+        if a.quick {
+            spec = spec.reduced();
+        }
+        let size = a.size.unwrap_or(spec.size);
+        let runs = a.runs.unwrap_or(spec.runs);
+        let rows = match bench::run(
+            registry.clone(),
+            gpu.clone(),
+            path,
+            &spec,
+            runs,
+            size,
+            |l| eprintln!("bench {name}: {l}"),
+        ) {
+            Ok(rows) => rows,
+            Err(e) if all => {
+                eprintln!("bench {name}: failed: {e}");
+                failed.push(name.clone());
+                continue;
+            }
+            Err(bench::BenchError::Eval(e)) => return Err(CliError::Eval(e)),
+            Err(e) => return Err(bad(e)),
         };
+        let text = report::suite_text(&spec, &adapter, (size, runs), &command, &rows);
         if i > 0 {
             println!();
         }
-        run_suite(
-            registry.clone(),
-            suite,
-            path,
-            &name,
-            (runs, size),
-            &csv_path,
-        )?;
-    }
-    Ok(())
-}
-
-fn run_suite(
-    registry: Arc<Registry>,
-    suite: &str,
-    path: &Path,
-    name: &str,
-    (runs, size): (Option<usize>, Option<(u32, u32)>),
-    csv_path: &Path,
-) -> Result<(), CliError> {
-    let spec = crate::bench::load_suite(path).map_err(bad)?;
-    let gpu = gpu()?;
-    println!("{}", spec.title);
-    println!("adapter: {}", gpu.describe());
-    let size = size.unwrap_or(spec.size);
-    let runs = runs.unwrap_or(spec.runs);
-    println!(
-        "size {}x{}, {runs} runs per setting, command: tyndall bench {suite}",
-        size.0, size.1
-    );
-    let rows = crate::bench::run(registry, gpu, path, &spec, runs, size, |line| {
-        eprintln!("bench {name}: {line}")
-    })
-    .map_err(|e| match e {
-        crate::bench::BenchError::Eval(e) => CliError::Eval(e),
-        other => bad(other),
-    })?;
-    print!("{}", crate::bench::table(&rows));
-    if let Some((_, _, accelerated)) = &spec.compare {
-        for acc in accelerated {
-            for &bound in &spec.target_rmse {
-                match crate::bench::speedup(&spec, &rows, acc, bound) {
-                    Some((b, a, f)) => println!(
-                        "speed-up of {acc} at RMSE <= {bound}: {f:.2}x ({} {:.3} ms vs {} {:.3} ms)",
-                        b.setting, b.median_ms, a.setting, a.median_ms
-                    ),
-                    None => println!(
-                        "speed-up of {acc} at RMSE <= {bound}: not measurable (a method never \
-                         reached it)"
-                    ),
-                }
+        print!("{text}");
+        if !all {
+            // One suite: the CSV file given or out/bench/NAME.csv; a folder of suites: one CSV
+            // per suite in the folder given or out/bench/SUITE/.
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "bench".into());
+            let csv_path = match (&a.csv, list.len() > 1) {
+                (Some(c), false) => c.clone(),
+                (Some(c), true) => c.join(format!("{stem}.csv")),
+                (None, false) => PathBuf::from(format!("out/bench/{stem}.csv")),
+                (None, true) => PathBuf::from(format!(
+                    "out/bench/{}/{stem}.csv",
+                    a.suite.as_deref().unwrap_or("bench")
+                )),
+            };
+            write_file(&csv_path, bench::csv(&rows).as_bytes())?;
+            println!("csv: {}", csv_path.display());
+        }
+        let mut links = Vec::new();
+        if all || docs.is_some() {
+            let stem = name.replace('/', "-");
+            for p in
+                plot::plots(&out_dir.join("plots"), &stem, &spec, &adapter, &rows).map_err(bad)?
+            {
+                println!("plot: {}", p.display());
+                let alt = p
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                links.push((alt, p.to_string_lossy().into_owned()));
             }
         }
+        if let Some(doc) = &docs {
+            let old = std::fs::read_to_string(doc).unwrap_or_else(|_| "# Benchmarks\n".into());
+            let body = report::doc_body(&command, &text, &links);
+            write_file(
+                doc,
+                report::update_doc(&old, name, &spec.title, &body).as_bytes(),
+            )?;
+        }
+        results.push((name.clone(), adapter.clone(), rows));
+        if all {
+            // Rewritten after every suite: a run stopped half-way keeps what it measured.
+            let csv = report::results_csv(&results).map_err(bad)?;
+            write_file(&out_dir.join("results.csv"), &csv)?;
+        }
     }
-    if let Some(dir) = csv_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+    let mut summary = format!(
+        "{} of {} suites measured in {:.0} s",
+        results.len(),
+        list.len(),
+        started.elapsed().as_secs_f64()
+    );
+    if all {
+        summary.push_str(&format!(
+            "; results: {}; plots: {}",
+            out_dir.join("results.csv").display(),
+            out_dir.join("plots").display()
+        ));
+    }
+    if let Some(doc) = &docs {
+        summary.push_str(&format!("; tables: {}", doc.display()));
+    }
+    println!("\n{summary}");
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(bad(format!("suites failed: {}", failed.join(", "))))
+    }
+}
+
+/// Write a file atomically, creating its folder.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| bad(format!("{}: {e}", dir.display())))?;
     }
-    crate::graph::write_atomic(csv_path, crate::bench::csv(&rows).as_bytes()).map_err(bad)?;
-    println!("csv: {}", csv_path.display());
-    Ok(())
+    crate::graph::write_atomic(path, bytes).map_err(bad)
 }
 
 fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
@@ -1036,6 +1162,12 @@ fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
                             }
                             written.extend(files.iter().cloned());
                             "written"
+                        }
+                        Err(e) if e.device_lost() => {
+                            // Nothing more can run on a lost device: stop, exit 1.
+                            bar.finish_and_clear();
+                            eprintln!("error: frame {}: {e}", frame_label(*f));
+                            return Err(e.into());
                         }
                         Err(e) if frames.len() * vars.len() > 1 => {
                             // One bad frame does not stop the others; the exit code says so.

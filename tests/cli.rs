@@ -374,6 +374,40 @@ fn no_driver_error_lines_without_xdg_runtime_dir() {
     );
 }
 
+/// An allocation beyond the adapter's limit (here lowered to 1 MiB with
+/// `TYNDALL_GPU_MEMORY_MB`, since no parameter range reaches lavapipe's own) fails before the
+/// driver does, naming the node, the parameter and the limit; exit 1.
+#[test]
+fn an_allocation_beyond_the_memory_limit_names_node_parameter_and_limit() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let preset = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/tree.ron");
+    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .env("TYNDALL_GPU_MEMORY_MB", "1")
+        .args([
+            "render",
+            &preset.display().to_string(),
+            "--size",
+            "32x18",
+            "-o",
+        ])
+        .arg(dir.path().join("t.png"))
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    // The tree preset's 2048² R32F shadow map: 16 MiB.
+    assert!(err.contains("node 'shadow' (ShadowMap)"), "{err}");
+    assert!(err.contains("parameter 'resolution'"), "{err}");
+    assert!(
+        err.contains("16 MiB") && err.contains("limit of 1 MiB"),
+        "{err}"
+    );
+    assert!(err.contains("TYNDALL_GPU_MEMORY_MB"), "{err}");
+}
+
 /// AovOutput writes one multi-layer EXR that an independent reader (OpenImageIO's `oiiotool`,
 /// Debian's openimageio-tools, installed by .ci/run) lists with the layer channels named as Nuke
 /// and Blender read them, half or float per layer, and the camera matrices and frame in the

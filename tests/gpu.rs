@@ -78,3 +78,37 @@ fn wgpu_validation_errors_surface_as_errors() {
         .expect("valid dispatch");
     assert_eq!(gpu.read_texture(&t).expect("read"), vec![1.0; 16]);
 }
+
+#[test]
+fn a_lost_device_ends_the_evaluation_with_an_error_not_a_hang() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // A private device: destroying it must not disturb the tests sharing the process-wide one.
+    let gpu = std::sync::Arc::new(tyndall::gpu::Gpu::new(false).expect("device"));
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+        let target = [tyndall::eval::Target::Port("tonemap".into(), "out".into())];
+        let opts = tyndall::eval::EvalOptions {
+            size: (32, 18),
+            ..Default::default()
+        };
+        let before = ev.evaluate(&graph, &target, &opts).map(|_| ());
+        gpu.simulate_loss();
+        ev.clear();
+        let after = ev.evaluate(&graph, &target, &opts).map(|_| ());
+        let _ = tx.send((before, after));
+    });
+    // Generous: the two 32×18 evaluations take well under a second; a hang never returns.
+    let (before, after) = rx
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("the evaluation on a lost device returned");
+    before.expect("the evaluation before the loss succeeds");
+    let err = after.expect_err("the evaluation after the loss fails");
+    assert!(err.device_lost(), "reported as a lost device: {err}");
+    assert!(err.to_string().contains("lost"), "{err}");
+}

@@ -99,6 +99,8 @@ pub struct EditorApp {
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
     pub progress: Option<crate::eval::Progress>,
+    /// Measured speed/accuracy curves from `bench/results.csv`.
+    bench: super::bench_panel::Curves,
     allow_close: bool,
 }
 
@@ -120,7 +122,9 @@ impl EditorApp {
         let mut preset_folders = vec![PathBuf::from("graphs")];
         preset_folders.extend(user_preset_folder());
         let range = key_range(&state).unwrap_or((0.0, 48.0));
+        let bench = super::bench_panel::Curves::find(state.path());
         Self {
+            bench,
             state,
             snarl: Snarl::new(),
             synced: None,
@@ -720,6 +724,19 @@ impl EditorApp {
                 self.status = e.to_string();
             }
         }
+        let current: BTreeMap<String, String> = schema
+            .params
+            .iter()
+            .map(|p| {
+                let v = self
+                    .state
+                    .graph()
+                    .param_at(self.state.catalog(), &id, p.name, self.time)
+                    .unwrap_or(p.default.value());
+                (p.name.to_string(), v.to_string())
+            })
+            .collect();
+        self.bench.show(ui, &node.kind, &current);
         let message = match node.kind.as_str() {
             "TransferFunction" => {
                 super::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)

@@ -5,6 +5,7 @@
 //! preset browser; evaluation runs on a worker thread (`worker`).
 
 mod app;
+pub mod bench_panel;
 pub mod brush_panel;
 mod canvas;
 mod panel;

@@ -24,7 +24,7 @@ pub use node::{
 pub use paths::{resolve_files, PathPolicy, PathRefused};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, GpuError};
 use crate::graph::{Graph, GraphError, NodeSchema, ParamValue};
 
 /// An evaluation failure, naming the node (and port or parameter) at fault.
@@ -56,6 +56,20 @@ pub enum EvalError {
     /// The document is inconsistent with the registry.
     #[error(transparent)]
     Graph(#[from] GraphError),
+}
+
+impl EvalError {
+    /// Whether the GPU device was lost (or hung past the watchdog): nothing later can run on it,
+    /// so a batch stops instead of failing every remaining frame.
+    pub fn device_lost(&self) -> bool {
+        matches!(
+            self,
+            EvalError::Node {
+                source: NodeError::Gpu(GpuError::Lost(_) | GpuError::Hung(_)),
+                ..
+            }
+        )
+    }
 }
 
 /// What to evaluate.

@@ -125,6 +125,26 @@ impl RunCtx<'_> {
         check_side(name, self.int(name)?, limit, dims)
     }
 
+    /// Refuse an allocation of `bytes` that the parameter(s) `params` ask for (e.g.
+    /// `"resolution, slices"`) when it exceeds [`Gpu::allocation_limit`], naming them and the
+    /// limit — before the driver fails with a bare out-of-memory error, or the machine swaps.
+    pub fn check_bytes(&self, params: &str, bytes: u64) -> Result<(), NodeError> {
+        let (limit, source) = self.gpu.allocation_limit();
+        if bytes <= limit {
+            return Ok(());
+        }
+        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+        Err(NodeError::Param {
+            param: params.to_string(),
+            message: format!(
+                "asks for one allocation of {:.0} MiB, beyond this adapter's limit of {:.0} MiB \
+                 ({source})",
+                mib(bytes),
+                mib(limit)
+            ),
+        })
+    }
+
     /// A `Bool` parameter.
     pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
         match self.param(name)? {

@@ -33,6 +33,13 @@ pub enum GpuError {
     /// Reading a texture back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// The device was lost (driver reset, GPU removed, or destroyed): nothing more can run on it.
+    #[error("the GPU device was lost ({0}); this run cannot continue")]
+    Lost(String),
+    /// Submitted work did not finish within the watchdog time (`TYNDALL_GPU_TIMEOUT` seconds,
+    /// default 600; 0 waits forever): treated as a lost device instead of waiting forever.
+    #[error("the GPU did not finish its work within {0} s (TYNDALL_GPU_TIMEOUT); treating the device as lost")]
+    Hung(u64),
     /// A requested texture is larger than the device allows.
     #[error("texture {width}x{height} exceeds the device limit of {limit} texels per side")]
     TooLarge {
@@ -48,6 +55,28 @@ pub enum GpuError {
 /// Whether `TYNDALL_TRACE_PASSES` is set (and not `0`): every 2D compute pass then waits for the
 /// device before and after it and prints `pass STEM:ENTRY WxH: MS ms` on stderr — a per-pass
 /// profile of a node (it serialises the GPU, so whole-node times grow).
+fn watchdog_secs() -> u64 {
+    static SECS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *SECS.get_or_init(|| {
+        std::env::var("TYNDALL_GPU_TIMEOUT")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(600)
+    })
+}
+
+/// The result of a `map_async` callback after [`Gpu::wait`]: a callback wgpu never calls (a lost
+/// device) is an error after the watchdog time, not a hang.
+pub(crate) fn receive<T>(rx: &std::sync::mpsc::Receiver<T>) -> Result<T, GpuError> {
+    let secs = watchdog_secs();
+    if secs == 0 {
+        rx.recv().map_err(|e| GpuError::Readback(e.to_string()))
+    } else {
+        rx.recv_timeout(std::time::Duration::from_secs(secs))
+            .map_err(|e| GpuError::Readback(e.to_string()))
+    }
+}
+
 fn tracing() -> bool {
     static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("TYNDALL_TRACE_PASSES").is_some_and(|v| v != "0"))
@@ -112,6 +141,8 @@ pub struct Gpu {
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
     errors: Arc<Mutex<Vec<String>>>,
+    /// Why the device was lost, once it was (set by wgpu's device-lost callback).
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 impl std::fmt::Debug for Gpu {
@@ -163,6 +194,9 @@ impl Gpu {
     /// `WGPU_BACKEND` and the other wgpu environment variables are honoured.
     pub fn new(validation: bool) -> Result<Gpu, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        // Without validation: no flags at all (wgpu's default in debug builds would turn the
+        // validation layer on anyway).
+        desc.flags = wgpu::InstanceFlags::empty();
         if validation {
             // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
             // layer (1.3.239) does not know and reports as invalid SPIR-V.
@@ -200,6 +234,13 @@ impl Gpu {
                 v.push(e.to_string());
             }
         }));
+        let lost = Arc::new(Mutex::new(None));
+        let flag = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut l) = flag.lock() {
+                *l = Some(format!("{reason:?}: {message}"));
+            }
+        });
         Ok(Gpu {
             pool: Arc::new(TexturePool::new(device.clone(), 64)),
             device,
@@ -209,6 +250,7 @@ impl Gpu {
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             errors,
+            lost,
         })
     }
 
@@ -260,6 +302,7 @@ impl Gpu {
         CAPTURING.with(|c| c.set(c.get().saturating_sub(1)));
         let v = pollster::block_on(validation.pop());
         let o = pollster::block_on(oom.pop());
+        self.check_lost()?;
         let mut msgs: Vec<String> = [v, o]
             .into_iter()
             .flatten()
@@ -404,9 +447,7 @@ impl Gpu {
             let _ = tx.send(r);
         });
         self.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        receive(&rx)?.map_err(|e| GpuError::Readback(e.to_string()))?;
         let bytes = buffer
             .get_mapped_range(..)
             .map_err(|e| GpuError::Readback(e.to_string()))?
@@ -513,12 +554,55 @@ impl Gpu {
         })
     }
 
-    /// Block until all submitted work has finished.
+    /// Block until all submitted work has finished — at most the watchdog time
+    /// (`TYNDALL_GPU_TIMEOUT` seconds, default 600, 0: no limit), so a hung or lost device ends
+    /// the run with an error instead of hanging it.
     pub fn wait(&self) -> Result<(), GpuError> {
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map(|_| ())
-            .map_err(|e| GpuError::Validation(e.to_string()))
+        self.check_lost()?;
+        let secs = watchdog_secs();
+        let timeout = (secs > 0).then(|| std::time::Duration::from_secs(secs));
+        let polled = self.device.poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout,
+        });
+        self.check_lost()?;
+        match polled {
+            Ok(_) => Ok(()),
+            Err(wgpu::PollError::Timeout) => Err(GpuError::Hung(secs)),
+            Err(e) => Err(GpuError::Validation(e.to_string())),
+        }
+    }
+
+    /// The largest single texture or buffer a node may allocate, and where the figure comes
+    /// from: `TYNDALL_GPU_MEMORY_MB` (MiB) when set, else the adapter's `max_buffer_size` (wgpu
+    /// reports no device memory size; that limit is the adapter's own ceiling for one
+    /// allocation).
+    pub fn allocation_limit(&self) -> (u64, &'static str) {
+        match std::env::var("TYNDALL_GPU_MEMORY_MB")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+        {
+            Some(mb) => (mb.saturating_mul(1 << 20), "TYNDALL_GPU_MEMORY_MB"),
+            None => (self.limits.max_buffer_size, "max_buffer_size"),
+        }
+    }
+
+    /// `Err(Lost)` once the device has been lost.
+    pub fn check_lost(&self) -> Result<(), GpuError> {
+        match self.lost.lock() {
+            Ok(l) => l.clone().map_or(Ok(()), |why| Err(GpuError::Lost(why))),
+            Err(e) => Err(GpuError::Lost(e.to_string())),
+        }
+    }
+
+    /// Destroy the device on purpose, as a driver reset would: every later call fails with
+    /// [`GpuError::Lost`]. For tests of the lost-device path; never called by Tyndall itself.
+    pub fn simulate_loss(&self) {
+        self.device.destroy();
+        // wgpu reports the loss from its next poll; record it now so that no call races it.
+        if let Ok(mut l) = self.lost.lock() {
+            l.get_or_insert_with(|| "Destroyed: simulated".into());
+        }
     }
 
     fn pipeline(

@@ -79,9 +79,7 @@ impl Gpu {
             let _ = tx.send(r);
         });
         self.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        super::receive(&rx)?.map_err(|e| GpuError::Readback(e.to_string()))?;
         let view = t
             .read
             .get_mapped_range(..)

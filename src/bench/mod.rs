@@ -12,6 +12,16 @@
 //! median and minimum wall-clock time of that node (GPU work included: the evaluator waits for
 //! completion), the RMSE and maximum error against the reference, and optionally the ratio to
 //! the first setting of its group (same settings but the kernel parameter) and hole counts.
+//!
+//! A **chain** suite (`chain: true`) measures a whole graph instead: its settings are steps run
+//! in order on one evaluator (changes accumulate), each reporting every node's time and how many
+//! nodes ran, were reused and were not needed ([`chain`]). `tyndall bench` with no name runs every
+//! suite, writes one long CSV ([`report::results_csv`]), the plots ([`plot`]) and the tables of
+//! BENCHMARKS.md between their markers ([`report::update_doc`]).
+
+pub mod chain;
+pub mod plot;
+pub mod report;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,9 +42,11 @@ pub struct Suite {
     pub title: String,
     /// The graph, relative to the suite file.
     pub graph: String,
-    /// Node measured (a setting's `node` key overrides it).
+    /// Node measured (a setting's `node` key overrides it; unused by chain suites).
+    #[serde(default)]
     pub node: String,
-    /// Output port of the measured node.
+    /// Output port of the measured node (unused by chain suites).
+    #[serde(default)]
     pub output: String,
     /// Evaluation size.
     pub size: (u32, u32),
@@ -75,6 +87,74 @@ pub struct Suite {
     /// times its own.
     #[serde(default)]
     pub edges: Option<(String, f32)>,
+    /// A whole-graph suite: the settings are steps (see [`chain`]).
+    #[serde(default)]
+    pub chain: bool,
+    /// Indices of settings too slow for the default run (it must stay under 15 minutes on two
+    /// CPU cores for every suite together): they run only with `--full`.
+    #[serde(default)]
+    pub slow: Vec<usize>,
+    /// `--quick`: the indices of the settings to keep (empty: all).
+    #[serde(default)]
+    pub quick: Vec<usize>,
+    /// `--quick`: the evaluation size (default: the suite's).
+    #[serde(default)]
+    pub quick_size: Option<(u32, u32)>,
+    /// The parameter whose value names a point's series in the plots (default: the `compare`
+    /// parameter, else `node`, else `method`, else one series).
+    #[serde(default)]
+    pub series: Option<String>,
+}
+
+impl Suite {
+    /// The suite without its `slow` settings (the default run).
+    pub fn without_slow(mut self) -> Self {
+        let slow = std::mem::take(&mut self.slow);
+        let configs = std::mem::take(&mut self.configs);
+        // `quick` indices refer to the full list: renumber them.
+        let mut renumber = Vec::new();
+        for (i, c) in configs.into_iter().enumerate() {
+            if slow.contains(&i) {
+                continue;
+            }
+            if self.quick.contains(&i) {
+                renumber.push(self.configs.len());
+            }
+            self.configs.push(c);
+        }
+        self.quick = renumber;
+        self
+    }
+
+    /// The suite reduced for `--quick`: the `quick` settings at `quick_size`, one run each.
+    pub fn reduced(mut self) -> Self {
+        if !self.quick.is_empty() {
+            let keep = self.quick.clone();
+            self.configs = keep
+                .iter()
+                .filter_map(|i| self.configs.get(*i).cloned())
+                .collect();
+        }
+        if let Some(size) = self.quick_size {
+            self.size = size;
+        }
+        self.runs = 1;
+        self
+    }
+
+    /// The series key of the plots.
+    pub fn series_key(&self) -> Option<String> {
+        if let Some(s) = &self.series {
+            return Some(s.clone());
+        }
+        if let Some((p, _, _)) = &self.compare {
+            return Some(p.clone());
+        }
+        ["node", "method"]
+            .iter()
+            .find(|k| self.configs.iter().any(|c| c.contains_key(**k)))
+            .map(|k| k.to_string())
+    }
 }
 
 /// One measured row.
@@ -103,6 +183,34 @@ pub struct Row {
     pub psnr: f64,
     /// RMSE at depth discontinuities (when `edges` is set).
     pub edge_rmse: f64,
+    /// The measured node's id (empty for a chain step).
+    pub node: String,
+    /// Its kind (empty for a chain step).
+    pub kind: String,
+    /// A chain step's counts and per-node times.
+    pub chain: Option<chain::Step>,
+}
+
+impl Row {
+    /// A row with the setting and times only (error columns NaN).
+    pub fn timed(params: &BTreeMap<String, String>, median_ms: f64, min_ms: f64) -> Self {
+        Self {
+            setting: describe(params),
+            params: params.clone(),
+            median_ms,
+            min_ms,
+            rmse: f64::NAN,
+            max_err: f64::NAN,
+            growth: f64::NAN,
+            holes: None,
+            convergence: None,
+            psnr: f64::NAN,
+            edge_rmse: f64::NAN,
+            node: String::new(),
+            kind: String::new(),
+            chain: None,
+        }
+    }
 }
 
 /// Errors of the bench runner.
@@ -145,7 +253,7 @@ fn set_one(
 }
 
 /// Apply a setting; returns the measured node.
-fn apply(
+pub(crate) fn apply(
     registry: &Registry,
     g: &mut Graph,
     default_node: &str,
@@ -298,6 +406,18 @@ pub fn run(
         .join(&suite.graph);
     let base =
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
+    if suite.chain {
+        return chain::run(
+            registry,
+            gpu,
+            &graph_path,
+            &base,
+            suite,
+            runs,
+            size,
+            progress,
+        );
+    }
     let mut ev = Evaluator::new(registry.clone(), gpu.clone());
     let opts = EvalOptions {
         size,
@@ -445,11 +565,8 @@ pub fn run(
                 .find(|r| group_of(&r.params) == group_of(setting))
                 .map_or(1.0, |first| median / first.median_ms.max(1e-9))
         };
+        let kind = g.node(&node).map(|n| n.kind.clone()).unwrap_or_default();
         rows.push(Row {
-            setting: describe(setting),
-            params: setting.clone(),
-            median_ms: median,
-            min_ms: times[0],
             rmse,
             max_err,
             growth,
@@ -457,12 +574,16 @@ pub fn run(
             convergence,
             psnr,
             edge_rmse,
+            node,
+            kind,
+            ..Row::timed(setting, median, times[0])
         });
     }
     Ok(rows)
 }
 
-fn describe(p: &BTreeMap<String, String>) -> String {
+/// A setting as `key=value` pairs separated by spaces (the CSV's `setting` column).
+pub fn describe(p: &BTreeMap<String, String>) -> String {
     p.iter()
         .map(|(k, v)| format!("{k}={v}"))
         .collect::<Vec<_>>()
@@ -506,7 +627,8 @@ pub fn suite_files(name: &str) -> Result<Vec<PathBuf>, BenchError> {
     Ok(vec![dir.with_extension("ron")])
 }
 
-fn cell(v: f64, digits: usize) -> String {
+/// A number with `digits` decimals, `-` for NaN.
+pub fn cell(v: f64, digits: usize) -> String {
     if v.is_nan() {
         "-".into()
     } else {

@@ -1,0 +1,238 @@
+//! What `tyndall bench` leaves behind: the suite's text (table and speed-ups), the long CSV of
+//! every suite (`bench/results.csv`) and the generated blocks of BENCHMARKS.md.
+//!
+//! BENCHMARKS.md keeps its prose; each suite's measured block sits between the markers
+//! `<!-- bench:NAME -->` and `<!-- /bench:NAME -->` (NAME: the suite file's path under `benches/`
+//! without `.ron`, e.g. `visibility/tree`) and is replaced as a whole. A suite without markers
+//! gets a new section at the end, so nothing measured is dropped.
+
+use std::path::{Path, PathBuf};
+
+use super::{chain, speedup, table, BenchError, Row, Suite};
+
+/// Every suite under `benches/`: its files and folders of files, in name order; each with its
+/// name (path under `benches/` without `.ron`).
+pub fn all_suites(root: &Path) -> Result<Vec<(String, PathBuf)>, BenchError> {
+    fn walk(dir: &Path, prefix: &str, out: &mut Vec<(String, PathBuf)>) -> Result<(), BenchError> {
+        let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(|e| BenchError::Input(format!("{}: {e}", dir.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        entries.sort();
+        for p in entries {
+            let Some(stem) = p.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
+                continue;
+            };
+            if p.is_dir() {
+                walk(&p, &format!("{prefix}{stem}/"), out)?;
+            } else if p.extension().is_some_and(|x| x == "ron") {
+                out.push((format!("{prefix}{stem}"), p));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(root, "", &mut out)?;
+    Ok(out)
+}
+
+/// The suite's results as printed and as written into BENCHMARKS.md: title, adapter, size, runs,
+/// the command, the table and the speed-up lines.
+pub fn suite_text(
+    suite: &Suite,
+    adapter: &str,
+    (size, runs): ((u32, u32), usize),
+    command: &str,
+    rows: &[Row],
+) -> String {
+    let mut s = format!(
+        "{}\nadapter: {adapter}\nsize {}x{}, {runs} runs per setting, command: {command}\n",
+        suite.title, size.0, size.1
+    );
+    if suite.chain {
+        s.push_str(&chain::table(rows));
+    } else {
+        s.push_str(&table(rows));
+    }
+    if let Some((_, _, accelerated)) = &suite.compare {
+        for acc in accelerated {
+            for &bound in &suite.target_rmse {
+                s.push_str(&match speedup(suite, rows, acc, bound) {
+                    Some((b, a, f)) => format!(
+                        "speed-up of {acc} at RMSE <= {bound}: {f:.2}x ({} {:.3} ms vs {} {:.3} ms)\n",
+                        b.setting, b.median_ms, a.setting, a.median_ms
+                    ),
+                    None => format!(
+                        "speed-up of {acc} at RMSE <= {bound}: not measurable (a method never \
+                         reached it)\n"
+                    ),
+                });
+            }
+        }
+    }
+    s
+}
+
+/// Columns of `bench/results.csv`, one row per measured setting (and, for chain suites, one
+/// row per step and one per node and step).
+pub const RESULT_COLUMNS: [&str; 21] = [
+    "suite",
+    "adapter",
+    "node",
+    "kind",
+    "setting",
+    "row",
+    "median_ms",
+    "min_ms",
+    "rmse",
+    "max_err",
+    "growth",
+    "holes_before",
+    "holes_after",
+    "iterations",
+    "residual_ratio",
+    "psnr_db",
+    "edge_rmse",
+    "ran",
+    "reused",
+    "not_needed",
+    "status",
+];
+
+fn num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        String::new()
+    }
+}
+
+/// The long CSV of several suites' rows (`(suite name, adapter, rows)`). `row` is `setting`
+/// for a measured setting, `step` for a chain step, `node` for one node within a step.
+pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, BenchError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let bad = |e: csv::Error| BenchError::Input(format!("results.csv: {e}"));
+    w.write_record(RESULT_COLUMNS).map_err(bad)?;
+    for (suite, adapter, rows) in results {
+        for r in rows {
+            let (hb, ha) = r.holes.map_or((String::new(), String::new()), |(a, b)| {
+                (a.to_string(), b.to_string())
+            });
+            let (it, res) = r
+                .convergence
+                .map_or((String::new(), String::new()), |(i, x)| {
+                    (i.to_string(), num(x))
+                });
+            let (ran, reused, nn) =
+                r.chain
+                    .as_ref()
+                    .map_or((String::new(), String::new(), String::new()), |c| {
+                        (
+                            c.ran.to_string(),
+                            c.reused.to_string(),
+                            c.not_needed.to_string(),
+                        )
+                    });
+            w.write_record([
+                suite.as_str(),
+                adapter,
+                &r.node,
+                &r.kind,
+                &r.setting,
+                if r.chain.is_some() { "step" } else { "setting" },
+                &num(r.median_ms),
+                &num(r.min_ms),
+                &num(r.rmse),
+                &num(r.max_err),
+                &num(r.growth),
+                &hb,
+                &ha,
+                &it,
+                &res,
+                &num(r.psnr),
+                &num(r.edge_rmse),
+                &ran,
+                &reused,
+                &nn,
+                "",
+            ])
+            .map_err(bad)?;
+            for n in r.chain.iter().flat_map(|c| &c.nodes) {
+                w.write_record([
+                    suite.as_str(),
+                    adapter,
+                    &n.id,
+                    &n.kind,
+                    &r.setting,
+                    "node",
+                    &num(n.median_ms),
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    "",
+                    n.status,
+                ])
+                .map_err(bad)?;
+            }
+        }
+    }
+    w.into_inner()
+        .map_err(|e| BenchError::Input(format!("results.csv: {e}")))
+}
+
+/// The opening and closing markers of a suite's block.
+pub fn markers(name: &str) -> (String, String) {
+    (
+        format!("<!-- bench:{name} -->"),
+        format!("<!-- /bench:{name} -->"),
+    )
+}
+
+/// `doc` with the block of suite `name` replaced by `body` (the markers kept); a suite without
+/// markers gets a new section `## {title}` at the end.
+pub fn update_doc(doc: &str, name: &str, title: &str, body: &str) -> String {
+    let (open, close) = markers(name);
+    let block = format!("{open}\n{}\n{close}", body.trim_end());
+    if let (Some(a), Some(b)) = (doc.find(&open), doc.find(&close)) {
+        if a < b {
+            return format!("{}{block}{}", &doc[..a], &doc[b + close.len()..]);
+        }
+    }
+    format!("{}\n\n## {title}\n\n{block}\n", doc.trim_end())
+}
+
+/// The markdown body of a suite's block: the command, the text in a code block, the plots.
+pub fn doc_body(command: &str, text: &str, plots: &[(String, String)]) -> String {
+    let mut s = format!("```\n$ {command}\n{}```\n", text);
+    for (alt, link) in plots {
+        s.push_str(&format!("\n![{alt}]({link})\n"));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::update_doc;
+
+    #[test]
+    fn blocks_are_replaced_between_markers_and_missing_ones_appended() {
+        let doc = "# B\n\nprose\n<!-- bench:a -->\nold\n<!-- /bench:a -->\nmore prose\n";
+        let new = update_doc(doc, "a", "A", "new");
+        assert_eq!(
+            new,
+            "# B\n\nprose\n<!-- bench:a -->\nnew\n<!-- /bench:a -->\nmore prose\n"
+        );
+        let appended = update_doc(&new, "b/c", "Suite C", "body");
+        assert!(appended.starts_with(&new.trim_end().to_string()));
+        assert!(appended.ends_with("## Suite C\n\n<!-- bench:b/c -->\nbody\n<!-- /bench:b/c -->\n"));
+    }
+}

@@ -1,0 +1,300 @@
+//! Where the selected node's quality setting lies on its measured curve.
+//!
+//! `tyndall bench` writes `bench/results.csv` (one row per measured setting: the node kind, the
+//! setting as `key=value` pairs, the median time and the RMSE against the suite's reference).
+//! The parameters panel draws, for the selected node's kind, each suite's settings as points in
+//! a log–log time/error plot with the Pareto front, and marks the settings equal to the node's
+//! current parameters (every plain parameter key of the measured setting equal; keys of other
+//! nodes, `node.param`, are the suite's context and not compared). When no measured setting
+//! matches, the closest one (most keys equal) is named instead.
+//!
+//! The file is looked for at `$TYNDALL_BENCH_RESULTS`, `bench/results.csv` under the working
+//! directory, then under the graph file's folder and its parents; it is read again when it
+//! changes on disk.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use eframe::egui;
+
+/// One measured setting of `bench/results.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measured {
+    /// Suite name.
+    pub suite: String,
+    /// Adapter it ran on.
+    pub adapter: String,
+    /// Node kind.
+    pub kind: String,
+    /// The setting's `key=value` pairs.
+    pub setting: BTreeMap<String, String>,
+    /// Median time, ms.
+    pub median_ms: f64,
+    /// RMSE against the suite's reference.
+    pub rmse: f64,
+}
+
+/// Keys of a setting that are not parameters of the measured node.
+const NOT_PARAMS: [&str; 6] = ["node", "output", "time", "reference", "cold", "target"];
+
+/// Parse `bench/results.csv` text: the measured settings with a time and an error.
+pub fn parse(text: &str) -> Result<Vec<Measured>, String> {
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let headers = r.headers().map_err(|e| e.to_string())?.clone();
+    let col = |name: &str| {
+        headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| format!("results.csv has no column '{name}'"))
+    };
+    let (suite, adapter, kind, setting, row, time, rmse) = (
+        col("suite")?,
+        col("adapter")?,
+        col("kind")?,
+        col("setting")?,
+        col("row")?,
+        col("median_ms")?,
+        col("rmse")?,
+    );
+    let mut out = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(|e| e.to_string())?;
+        let get = |i: usize| rec.get(i).unwrap_or("");
+        if get(row) != "setting" {
+            continue;
+        }
+        let (Ok(t), Ok(e)) = (get(time).parse::<f64>(), get(rmse).parse::<f64>()) else {
+            continue;
+        };
+        out.push(Measured {
+            suite: get(suite).to_string(),
+            adapter: get(adapter).to_string(),
+            kind: get(kind).to_string(),
+            setting: get(setting)
+                .split_whitespace()
+                .filter_map(|kv| kv.split_once('='))
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+            median_ms: t,
+            rmse: e,
+        });
+    }
+    Ok(out)
+}
+
+fn same(a: &str, b: &str) -> bool {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1.0),
+        _ => a == b,
+    }
+}
+
+/// How many of the setting's own parameter keys `params` agrees with, and how many there are.
+pub fn agreement(
+    setting: &BTreeMap<String, String>,
+    params: &BTreeMap<String, String>,
+) -> (usize, usize) {
+    let own = setting
+        .iter()
+        .filter(|(k, _)| !k.contains('.') && !NOT_PARAMS.contains(&k.as_str()));
+    let (mut equal, mut all) = (0, 0);
+    for (k, v) in own {
+        all += 1;
+        if params.get(k).is_some_and(|p| same(p, v)) {
+            equal += 1;
+        }
+    }
+    (equal, all)
+}
+
+/// The measured curves, reloaded when the file changes.
+#[derive(Default)]
+pub struct Curves {
+    path: Option<PathBuf>,
+    stamp: Option<SystemTime>,
+    rows: Vec<Measured>,
+    error: Option<String>,
+}
+
+impl Curves {
+    /// Curves from the first results file found for a graph at `graph` (see the module docs).
+    pub fn find(graph: Option<&Path>) -> Self {
+        let mut candidates: Vec<PathBuf> = std::env::var_os("TYNDALL_BENCH_RESULTS")
+            .map(PathBuf::from)
+            .into_iter()
+            .collect();
+        candidates.push(PathBuf::from("bench/results.csv"));
+        if let Some(dir) = graph.and_then(Path::parent) {
+            candidates.extend(dir.ancestors().map(|d| d.join("bench/results.csv")));
+        }
+        let path = candidates.into_iter().find(|p| p.is_file());
+        let mut c = Self {
+            path,
+            ..Default::default()
+        };
+        c.refresh();
+        c
+    }
+
+    /// Read the file again if it changed.
+    pub fn refresh(&mut self) {
+        let Some(path) = &self.path else { return };
+        let stamp = std::fs::metadata(path).and_then(|m| m.modified()).ok();
+        if stamp.is_some() && stamp == self.stamp {
+            return;
+        }
+        self.stamp = stamp;
+        match std::fs::read_to_string(path)
+            .map_err(|e| e.to_string())
+            .and_then(|t| parse(&t))
+        {
+            Ok(rows) => {
+                self.rows = rows;
+                self.error = None;
+            }
+            Err(e) => {
+                self.rows.clear();
+                self.error = Some(format!("{}: {e}", path.display()));
+            }
+        }
+    }
+
+    /// The measured settings of a node kind, by suite.
+    pub fn of_kind(&self, kind: &str) -> BTreeMap<&str, Vec<&Measured>> {
+        let mut out: BTreeMap<&str, Vec<&Measured>> = BTreeMap::new();
+        for m in self.rows.iter().filter(|m| m.kind == kind) {
+            out.entry(m.suite.as_str()).or_default().push(m);
+        }
+        out
+    }
+
+    /// Draw the selected node's curves (nothing when its kind was never measured).
+    pub fn show(&mut self, ui: &mut egui::Ui, kind: &str, params: &BTreeMap<String, String>) {
+        self.refresh();
+        if let Some(e) = &self.error {
+            ui.small(format!("bench results unreadable: {e}"));
+            return;
+        }
+        let suites = self.of_kind(kind);
+        if suites.is_empty() {
+            return;
+        }
+        ui.separator();
+        ui.label("Measured speed against accuracy")
+            .on_hover_text("From tyndall bench (bench/results.csv): each point a measured setting, the line the fastest settings for their error; orange: this node's current setting.");
+        for (suite, rows) in suites {
+            plot(ui, suite, &rows, params);
+        }
+    }
+}
+
+fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<String, String>) {
+    let pos = |v: f64| v.max(1e-12).log10();
+    let xs: Vec<f64> = rows.iter().map(|m| pos(m.median_ms)).collect();
+    let ys: Vec<f64> = rows.iter().map(|m| pos(m.rmse)).collect();
+    let range = |v: &[f64]| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lo - 0.1, (hi - lo).max(0.2) + 0.2)
+    };
+    let ((x0, xw), (y0, yw)) = (range(&xs), range(&ys));
+    let width = ui.available_width().clamp(160.0, 420.0);
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 120.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    let visuals = ui.visuals();
+    painter.rect_filled(rect, 2.0, visuals.extreme_bg_color);
+    let at = |x: f64, y: f64| {
+        egui::pos2(
+            rect.left() + 6.0 + ((x - x0) / xw) as f32 * (rect.width() - 12.0),
+            rect.bottom() - 6.0 - ((y - y0) / yw) as f32 * (rect.height() - 12.0),
+        )
+    };
+    let points: Vec<(f64, f64)> = xs.iter().copied().zip(ys.iter().copied()).collect();
+    let front: Vec<egui::Pos2> = crate::bench::plot::pareto_front(&points)
+        .iter()
+        .map(|i| at(points[*i].0, points[*i].1))
+        .collect();
+    painter.add(egui::Shape::line(
+        front,
+        egui::Stroke::new(1.0, visuals.weak_text_color()),
+    ));
+    let agreements: Vec<(usize, usize)> =
+        rows.iter().map(|m| agreement(&m.setting, params)).collect();
+    let current = egui::Color32::from_rgb(255, 150, 40);
+    for (i, p) in points.iter().enumerate() {
+        painter.circle_filled(at(p.0, p.1), 2.5, visuals.text_color());
+        let (eq, all) = agreements[i];
+        if all > 0 && eq == all {
+            painter.circle_stroke(at(p.0, p.1), 5.0, egui::Stroke::new(2.0, current));
+        }
+    }
+    let adapter = rows.first().map_or("", |m| m.adapter.as_str());
+    ui.small(format!("{suite} (log time → vs log RMSE ↑; {adapter})"));
+    let matched: Vec<&&Measured> = rows
+        .iter()
+        .zip(&agreements)
+        .filter(|(_, (eq, all))| *all > 0 && eq == all)
+        .map(|(m, _)| m)
+        .collect();
+    if matched.is_empty() {
+        let best = rows
+            .iter()
+            .zip(&agreements)
+            .max_by_key(|(_, (eq, _))| *eq)
+            .map(|(m, _)| m);
+        if let Some(m) = best {
+            ui.small(format!(
+                "current setting not measured; closest: {} ({:.1} ms, RMSE {:.2e})",
+                describe(&m.setting),
+                m.median_ms,
+                m.rmse
+            ));
+        }
+    } else {
+        for m in matched {
+            ui.colored_label(
+                current,
+                format!(
+                    "current setting: {:.1} ms, RMSE {:.2e} ({})",
+                    m.median_ms,
+                    m.rmse,
+                    describe(&m.setting)
+                ),
+            );
+        }
+    }
+}
+
+fn describe(s: &BTreeMap<String, String>) -> String {
+    s.iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_are_parsed_and_settings_matched_on_the_nodes_own_keys() {
+        let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse\n\
+            visibility/tree,gpu,scatter,SingleScattering,method=MinMax min_level=2,setting,10,9,0.01\n\
+            chain,gpu,,,cold=true,step,100,90,\n\
+            visibility/tree,gpu,scatter,SingleScattering,method=BruteForce shadow.resolution=2048 steps=64,setting,20,19,0.002\n";
+        let rows = parse(text).unwrap();
+        assert_eq!(rows.len(), 2, "the chain step has no error and is left out");
+        let params: BTreeMap<String, String> = [
+            ("method", "BruteForce"),
+            ("steps", "64.0"),
+            ("min_level", "0"),
+        ]
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+        // `shadow.resolution` is context, not a parameter of the node; 64 equals 64.0.
+        assert_eq!(agreement(&rows[1].setting, &params), (2, 2));
+        assert_eq!(agreement(&rows[0].setting, &params), (0, 2));
+    }
+}
