@@ -218,7 +218,7 @@ pub enum Layer {
     },
     /// A picture stretched over TF space.
     Image {
-        /// The file (PNG or EXR), relative to the working directory.
+        /// The file (PNG or EXR); a relative path is read from the graph file's folder.
         path: String,
     },
 }
@@ -1201,6 +1201,27 @@ fn resolve_anchors(
 impl NodeKind for TransferFunction {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
+    }
+
+    fn data_files(
+        &self,
+        data: &crate::graph::NodeData,
+        resolve: &dyn Fn(&str) -> String,
+    ) -> Result<Option<crate::graph::NodeData>, String> {
+        let mut tf: TfData = data.parse()?;
+        let mut any = false;
+        let stacks =
+            std::iter::once(&mut tf.layers).chain(tf.keys.iter_mut().map(|k| &mut k.layers));
+        for entry in stacks.flatten() {
+            if let Layer::Image { path } = &mut entry.layer {
+                *path = resolve(path);
+                any = true;
+            }
+        }
+        if !any {
+            return Ok(None);
+        }
+        crate::graph::NodeData::from_value(&tf).map(Some)
     }
 
     fn volatile_key(&self, key: &KeyInput) -> u64 {

@@ -721,6 +721,108 @@ fn bench_folder_runs_every_suite() {
     }
 }
 
+/// `tyndall bench` with no suite runs every suite under `benches/` (folders included), writes
+/// `bench/results.csv` (settings, chain steps and per-node rows), the plots, and rewrites the
+/// suites' blocks of BENCHMARKS.md between their markers, keeping the prose and appending a
+/// section for a suite without markers; `--quick` runs the reduced sets into `bench/quick/` and
+/// leaves BENCHMARKS.md alone.
+#[test]
+fn bench_without_a_suite_runs_all_and_writes_csv_plots_and_tables() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let graph = |p: &str| root.join(p).display().to_string();
+    std::fs::create_dir_all(dir.path().join("benches/sub")).expect("mkdir");
+    std::fs::write(
+        dir.path().join("benches/blur.ron"),
+        format!(
+            r#"(title: "Blur test", graph: "{}", node: "blur", output: "out", size: (64, 36),
+                runs: 1, reference: {{"truncate": "6"}}, kernel: ["truncate"], quick: [0],
+                configs: [{{"truncate": "1"}}, {{"truncate": "2"}}, {{"truncate": "3"}}])"#,
+            graph("graphs/bench/blur.ron")
+        ),
+    )
+    .expect("suite");
+    std::fs::write(
+        dir.path().join("benches/sub/chain.ron"),
+        format!(
+            r#"(title: "Chain test", graph: "{}", size: (32, 18), runs: 1, chain: true,
+                configs: [{{"cold": "true"}}, {{"close.radius": "3"}},
+                          {{"target": "tonemap_physical.out", "tonemap_physical.exposure": "1"}}])"#,
+            graph("graphs/stylize/tree_hole_filling.ron")
+        ),
+    )
+    .expect("suite");
+    let prose = "# Benchmarks\n\nProse stays.\n\n<!-- bench:blur -->\nold table\n<!-- /bench:blur -->\n\nMore prose.\n";
+    std::fs::write(dir.path().join("BENCHMARKS.md"), prose).expect("doc");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_tyndall"))
+            .current_dir(dir.path())
+            .arg("bench")
+            .args(extra)
+            .output()
+            .expect("run")
+    };
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("2 of 2 suites measured"), "{out}");
+    // The CSV: a row per setting, a row per chain step with its counts, a row per node and step.
+    let csv = std::fs::read_to_string(dir.path().join("bench/results.csv")).expect("results.csv");
+    let mut lines = csv.lines();
+    let header = lines.next().expect("header");
+    assert!(header.starts_with("suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse"));
+    let rows: Vec<&str> = lines.collect();
+    let of = |suite: &str, row: &str| {
+        rows.iter()
+            .filter(|l| l.starts_with(&format!("{suite},")) && l.contains(&format!(",{row},")))
+            .count()
+    };
+    assert_eq!(of("blur", "setting"), 3, "{csv}");
+    assert_eq!(of("sub/chain", "step"), 3, "{csv}");
+    assert_eq!(of("sub/chain", "node"), 3 * 12, "{csv}");
+    assert!(
+        rows.iter().any(|l| l.starts_with("sub/chain")
+            && l.contains("target=tonemap_physical.out")
+            && l.ends_with(",1,5,6,")),
+        "the last step: 1 ran, 5 reused, 6 not needed\n{csv}"
+    );
+    for plot in ["blur-pareto.png", "blur-kernel.png"] {
+        let img = image::open(dir.path().join("bench/plots").join(plot)).expect(plot);
+        assert_eq!((img.width(), img.height()), (960, 640));
+    }
+    // The tables: the marked block replaced, the prose kept, the unmarked suite appended.
+    let doc = std::fs::read_to_string(dir.path().join("BENCHMARKS.md")).expect("doc");
+    assert!(doc.starts_with("# Benchmarks\n\nProse stays.\n\n<!-- bench:blur -->\n```\n$ tyndall bench\nBlur test\nadapter: "), "{doc}");
+    assert!(
+        !doc.contains("old table") && doc.contains("<!-- /bench:blur -->\n\nMore prose.\n"),
+        "{doc}"
+    );
+    assert!(
+        doc.contains("![blur-pareto](bench/plots/blur-pareto.png)"),
+        "{doc}"
+    );
+    assert!(
+        doc.contains("## Chain test\n\n<!-- bench:sub/chain -->"),
+        "{doc}"
+    );
+    // --quick: the reduced sets, into bench/quick, BENCHMARKS.md untouched.
+    let o = run(&["--quick"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let quick = std::fs::read_to_string(dir.path().join("bench/quick/results.csv")).expect("quick");
+    assert_eq!(
+        quick.lines().filter(|l| l.starts_with("blur,")).count(),
+        1,
+        "{quick}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("BENCHMARKS.md")).expect("doc"),
+        doc
+    );
+}
+
 #[test]
 fn key_framed_sun_animates_across_frames() {
     if !gpu_available() {

@@ -390,3 +390,66 @@ fn presets_merge_and_clipboard_paste() {
     h.run_steps(2);
     assert_eq!(h.state().state.graph().len(), merged);
 }
+
+/// The parameters panel shows where the selected node's setting lies on its measured curve
+/// (`bench/results.csv`): the matching measured setting is named with its time and error, and a
+/// node whose setting was not measured gets the closest one.
+#[test]
+fn the_selected_nodes_setting_is_shown_on_its_measured_curve() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("results.csv");
+    std::fs::write(
+        &csv,
+        "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse\n\
+         visibility/tree,test adapter,scatter,SingleScattering,method=BruteForce steps=64,setting,500,480,0.004\n\
+         visibility/tree,test adapter,scatter,SingleScattering,method=MinMax min_level=0,setting,250,240,0.0001\n",
+    )
+    .expect("csv");
+    let mut h = harness("graphs/physical/window.ron");
+    h.state_mut().set_bench_results(&csv);
+    h.state_mut().selected = Some("scatter".into());
+    settle(&mut h);
+    // The window preset's scatter node: MinMax at min_level 0 (the default).
+    let _ = h.get_by_label("Measured speed against accuracy");
+    let _ = h.get_by_label("current setting: 250.0 ms, RMSE 1.00e-4 (method=MinMax min_level=0)");
+    // Another setting: no measured row matches; the closest is named.
+    h.state_mut()
+        .state
+        .set_param("scatter", "min_level", ParamValue::Int(3))
+        .expect("set");
+    settle(&mut h);
+    assert!(h
+        .query_by_label_contains("current setting not measured; closest: method=MinMax min_level=0")
+        .is_some());
+}
+
+/// The editor reads a graph's relative input paths from the graph's folder (as the CLI does),
+/// not from its working directory.
+#[test]
+fn relative_inputs_are_read_from_the_graph_folder() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/A.exr"),
+        dir.path().join("A.exr"),
+    )
+    .expect("copy");
+    let graph = dir.path().join("g.ron");
+    std::fs::write(
+        &graph,
+        r#"(version: 2, nodes: {"in": (kind: "ImageInput", params: {"path": "A.exr"})}, edges: [])"#,
+    )
+    .expect("graph");
+    let mut h = common::editor::open(&graph, (900.0, 600.0));
+    h.state_mut().selected = Some("in".into());
+    settle(&mut h);
+    assert!(
+        h.state().has_thumbnail("in"),
+        "A.exr next to the graph was read (the working directory, the crate root, has none)"
+    );
+}

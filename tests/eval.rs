@@ -446,3 +446,51 @@ fn texture_sides_beyond_the_limit_name_the_parameter_and_the_limit() {
     let e = check_side("slices", 4096, 2048, 3).expect_err("3D");
     assert!(e.to_string().contains("max_texture_dimension_3d"), "{e}");
 }
+
+/// Files named inside a data block (a transfer function's image layers, in the stack and in its
+/// key-frames) resolve against the graph's folder like file parameters; absolute paths and
+/// the other layers are left as they are.
+#[test]
+fn image_layers_in_a_data_block_resolve_against_the_graph_folder() {
+    let registry = tyndall::nodes::registry();
+    let text = r#"(
+    version: 2,
+    nodes: {
+        "tf": (kind: "TransferFunction", data: (
+            layers: [
+                (layer: Image(path: "looks/tf.png")),
+                (layer: Image(path: "/abs/tf.png")),
+                (layer: Solid(colour: (1.0, 0.0, 0.0, 1.0))),
+            ],
+            keys: [(t: 0.0, layers: [(layer: Image(path: "k.png"))])],
+        )),
+    },
+    edges: [],
+)"#;
+    let g = load_str(text, std::path::Path::new("g.ron"), registry.catalog()).expect("graph");
+    let policy = tyndall::eval::PathPolicy {
+        graph_dir: std::path::PathBuf::from("/shots/s1"),
+        output_dir: std::path::PathBuf::from("."),
+        allow_any: false,
+    };
+    let resolved = tyndall::eval::resolve_files(&registry, &g, &policy).expect("resolved");
+    let data = resolved
+        .node("tf")
+        .and_then(|n| n.data.as_ref())
+        .expect("data");
+    let tf: tyndall::nodes::transfer_function::TfData = data.parse().expect("parse");
+    let paths: Vec<String> = tf
+        .layers
+        .iter()
+        .chain(tf.keys.iter().flat_map(|k| &k.layers))
+        .filter_map(|e| match &e.layer {
+            tyndall::nodes::transfer_function::Layer::Image { path } => Some(path.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        paths,
+        ["/shots/s1/looks/tf.png", "/abs/tf.png", "/shots/s1/k.png"]
+    );
+    assert_eq!(tf.layers.len(), 3, "the solid layer is kept");
+}

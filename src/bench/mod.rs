@@ -384,10 +384,23 @@ pub fn count_components(r: &Raster, threshold: f32) -> usize {
 pub fn load_suite(path: &Path) -> Result<Suite, BenchError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| BenchError::Input(format!("{}: {e}", path.display())))?;
-    ron::Options::default()
+    let suite: Suite = ron::Options::default()
         .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
         .from_str(&text)
-        .map_err(|e| BenchError::Input(format!("{}:{}: {}", path.display(), e.span.start, e.code)))
+        .map_err(|e| {
+            BenchError::Input(format!("{}:{}: {}", path.display(), e.span.start, e.code))
+        })?;
+    let n = suite.configs.len();
+    for (field, list) in [("slow", &suite.slow), ("quick", &suite.quick)] {
+        if let Some(i) = list.iter().find(|i| **i >= n) {
+            return Err(BenchError::Input(format!(
+                "{}: {field} names setting {i}, but the suite has {n} (0…{})",
+                path.display(),
+                n.saturating_sub(1)
+            )));
+        }
+    }
+    Ok(suite)
 }
 
 /// Run a suite; `progress` is called with a line before each setting.
@@ -467,16 +480,9 @@ pub fn run(
         }
         None => None,
     };
-    let mut named = BTreeMap::new();
-    for (name, setting) in &suite.references {
-        let mut g = base.clone();
-        let node = apply(&registry, &mut g, &suite.node, setting)?;
-        progress(&format!("reference {name}: {}", describe(setting)));
-        named.insert(
-            name.clone(),
-            read(&mut ev, &g, &node, &output_of(setting), &[])?.0,
-        );
-    }
+    // Named references are computed when a setting first asks for one (a reduced run may
+    // need none of them).
+    let mut named: BTreeMap<String, Raster> = BTreeMap::new();
     let edge_mask = match &suite.edges {
         Some((port, threshold)) => {
             let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
@@ -512,10 +518,20 @@ pub fn run(
         }
         times.sort_by(f64::total_cmp);
         let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
+        if let Some(name) = setting.get("reference") {
+            if !named.contains_key(name) {
+                let spec = suite.references.get(name).ok_or_else(|| {
+                    BenchError::Input(format!("no reference named '{name}' in the suite"))
+                })?;
+                let mut g = base.clone();
+                let node = apply(&registry, &mut g, &suite.node, spec)?;
+                progress(&format!("reference {name}: {}", describe(spec)));
+                let r = read(&mut ev, &g, &node, &output_of(spec), &[])?.0;
+                named.insert(name.clone(), r);
+            }
+        }
         let reference = match setting.get("reference") {
-            Some(name) => Some(named.get(name).ok_or_else(|| {
-                BenchError::Input(format!("no reference named '{name}' in the suite"))
-            })?),
+            Some(name) => named.get(name),
             None => reference.as_ref(),
         };
         let (rmse, max_err) = reference.map_or((f64::NAN, f64::NAN), |r| errors(&out, r));

@@ -172,6 +172,12 @@ impl EditorApp {
         }
     }
 
+    /// Read the measured speed/accuracy curves from `path` (a `bench/results.csv`) instead of
+    /// the one found next to the working directory or the graph.
+    pub fn set_bench_results(&mut self, path: &Path) {
+        self.bench = super::bench_panel::Curves::at(path);
+    }
+
     /// The node the viewer shows: the active pin's, else the selected one — or, when the
     /// selected node has no picture output (a volume, a scene), the nearest node downstream
     /// of it that has one (so painting a `BlendVolume` shows what it does).
@@ -280,7 +286,7 @@ impl EditorApp {
             self.requested = key;
             worker.request(Request {
                 generation: 0,
-                graph: self.state.graph().clone(),
+                graph: graph_for_evaluation(&self.registry, &self.state),
                 time: self.time,
                 size: VIEW_SIZE,
                 view,
@@ -324,6 +330,23 @@ impl EditorApp {
 /// The pointer positions a painting stroke takes from `response` this frame, each with whether
 /// it starts a stroke. egui recognises a drag only once the pointer has moved, so a stroke
 /// starts where the button was pressed, then follows the pointer; a click is a one-point stroke.
+/// The document with its input files (file parameters, files inside data blocks) resolved
+/// against the graph file's folder, as the CLI reads them. The editor evaluates no sinks,
+/// so output paths are left as written.
+fn graph_for_evaluation(registry: &Registry, state: &EditorState) -> crate::graph::Graph {
+    let graph = state.graph();
+    let Some(dir) = state.path().and_then(Path::parent) else {
+        return graph.clone();
+    };
+    let policy = crate::eval::PathPolicy {
+        graph_dir: dir.to_path_buf(),
+        output_dir: dir.to_path_buf(),
+        allow_any: true,
+    };
+    // With `allow_any` nothing is refused; the fall-back keeps the document as it is.
+    crate::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
+}
+
 fn stroke_points(ui: &egui::Ui, response: &egui::Response) -> Vec<(egui::Pos2, bool)> {
     let mut points = Vec::new();
     if response.drag_started() || response.clicked() {

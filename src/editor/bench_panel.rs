@@ -137,6 +137,16 @@ impl Curves {
         c
     }
 
+    /// Curves from the results file `path`.
+    pub fn at(path: &Path) -> Self {
+        let mut c = Self {
+            path: Some(path.to_path_buf()),
+            ..Default::default()
+        };
+        c.refresh();
+        c
+    }
+
     /// Read the file again if it changed.
     pub fn refresh(&mut self) {
         let Some(path) = &self.path else { return };

@@ -470,6 +470,18 @@ pub trait NodeKind: Send + Sync {
         0
     }
 
+    /// For kinds whose data block names files to read (a transfer function's image layers):
+    /// the block with each such path passed through `resolve`, or `None` when it names none.
+    /// [`crate::eval::resolve_files`] calls it so that these paths, like file parameters, are
+    /// read from the graph's folder.
+    fn data_files(
+        &self,
+        _data: &crate::graph::NodeData,
+        _resolve: &dyn Fn(&str) -> String,
+    ) -> Result<Option<crate::graph::NodeData>, String> {
+        Ok(None)
+    }
+
     /// Compute the wanted outputs (GPU work).
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError>;
 

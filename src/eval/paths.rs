@@ -90,6 +90,21 @@ pub fn resolve_files(
             // A text parameter takes any text: this cannot fail for a declared file parameter.
             let _ = out.set_param(registry.catalog(), &node.id, param, value);
         }
+        // Files named inside the data block are inputs too.
+        if let Some(data) = &node.data {
+            let resolve = |p: &str| {
+                let path = Path::new(p);
+                if p.is_empty() || path.is_absolute() {
+                    p.to_string()
+                } else {
+                    policy.graph_dir.join(path).to_string_lossy().into_owned()
+                }
+            };
+            // A block the node cannot parse is left as it is: evaluating it reports the error.
+            if let Ok(Some(resolved)) = kind.data_files(data, &resolve) {
+                let _ = out.set_data(&node.id, Some(resolved));
+            }
+        }
     }
     Ok(out)
 }
