@@ -83,6 +83,9 @@ pub enum Command {
         /// Leave BENCHMARKS.md alone.
         #[arg(long)]
         no_docs: bool,
+        /// Measure nothing: draw the plots again from the recorded results.csv (in --out).
+        #[arg(long, conflicts_with_all = ["quick", "full", "csv", "docs", "runs", "size"])]
+        replot: bool,
     },
     /// Open the editor window: node canvas, viewer, parameters, timeline, presets, transfer-function, stroke and 3D-brush panels.
     Edit {
@@ -496,6 +499,15 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Edit { graph } => crate::editor::run(graph).map_err(bad),
         Command::Bench {
             suite,
+            out,
+            replot: true,
+            ..
+        } => replot(
+            &out.unwrap_or_else(|| PathBuf::from("bench")),
+            suite.as_deref(),
+        ),
+        Command::Bench {
+            suite,
             runs,
             size,
             quick,
@@ -504,6 +516,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             out,
             docs,
             no_docs,
+            replot: false,
         } => run_bench(
             registry,
             BenchArgs {
@@ -1047,6 +1060,25 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
     } else {
         Err(bad(format!("suites failed: {}", failed.join(", "))))
     }
+}
+
+/// `tyndall bench --replot`: the plots of every suite recorded in `out/results.csv` (or of one
+/// suite), drawn again without measuring.
+fn replot(out: &Path, only: Option<&str>) -> Result<(), CliError> {
+    use crate::bench::{load_suite, plot, report};
+    let csv = out.join("results.csv");
+    let text = std::fs::read(&csv).map_err(|e| bad(format!("{}: {e}", csv.display())))?;
+    for (name, adapter, rows) in report::rows_from_csv(&text).map_err(bad)? {
+        if only.is_some_and(|o| o != name) {
+            continue;
+        }
+        let spec = load_suite(&Path::new("benches").join(format!("{name}.ron"))).map_err(bad)?;
+        let stem = name.replace('/', "-");
+        for p in plot::plots(&out.join("plots"), &stem, &spec, &adapter, &rows).map_err(bad)? {
+            println!("plot: {}", p.display());
+        }
+    }
+    Ok(())
 }
 
 /// Write a file atomically, creating its folder.

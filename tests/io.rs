@@ -144,3 +144,27 @@ fn fuzzed_inputs_are_errors_not_crashes() {
     };
     assert!(e.to_string().contains("GLB header length"), "{e}");
 }
+
+/// A temporary left by a writer that no longer runs (a render killed mid-write) is removed by
+/// the next write of the same file; one of a running process (ours) is left alone.
+#[test]
+fn stale_temporaries_of_dead_writers_are_removed_by_the_next_write() {
+    if !std::path::Path::new("/proc/self").exists() {
+        return; // process ids cannot be checked here, so nothing is removed
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    // A pid above Linux's largest (2^22) never runs.
+    let stale = dir.path().join(".x.png.tmp4194305-0.png");
+    let live = dir
+        .path()
+        .join(format!(".x.png.tmp{}-999.png", std::process::id()));
+    let other = dir.path().join(".y.png.tmp4194305-0.png");
+    for p in [&stale, &live, &other] {
+        std::fs::write(p, b"partial").expect("write");
+    }
+    let r = Raster::new(2, 2, 1, 0.5);
+    write_image(&dir.path().join("x.png"), &r, Precision::U8, false).expect("write");
+    assert!(!stale.exists(), "the dead writer's temporary is gone");
+    assert!(live.exists(), "a running writer's temporary stays");
+    assert!(other.exists(), "another file's temporary stays");
+}

@@ -25,6 +25,24 @@ pub struct PlotError {
     pub message: String,
 }
 
+/// Series colours (Tableau 10: distinct, readable on white).
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+fn colour(i: usize) -> RGBAColor {
+    PALETTE[i % PALETTE.len()].to_rgba()
+}
+
 /// Plot size in pixels.
 pub const SIZE: (u32, u32) = (960, 640);
 
@@ -151,7 +169,7 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .push((r.median_ms, r.rmse.max(floor)));
         members.entry(name).or_default().push(r);
     }
-    // Each point is labelled with the keys that vary within its series.
+    // Points are labelled with the keys that vary within their series.
     let mut labels: Vec<((f64, f64), String)> = Vec::new();
     for rows in members.values() {
         let varying: Vec<&String> = rows
@@ -164,7 +182,10 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .collect::<std::collections::BTreeSet<_>>()
             .into_iter()
             .collect();
-        for r in rows {
+        // Only the series' Pareto front is labelled (the other points would bury it).
+        let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.median_ms, r.rmse)).collect();
+        for i in pareto_front(&points) {
+            let r = rows[i];
             let text: Vec<String> = varying
                 .iter()
                 .filter_map(|k| r.params.get(*k).map(|v| format!("{k}={v}")))
@@ -191,11 +212,14 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .configure_mesh()
             .x_desc(format!("median time, ms ({adapter})"))
             .y_desc("RMSE against the reference")
+            .x_labels(6)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(|e| err(&e))?;
         for (i, (name, points)) in series.iter().enumerate() {
-            let colour = Palette99::pick(i).to_rgba();
+            let colour = colour(i);
             let front: Vec<(f64, f64)> = pareto_front(points).iter().map(|j| points[*j]).collect();
             chart
                 .draw_series(LineSeries::new(front, colour.stroke_width(2)))
@@ -287,11 +311,12 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .configure_mesh()
             .x_desc(format!("kernel size ({label})"))
             .y_desc(format!("median time, ms ({adapter})"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
             .label_style(("sans-serif", 14))
             .draw()
             .map_err(|e| err(&e))?;
         for (i, (name, points)) in groups.iter().enumerate() {
-            let colour = Palette99::pick(i).to_rgba();
+            let colour = colour(i);
             let mut pts = points.clone();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             chart

@@ -189,6 +189,60 @@ pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, Be
         .map_err(|e| BenchError::Input(format!("results.csv: {e}")))
 }
 
+/// The measured-setting rows of `results.csv` text, by suite (for `--replot`: the plots drawn
+/// again from recorded figures). Only what the plots read is restored: the setting, the node,
+/// the times and the errors.
+pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, BenchError> {
+    let bad = |e: csv::Error| BenchError::Input(format!("results.csv: {e}"));
+    let mut r = csv::Reader::from_reader(text);
+    let headers = r.headers().map_err(bad)?.clone();
+    let col = |name: &str| {
+        headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| BenchError::Input(format!("results.csv has no column '{name}'")))
+    };
+    let idx: Vec<usize> = [
+        "suite",
+        "adapter",
+        "node",
+        "kind",
+        "setting",
+        "row",
+        "median_ms",
+        "min_ms",
+        "rmse",
+        "max_err",
+    ]
+    .iter()
+    .map(|c| col(c))
+    .collect::<Result<_, _>>()?;
+    let mut out: Vec<(String, String, Vec<Row>)> = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(bad)?;
+        let get = |i: usize| rec.get(idx[i]).unwrap_or("");
+        if get(5) != "setting" {
+            continue;
+        }
+        let f = |i: usize| get(i).parse::<f64>().unwrap_or(f64::NAN);
+        let params = get(4)
+            .split_whitespace()
+            .filter_map(|kv| kv.split_once('='))
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let mut row = Row::timed(&params, f(6), f(7));
+        row.rmse = f(8);
+        row.max_err = f(9);
+        row.node = get(2).to_string();
+        row.kind = get(3).to_string();
+        match out.last_mut() {
+            Some((suite, _, rows)) if suite == get(0) => rows.push(row),
+            _ => out.push((get(0).to_string(), get(1).to_string(), vec![row])),
+        }
+    }
+    Ok(out)
+}
+
 /// The opening and closing markers of a suite's block.
 pub fn markers(name: &str) -> (String, String) {
     (

@@ -332,6 +332,7 @@ fn write_via_temp(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
+    remove_stale_temporaries(dir, &name);
     static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let tmp = dir.join(format!(".{name}.tmp{}-{n}.{ext}", std::process::id()));
@@ -348,6 +349,34 @@ fn write_via_temp(
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             Err(err(e))
+        }
+    }
+}
+
+/// Remove temporaries of `name` in `dir` (`.{name}.tmp{pid}-{n}.{ext}`) left by a process that
+/// no longer runs — a render killed while writing (a farm pre-empting a task): the resumed run
+/// leaves no partial file behind. Only where process ids can be checked (`/proc`, Linux);
+/// elsewhere leftovers stay (hidden, never taken for the file itself).
+fn remove_stale_temporaries(dir: &Path, name: &str) {
+    let proc_fs = Path::new("/proc/self");
+    if !proc_fs.exists() {
+        return;
+    }
+    let prefix = format!(".{name}.tmp");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            // Best effort: another process may be removing it too.
+            let _ = std::fs::remove_file(e.path());
         }
     }
 }
