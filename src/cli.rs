@@ -1032,10 +1032,13 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
             )?;
         }
         results.push((name.clone(), adapter.clone(), rows));
-        if all {
-            // Rewritten after every suite: a run stopped half-way keeps what it measured.
+        if all || docs.is_some() {
+            // Rewritten after every suite: a run stopped half-way keeps what it measured. The
+            // rows of suites not run this time are kept.
+            let path = out_dir.join("results.csv");
             let csv = report::results_csv(&results).map_err(bad)?;
-            write_file(&out_dir.join("results.csv"), &csv)?;
+            let old = std::fs::read(&path).unwrap_or_default();
+            write_file(&path, &report::merge_results(&old, &csv).map_err(bad)?)?;
         }
     }
     let mut summary = format!(
@@ -1044,7 +1047,7 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
         list.len(),
         started.elapsed().as_secs_f64()
     );
-    if all {
+    if all || docs.is_some() {
         summary.push_str(&format!(
             "; results: {}; plots: {}",
             out_dir.join("results.csv").display(),

@@ -6,7 +6,8 @@
 //! keys are parameters of the measured node, `node.param` keys set other nodes (e.g. the map
 //! resolution), the key `node` measures another node, `output` compares another of its ports,
 //! `time` (`a+b+c`) times the sum of several nodes (all re-run each time: a chain such as
-//! downsample + march + upsample), and `reference` compares with one of the suite's named
+//! downsample + march + upsample), `runs` lowers the suite's run count for a slow setting,
+//! and `reference` compares with one of the suite's named
 //! `references` instead of its `reference`. Each setting runs `runs` times (the
 //! measured node's cached result dropped each time, its inputs kept); the table reports the
 //! median and minimum wall-clock time of that node (GPU work included: the evaluator waits for
@@ -264,7 +265,7 @@ pub(crate) fn apply(
         .cloned()
         .unwrap_or_else(|| default_node.to_string());
     for (key, value) in setting {
-        if key == "node" || key == "output" || key == "time" || key == "reference" {
+        if ["node", "output", "time", "reference", "runs"].contains(&key.as_str()) {
             continue;
         }
         match split_endpoint(key) {
@@ -506,9 +507,15 @@ pub fn run(
             .get("time")
             .map(|t| t.split('+').map(|s| s.trim().to_string()).collect())
             .unwrap_or_else(|| vec![node.clone()]);
+        // A setting's own `runs` (e.g. 1 for a slow high-quality row) overrides the suite's.
+        let runs_here = setting
+            .get("runs")
+            .and_then(|r| r.parse::<usize>().ok())
+            .unwrap_or(runs)
+            .min(runs.max(1));
         let mut times = Vec::new();
         let mut last = None;
-        for _ in 0..runs.max(1) {
+        for _ in 0..runs_here.max(1) {
             for t in &timed {
                 ev.invalidate(t);
             }

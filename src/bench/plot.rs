@@ -175,6 +175,7 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
         let varying: Vec<&String> = rows
             .iter()
             .flat_map(|r| r.params.keys())
+            .filter(|k| k.as_str() != "runs" && k.as_str() != "time")
             .filter(|k| {
                 let first = rows[0].params.get(*k);
                 rows.iter().any(|r| r.params.get(*k) != first)

@@ -243,6 +243,47 @@ pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, Ben
     Ok(out)
 }
 
+/// `new` (a results CSV of the suites just run) merged into `old` (the file as it was): the
+/// rows of suites not run again are kept, those of the suites run are replaced; rows stay
+/// grouped by suite in name order.
+pub fn merge_results(old: &[u8], new: &[u8]) -> Result<Vec<u8>, BenchError> {
+    let bad = |e: csv::Error| BenchError::Input(format!("results.csv: {e}"));
+    let read = |bytes: &[u8]| -> Result<Vec<csv::StringRecord>, BenchError> {
+        let mut r = csv::Reader::from_reader(bytes);
+        let mut rows = Vec::new();
+        for rec in r.records() {
+            rows.push(rec.map_err(bad)?);
+        }
+        Ok(rows)
+    };
+    let fresh = read(new)?;
+    let ran: std::collections::BTreeSet<String> = fresh
+        .iter()
+        .filter_map(|r| r.get(0).map(str::to_string))
+        .collect();
+    // An old file with other columns is replaced rather than merged.
+    let header_ok = csv::Reader::from_reader(old)
+        .headers()
+        .is_ok_and(|h| h.iter().eq(RESULT_COLUMNS.iter().copied()));
+    let mut all: Vec<csv::StringRecord> = if header_ok {
+        read(old)?
+            .into_iter()
+            .filter(|r| r.get(0).is_some_and(|s| !ran.contains(s)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    all.extend(fresh);
+    all.sort_by(|a, b| a.get(0).cmp(&b.get(0)));
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(RESULT_COLUMNS).map_err(bad)?;
+    for r in &all {
+        w.write_record(r).map_err(bad)?;
+    }
+    w.into_inner()
+        .map_err(|e| BenchError::Input(format!("results.csv: {e}")))
+}
+
 /// The opening and closing markers of a suite's block.
 pub fn markers(name: &str) -> (String, String) {
     (
@@ -275,7 +316,41 @@ pub fn doc_body(command: &str, text: &str, plots: &[(String, String)]) -> String
 
 #[cfg(test)]
 mod tests {
-    use super::update_doc;
+    use super::{merge_results, update_doc, RESULT_COLUMNS};
+
+    #[test]
+    fn merged_results_keep_other_suites_and_replace_those_run() {
+        let header = RESULT_COLUMNS.join(",");
+        let row = |suite: &str, ms: &str| {
+            let mut cells = vec![""; RESULT_COLUMNS.len()];
+            cells[0] = suite;
+            cells[5] = "setting";
+            cells[6] = ms;
+            cells.join(",")
+        };
+        let old = format!(
+            "{header}\n{}\n{}\n{}\n",
+            row("a", "1"),
+            row("b", "2"),
+            row("c", "3")
+        );
+        let new = format!("{header}\n{}\n", row("b", "20"));
+        let merged =
+            String::from_utf8(merge_results(old.as_bytes(), new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(
+            merged,
+            format!(
+                "{header}\n{}\n{}\n{}\n",
+                row("a", "1"),
+                row("b", "20"),
+                row("c", "3")
+            )
+        );
+        // An unreadable or foreign old file is replaced.
+        let merged =
+            String::from_utf8(merge_results(b"x,y\n1,2\n", new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(merged, new);
+    }
 
     #[test]
     fn blocks_are_replaced_between_markers_and_missing_ones_appended() {

@@ -36,7 +36,15 @@ pub struct Measured {
 }
 
 /// Keys of a setting that are not parameters of the measured node.
-const NOT_PARAMS: [&str; 6] = ["node", "output", "time", "reference", "cold", "target"];
+pub const NOT_PARAMS: [&str; 7] = [
+    "node",
+    "output",
+    "time",
+    "reference",
+    "cold",
+    "target",
+    "runs",
+];
 
 /// Parse `bench/results.csv` text: the measured settings with a time and an error.
 pub fn parse(text: &str) -> Result<Vec<Measured>, String> {
