@@ -313,6 +313,7 @@ fn bench_visibility_runs_and_writes_its_csv() {
         "1",
         "--size",
         "16x9",
+        "--full",
         "--csv",
         &csv.display().to_string(),
     ]);
@@ -328,6 +329,7 @@ fn bench_visibility_runs_and_writes_its_csv() {
         assert!(out.contains(line), "{line}: {out}");
     }
     let rows = std::fs::read_to_string(&csv).expect("csv");
+    // --full: the 33 settings with the two marked slow, and the header.
     assert_eq!(rows.lines().count(), 34, "{rows}");
     // MinMax at min_level 0 is exact: within the 4096-step reference's own sampling error.
     let exact = rows

@@ -403,9 +403,9 @@ fn the_selected_nodes_setting_is_shown_on_its_measured_curve() {
     let csv = dir.path().join("results.csv");
     std::fs::write(
         &csv,
-        "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse\n\
-         visibility/tree,test adapter,scatter,SingleScattering,method=BruteForce steps=64,setting,500,480,0.004\n\
-         visibility/tree,test adapter,scatter,SingleScattering,method=MinMax min_level=0,setting,250,240,0.0001\n",
+        "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
+         visibility/tree,test adapter,scatter,SingleScattering,method=BruteForce steps=64,setting,500,480,0.004,0.04\n\
+         visibility/tree,test adapter,scatter,SingleScattering,method=MinMax min_level=0,setting,250,240,0.0001,0.001\n",
     )
     .expect("csv");
     let mut h = harness("graphs/physical/window.ron");

@@ -74,6 +74,34 @@ fn write_png(path: &Path, buf: Vec<u8>) -> Result<(), PlotError> {
     crate::graph::write_atomic(path, &bytes).map_err(|e| err(e.to_string()))
 }
 
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// Draw a white `SIZE` picture with `draw` and write it to `path` as PNG.
+fn render(path: &Path, draw: impl FnOnce(&Area) -> Result<(), String>) -> Result<(), PlotError> {
+    let err = |message: String| PlotError {
+        path: path.display().to_string(),
+        message,
+    };
+    let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        draw(&root).map_err(err)?;
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    write_png(path, buf)
+}
+
+/// The chart frame both plots share: caption, margins, label areas.
+fn frame<'a, 'b>(root: &'a Area<'b>, suite: &Suite) -> ChartBuilder<'a, 'a, BitMapBackend<'b>> {
+    let mut b = ChartBuilder::on(root);
+    b.caption(caption(suite), ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70);
+    b
+}
+
 /// The series a row belongs to.
 fn series_of(suite: &Suite, row: &Row) -> String {
     suite
@@ -194,19 +222,9 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             labels.push(((r.median_ms, r.rmse.max(floor)), text.join(" ")));
         }
     }
-    let err = |e: &dyn std::fmt::Display| PlotError {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    };
-    let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(caption(suite), ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(70)
+    render(path, |root| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let mut chart = frame(root, suite)
             .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())
             .map_err(|e| err(&e))?;
         chart
@@ -250,9 +268,8 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    write_png(path, buf)?;
+        Ok(())
+    })?;
     Ok(true)
 }
 
@@ -293,19 +310,9 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
     let Some((t0, t1)) = range_log(groups.values().flatten().map(|p| p.1)) else {
         return Ok(false);
     };
-    let err = |e: &dyn std::fmt::Display| PlotError {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    };
-    let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(caption(suite), ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(70)
+    render(path, |root| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let mut chart = frame(root, suite)
             .build_cartesian_2d(0.0..x1 * 1.05 + (x1 - x0) * 0.02, (t0..t1).log_scale())
             .map_err(|e| err(&e))?;
         chart
@@ -339,9 +346,8 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .position(SeriesLabelPosition::LowerRight)
             .draw()
             .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    write_png(path, buf)?;
+        Ok(())
+    })?;
     Ok(true)
 }
 

@@ -202,21 +202,11 @@ pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, Ben
             .position(|h| h == name)
             .ok_or_else(|| BenchError::Input(format!("results.csv has no column '{name}'")))
     };
-    let idx: Vec<usize> = [
-        "suite",
-        "adapter",
-        "node",
-        "kind",
-        "setting",
-        "row",
-        "median_ms",
-        "min_ms",
-        "rmse",
-        "max_err",
-    ]
-    .iter()
-    .map(|c| col(c))
-    .collect::<Result<_, _>>()?;
+    // The first ten columns: suite … max_err.
+    let idx: Vec<usize> = RESULT_COLUMNS[..10]
+        .iter()
+        .map(|c| col(c))
+        .collect::<Result<_, _>>()?;
     let mut out: Vec<(String, String, Vec<Row>)> = Vec::new();
     for rec in r.records() {
         let rec = rec.map_err(bad)?;

@@ -48,47 +48,22 @@ pub const NOT_PARAMS: [&str; 7] = [
 
 /// Parse `bench/results.csv` text: the measured settings with a time and an error.
 pub fn parse(text: &str) -> Result<Vec<Measured>, String> {
-    let mut r = csv::Reader::from_reader(text.as_bytes());
-    let headers = r.headers().map_err(|e| e.to_string())?.clone();
-    let col = |name: &str| {
-        headers
-            .iter()
-            .position(|h| h == name)
-            .ok_or_else(|| format!("results.csv has no column '{name}'"))
-    };
-    let (suite, adapter, kind, setting, row, time, rmse) = (
-        col("suite")?,
-        col("adapter")?,
-        col("kind")?,
-        col("setting")?,
-        col("row")?,
-        col("median_ms")?,
-        col("rmse")?,
-    );
-    let mut out = Vec::new();
-    for rec in r.records() {
-        let rec = rec.map_err(|e| e.to_string())?;
-        let get = |i: usize| rec.get(i).unwrap_or("");
-        if get(row) != "setting" {
-            continue;
-        }
-        let (Ok(t), Ok(e)) = (get(time).parse::<f64>(), get(rmse).parse::<f64>()) else {
-            continue;
-        };
-        out.push(Measured {
-            suite: get(suite).to_string(),
-            adapter: get(adapter).to_string(),
-            kind: get(kind).to_string(),
-            setting: get(setting)
-                .split_whitespace()
-                .filter_map(|kv| kv.split_once('='))
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect(),
-            median_ms: t,
-            rmse: e,
-        });
-    }
-    Ok(out)
+    let suites = crate::bench::report::rows_from_csv(text.as_bytes()).map_err(|e| e.to_string())?;
+    Ok(suites
+        .into_iter()
+        .flat_map(|(suite, adapter, rows)| {
+            rows.into_iter()
+                .filter(|r| r.median_ms.is_finite() && r.rmse.is_finite())
+                .map(move |r| Measured {
+                    suite: suite.clone(),
+                    adapter: adapter.clone(),
+                    kind: r.kind,
+                    setting: r.params,
+                    median_ms: r.median_ms,
+                    rmse: r.rmse,
+                })
+        })
+        .collect())
 }
 
 fn same(a: &str, b: &str) -> bool {
@@ -297,10 +272,10 @@ mod tests {
 
     #[test]
     fn results_are_parsed_and_settings_matched_on_the_nodes_own_keys() {
-        let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse\n\
-            visibility/tree,gpu,scatter,SingleScattering,method=MinMax min_level=2,setting,10,9,0.01\n\
-            chain,gpu,,,cold=true,step,100,90,\n\
-            visibility/tree,gpu,scatter,SingleScattering,method=BruteForce shadow.resolution=2048 steps=64,setting,20,19,0.002\n";
+        let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
+            visibility/tree,gpu,scatter,SingleScattering,method=MinMax min_level=2,setting,10,9,0.01,0.1\n\
+            chain,gpu,,,cold=true,step,100,90,,\n\
+            visibility/tree,gpu,scatter,SingleScattering,method=BruteForce shadow.resolution=2048 steps=64,setting,20,19,0.002,0.02\n";
         let rows = parse(text).unwrap();
         assert_eq!(rows.len(), 2, "the chain step has no error and is left out");
         let params: BTreeMap<String, String> = [
