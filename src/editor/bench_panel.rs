@@ -153,10 +153,13 @@ impl Curves {
         }
     }
 
-    /// The measured settings of a node kind, by suite.
+    /// The measured settings of a node kind, by suite: those that set at least one of the
+    /// kind's own parameters (a row that only switches the measured node or changes other
+    /// nodes measures no knob of this kind).
     pub fn of_kind(&self, kind: &str) -> BTreeMap<&str, Vec<&Measured>> {
         let mut out: BTreeMap<&str, Vec<&Measured>> = BTreeMap::new();
-        for m in self.rows.iter().filter(|m| m.kind == kind) {
+        let own = |m: &&Measured| agreement(&m.setting, &BTreeMap::new()).1 > 0;
+        for m in self.rows.iter().filter(|m| m.kind == kind).filter(own) {
             out.entry(m.suite.as_str()).or_default().push(m);
         }
         out
@@ -223,7 +226,9 @@ fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<St
         }
     }
     let adapter = rows.first().map_or("", |m| m.adapter.as_str());
-    ui.small(format!("{suite} (log time → vs log RMSE ↑; {adapter})"));
+    ui.small(format!(
+        "{suite}: median time (across, log) against RMSE (up, log); {adapter}"
+    ));
     let matched: Vec<&&Measured> = rows
         .iter()
         .zip(&agreements)
@@ -289,5 +294,17 @@ mod tests {
         // `shadow.resolution` is context, not a parameter of the node; 64 equals 64.0.
         assert_eq!(agreement(&rows[1].setting, &params), (2, 2));
         assert_eq!(agreement(&rows[0].setting, &params), (0, 2));
+        // Rows that set none of the kind's own parameters measure no knob of it.
+        let mut curves = Curves::default();
+        let other = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
+            medium,gpu,s32,SingleScattering,node=s32 output=inscatter,setting,10,9,0.01,0.1\n";
+        curves.rows = parse(&format!(
+            "{}{}",
+            other,
+            text.lines().skip(1).collect::<Vec<_>>().join("\n")
+        ))
+        .unwrap();
+        let of = curves.of_kind("SingleScattering");
+        assert_eq!(of.keys().copied().collect::<Vec<_>>(), ["visibility/tree"]);
     }
 }
