@@ -338,14 +338,17 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
                 .draw_series(pts.iter().map(|p| Circle::new(*p, 3, colour.filled())))
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        // One group needs no legend (its name would be empty).
+        if groups.len() > 1 {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 12))
+                .position(SeriesLabelPosition::LowerRight)
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
         Ok(())
     })?;
     Ok(true)
