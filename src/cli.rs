@@ -322,6 +322,9 @@ pub enum CliError {
     /// Some frames of a render failed (exit 1); the others were written.
     #[error("frames failed: {}", .0.join(", "))]
     Frames(Vec<String>),
+    /// Some bench suites failed (exit 1); the others were measured and recorded.
+    #[error("bench suites failed: {}", .0.join(", "))]
+    Suites(Vec<String>),
 }
 
 impl From<EvalError> for CliError {
@@ -335,7 +338,7 @@ impl CliError {
     pub fn exit_code(&self) -> i32 {
         match self {
             CliError::BadInput(_) => 2,
-            CliError::Eval(_) | CliError::Frames(_) => 1,
+            CliError::Eval(_) | CliError::Frames(_) | CliError::Suites(_) => 1,
         }
     }
 }
@@ -1061,7 +1064,7 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
     if failed.is_empty() {
         Ok(())
     } else {
-        Err(bad(format!("suites failed: {}", failed.join(", "))))
+        Err(CliError::Suites(failed))
     }
 }
 

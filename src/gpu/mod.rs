@@ -52,9 +52,8 @@ pub enum GpuError {
     },
 }
 
-/// Whether `TYNDALL_TRACE_PASSES` is set (and not `0`): every 2D compute pass then waits for the
-/// device before and after it and prints `pass STEM:ENTRY WxH: MS ms` on stderr — a per-pass
-/// profile of a node (it serialises the GPU, so whole-node times grow).
+/// The watchdog time of [`Gpu::wait`] and readbacks: `TYNDALL_GPU_TIMEOUT` seconds, default 600
+/// (0: wait forever).
 fn watchdog_secs() -> u64 {
     static SECS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
     *SECS.get_or_init(|| {
@@ -77,6 +76,9 @@ pub(crate) fn receive<T>(rx: &std::sync::mpsc::Receiver<T>) -> Result<T, GpuErro
     }
 }
 
+/// Whether `TYNDALL_TRACE_PASSES` is set (and not `0`): every 2D compute pass then waits for the
+/// device before and after it and prints `pass STEM:ENTRY WxH: MS ms` on stderr — a per-pass
+/// profile of a node (it serialises the GPU, so whole-node times grow).
 fn tracing() -> bool {
     static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("TYNDALL_TRACE_PASSES").is_some_and(|v| v != "0"))
