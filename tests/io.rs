@@ -145,21 +145,25 @@ fn fuzzed_inputs_are_errors_not_crashes() {
     assert!(e.to_string().contains("GLB header length"), "{e}");
 }
 
-/// A temporary left by a writer that no longer runs (a render killed mid-write) is removed by
-/// the next write of the same file; one of a running process (ours) is left alone.
+/// A temporary left by a writer of this machine that no longer runs (a render killed
+/// mid-write) is removed by the next write of the same file; one of a running process (ours),
+/// of another file, or of another machine (shared storage) is left alone.
 #[test]
 fn stale_temporaries_of_dead_writers_are_removed_by_the_next_write() {
     if !std::path::Path::new("/proc/self").exists() {
         return; // process ids cannot be checked here, so nothing is removed
     }
     let dir = tempfile::tempdir().expect("tempdir");
+    let host = tyndall::io::host_tag();
     // A pid above Linux's largest (2^22) never runs.
-    let stale = dir.path().join(".x.png.tmp4194305-0.png");
+    let stale = dir.path().join(format!(".x.png.tmp4194305-0-{host}.png"));
     let live = dir
         .path()
-        .join(format!(".x.png.tmp{}-999.png", std::process::id()));
-    let other = dir.path().join(".y.png.tmp4194305-0.png");
-    for p in [&stale, &live, &other] {
+        .join(format!(".x.png.tmp{}-999-{host}.png", std::process::id()));
+    let other = dir.path().join(format!(".y.png.tmp4194305-0-{host}.png"));
+    // Another machine's writer on shared storage: its pid means nothing here.
+    let remote = dir.path().join(".x.png.tmp4194305-0-0badf00d.png");
+    for p in [&stale, &live, &other, &remote] {
         std::fs::write(p, b"partial").expect("write");
     }
     let r = Raster::new(2, 2, 1, 0.5);
@@ -167,4 +171,5 @@ fn stale_temporaries_of_dead_writers_are_removed_by_the_next_write() {
     assert!(!stale.exists(), "the dead writer's temporary is gone");
     assert!(live.exists(), "a running writer's temporary stays");
     assert!(other.exists(), "another file's temporary stays");
+    assert!(remote.exists(), "another machine's temporary stays");
 }

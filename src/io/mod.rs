@@ -335,7 +335,11 @@ fn write_via_temp(
     remove_stale_temporaries(dir, &name);
     static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(".{name}.tmp{}-{n}.{ext}", std::process::id()));
+    let tmp = dir.join(format!(
+        ".{name}.tmp{}-{n}-{}.{ext}",
+        std::process::id(),
+        host_tag()
+    ));
     let synced = |()| {
         std::fs::File::open(&tmp)
             .and_then(|f| f.sync_all())
@@ -353,16 +357,34 @@ fn write_via_temp(
     }
 }
 
-/// Remove temporaries of `name` in `dir` (`.{name}.tmp{pid}-{n}.{ext}`) left by a process that
-/// no longer runs — a render killed while writing (a farm pre-empting a task): the resumed run
-/// leaves no partial file behind. Only where process ids can be checked (`/proc`, Linux);
+/// This machine's tag in temporary names: 8 hex digits of a hash of its host name (so a
+/// temporary on shared storage says which machine's process wrote it).
+pub fn host_tag() -> String {
+    use std::hash::{Hash, Hasher};
+    static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TAG.get_or_init(|| {
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .or_else(|_| std::env::var("HOSTNAME"))
+            .or_else(|_| std::env::var("COMPUTERNAME"))
+            .unwrap_or_default();
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        host.trim().hash(&mut h);
+        format!("{:08x}", h.finish() as u32)
+    })
+    .clone()
+}
+
+/// Remove temporaries of `name` in `dir` (`.{name}.tmp{pid}-{n}-{host}.{ext}`) left by a process
+/// of this machine that no longer runs — a render killed while writing (a farm pre-empting a
+/// task) — so the resumed run leaves no partial file behind. Temporaries of other machines
+/// (shared storage) are never touched. Only where process ids can be checked (`/proc`, Linux);
 /// elsewhere leftovers stay (hidden, never taken for the file itself).
 fn remove_stale_temporaries(dir: &Path, name: &str) {
-    let proc_fs = Path::new("/proc/self");
-    if !proc_fs.exists() {
+    if !Path::new("/proc/self").exists() {
         return;
     }
     let prefix = format!(".{name}.tmp");
+    let host = host_tag();
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
@@ -371,9 +393,17 @@ fn remove_stale_temporaries(dir: &Path, name: &str) {
         let Some(rest) = file.strip_prefix(&prefix) else {
             continue;
         };
-        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+        // rest: `{pid}-{n}-{host}.{ext}`
+        let mut parts = rest.splitn(3, '-');
+        let (Some(pid), Some(_), Some(tail)) = (parts.next(), parts.next(), parts.next()) else {
             continue;
         };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if !tail.starts_with(&format!("{host}.")) {
+            continue;
+        }
         if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
             // Best effort: another process may be removing it too.
             let _ = std::fs::remove_file(e.path());
