@@ -392,8 +392,8 @@ fn presets_merge_and_clipboard_paste() {
 }
 
 /// The parameters panel shows where the selected node's setting lies on its measured curve
-/// (`bench/results.csv`): the matching measured setting is named with its time and error, and a
-/// node whose setting was not measured gets the closest one.
+/// (`bench/results.csv`): the matching measured setting is named with its time and error, a
+/// node whose setting was not measured gets the closest one, and "Use it" applies that setting.
 #[test]
 fn the_selected_nodes_setting_is_shown_on_its_measured_curve() {
     if common::gpu().is_none() {
@@ -408,7 +408,11 @@ fn the_selected_nodes_setting_is_shown_on_its_measured_curve() {
          visibility/tree,test adapter,scatter,SingleScattering,method=MinMax min_level=0,setting,250,240,0.0001,0.001\n",
     )
     .expect("csv");
-    let mut h = harness("graphs/physical/window.ron");
+    // Tall enough for the whole parameters panel: a click lands only on a visible button.
+    let mut h = common::editor::open(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron"),
+        (1200.0, 1400.0),
+    );
     h.state_mut().set_bench_results(&csv);
     h.state_mut().selected = Some("scatter".into());
     settle(&mut h);
@@ -424,6 +428,20 @@ fn the_selected_nodes_setting_is_shown_on_its_measured_curve() {
     assert!(h
         .query_by_label_contains("current setting not measured; closest: method=MinMax min_level=0")
         .is_some());
+    // "Use it" sets the node to the closest measured setting, as one undoable step.
+    let depth = h.state().state.undo_depth();
+    h.get_by_label("Use it").click();
+    settle(&mut h);
+    let level = |h: &egui_kittest::Harness<'static, tyndall::editor::EditorApp>| {
+        h.state()
+            .state
+            .graph()
+            .node("scatter")
+            .and_then(|n| n.params.get("min_level").cloned())
+    };
+    assert_eq!(level(&h), Some(ParamValue::Int(0)));
+    assert_eq!(h.state().state.undo_depth(), depth + 1);
+    let _ = h.get_by_label("current setting: 250.0 ms, RMSE 1.00e-4 (method=MinMax min_level=0)");
 }
 
 /// The editor reads a graph's relative input paths from the graph's folder (as the CLI does),

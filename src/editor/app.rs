@@ -172,6 +172,37 @@ impl EditorApp {
         }
     }
 
+    /// Set node `id`'s parameters to a measured setting (`name → value` text, as in
+    /// `bench/results.csv`) as one undoable step; a value that no longer parses is reported in
+    /// the status line and nothing changes.
+    fn use_measured(
+        &mut self,
+        id: &str,
+        schema: &crate::graph::NodeSchema,
+        setting: &BTreeMap<String, String>,
+    ) {
+        let mut values = Vec::new();
+        for (name, text) in setting {
+            match schema.param(name).map(|p| p.parse_str(text)) {
+                Some(Ok(v)) => values.push((name.clone(), v)),
+                _ => {
+                    self.status = format!("{id}: measured setting {name}={text} does not apply");
+                    return;
+                }
+            }
+        }
+        let result = self.state.apply(|g, c| {
+            for (name, v) in values {
+                g.set_param(c, id, &name, v)?;
+            }
+            Ok(())
+        });
+        self.status = match result {
+            Ok(()) => format!("{id}: measured setting applied"),
+            Err(e) => e.to_string(),
+        };
+    }
+
     /// Read the measured speed/accuracy curves from `path` (a `bench/results.csv`) instead of
     /// the one found next to the working directory or the graph.
     pub fn set_bench_results(&mut self, path: &Path) {
@@ -759,7 +790,9 @@ impl EditorApp {
                 (p.name.to_string(), v.to_string())
             })
             .collect();
-        self.bench.show(ui, &node.kind, &current);
+        if let Some(setting) = self.bench.show(ui, &node.kind, &current) {
+            self.use_measured(&id, schema, &setting);
+        }
         let message = match node.kind.as_str() {
             "TransferFunction" => {
                 super::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)

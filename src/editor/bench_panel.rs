@@ -6,7 +6,8 @@
 //! a log–log time/error plot with the Pareto front, and marks the settings equal to the node's
 //! current parameters (every plain parameter key of the measured setting equal; keys of other
 //! nodes, `node.param`, are the suite's context and not compared). When no measured setting
-//! matches, the closest one (most keys equal) is named instead.
+//! matches, the closest one (most keys equal) is named instead. Clicking a point (or "Use it"
+//! next to the closest setting) sets the node's parameters to that setting.
 //!
 //! The file is looked for at `$TYNDALL_BENCH_RESULTS`, `bench/results.csv` under the working
 //! directory, then under the graph file's folder and its parents; it is read again when it
@@ -165,27 +166,54 @@ impl Curves {
         out
     }
 
-    /// Draw the selected node's curves (nothing when its kind was never measured).
-    pub fn show(&mut self, ui: &mut egui::Ui, kind: &str, params: &BTreeMap<String, String>) {
+    /// Draw the selected node's curves (nothing when its kind was never measured). Returns the
+    /// node's own parameters of a measured setting the user picked — a click on its point, or
+    /// "Use it" next to the closest one — for the caller to apply as one undoable step.
+    pub fn show(
+        &mut self,
+        ui: &mut egui::Ui,
+        kind: &str,
+        params: &BTreeMap<String, String>,
+    ) -> Option<BTreeMap<String, String>> {
         self.refresh();
         if let Some(e) = &self.error {
             ui.small(format!("bench results unreadable: {e}"));
-            return;
+            return None;
         }
         let suites = self.of_kind(kind);
         if suites.is_empty() {
-            return;
+            return None;
         }
         ui.separator();
-        ui.label("Measured speed against accuracy")
-            .on_hover_text("From tyndall bench (bench/results.csv): each point a measured setting, the line the fastest settings for their error; orange: this node's current setting.");
+        ui.label("Measured speed against accuracy").on_hover_text(
+            "From tyndall bench (bench/results.csv): each point a measured setting, the line the \
+             fastest settings for their error; orange: this node's current setting. Click a \
+             point to use its setting.",
+        );
+        let mut picked = None;
         for (suite, rows) in suites {
-            plot(ui, suite, &rows, params);
+            picked = plot(ui, suite, &rows, params).or(picked);
         }
+        picked.map(|m: &Measured| own_keys(&m.setting))
     }
 }
 
-fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<String, String>) {
+/// The setting's keys that are parameters of the measured node.
+pub fn own_keys(setting: &BTreeMap<String, String>) -> BTreeMap<String, String> {
+    setting
+        .iter()
+        .filter(|(k, _)| !k.contains('.') && !NOT_PARAMS.contains(&k.as_str()))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect()
+}
+
+/// One suite's plot; returns the measured setting the user picked, if any.
+fn plot<'a>(
+    ui: &mut egui::Ui,
+    suite: &str,
+    rows: &[&'a Measured],
+    params: &BTreeMap<String, String>,
+) -> Option<&'a Measured> {
     let pos = |v: f64| v.max(1e-12).log10();
     let xs: Vec<f64> = rows.iter().map(|m| pos(m.median_ms)).collect();
     let ys: Vec<f64> = rows.iter().map(|m| pos(m.rmse)).collect();
@@ -196,7 +224,7 @@ fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<St
     };
     let ((x0, xw), (y0, yw)) = (range(&xs), range(&ys));
     let width = ui.available_width().clamp(160.0, 420.0);
-    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 120.0), egui::Sense::hover());
+    let (rect, response) = ui.allocate_exact_size(egui::vec2(width, 120.0), egui::Sense::click());
     let painter = ui.painter_at(rect);
     let visuals = ui.visuals();
     painter.rect_filled(rect, 2.0, visuals.extreme_bg_color);
@@ -225,6 +253,34 @@ fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<St
             painter.circle_stroke(at(p.0, p.1), 5.0, egui::Stroke::new(2.0, current));
         }
     }
+    // The point under the pointer (within 10 px): named on hover, taken on click.
+    let near = response.hover_pos().and_then(|h| {
+        points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i, at(p.0, p.1).distance(h)))
+            .filter(|(_, d)| *d <= 10.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+    });
+    let mut picked = None;
+    if let Some(i) = near {
+        let m = rows[i];
+        painter.circle_stroke(
+            at(points[i].0, points[i].1),
+            6.0,
+            egui::Stroke::new(1.0, visuals.strong_text_color()),
+        );
+        if response.clicked() {
+            picked = Some(m);
+        }
+        response.on_hover_text(format!(
+            "{}\n{:.1} ms, RMSE {:.2e}\nclick to use this setting",
+            describe(&m.setting),
+            m.median_ms,
+            m.rmse
+        ));
+    }
     let adapter = rows.first().map_or("", |m| m.adapter.as_str());
     ui.small(format!(
         "{suite}: median time (across, log) against RMSE (up, log); {adapter}"
@@ -240,14 +296,23 @@ fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<St
             .iter()
             .zip(&agreements)
             .max_by_key(|(_, (eq, _))| *eq)
-            .map(|(m, _)| m);
+            .map(|(m, _)| *m);
         if let Some(m) = best {
-            ui.small(format!(
-                "current setting not measured; closest: {} ({:.1} ms, RMSE {:.2e})",
-                describe(&m.setting),
-                m.median_ms,
-                m.rmse
-            ));
+            ui.horizontal_wrapped(|ui| {
+                ui.small(format!(
+                    "current setting not measured; closest: {} ({:.1} ms, RMSE {:.2e})",
+                    describe(&m.setting),
+                    m.median_ms,
+                    m.rmse
+                ));
+                if ui
+                    .small_button("Use it")
+                    .on_hover_text("Set this node's parameters to the closest measured setting")
+                    .clicked()
+                {
+                    picked = Some(m);
+                }
+            });
         }
     } else {
         for m in matched {
@@ -262,6 +327,7 @@ fn plot(ui: &mut egui::Ui, suite: &str, rows: &[&Measured], params: &BTreeMap<St
             );
         }
     }
+    picked
 }
 
 fn describe(s: &BTreeMap<String, String>) -> String {
