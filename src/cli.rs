@@ -917,6 +917,12 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
     use crate::bench::{self, plot, report};
     let all = a.suite.is_none();
     let root = Path::new("benches");
+    if a.suite.is_none() && !root.is_dir() {
+        return Err(bad(
+            "no benches/ folder in the working directory: run `tyndall bench` from the \
+             repository root",
+        ));
+    }
     let list: Vec<(String, PathBuf)> = match &a.suite {
         None => report::all_suites(root).map_err(bad)?,
         Some(name) => bench::suite_files(name)
