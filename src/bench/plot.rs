@@ -307,6 +307,9 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
     }
     let xs = groups.values().flatten().map(|p| p.0);
     let (x0, x1) = xs.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+    if !(x1 > 0.0 && x1.is_finite()) {
+        return Ok(false);
+    }
     let Some((t0, t1)) = range_log(groups.values().flatten().map(|p| p.1)) else {
         return Ok(false);
     };
