@@ -1015,7 +1015,9 @@ fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
                     a.suite.as_deref().unwrap_or("bench")
                 )),
             };
-            write_file(&csv_path, bench::csv(&rows).as_bytes())?;
+            // The same columns as bench/results.csv.
+            let one = [(name.clone(), adapter.clone(), rows.clone())];
+            write_file(&csv_path, &report::results_csv(&one).map_err(bad)?)?;
             println!("csv: {}", csv_path.display());
         }
         let mut links = Vec::new();

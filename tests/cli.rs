@@ -328,21 +328,18 @@ fn bench_visibility_runs_and_writes_its_csv() {
     ] {
         assert!(out.contains(line), "{line}: {out}");
     }
-    let rows = std::fs::read_to_string(&csv).expect("csv");
-    // --full: the 33 settings with the two marked slow, and the header.
-    assert_eq!(rows.lines().count(), 34, "{rows}");
+    // The same columns as bench/results.csv.
+    let bytes = std::fs::read(&csv).expect("csv");
+    let suites = tyndall::bench::report::rows_from_csv(&bytes).expect("parse");
+    let rows = &suites[0].2;
+    // --full: the 33 settings, the two marked slow included.
+    assert_eq!(rows.len(), 33);
     // MinMax at min_level 0 is exact: within the 4096-step reference's own sampling error.
     let exact = rows
-        .lines()
-        .find(|l| l.contains("min_level=0"))
+        .iter()
+        .find(|r| r.setting.contains("min_level=0"))
         .expect("MinMax row");
-    let rmse: f64 = exact
-        .split(',')
-        .nth(3)
-        .expect("rmse column")
-        .parse()
-        .expect("number");
-    assert!(rmse <= 2e-3, "{exact}");
+    assert!(exact.rmse <= 2e-3, "{}: {}", exact.setting, exact.rmse);
 }
 
 /// A first run without `XDG_RUNTIME_DIR` (CI, cron, a farm node) renders without printing the

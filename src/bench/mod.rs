@@ -710,32 +710,3 @@ pub fn table(rows: &[Row]) -> String {
     }
     s
 }
-
-/// The table as CSV.
-pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from(
-        "setting,median_ms,min_ms,rmse,max_err,growth,holes_before,holes_after,iterations,residual_ratio,psnr_db,edge_rmse\n",
-    );
-    for r in rows {
-        let (a, b) = r.holes.map_or((String::new(), String::new()), |(a, b)| {
-            (a.to_string(), b.to_string())
-        });
-        let (it, res) = r
-            .convergence
-            .map_or((String::new(), String::new()), |(i, x)| {
-                (i.to_string(), cell(x, 8))
-            });
-        s.push_str(&format!(
-            "\"{}\",{:.4},{:.4},{},{},{},{a},{b},{it},{res},{},{}\n",
-            r.setting,
-            r.median_ms,
-            r.min_ms,
-            cell(r.rmse, 8),
-            cell(r.max_err, 8),
-            cell(r.growth, 4),
-            cell(r.psnr, 3),
-            cell(r.edge_rmse, 8)
-        ));
-    }
-    s
-}

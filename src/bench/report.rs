@@ -158,30 +158,17 @@ pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, Be
             ])
             .map_err(bad)?;
             for n in r.chain.iter().flat_map(|c| &c.nodes) {
-                w.write_record([
-                    suite.as_str(),
-                    adapter,
-                    &n.id,
-                    &n.kind,
-                    &r.setting,
-                    "node",
-                    &num(n.median_ms),
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    "",
-                    n.status,
-                ])
-                .map_err(bad)?;
+                // A node row: suite … row, its median time, and its status (last column).
+                let mut cells = vec![String::new(); RESULT_COLUMNS.len()];
+                let lead = [suite.as_str(), adapter, &n.id, &n.kind, &r.setting, "node"];
+                for (cell, value) in cells.iter_mut().zip(lead) {
+                    *cell = value.to_string();
+                }
+                cells[6] = num(n.median_ms);
+                if let Some(last) = cells.last_mut() {
+                    *last = n.status.to_string();
+                }
+                w.write_record(&cells).map_err(bad)?;
             }
         }
     }
