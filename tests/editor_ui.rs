@@ -493,3 +493,53 @@ fn relative_inputs_are_read_from_the_graph_folder() {
         "A.exr next to the graph was read (the working directory, the crate root, has none)"
     );
 }
+
+/// A lost GPU device (driver reset, GPU removed) does not leave the editor without pictures:
+/// the worker and its cache are dropped, evaluation restarts on a new device, and everything
+/// evaluates again there. The editor runs on a private device here so that destroying it does
+/// not touch the other tests' shared one.
+#[test]
+fn a_lost_device_restarts_evaluation_on_a_new_one() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let private = Arc::new(tyndall::gpu::Gpu::new(false).expect("device"));
+    let registry = Arc::new(tyndall::nodes::registry());
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let state = EditorState::open(registry.catalog().clone(), &path).expect("open");
+    let gpu = private.clone();
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1200.0, 760.0))
+        .wgpu()
+        .build_eframe(move |_cc| EditorApp::on_gpu(state, registry, Some(gpu)));
+    settle(&mut h);
+    let errors = |h: &Harness<'static, EditorApp>| -> Vec<String> {
+        h.state()
+            .reports
+            .iter()
+            .filter_map(|(id, r)| r.error.as_ref().map(|e| format!("{id}: {e}")))
+            .collect()
+    };
+    assert_eq!(errors(&h), Vec::<String>::new());
+    assert_eq!(h.state().device_restarts, 0);
+
+    private.simulate_loss();
+    h.state_mut().selected = Some("tonemap".into());
+    h.state_mut().pictures = None;
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(0.7))
+        .expect("param");
+    settle(&mut h);
+    assert_eq!(h.state().device_restarts, 1, "status: {}", h.state().status);
+    assert_eq!(errors(&h), Vec::<String>::new(), "the new device evaluates");
+    // The new worker starts with an empty cache: the whole chain ran again, not only the
+    // tonemap below the change.
+    assert_eq!(
+        h.state().reports["scatter"].status,
+        tyndall::eval::Status::Ran
+    );
+    let (viewed, pictures) = h.state().pictures.clone().expect("the viewer's picture");
+    assert_eq!(viewed, "tonemap");
+    assert!(!pictures.is_empty());
+}

@@ -99,6 +99,8 @@ pub struct EditorApp {
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
     pub progress: Option<crate::eval::Progress>,
+    /// How many times the GPU device was lost and evaluation restarted on a new one.
+    pub device_restarts: u32,
     /// Measured speed/accuracy curves from `bench/results.csv`.
     bench: super::bench_panel::Curves,
     allow_close: bool,
@@ -114,11 +116,16 @@ pub fn user_preset_folder() -> Option<PathBuf> {
 }
 
 impl EditorApp {
-    /// An editor on `state`; evaluation starts on a worker thread when a GPU adapter is found.
+    /// An editor on `state`; evaluation starts on a worker thread when a GPU adapter is found
+    /// (the process-wide [`Gpu::shared`]).
     pub fn new(state: EditorState, registry: Arc<Registry>) -> Self {
-        let worker = Gpu::shared()
-            .ok()
-            .map(|g| Worker::start(registry.clone(), g));
+        Self::on_gpu(state, registry, Gpu::shared().ok())
+    }
+
+    /// An editor on `state` evaluating on `gpu` (`None`: no pictures). Should that device be
+    /// lost, evaluation moves to a new [`Gpu::shared`] device.
+    pub fn on_gpu(state: EditorState, registry: Arc<Registry>, gpu: Option<Arc<Gpu>>) -> Self {
+        let worker = gpu.map(|g| Worker::start(registry.clone(), g));
         let mut preset_folders = vec![PathBuf::from("graphs")];
         preset_folders.extend(user_preset_folder());
         let range = key_range(&state).unwrap_or((0.0, 48.0));
@@ -169,6 +176,7 @@ impl EditorApp {
             brush_tex: None,
             registry,
             progress: None,
+            device_restarts: 0,
         }
     }
 
@@ -326,7 +334,9 @@ impl EditorApp {
         if let Some(p) = worker.poll_progress() {
             self.progress = Some(p);
         }
+        let mut lost = None;
         for out in worker.poll() {
+            lost = lost.or(out.device_lost);
             for (id, rep) in out.nodes {
                 if let Some(t) = &rep.thumb {
                     let image = colour_image(t, Channel::Rgb, 0.0);
@@ -352,8 +362,29 @@ impl EditorApp {
                 n => format!("{n} node(s) failed; see the canvas"),
             };
         }
-        if !worker.idle() {
+        if let Some(reason) = lost {
+            self.restart_after_loss(&reason);
+            ctx.request_repaint();
+        } else if !worker.idle() {
             ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
+    /// The worker's device was lost: drop the worker (and its cache, which lived on that
+    /// device), start a new one on a new device and ask for the whole evaluation again.
+    fn restart_after_loss(&mut self, reason: &str) {
+        self.worker = None;
+        self.requested.clear();
+        self.progress = None;
+        match Gpu::shared() {
+            Ok(gpu) => {
+                self.worker = Some(Worker::start(self.registry.clone(), gpu));
+                self.device_restarts += 1;
+                self.status = format!("{reason}: restarted on a new device");
+            }
+            Err(e) => {
+                self.status = format!("{reason}; no new device ({e}): pictures are off");
+            }
         }
     }
 }

@@ -59,6 +59,9 @@ pub struct Outcome {
     pub view: Option<(String, Vec<(String, Raster)>)>,
     /// Wall-clock time of the whole evaluation.
     pub elapsed: Duration,
+    /// The GPU device was lost during this evaluation (the reason): nothing more runs on this
+    /// worker's device, so the editor starts a new worker on a new one.
+    pub device_lost: Option<String>,
 }
 
 /// The evaluation thread and its channels.
@@ -231,6 +234,7 @@ fn evaluate(
         }
     }
     let mut view = None;
+    let mut device_lost = None;
     for (id, ports, full) in jobs {
         if ports.is_empty() || nodes.get(&id).is_some_and(|r| r.error.is_some()) {
             continue;
@@ -273,6 +277,7 @@ fn evaluate(
                 }
             }
             Err(e) => {
+                let lost = e.device_lost();
                 let culprit = match &e {
                     EvalError::Node { node, .. } => node.clone(),
                     _ => id.clone(),
@@ -286,6 +291,11 @@ fn evaluate(
                         rep.error = Some(format!("input failed: node '{culprit}'"));
                     }
                 }
+                if lost {
+                    // Every later job would fail the same way.
+                    device_lost = Some(e.to_string());
+                    break;
+                }
             }
         }
     }
@@ -294,6 +304,7 @@ fn evaluate(
         nodes,
         view,
         elapsed: start.elapsed(),
+        device_lost,
     }
 }
 

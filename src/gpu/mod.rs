@@ -8,7 +8,7 @@ mod timer;
 mod volume;
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 use thiserror::Error;
 
@@ -257,15 +257,26 @@ impl Gpu {
     }
 
     /// The process-wide context (created on first use; validation on when
-    /// `TYNDALL_GPU_VALIDATION=1` or in debug builds).
+    /// `TYNDALL_GPU_VALIDATION=1` or in debug builds). Once its device is lost, the next call
+    /// creates a new one (the editor restarts its evaluation on it); holders of the old one
+    /// keep getting [`GpuError::Lost`]. Without an adapter, the first call's error is kept.
     pub fn shared() -> Result<Arc<Gpu>, GpuError> {
-        static CELL: OnceLock<Result<Arc<Gpu>, GpuError>> = OnceLock::new();
-        CELL.get_or_init(|| {
-            let validation = cfg!(debug_assertions)
-                || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1");
-            Gpu::new(validation).map(Arc::new)
-        })
-        .clone()
+        static CELL: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);
+        let mut cell = CELL.lock().unwrap_or_else(|e| e.into_inner());
+        match &*cell {
+            Some(Ok(gpu)) if gpu.check_lost().is_ok() => return Ok(gpu.clone()),
+            Some(Err(e)) => return Err(e.clone()),
+            _ => {}
+        }
+        let validation = cfg!(debug_assertions)
+            || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1");
+        let made = Gpu::new(validation).map(Arc::new);
+        // A failed renewal (the adapter went away with the device) is not cached: the next
+        // call tries again.
+        if made.is_ok() || cell.is_none() {
+            *cell = Some(made.clone());
+        }
+        made
     }
 
     /// One line describing the adapter.
