@@ -78,6 +78,33 @@ fn gpu_equals_cpu_references() {
         // 1e-5: same f32 operations, the GPU's exp().
         assert!(common::max_abs_diff(&got, &want) <= 1e-5, "factor {factor}");
     }
+    // Low images as large as the output or larger ("any ratio of sizes works"), at ratios that
+    // are not integers.
+    for (lw, lh) in [(37, 21), (80, 45), (60, 34), (45, 26)] {
+        let low_depth = step_depth(lw, lh);
+        let low = common::random_raster(lw, lh, 1, 0.0, 1.0, 9);
+        let got = common::run_node(
+            &gpu,
+            "DepthUpsample",
+            &[("sigma_depth", ParamValue::Float(0.05))],
+            vec![
+                ("image", common::upload(&gpu, &low, PortType::Scalar)),
+                ("depth", common::upload(&gpu, &high, PortType::Depth)),
+                (
+                    "low_depth",
+                    common::upload(&gpu, &low_depth, PortType::Depth),
+                ),
+            ],
+            &["image"],
+            (8, 8),
+        )
+        .expect("upsample")
+        .remove("image")
+        .expect("image");
+        let want = du::reference(&low, &low_depth, &high, 0.05);
+        // 1e-5: as above.
+        assert!(common::max_abs_diff(&got, &want) <= 1e-5, "low {lw}x{lh}");
+    }
 }
 
 /// A constant stays constant; across the depth step no value leaks from the other side.
