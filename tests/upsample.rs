@@ -25,6 +25,36 @@ fn step_depth(w: u32, h: u32) -> Raster {
     d
 }
 
+/// `DepthUpsample` on the GPU minus its CPU reference: the largest difference.
+fn upsample_error(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    low: &Raster,
+    low_depth: &Raster,
+    high: &Raster,
+) -> f32 {
+    let kind = if low.channels == 1 {
+        PortType::Scalar
+    } else {
+        PortType::Image
+    };
+    let got = common::run_node(
+        gpu,
+        "DepthUpsample",
+        &[("sigma_depth", ParamValue::Float(0.05))],
+        vec![
+            ("image", common::upload(gpu, low, kind)),
+            ("depth", common::upload(gpu, high, PortType::Depth)),
+            ("low_depth", common::upload(gpu, low_depth, PortType::Depth)),
+        ],
+        &["image"],
+        (8, 8),
+    )
+    .expect("upsample")
+    .remove("image")
+    .expect("image");
+    common::max_abs_diff(&got, &du::reference(low, low_depth, high, 0.05))
+}
+
 #[test]
 fn gpu_equals_cpu_references() {
     let gpu = require_gpu!();
@@ -56,54 +86,17 @@ fn gpu_equals_cpu_references() {
         for (k, d) in low_depth.data.iter().enumerate() {
             low.data[k * 4] += *d;
         }
-        let got = common::run_node(
-            &gpu,
-            "DepthUpsample",
-            &[("sigma_depth", ParamValue::Float(0.05))],
-            vec![
-                ("image", common::upload(&gpu, &low, PortType::Image)),
-                ("depth", common::upload(&gpu, &high, PortType::Depth)),
-                (
-                    "low_depth",
-                    common::upload(&gpu, &low_depth, PortType::Depth),
-                ),
-            ],
-            &["image"],
-            (8, 8),
-        )
-        .expect("upsample")
-        .remove("image")
-        .expect("image");
-        let want = du::reference(&low, &low_depth, &high, 0.05);
         // 1e-5: same f32 operations, the GPU's exp().
-        assert!(common::max_abs_diff(&got, &want) <= 1e-5, "factor {factor}");
+        let err = upsample_error(&gpu, &low, &low_depth, &high);
+        assert!(err <= 1e-5, "factor {factor}: {err}");
     }
     // Low images as large as the output or larger ("any ratio of sizes works"), at ratios that
-    // are not integers.
+    // are not integers; scalar images.
     for (lw, lh) in [(37, 21), (80, 45), (60, 34), (45, 26)] {
-        let low_depth = step_depth(lw, lh);
         let low = common::random_raster(lw, lh, 1, 0.0, 1.0, 9);
-        let got = common::run_node(
-            &gpu,
-            "DepthUpsample",
-            &[("sigma_depth", ParamValue::Float(0.05))],
-            vec![
-                ("image", common::upload(&gpu, &low, PortType::Scalar)),
-                ("depth", common::upload(&gpu, &high, PortType::Depth)),
-                (
-                    "low_depth",
-                    common::upload(&gpu, &low_depth, PortType::Depth),
-                ),
-            ],
-            &["image"],
-            (8, 8),
-        )
-        .expect("upsample")
-        .remove("image")
-        .expect("image");
-        let want = du::reference(&low, &low_depth, &high, 0.05);
         // 1e-5: as above.
-        assert!(common::max_abs_diff(&got, &want) <= 1e-5, "low {lw}x{lh}");
+        let err = upsample_error(&gpu, &low, &step_depth(lw, lh), &high);
+        assert!(err <= 1e-5, "low {lw}x{lh}: {err}");
     }
 }
 
