@@ -196,7 +196,9 @@ fn adding_from_the_catalog_and_connecting_changes_the_document() {
         h.state().state.graph().source_of(&math, "a"),
         Some((id.as_str(), "value"))
     );
-    // A refused connection leaves the document alone and says why on screen.
+    // A refused connection leaves the document alone and says why on screen. (First let the
+    // evaluation the new edge started finish: its summary would replace the status line.)
+    settle(&mut h);
     let text = save_string(h.state().state.graph());
     assert!(!h
         .state_mut()
