@@ -375,7 +375,7 @@ pub struct KeyInput<'a> {
 /// uniform structs the layout test checks, and how the evaluator treats it. One `static` per
 /// kind, built with [`NodeDecl::new`] and the `const` setters:
 ///
-/// ```ignore
+/// ```text
 /// static DECL: NodeDecl = NodeDecl::new(NodeSchema { kind: "Blur", … })
 ///     .shader(Shader::new("blur", include_str!("../shaders/blur.wgsl")))
 ///     .uniforms(&[BlurParams::LAYOUT]);

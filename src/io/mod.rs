@@ -106,7 +106,7 @@ pub fn file_kind(path: &Path) -> Result<FileKind, IoError> {
     }
 }
 
-/// sRGB transfer: encoded [0,1] → linear.
+/// sRGB transfer: encoded \[0,1\] → linear.
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.04045 {
         v / 12.92
@@ -115,7 +115,7 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
-/// sRGB transfer: linear → encoded, for values clamped to [0,1].
+/// sRGB transfer: linear → encoded, for values clamped to \[0,1\].
 pub fn linear_to_srgb(v: f32) -> f32 {
     let v = v.clamp(0.0, 1.0);
     if v <= 0.003_130_8 {
