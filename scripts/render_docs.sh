@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Render the physical presets into docs/physical/ (the pictures the README shows).
+# Render the presets into docs/ (the pictures the README and the editor's preset browser show).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
@@ -24,3 +24,4 @@ done
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180
+./target/release/tyndall render graphs/basics/grade.ron -o docs/basics/grade.png --size 320x180

@@ -1,10 +1,10 @@
 //! The editor's document core: undo/redo, refused connections, copy/paste, saving, autosave
 //! and recovery, and saves that survive being killed.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use tyndall::editor::{autosave_path, list_presets, EditorState, UNDO_LIMIT};
+use tyndall::editor::{autosave_path, list_presets, preset_thumbnail, EditorState, UNDO_LIMIT};
 use tyndall::graph::{load_file, save_string, ParamValue};
 
 fn state() -> EditorState {
@@ -220,4 +220,47 @@ fn killing_during_save_leaves_a_whole_file() {
         let g = load_file(&target, &catalog).unwrap_or_else(|e| panic!("round {round}: {e}"));
         assert_eq!(g.len(), 401, "round {round}");
     }
+}
+
+/// The preset browser's pictures: beside the preset, under `docs/` for the library in `graphs/`,
+/// or an animated preset's first rendered frame; every library preset has one (the bench graphs
+/// are measuring set-ups, not looks).
+#[test]
+fn preset_thumbnails_beside_under_docs_or_first_frame() {
+    // Paths as the editor lists them when started in a checkout (tests run in the crate root).
+    assert_eq!(
+        preset_thumbnail(Path::new("graphs/physical/tree.ron")),
+        Some(PathBuf::from("docs/physical/tree.png"))
+    );
+    assert_eq!(
+        preset_thumbnail(Path::new("graphs/stylize/tree_holes_animated.ron")),
+        Some(PathBuf::from("docs/stylize/tree_holes_animated_0000.png"))
+    );
+    let missing: Vec<String> = list_presets(&[PathBuf::from("graphs")])
+        .into_iter()
+        .filter(|p| !p.name.starts_with("bench/") && preset_thumbnail(&p.path).is_none())
+        .map(|p| p.name)
+        .collect();
+    assert!(missing.is_empty(), "presets without a picture: {missing:?}");
+    // A user folder: the picture beside it, a sequence's first frame, nothing that merely
+    // starts with the name.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let touch = |name: &str| std::fs::write(dir.path().join(name), b"").expect("write");
+    for name in [
+        "a.ron",
+        "a.png",
+        "b.ron",
+        "b.0002.png",
+        "b.0001.png",
+        "c.ron",
+        "c_x.png",
+    ] {
+        touch(name);
+    }
+    touch("c2.png");
+    touch("c_.png");
+    let at = |name: &str| preset_thumbnail(&dir.path().join(name));
+    assert_eq!(at("a.ron"), Some(dir.path().join("a.png")));
+    assert_eq!(at("b.ron"), Some(dir.path().join("b.0001.png")));
+    assert_eq!(at("c.ron"), None);
 }

@@ -1200,15 +1200,7 @@ impl EditorApp {
         if let Some(t) = self.preset_thumbs.get(path) {
             return t.clone();
         }
-        let beside = path.with_extension("png");
-        let docs = path
-            .strip_prefix("graphs")
-            .ok()
-            .map(|rel| Path::new("docs").join(rel).with_extension("png"));
-        let tex = [Some(beside), docs]
-            .into_iter()
-            .flatten()
-            .find(|p| p.exists())
+        let tex = super::preset_thumbnail(path)
             .and_then(|p| image::open(p).ok())
             .map(|img| {
                 let img = img.thumbnail(128, 72).to_rgba8();

@@ -17,4 +17,7 @@ pub mod worker;
 
 pub use app::{run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
 pub use canvas::port_colour;
-pub use state::{autosave_path, list_presets, EditorError, EditorState, PresetEntry, UNDO_LIMIT};
+pub use state::{
+    autosave_path, list_presets, preset_thumbnail, EditorError, EditorState, PresetEntry,
+    UNDO_LIMIT,
+};

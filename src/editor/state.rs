@@ -380,6 +380,50 @@ impl EditorState {
     }
 }
 
+/// The picture shown for a preset in the browser: `<name>.png` beside the preset, else the one
+/// under `docs/` for presets under `graphs/` (`graphs/stylize/x.ron` → `docs/stylize/x.png`, what
+/// `scripts/render_docs.sh` writes). For an animated preset rendered as a sequence, the first
+/// frame stands in (`x_0000.png`, `x.0001.png`: the name, `_` or `.`, digits).
+pub fn preset_thumbnail(path: &Path) -> Option<PathBuf> {
+    let stem = path.file_stem()?.to_str()?;
+    let beside = path.parent().map(Path::to_path_buf);
+    let docs = path
+        .strip_prefix("graphs")
+        .ok()
+        .and_then(Path::parent)
+        .map(|rel| Path::new("docs").join(rel));
+    let first_frame = |dir: &Path| -> Option<PathBuf> {
+        let mut frames: Vec<PathBuf> = std::fs::read_dir(dir)
+            .ok()?
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                let Some(name) = p.file_name().and_then(|n| n.to_str()) else {
+                    return false;
+                };
+                let Some(digits) = name
+                    .strip_prefix(stem)
+                    .and_then(|r| r.strip_prefix('_').or_else(|| r.strip_prefix('.')))
+                    .and_then(|r| r.strip_suffix(".png"))
+                else {
+                    return false;
+                };
+                !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit())
+            })
+            .collect();
+        frames.sort();
+        frames.into_iter().next()
+    };
+    [beside, docs].into_iter().flatten().find_map(|dir| {
+        let single = dir.join(format!("{stem}.png"));
+        if single.is_file() {
+            Some(single)
+        } else {
+            first_frame(&dir)
+        }
+    })
+}
+
 /// The presets under `folders` (recursively), ordered by name.
 pub fn list_presets(folders: &[PathBuf]) -> Vec<PresetEntry> {
     let mut out = Vec::new();
