@@ -373,7 +373,9 @@ impl EditorApp {
     /// The worker's device was lost: drop the worker (and its cache, which lived on that
     /// device), start a new one on a new device and ask for the whole evaluation again.
     fn restart_after_loss(&mut self, reason: &str) {
-        self.worker = None;
+        if let Some(old) = self.worker.take() {
+            old.abandon();
+        }
         self.requested.clear();
         self.progress = None;
         match Gpu::shared() {

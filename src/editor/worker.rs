@@ -154,6 +154,13 @@ impl Worker {
         last
     }
 
+    /// Let the thread go without waiting for it: it ends after the evaluation it is running, if
+    /// any (used when its device was lost, so the window does not wait on a long CPU node).
+    pub fn abandon(mut self) {
+        self.tx = None;
+        drop(self.thread.take());
+    }
+
     /// Every request sent has its outcome (or the worker is gone).
     pub fn idle(&self) -> bool {
         self.tx.is_none() || self.done >= self.sent
