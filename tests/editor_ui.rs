@@ -534,6 +534,11 @@ fn a_lost_device_restarts_evaluation_on_a_new_one() {
         .expect("param");
     settle(&mut h);
     assert_eq!(h.state().device_restarts, 1, "status: {}", h.state().status);
+    let status = h.state().status.clone();
+    assert!(
+        status.contains("GPU device lost and replaced 1×"),
+        "{status}"
+    );
     assert_eq!(errors(&h), Vec::<String>::new(), "the new device evaluates");
     // The new worker starts with an empty cache: the whole chain ran again, not only the
     // tonemap below the change.

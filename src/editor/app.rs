@@ -361,6 +361,11 @@ impl EditorApp {
                 0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),
                 n => format!("{n} node(s) failed; see the canvas"),
             };
+            if self.device_restarts > 0 {
+                // Kept in view: the restart message itself is replaced by the first summary.
+                self.status +=
+                    &format!(" (GPU device lost and replaced {}×)", self.device_restarts);
+            }
         }
         if let Some(reason) = lost {
             self.restart_after_loss(&reason);
