@@ -550,6 +550,7 @@ fn gpu() -> Result<Arc<Gpu>, CliError> {
     })
 }
 
+/// `--set`/`--wedge`/`--input`: a parameter from text; a key-framed parameter becomes constant.
 fn set_param_str(
     registry: &Registry,
     g: &mut Graph,
@@ -557,27 +558,7 @@ fn set_param_str(
     param: &str,
     value: &str,
 ) -> Result<(), CliError> {
-    let kind = g
-        .node(node)
-        .map(|n| n.kind.clone())
-        .ok_or_else(|| bad(format!("no node '{node}' in the graph")))?;
-    let schema = registry
-        .catalog()
-        .get(&kind)
-        .ok_or_else(|| bad(format!("unknown node kind '{kind}'")))?;
-    let spec = schema.param(param).ok_or_else(|| {
-        bad(format!(
-            "node '{node}' ({kind}) has no parameter '{param}' (its parameters: {})",
-            schema.param_names()
-        ))
-    })?;
-    let v = spec.parse_str(value).map_err(|_| {
-        bad(format!(
-            "node '{node}' parameter '{param}': '{value}' is not {}",
-            spec.expected()
-        ))
-    })?;
-    g.set_param(registry.catalog(), node, param, v)
+    g.set_param_text(registry.catalog(), node, param, value)
         .map_err(bad)?;
     g.set_keys(registry.catalog(), node, param, Vec::new())
         .map_err(bad)

@@ -561,3 +561,50 @@ fn data_blocks_keep_their_names_through_save_and_load() {
         tyndall::nodes::transfer_function::Blend::Add
     );
 }
+
+/// Parameters set from text (the CLI's `--set`, bench suites, the editor's measured settings):
+/// every kind parses, and each refusal is the document's own error, naming node and parameter,
+/// with the document unchanged.
+#[test]
+fn parameters_set_from_text_parse_or_say_why() {
+    let cat = catalog();
+    let mut g = Graph::new();
+    let tonemap = g.add_node(&cat, "Tonemap").expect("tonemap");
+    let scatter = g.add_node(&cat, "SingleScattering").expect("scatter");
+    g.set_param_text(&cat, &tonemap, "exposure", " 1.5 ")
+        .expect("float");
+    g.set_param_text(&cat, &tonemap, "operator", "reinhard")
+        .expect("enum");
+    g.set_param_text(&cat, &scatter, "steps", "48")
+        .expect("int");
+    g.set_param_text(&cat, &scatter, "tint", "1,0.5,0.25")
+        .expect("colour");
+    let n = g.node(&scatter).expect("n");
+    assert_eq!(n.params["steps"], ParamValue::Int(48));
+    assert_eq!(n.params["tint"], ParamValue::Colour([1.0, 0.5, 0.25, 1.0]));
+    assert_eq!(
+        g.node(&tonemap).expect("n").params["exposure"],
+        ParamValue::Float(1.5)
+    );
+    let before = save_string(&g);
+    let wrong = g.set_param_text(&cat, &scatter, "steps", "many");
+    assert!(
+        matches!(wrong, Err(GraphError::WrongParamType { .. })),
+        "{wrong:?}"
+    );
+    let far = g.set_param_text(&cat, &scatter, "steps", "100000000");
+    assert!(matches!(far, Err(GraphError::OutOfRange { .. })), "{far:?}");
+    let unknown = g.set_param_text(&cat, &scatter, "stepz", "4");
+    assert!(
+        matches!(unknown, Err(GraphError::UnknownParam { .. })),
+        "{unknown:?}"
+    );
+    let enum_name = g.set_param_text(&cat, &tonemap, "operator", "sepia");
+    assert!(
+        enum_name
+            .as_ref()
+            .is_err_and(|e| e.to_string().contains("operator")),
+        "{enum_name:?}"
+    );
+    assert_eq!(save_string(&g), before, "refusals leave the document alone");
+}

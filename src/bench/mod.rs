@@ -232,24 +232,7 @@ fn set_one(
     name: &str,
     value: &str,
 ) -> Result<(), BenchError> {
-    let kind = g
-        .node(node)
-        .map(|n| n.kind.clone())
-        .ok_or_else(|| BenchError::Input(format!("no node '{node}'")))?;
-    let schema = registry
-        .catalog()
-        .get(&kind)
-        .ok_or_else(|| BenchError::Input(format!("unknown kind {kind}")))?;
-    let spec = schema
-        .param(name)
-        .ok_or_else(|| BenchError::Input(format!("{kind} has no parameter '{name}'")))?;
-    let v = spec.parse_str(value).map_err(|_| {
-        BenchError::Input(format!(
-            "{node}.{name}: '{value}' is not {}",
-            spec.expected()
-        ))
-    })?;
-    g.set_param(registry.catalog(), node, name, v)
+    g.set_param_text(registry.catalog(), node, name, value)
         .map_err(|e| BenchError::Input(e.to_string()))
 }
 

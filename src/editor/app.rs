@@ -183,25 +183,10 @@ impl EditorApp {
     /// Set node `id`'s parameters to a measured setting (`name → value` text, as in
     /// `bench/results.csv`) as one undoable step; a value that no longer parses is reported in
     /// the status line and nothing changes.
-    fn use_measured(
-        &mut self,
-        id: &str,
-        schema: &crate::graph::NodeSchema,
-        setting: &BTreeMap<String, String>,
-    ) {
-        let mut values = Vec::new();
-        for (name, text) in setting {
-            match schema.param(name).map(|p| p.parse_str(text)) {
-                Some(Ok(v)) => values.push((name.clone(), v)),
-                _ => {
-                    self.status = format!("{id}: measured setting {name}={text} does not apply");
-                    return;
-                }
-            }
-        }
+    fn use_measured(&mut self, id: &str, setting: &BTreeMap<String, String>) {
         let result = self.state.apply(|g, c| {
-            for (name, v) in values {
-                g.set_param(c, id, &name, v)?;
+            for (name, text) in setting {
+                g.set_param_text(c, id, name, text)?;
             }
             Ok(())
         });
@@ -829,7 +814,7 @@ impl EditorApp {
             })
             .collect();
         if let Some(setting) = self.bench.show(ui, &node.kind, &current) {
-            self.use_measured(&id, schema, &setting);
+            self.use_measured(&id, &setting);
         }
         let message = match node.kind.as_str() {
             "TransferFunction" => {

@@ -231,6 +231,26 @@ impl Graph {
         Ok(())
     }
 
+    /// Set a parameter from text as the command line (`--set`), bench suites and
+    /// `bench/results.csv` write it (`0.5`, `7`, `true`, an enum name, `r,g,b[,a]`, `x,y,z`: see
+    /// [`ParamSpec::parse_str`]), with the errors [`Graph::set_param`] gives.
+    pub fn set_param_text(
+        &mut self,
+        catalog: &Catalog,
+        id: &str,
+        name: &str,
+        text: &str,
+    ) -> Result<(), GraphError> {
+        let schema = self.schema_of(catalog, id)?;
+        let spec = schema
+            .param(name)
+            .ok_or_else(|| unknown_param(schema, id, name))?;
+        let v = spec
+            .parse_str(text)
+            .map_err(|p| param_error(id, spec, &ParamValue::Text(text.to_string()), p))?;
+        self.set_param(catalog, id, name, v)
+    }
+
     /// Set (or with an empty list, clear) a parameter's key-frames.
     pub fn set_keys(
         &mut self,
@@ -545,18 +565,24 @@ impl Graph {
     }
 }
 
+fn unknown_param(schema: &NodeSchema, node: &str, name: &str) -> GraphError {
+    GraphError::UnknownParam {
+        node: node.to_string(),
+        kind: schema.kind.to_string(),
+        param: name.to_string(),
+        known: schema.param_names(),
+    }
+}
+
 fn check_param(
     schema: &NodeSchema,
     node: &str,
     name: &str,
     value: ParamValue,
 ) -> Result<ParamValue, GraphError> {
-    let spec = schema.param(name).ok_or_else(|| GraphError::UnknownParam {
-        node: node.to_string(),
-        kind: schema.kind.to_string(),
-        param: name.to_string(),
-        known: schema.param_names(),
-    })?;
+    let spec = schema
+        .param(name)
+        .ok_or_else(|| unknown_param(schema, node, name))?;
     spec.coerce(value.clone())
         .map_err(|p| param_error(node, spec, &value, p))
 }
@@ -573,12 +599,9 @@ pub fn check_param_value(
 
 fn check_keys(schema: &NodeSchema, node: &str, name: &str, keys: &[Key]) -> Result<(), GraphError> {
     let target = format!("{node}.{name}");
-    let spec = schema.param(name).ok_or_else(|| GraphError::UnknownParam {
-        node: node.to_string(),
-        kind: schema.kind.to_string(),
-        param: name.to_string(),
-        known: schema.param_names(),
-    })?;
+    let spec = schema
+        .param(name)
+        .ok_or_else(|| unknown_param(schema, node, name))?;
     if !spec.kind.is_numeric() {
         return Err(GraphError::BadKeys {
             target,
