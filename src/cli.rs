@@ -49,44 +49,7 @@ pub enum Command {
     /// Measure speed against accuracy of node quality settings (suites in benches/). With no
     /// suite: every suite, then bench/results.csv, the plots in bench/plots/ and the tables of
     /// BENCHMARKS.md.
-    Bench {
-        /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path;
-        /// none: every suite under benches/.
-        suite: Option<String>,
-        /// Runs per setting (default: the suite's; 1 with --quick).
-        #[arg(long)]
-        runs: Option<usize>,
-        /// Evaluation size WIDTHxHEIGHT (default: the suite's).
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        /// A reduced run: each suite's `quick` settings at its `quick_size`, one run each
-        /// (a few minutes for every suite); results go to bench/quick/ and BENCHMARKS.md is left
-        /// alone unless --docs names it.
-        #[arg(long, conflicts_with = "full")]
-        quick: bool,
-        /// Also the settings a suite marks `slow` (left out by default to keep the whole run
-        /// under 15 minutes on two CPU cores).
-        #[arg(long)]
-        full: bool,
-        /// CSV file of one suite (default: out/bench/NAME.csv); for a folder of suites, the
-        /// folder to write one CSV per suite in (default: out/bench/NAME/).
-        #[arg(long, conflicts_with = "out")]
-        csv: Option<PathBuf>,
-        /// Folder for results.csv and plots/ when every suite runs (default: bench, or
-        /// bench/quick with --quick).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Markdown file whose generated blocks to rewrite (default: BENCHMARKS.md when every
-        /// suite runs without --quick; otherwise none).
-        #[arg(long, conflicts_with = "no_docs")]
-        docs: Option<PathBuf>,
-        /// Leave BENCHMARKS.md alone.
-        #[arg(long)]
-        no_docs: bool,
-        /// Measure nothing: draw the plots again from the recorded results.csv (in --out).
-        #[arg(long, conflicts_with_all = ["quick", "full", "csv", "docs", "runs", "size"])]
-        replot: bool,
-    },
+    Bench(BenchArgs),
     /// Open the editor window: node canvas, viewer, parameters, timeline, presets, transfer-function, stroke and 3D-brush panels.
     Edit {
         /// Graph to open (an empty graph when left out).
@@ -101,6 +64,47 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// `tyndall bench` options.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path;
+    /// none: every suite under benches/.
+    pub suite: Option<String>,
+    /// Runs per setting (default: the suite's; 1 with --quick).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// Evaluation size WIDTHxHEIGHT (default: the suite's).
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// A reduced run: each suite's `quick` settings at its `quick_size`, one run each
+    /// (a few minutes for every suite); results go to bench/quick/ and BENCHMARKS.md is left
+    /// alone unless --docs names it.
+    #[arg(long, conflicts_with = "full")]
+    pub quick: bool,
+    /// Also the settings a suite marks `slow` (left out by default to keep the whole run
+    /// under 15 minutes on two CPU cores).
+    #[arg(long)]
+    pub full: bool,
+    /// CSV file of one suite (default: out/bench/NAME.csv); for a folder of suites, the
+    /// folder to write one CSV per suite in (default: out/bench/NAME/).
+    #[arg(long, conflicts_with = "out")]
+    pub csv: Option<PathBuf>,
+    /// Folder for results.csv and plots/ when every suite runs (default: bench, or
+    /// bench/quick with --quick).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Markdown file whose generated blocks to rewrite (default: BENCHMARKS.md when every
+    /// suite runs without --quick; otherwise none).
+    #[arg(long, conflicts_with = "no_docs")]
+    pub docs: Option<PathBuf>,
+    /// Leave BENCHMARKS.md alone.
+    #[arg(long)]
+    pub no_docs: bool,
+    /// Measure nothing: draw the plots again from the recorded results.csv (in --out).
+    #[arg(long, conflicts_with_all = ["quick", "full", "csv", "docs", "runs", "size"])]
+    pub replot: bool,
 }
 
 /// Options shared by evaluation commands.
@@ -500,40 +504,11 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Node(a) => run_node(registry, a),
         Command::Edit { graph } => crate::editor::run(graph).map_err(bad),
-        Command::Bench {
-            suite,
-            out,
-            replot: true,
-            ..
-        } => replot(
-            &out.unwrap_or_else(|| PathBuf::from("bench")),
-            suite.as_deref(),
+        Command::Bench(a) if a.replot => replot(
+            &a.out.unwrap_or_else(|| PathBuf::from("bench")),
+            a.suite.as_deref(),
         ),
-        Command::Bench {
-            suite,
-            runs,
-            size,
-            quick,
-            full,
-            csv,
-            out,
-            docs,
-            no_docs,
-            replot: false,
-        } => run_bench(
-            registry,
-            BenchArgs {
-                suite,
-                runs,
-                size,
-                quick,
-                full,
-                csv,
-                out,
-                docs: if no_docs { None } else { docs },
-                no_docs,
-            },
-        ),
+        Command::Bench(a) => run_bench(registry, a),
         Command::Eval(a) => run_eval(registry, a),
         Command::Pick(a) => run_pick(registry, a),
         Command::Render(a) => run_render(registry, a),
@@ -879,19 +854,6 @@ fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
         }
     }
     Ok(())
-}
-
-/// The `bench` command's arguments.
-struct BenchArgs {
-    suite: Option<String>,
-    runs: Option<usize>,
-    size: Option<(u32, u32)>,
-    quick: bool,
-    full: bool,
-    csv: Option<PathBuf>,
-    out: Option<PathBuf>,
-    docs: Option<PathBuf>,
-    no_docs: bool,
 }
 
 fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
