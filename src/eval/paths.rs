@@ -22,6 +22,19 @@ pub struct PathPolicy {
     pub allow_any: bool,
 }
 
+impl PathPolicy {
+    /// Where a path the graph reads is: relative to the graph's folder; absolute (or empty:
+    /// no file) as written.
+    pub fn input(&self, path: &str) -> String {
+        let p = Path::new(path);
+        if path.is_empty() || p.is_absolute() {
+            path.to_string()
+        } else {
+            self.graph_dir.join(p).to_string_lossy().into_owned()
+        }
+    }
+}
+
 /// An output path the policy refuses.
 #[derive(Debug, Error)]
 #[error("node '{node}': {param} = \"{path}\" {why}; outputs stay under the output directory (--output-dir), or pass --allow-any-path")]
@@ -64,8 +77,7 @@ pub fn resolve_files(
             }
             let path = Path::new(&text);
             let resolved = match role {
-                FileRole::Read if path.is_relative() => policy.graph_dir.join(path),
-                FileRole::Read => path.to_path_buf(),
+                FileRole::Read => PathBuf::from(policy.input(&text)),
                 FileRole::Write => {
                     let refuse = |why| PathRefused {
                         node: node.id.clone(),
@@ -92,16 +104,8 @@ pub fn resolve_files(
         }
         // Files named inside the data block are inputs too.
         if let Some(data) = &node.data {
-            let resolve = |p: &str| {
-                let path = Path::new(p);
-                if p.is_empty() || path.is_absolute() {
-                    p.to_string()
-                } else {
-                    policy.graph_dir.join(path).to_string_lossy().into_owned()
-                }
-            };
             // A block the node cannot parse is left as it is: evaluating it reports the error.
-            if let Ok(Some(resolved)) = kind.data_files(data, &resolve) {
+            if let Ok(Some(resolved)) = kind.data_files(data, &|p| policy.input(p)) {
                 let _ = out.set_data(&node.id, Some(resolved));
             }
         }
