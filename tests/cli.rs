@@ -1030,3 +1030,84 @@ fn a_light_map_solve_reports_progress_lines() {
         "{err}"
     );
 }
+
+#[test]
+fn with_no_usable_adapter_every_gpu_command_exits_1_in_a_few_lines() {
+    // Vulkan only, and the Vulkan drivers hidden: no adapter at all.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let graph = graph.display().to_string();
+    let out = dir.path().join("w.png").display().to_string();
+    let a = format!("in={}", fixture("A.exr"));
+    let c = format!("out={}", dir.path().join("C.exr").display());
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["render", &graph, "-o", &out, "--size", "32x18"],
+        vec!["eval", &graph],
+        vec!["pick", &graph, "--pixel", "1,1"],
+        vec!["node", "Blur", "--input", &a, "--output", &c],
+        vec!["bench", "visibility", "--quick"],
+    ];
+    for args in commands {
+        let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+            .args(&args)
+            .env("WGPU_BACKEND", "vulkan")
+            .env("VK_ICD_FILENAMES", "/nonexistent")
+            .env("VK_DRIVER_FILES", "/nonexistent")
+            .env_remove("TYNDALL_ADAPTER")
+            .current_dir(dir.path())
+            .output()
+            .expect("run tyndall");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert!(lines.len() <= 4, "{args:?}: at most 4 lines, got:\n{err}");
+        assert!(err.contains("no GPU adapter found"), "{args:?}: {err}");
+        assert!(err.contains("mesa-vulkan-drivers"), "{args:?}: {err}");
+        assert!(!err.contains("wgpu"), "{args:?}: no wgpu error stacks: {err}");
+    }
+}
+
+#[test]
+fn info_lists_adapters_and_the_one_used_and_refuses_a_bad_choice() {
+    if !gpu_available() {
+        return;
+    }
+    let o = tyndall(&["info", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    assert_eq!(v["graph_format"], tyndall::graph::FORMAT_VERSION);
+    assert_eq!(v["tyndall"], env!("CARGO_PKG_VERSION"));
+    let adapters = v["adapters"].as_array().expect("adapters");
+    assert!(!adapters.is_empty());
+    let used = v["used"].as_u64().expect("an adapter is used") as usize;
+    assert_eq!(adapters[used]["qualifies"], true);
+    for a in adapters {
+        for key in ["name", "backend", "device_type", "driver", "lacks", "nodes_unavailable", "limits"] {
+            assert!(a.get(key).is_some(), "adapter without {key}: {a}");
+        }
+    }
+    let text = String::from_utf8_lossy(&tyndall(&["info"]).stdout).into_owned();
+    assert!(text.contains("<- used"), "{text}");
+    assert!(text.contains("graph format v"), "{text}");
+    // By index: the one in use is accepted; one past the end is refused in one line.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let a = format!("in={}", fixture("A.exr"));
+    let c = format!("out={}", dir.path().join("C.exr").display());
+    let blur = ["node", "Blur", "--input", &a, "--output", &c];
+    let used_s = used.to_string();
+    let o = tyndall(&[&["--adapter", &used_s][..], &blur[..]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let n = adapters.len().to_string();
+    let o = tyndall(&[&blur[..], &["--adapter", "99"][..]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(&format!("there are only {n} adapters")), "{err}");
+    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .args(blur)
+        .env("TYNDALL_ADAPTER", "no-such-adapter")
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("names no adapter"), "{err}");
+}

@@ -22,7 +22,7 @@ fn readback_strips_row_padding_for_odd_widths() {
 fn pool_recycles_textures_of_same_size_and_format() {
     let gpu = require_gpu!();
     // A private pool, so parallel tests using the shared context do not disturb the counts.
-    let pool = tyndall::gpu::TexturePool::new(gpu.device.clone(), 4);
+    let pool = tyndall::gpu::TexturePool::new(gpu.device.clone(), 4, gpu.caps.clone());
     let a = pool.acquire(37, 11, TexFormat::R32F);
     let b = pool.acquire(37, 11, TexFormat::R32F);
     assert_eq!(pool.idle(), 0);
@@ -111,4 +111,154 @@ fn a_lost_device_ends_the_evaluation_with_an_error_not_a_hang() {
     let err = after.expect_err("the evaluation after the loss fails");
     assert!(err.device_lost(), "reported as a lost device: {err}");
     assert!(err.to_string().contains("lost"), "{err}");
+}
+
+/// `graphs/physical/window.ron` (MinMax visibility: Rg32F pyramids; a shadow map and a G-buffer:
+/// raster passes) on `gpu`, at 64×36: every port that matters, read back.
+fn window_outputs(gpu: tyndall::gpu::Gpu) -> Vec<(String, tyndall::io::Raster)> {
+    let gpu = std::sync::Arc::new(gpu);
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
+    let ports = [
+        ("shadow", "map"),
+        ("gbuffer", "depth"),
+        ("gbuffer", "normal"),
+        ("gbuffer", "albedo"),
+        ("scatter", "visibility"),
+        ("scatter", "inscatter"),
+        ("tonemap", "out"),
+    ];
+    let targets: Vec<tyndall::eval::Target> = ports
+        .iter()
+        .map(|(n, p)| tyndall::eval::Target::Port(n.to_string(), p.to_string()))
+        .collect();
+    let opts = tyndall::eval::EvalOptions {
+        size: (64, 36),
+        ..Default::default()
+    };
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+    let result = ev.evaluate(&graph, &targets, &opts).expect("evaluate");
+    ports
+        .iter()
+        .map(|(n, p)| {
+            let v = &result.outputs[&(n.to_string(), p.to_string())];
+            (format!("{n}.{p}"), tyndall::eval::download(&gpu, v).expect("download"))
+        })
+        .collect()
+}
+
+#[test]
+fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // The same adapter twice: once as usual, once taking every substitute GL needs (Rg32F stored
+    // as Rgba32F, rasterisation into integer bit patterns). Both are exact re-encodings, so the
+    // results must be equal bit for bit.
+    let usual = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+        emulate_gl: false,
+        ..tyndall::gpu::GpuOptions::from_env()
+    })
+    .expect("device");
+    let emulated = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+        emulate_gl: true,
+        ..tyndall::gpu::GpuOptions::from_env()
+    })
+    .expect("device");
+    assert_eq!(
+        emulated.caps.stored(wgpu::TextureFormat::Rg32Float),
+        wgpu::TextureFormat::Rgba32Float
+    );
+    assert_eq!(
+        emulated.caps.render_format(wgpu::TextureFormat::R32Float),
+        Some(wgpu::TextureFormat::R32Uint)
+    );
+    let (a, b) = (window_outputs(usual), window_outputs(emulated));
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert_eq!((x.width, x.height, x.channels), (y.width, y.height, y.channels), "{name}");
+        let differing = x
+            .data
+            .iter()
+            .zip(&y.data)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(differing, 0, "{name}: {differing} samples differ");
+        assert!(x.data.iter().any(|v| *v != 0.0), "{name} is not all zero");
+    }
+}
+
+#[test]
+fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut gpu = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions::from_env())
+        .expect("device");
+    // As if the driver allowed two storage textures per stage (GL ES's minimum is 4; some
+    // drivers give fewer to compute than SingleScattering's epipolar passes bind).
+    gpu.caps.limits.max_storage_textures_per_shader_stage = 2;
+    let gpu = std::sync::Arc::new(gpu);
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu);
+    let opts = tyndall::eval::EvalOptions {
+        size: (32, 18),
+        ..Default::default()
+    };
+    // The shadow map still renders (its passes bind fewer)…
+    ev.evaluate(
+        &graph,
+        &[tyndall::eval::Target::Port("shadow".into(), "map".into())],
+        &opts,
+    )
+    .expect("nodes within the limits run");
+    // …but SingleScattering is refused before any pass, naming the node and what is missing.
+    let err = ev
+        .evaluate(
+            &graph,
+            &[tyndall::eval::Target::Port("scatter".into(), "inscatter".into())],
+            &opts,
+        )
+        .expect_err("SingleScattering needs more storage textures");
+    let msg = err.to_string();
+    assert!(msg.starts_with("node 'scatter' (SingleScattering): this adapter"), "{msg}");
+    assert!(msg.contains("storage textures per shader stage"), "{msg}");
+    assert!(msg.contains("allows 2"), "{msg}");
+    assert!(!msg.contains('\n'), "one line: {msg}");
+}
+
+#[test]
+fn shader_needs_are_read_from_the_wgsl() {
+    let src = "@group(0) @binding(0) var a: texture_2d<f32>;\n\
+        @group(0) @binding(1) var o: texture_storage_2d<rg32float, write>;\n\
+        @group(0) @binding(2) var p: texture_storage_2d<r32float, write>;\n\
+        @compute @workgroup_size(8, 4) fn one(@builtin(global_invocation_id) id: vec3<u32>) { textureStore(o, id.xy, textureLoad(a, id.xy, 0)); }\n\
+        @compute @workgroup_size(8, 8) fn two(@builtin(global_invocation_id) id: vec3<u32>) { textureStore(p, id.xy, vec4<f32>(1.0)); }";
+    let n = tyndall::gpu::adapter::ShaderNeeds::of(src).expect("parses");
+    assert_eq!(n.entries.len(), 2);
+    let one = &n.entries[0];
+    assert_eq!((one.entry.as_str(), one.storage_textures, one.sampled_textures), ("one", 1, 1));
+    assert_eq!(one.workgroup, [8, 4, 1]);
+    assert_eq!(one.storage_formats, vec![wgpu::TextureFormat::Rg32Float]);
+    let two = &n.entries[1];
+    assert_eq!((two.storage_textures, two.sampled_textures), (1, 0));
+    assert_eq!(two.storage_formats, vec![wgpu::TextureFormat::R32Float]);
+}
+
+#[test]
+fn the_bit_pattern_entry_point_wraps_every_raster_shader() {
+    for stem in ["shadow_map", "g_buffer"] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("shaders/{stem}.wgsl"));
+        let src = std::fs::read_to_string(path).expect("shader");
+        let m = tyndall::gpu::bits_module(&src).unwrap_or_else(|e| panic!("{stem}: {e}"));
+        assert!(m.entry_points.iter().any(|e| e.name == "fs_bits"), "{stem}");
+    }
+    let err = tyndall::gpu::bits_module(
+        "@vertex fn vs() -> @builtin(position) vec4<f32> { return vec4<f32>(0.0); }\n\
+         @fragment fn fs() -> @location(0) f32 { return 1.0; }",
+    )
+    .expect_err("a scalar output is refused");
+    assert!(err.contains("vec4<f32>"), "{err}");
 }

@@ -43,6 +43,9 @@ pub struct EditorApp {
     pub selected: Option<String>,
     /// Last message (refused connection, save result…).
     pub status: String,
+    /// Why evaluation could not start (no adapter qualifies): shown in a window, the same
+    /// message the command line prints.
+    pub gpu_problem: Option<String>,
     worker: Option<Worker>,
     requested: String,
     /// The worker's last report per node: ran / cached, time, error.
@@ -119,7 +122,14 @@ impl EditorApp {
     /// An editor on `state`; evaluation starts on a worker thread when a GPU adapter is found
     /// (the process-wide [`Gpu::shared`]).
     pub fn new(state: EditorState, registry: Arc<Registry>) -> Self {
-        Self::on_gpu(state, registry, Gpu::shared().ok())
+        match Gpu::shared() {
+            Ok(gpu) => Self::on_gpu(state, registry, Some(gpu)),
+            Err(e) => {
+                let mut app = Self::on_gpu(state, registry, None);
+                app.gpu_problem = Some(e.to_string());
+                app
+            }
+        }
     }
 
     /// An editor on `state` evaluating on `gpu` (`None`: no pictures). Should that device be
@@ -141,6 +151,7 @@ impl EditorApp {
             } else {
                 String::new()
             },
+            gpu_problem: None,
             worker,
             requested: String::new(),
             reports: BTreeMap::new(),
@@ -1360,6 +1371,19 @@ impl EditorApp {
 impl EditorApp {
     /// The recovery offer and the unsaved-changes prompt.
     fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some(problem) = &self.gpu_problem {
+            let mut open = true;
+            egui::Window::new("No usable GPU adapter")
+                .collapsible(false)
+                .open(&mut open)
+                .show(ctx, |ui| {
+                    ui.label(problem);
+                    ui.label("The graph can be edited and saved; pictures are off. `tyndall info` says more.");
+                });
+            if !open {
+                self.gpu_problem = None;
+            }
+        }
         if let Some(mut path) = self.save_as.take() {
             let mut keep = true;
             egui::Window::new("Save as")
@@ -1596,13 +1620,43 @@ pub fn run(path: Option<PathBuf>) -> Result<(), String> {
     app.selected = sink
         .and_then(|n| g.source_of(&n.id, "image").map(|(src, _)| src.to_string()))
         .or_else(|| g.topo_order().last().cloned());
-    let options = eframe::NativeOptions {
+    let mut options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_inner_size([1400.0, 860.0])
             .with_title("Tyndall"),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
+    // The window is drawn on the adapter the evaluation uses where it can present to the
+    // window (GL included), else on any that can; without one, the command fails with the
+    // evaluation's own message.
+    let want = app
+        .gpu_problem
+        .is_none()
+        .then(Gpu::shared)
+        .and_then(Result::ok)
+        .map(|g| (g.info.name.clone(), g.info.backend));
+    let problem = app.gpu_problem.clone();
+    if let eframe::egui_wgpu::WgpuSetup::CreateNew(c) = &mut options.wgpu_options.wgpu_setup {
+        c.native_adapter_selector = Some(Arc::new(move |adapters, surface| {
+            let presents = |a: &&eframe::wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));
+            let same = |a: &&eframe::wgpu::Adapter| {
+                let i = a.get_info();
+                want.as_ref().is_some_and(|(n, b)| i.name == *n && i.backend == *b)
+            };
+            adapters
+                .iter()
+                .filter(presents)
+                .find(same)
+                .or_else(|| adapters.iter().find(presents))
+                .cloned()
+                .ok_or_else(|| {
+                    problem
+                        .clone()
+                        .unwrap_or_else(|| "no GPU adapter can draw the editor window".into())
+                })
+        }));
+    }
     eframe::run_native("Tyndall", options, Box::new(|_cc| Ok(Box::new(app))))
         .map_err(|e| e.to_string())
 }

@@ -516,6 +516,11 @@ impl Evaluator {
         want: &BTreeSet<String>,
         opts: &EvalOptions,
     ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>), NodeError> {
+        // An adapter that cannot give this node's shader what it needs: one line naming what
+        // is missing, before any of its passes is recorded.
+        if let Some(shader) = k.decl().shader {
+            self.gpu.supports(shader)?;
+        }
         self.gpu.set_timing(opts.gpu_timings);
         let start = Instant::now();
         let ran = k.run(ctx).and_then(|()| {

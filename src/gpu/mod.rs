@@ -1,6 +1,7 @@
 //! The wgpu context: a headless device on any adapter (lavapipe included), a texture pool,
 //! a pipeline cache, one compute-dispatch helper and the one row-padded readback helper.
 
+pub mod adapter;
 mod layout;
 mod pool;
 mod raster;
@@ -14,16 +15,27 @@ use thiserror::Error;
 
 pub use layout::{check_uniform_layout, UniformLayout};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
-pub use raster::{MeshDraw, MeshVertex, RasterTarget};
+pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
 pub use timer::PassTimer;
 pub use volume::{mip_count, mip_size, GpuVolume};
 
 /// Errors from the GPU layer.
 #[derive(Debug, Error, Clone)]
 pub enum GpuError {
-    /// No adapter could be found (no driver, or none matching `WGPU_BACKEND`).
-    #[error("no GPU adapter found ({0}); install a Vulkan driver (e.g. Debian's mesa-vulkan-drivers for lavapipe)")]
+    /// No adapter qualifies (no driver, none matching `WGPU_BACKEND`, or none offering what
+    /// Tyndall needs), or the one chosen by hand does not: the message names each adapter seen,
+    /// what it lacks and what to install.
+    #[error("{0}")]
     NoAdapter(String),
+    /// The adapter in use cannot give a node's shader what it needs (e.g. more storage textures
+    /// per stage than a GL driver allows); every other node still runs.
+    #[error("this adapter ({adapter}) lacks {lacks}")]
+    Unsupported {
+        /// The adapter, as [`Gpu::describe`] says it.
+        adapter: String,
+        /// What is missing, `; `-separated.
+        lacks: String,
+    },
     /// The device could not be created.
     #[error("cannot create a GPU device: {0}")]
     Device(String),
@@ -139,6 +151,14 @@ pub struct Gpu {
     pub info: wgpu::AdapterInfo,
     /// Device limits (all the adapter offers).
     pub limits: wgpu::Limits,
+    /// What the adapter offers, and the substitutes chosen where it offers less.
+    pub caps: adapter::Capabilities,
+    /// Its index in the survey of adapters (`tyndall info`, `--adapter N`).
+    pub adapter_index: usize,
+    /// How it was chosen.
+    pub chosen: adapter::Chosen,
+    /// What each shader needs, by stem (read once per stem with naga), against `caps`.
+    shader_lacks: Mutex<HashMap<&'static str, Vec<String>>>,
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
@@ -191,32 +211,37 @@ impl log::Log for ValidationLogger {
 static LOGGER: ValidationLogger = ValidationLogger;
 
 impl Gpu {
-    /// Create a headless context on the best available adapter (any kind, software included).
-    /// `validation` turns on backend validation layers (`InstanceFlags::VALIDATION | DEBUG`);
+    /// Create a headless context on the adapter [`adapter::Survey::choose`] picks: the one
+    /// named by [`set_adapter_choice`] or `TYNDALL_ADAPTER`, else the best that qualifies.
+    /// `validation` turns on backend validation layers (`InstanceFlags::VALIDATION`);
     /// `WGPU_BACKEND` and the other wgpu environment variables are honoured.
     pub fn new(validation: bool) -> Result<Gpu, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        // Without validation: no flags at all (wgpu's default in debug builds would turn the
-        // validation layer on anyway).
-        desc.flags = wgpu::InstanceFlags::empty();
-        if validation {
-            // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
-            // layer (1.3.239) does not know and reports as invalid SPIR-V.
-            desc.flags = wgpu::InstanceFlags::VALIDATION;
-            // Another logger may already be installed (an application's); then it sees them.
-            if log::set_logger(&LOGGER).is_ok() {
-                log::set_max_level(log::LevelFilter::Warn);
-            }
+        Gpu::with_options(&GpuOptions {
+            validation,
+            ..GpuOptions::from_env()
+        })
+    }
+
+    /// Create a headless context as `options` say (backends, adapter, GL substitutes).
+    pub fn with_options(options: &GpuOptions) -> Result<Gpu, GpuError> {
+        let survey = adapter::survey(
+            instance_on(options.validation, options.backends),
+            options.backends,
+        );
+        let (index, chosen) = survey
+            .choose(options.adapter.as_deref())
+            .map_err(|e| GpuError::NoAdapter(e.message))?;
+        let report = &survey.reports[index];
+        let adapter = survey
+            .adapter(index)
+            .ok_or_else(|| GpuError::NoAdapter(format!("adapter {index} vanished")))?;
+        let mut caps = report.caps.clone();
+        if options.emulate_gl {
+            caps = caps.emulating_gl();
         }
-        let instance = wgpu::Instance::new(desc.with_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            apply_limit_buckets: false,
-        }))
-        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
-        let wanted = wgpu::Features::FLOAT32_FILTERABLE | wgpu::Features::TIMESTAMP_QUERY;
+        let wanted = wgpu::Features::FLOAT32_FILTERABLE
+            | wgpu::Features::TIMESTAMP_QUERY
+            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         let features = adapter.features() & wanted;
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -244,11 +269,15 @@ impl Gpu {
             }
         });
         Ok(Gpu {
-            pool: Arc::new(TexturePool::new(device.clone(), 64)),
+            pool: Arc::new(TexturePool::new(device.clone(), 64, caps.clone())),
             device,
             queue,
             info: adapter.get_info(),
             limits,
+            caps,
+            adapter_index: index,
+            chosen,
+            shader_lacks: Mutex::new(HashMap::new()),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             errors,
@@ -268,9 +297,7 @@ impl Gpu {
             Some(Err(e)) => return Err(e.clone()),
             _ => {}
         }
-        let validation = cfg!(debug_assertions)
-            || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1");
-        let made = Gpu::new(validation).map(Arc::new);
+        let made = Gpu::with_options(&GpuOptions::from_env()).map(Arc::new);
         // A failed renewal (the adapter went away with the device) is not cached: the next
         // call tries again.
         if made.is_ok() || cell.is_none() {
@@ -282,9 +309,33 @@ impl Gpu {
     /// One line describing the adapter.
     pub fn describe(&self) -> String {
         format!(
-            "{} ({:?}, {:?})",
-            self.info.name, self.info.backend, self.info.device_type
+            "{} ({}, {})",
+            self.info.name,
+            adapter::backend_name(self.info.backend),
+            adapter::device_type_name(self.info.device_type)
         )
+    }
+
+    /// `Err(Unsupported)` when this adapter cannot give `shader` what its entry points need
+    /// (read from the WGSL once per stem and kept).
+    pub fn supports(&self, shader: Shader) -> Result<(), GpuError> {
+        let mut known = self
+            .shader_lacks
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        let lacks = known.entry(shader.stem).or_insert_with(|| {
+            adapter::ShaderNeeds::of(shader.source)
+                .map(|n| self.caps.lacks_for(&n))
+                .unwrap_or_default()
+        });
+        if lacks.is_empty() {
+            Ok(())
+        } else {
+            Err(GpuError::Unsupported {
+                adapter: self.describe(),
+                lacks: lacks.join("; "),
+            })
+        }
     }
 
     /// Errors wgpu reported since the last call (API validation, out of memory, and with
@@ -388,7 +439,9 @@ impl Gpu {
 
     /// Overwrite every texel of `tex` with interleaved float samples.
     fn write(&self, tex: &GpuTexture, data: &[f32]) -> Result<(), GpuError> {
-        let (width, height, format) = (tex.width, tex.height, tex.format);
+        let (width, height) = (tex.width, tex.height);
+        let widened = widen(data, tex.format.channels(), tex.stored_channels());
+        let data: &[f32] = &widened;
         self.scoped(|| {
             self.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
@@ -400,7 +453,7 @@ impl Gpu {
                 bytemuck::cast_slice(data),
                 wgpu::TexelCopyBufferLayout {
                     offset: 0,
-                    bytes_per_row: Some(width * format.bytes_per_texel()),
+                    bytes_per_row: Some(width * tex.stored_channels() * 4),
                     rows_per_image: Some(height),
                 },
                 wgpu::Extent3d {
@@ -472,12 +525,9 @@ impl Gpu {
     /// Read a texture back to the CPU. Returns `width * height * channels` interleaved floats,
     /// rows top to bottom, padding removed.
     pub fn read_texture(&self, tex: &GpuTexture) -> Result<Vec<f32>, GpuError> {
-        self.read_texels(
-            tex.raw(),
-            0,
-            [tex.width, tex.height, 1],
-            tex.format.bytes_per_texel(),
-        )
+        let stored = tex.stored_channels();
+        let texels = self.read_texels(tex.raw(), 0, [tex.width, tex.height, 1], stored * 4)?;
+        Ok(narrow(texels, stored, tex.format.channels()))
     }
 
     /// The one row-padded readback helper (2D textures and volume levels): mip `level` of
@@ -634,10 +684,10 @@ impl Gpu {
             key.push_str(match b {
                 Bind::Uniform(_) => ":u",
                 Bind::Texture(_) => ":t",
-                Bind::Storage(t) => match t.format {
-                    TexFormat::R32F => ":s1",
-                    TexFormat::Rgba32F => ":s4",
-                    TexFormat::Rg32F => ":s2",
+                Bind::Storage(t) => match t.stored_channels() {
+                    1 => ":s1",
+                    2 => ":s2",
+                    _ => ":s4",
                 },
                 Bind::Buffer(_) => ":b",
                 Bind::Volume(_) => ":v",
@@ -672,7 +722,7 @@ impl Gpu {
                             },
                             Bind::Storage(t) => wgpu::BindingType::StorageTexture {
                                 access: wgpu::StorageTextureAccess::WriteOnly,
-                                format: t.format.wgpu(),
+                                format: t.stored(),
                                 view_dimension: wgpu::TextureViewDimension::D2,
                             },
                             Bind::Buffer(_) => wgpu::BindingType::Buffer {
@@ -715,7 +765,7 @@ impl Gpu {
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(shader.stem),
-                        source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(shader.source)),
                     });
                 Arc::new(
                     self.device
@@ -880,4 +930,106 @@ impl Gpu {
         }
         Ok(())
     }
+}
+
+/// Interleaved samples of `from` channels as `to ≥ from` channels (extra channels zero).
+fn widen(data: &[f32], from: u32, to: u32) -> std::borrow::Cow<'_, [f32]> {
+    if from >= to || from == 0 {
+        return std::borrow::Cow::Borrowed(data);
+    }
+    let (from, to) = (from as usize, to as usize);
+    let mut out = Vec::with_capacity(data.len() / from * to);
+    for texel in data.chunks(from) {
+        out.extend_from_slice(texel);
+        out.extend(std::iter::repeat_n(0.0, to - from));
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// Interleaved samples of `from` channels cut to the first `to ≤ from`.
+fn narrow(data: Vec<f32>, from: u32, to: u32) -> Vec<f32> {
+    if to >= from || to == 0 {
+        return data;
+    }
+    data.chunks(from as usize)
+        .flat_map(|t| t[..to as usize].iter().copied())
+        .collect()
+}
+
+/// How [`Gpu::with_options`] makes a context.
+#[derive(Debug, Clone)]
+pub struct GpuOptions {
+    /// Backend validation layers (default: on in debug builds or with
+    /// `TYNDALL_GPU_VALIDATION=1`).
+    pub validation: bool,
+    /// Backends to look at (default: `WGPU_BACKEND`, else all).
+    pub backends: wgpu::Backends,
+    /// The adapter by hand (default: [`adapter_choice`]); `None`: the best that qualifies.
+    pub adapter: Option<String>,
+    /// Take GL's substitutes on any adapter (default: `TYNDALL_GPU_EMULATE=gl`).
+    pub emulate_gl: bool,
+}
+
+impl GpuOptions {
+    /// The defaults, from the environment.
+    pub fn from_env() -> Self {
+        Self {
+            validation: cfg!(debug_assertions)
+                || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1"),
+            backends: env_backends(),
+            adapter: adapter_choice(),
+            emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
+        }
+    }
+}
+
+/// The backends `WGPU_BACKEND` names (`vulkan`, `gl`, `metal`, `dx12`, comma-separated), else
+/// all.
+pub fn env_backends() -> wgpu::Backends {
+    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all())
+}
+
+/// A wgpu instance on every backend `WGPU_BACKEND` allows, with validation layers when asked
+/// (then wgpu's error log records become failures: see [`Gpu::take_errors`]).
+pub fn instance(validation: bool) -> wgpu::Instance {
+    instance_on(validation, env_backends())
+}
+
+/// [`instance`] on the given backends.
+pub fn instance_on(validation: bool, backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    // Without validation: no flags at all (wgpu's default in debug builds would turn the
+    // validation layer on anyway).
+    desc.flags = wgpu::InstanceFlags::empty();
+    if validation {
+        // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
+        // layer (1.3.239) does not know and reports as invalid SPIR-V.
+        desc.flags = wgpu::InstanceFlags::VALIDATION;
+        // Another logger may already be installed (an application's); then it sees them.
+        if log::set_logger(&LOGGER).is_ok() {
+            log::set_max_level(log::LevelFilter::Warn);
+        }
+    }
+    let mut desc = desc.with_env();
+    desc.backends = backends;
+    wgpu::Instance::new(desc)
+}
+
+static ADAPTER_CHOICE: Mutex<Option<String>> = Mutex::new(None);
+
+/// Choose the adapter by hand for this process (`--adapter`): an index of `tyndall info` or a
+/// part of its name, optionally `/backend`; it wins over `TYNDALL_ADAPTER`. Call it before the
+/// first [`Gpu::shared`].
+pub fn set_adapter_choice(pick: Option<String>) {
+    *ADAPTER_CHOICE.lock().unwrap_or_else(|e| e.into_inner()) = pick;
+}
+
+/// The adapter chosen by hand: [`set_adapter_choice`], else `TYNDALL_ADAPTER`, else none.
+pub fn adapter_choice() -> Option<String> {
+    ADAPTER_CHOICE
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone()
+        .or_else(|| std::env::var("TYNDALL_ADAPTER").ok())
+        .filter(|v| !v.trim().is_empty())
 }

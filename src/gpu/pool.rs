@@ -2,6 +2,8 @@
 
 use std::sync::{Arc, Mutex, Weak};
 
+use super::adapter::Capabilities;
+
 /// Texel formats used between nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum TexFormat {
@@ -49,6 +51,7 @@ pub struct TexturePool {
     device: wgpu::Device,
     free: Arc<Mutex<Free>>,
     capacity: usize,
+    caps: Capabilities,
 }
 
 /// A pooled 2D texture with its view; returns to the pool when dropped.
@@ -59,8 +62,9 @@ pub struct GpuTexture {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Texel format.
+    /// Texel format (what nodes see; see [`GpuTexture::stored`] for what the adapter holds).
     pub format: TexFormat,
+    stored: wgpu::TextureFormat,
     home: Weak<Mutex<Free>>,
     capacity: usize,
 }
@@ -86,9 +90,20 @@ impl GpuTexture {
         &self.view
     }
 
-    /// Size in bytes.
+    /// The format the adapter stores it in: [`TexFormat::wgpu`], or a wider one where the
+    /// adapter cannot bind that as a storage texture (`Rg32F` as `Rgba32Float` on GL).
+    pub fn stored(&self) -> wgpu::TextureFormat {
+        self.stored
+    }
+
+    /// Channels of [`GpuTexture::stored`] (at least [`TexFormat::channels`]).
+    pub fn stored_channels(&self) -> u32 {
+        self.stored.components() as u32
+    }
+
+    /// Size in bytes, as stored.
     pub fn bytes(&self) -> usize {
-        self.width as usize * self.height as usize * self.format.bytes_per_texel() as usize
+        self.width as usize * self.height as usize * self.stored_channels() as usize * 4
     }
 }
 
@@ -106,12 +121,14 @@ impl Drop for GpuTexture {
 }
 
 impl TexturePool {
-    /// A pool keeping at most `capacity` idle textures.
-    pub fn new(device: wgpu::Device, capacity: usize) -> Self {
+    /// A pool keeping at most `capacity` idle textures, storing and flagging each format as
+    /// the adapter's `caps` allow.
+    pub fn new(device: wgpu::Device, capacity: usize, caps: Capabilities) -> Self {
         Self {
             device,
             free: Arc::new(Mutex::new(Vec::new())),
             capacity,
+            caps,
         }
     }
 
@@ -123,6 +140,7 @@ impl TexturePool {
                 .position(|(w, h, f, _)| *w == width && *h == height && *f == format)?;
             Some(free.swap_remove(i).3)
         });
+        let stored = self.caps.stored(format.wgpu());
         let tex = recycled.unwrap_or_else(|| {
             self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("tyndall"),
@@ -134,12 +152,8 @@ impl TexturePool {
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
-                format: format.wgpu(),
-                usage: wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::STORAGE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::COPY_DST
-                    | wgpu::TextureUsages::RENDER_ATTACHMENT,
+                format: stored,
+                usage: self.caps.texture_usages(stored),
                 view_formats: &[],
             })
         });
@@ -150,6 +164,7 @@ impl TexturePool {
             width,
             height,
             format,
+            stored,
             home: Arc::downgrade(&self.free),
             capacity: self.capacity,
         }

@@ -1,11 +1,42 @@
 //! Rasterising triangle meshes into float targets (shadow maps, G-buffers).
+//!
+//! Where the adapter cannot render into 32-bit float formats (wgpu's GL backend on Mesa), the
+//! pass renders the same values as bit patterns into 32-bit unsigned-integer targets, which
+//! every GL driver can render to, and one compute pass per target turns them back into floats:
+//! the fragment shader's `fs` entry point is wrapped by a generated `fs_bits` entry point (built
+//! on naga's IR, so every raster shader gets it unchanged) that calls it and `bitcast`s each
+//! `vec4<f32>` output to `vec4<u32>`. The result is bit-identical to the float path.
 
 use std::ops::Range;
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use super::{Gpu, GpuError, GpuTexture, Shader};
+
+/// Entry point the bit-pattern path generates around `fs`.
+const BITS_ENTRY: &str = "fs_bits";
+
+/// Turns a bit-pattern target back into floats (`texture_2d<u32>` → float storage texture).
+const UNBITS: &str = r#"
+@group(0) @binding(0) var bits: texture_2d<u32>;
+@group(0) @binding(1) var out1: texture_storage_2d<r32float, write>;
+@group(0) @binding(2) var out4: texture_storage_2d<rgba32float, write>;
+
+@compute @workgroup_size(8, 8)
+fn to_r32float(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(bits);
+    if id.x >= size.x || id.y >= size.y { return; }
+    textureStore(out1, id.xy, bitcast<vec4<f32>>(textureLoad(bits, id.xy, 0)));
+}
+
+@compute @workgroup_size(8, 8)
+fn to_rgba32float(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(bits);
+    if id.x >= size.x || id.y >= size.y { return; }
+    textureStore(out4, id.xy, bitcast<vec4<f32>>(textureLoad(bits, id.xy, 0)));
+}
+"#;
 
 /// The vertex every mesh is drawn with: position, normal, linear RGBA colour (40 bytes).
 #[repr(C)]
@@ -41,9 +72,20 @@ impl Gpu {
     fn raster_pipeline(
         &self,
         shader: Shader,
-        formats: &[TexFormat],
+        formats: &[wgpu::TextureFormat],
+        bits: bool,
     ) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
         let key = format!("{}:raster:{formats:?}", shader.stem);
+        let source = if bits {
+            wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(
+                bits_module(&self.caps.adapt_source(shader.source)).map_err(|e| {
+                    GpuError::Validation(format!("shader {}.wgsl, entry fs: {e}", shader.stem))
+                })?,
+            ))
+        } else {
+            wgpu::ShaderSource::Wgsl(self.caps.adapt_source(shader.source))
+        };
+        let fs_entry = if bits { BITS_ENTRY } else { "fs" };
         let mut cache = match self.render_pipelines.lock() {
             Ok(c) => c,
             Err(p) => p.into_inner(),
@@ -72,11 +114,11 @@ impl Gpu {
             });
             let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(shader.stem),
-                source: wgpu::ShaderSource::Wgsl(shader.source.into()),
+                source,
             });
             let targets: Vec<Option<wgpu::ColorTargetState>> = formats
                 .iter()
-                .map(|f| Some(wgpu::ColorTargetState { format: f.wgpu(), blend: None, write_mask: wgpu::ColorWrites::ALL }))
+                .map(|f| Some(wgpu::ColorTargetState { format: *f, blend: None, write_mask: wgpu::ColorWrites::ALL }))
                 .collect();
             Arc::new(self.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(&key),
@@ -102,7 +144,7 @@ impl Gpu {
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
-                    entry_point: Some("fs"),
+                    entry_point: Some(fs_entry),
                     compilation_options: Default::default(),
                     targets: &targets,
                 }),
@@ -127,8 +169,45 @@ impl Gpu {
             .first()
             .ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
         let (w, h) = (first.texture.width, first.texture.height);
-        let formats: Vec<TexFormat> = targets.iter().map(|t| t.texture.format).collect();
-        let pipeline = self.raster_pipeline(shader, &formats)?;
+        let stored: Vec<wgpu::TextureFormat> = targets.iter().map(|t| t.texture.stored()).collect();
+        let formats = stored
+            .iter()
+            .map(|f| {
+                self.caps.render_format(*f).ok_or_else(|| GpuError::Unsupported {
+                    adapter: self.describe(),
+                    lacks: format!("a render target for {f:?} values"),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let bits = formats != stored;
+        let pipeline = self.raster_pipeline(shader, &formats, bits)?;
+        // The bit-pattern path renders into integer textures of the same size.
+        let temps: Vec<(wgpu::Texture, wgpu::TextureView)> = if bits {
+            formats
+                .iter()
+                .map(|f| {
+                    let t = self.device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some("raster bits"),
+                        size: wgpu::Extent3d {
+                            width: w,
+                            height: h,
+                            depth_or_array_layers: 1,
+                        },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: *f,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                            | wgpu::TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    });
+                    let v = t.create_view(&Default::default());
+                    (t, v)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         self.scoped(|| {
             let depth = self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("depth"),
@@ -162,19 +241,22 @@ impl Gpu {
                     resource: buf.as_entire_binding(),
                 }],
             });
+            // Integer targets are cleared to the bit patterns of the float clear values.
+            let clear = |v: f64| if bits { (v as f32).to_bits() as f64 } else { v };
             let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
                 .iter()
-                .map(|t| {
+                .enumerate()
+                .map(|(i, t)| {
                     Some(wgpu::RenderPassColorAttachment {
-                        view: t.texture.view(),
+                        view: temps.get(i).map_or(t.texture.view(), |(_, v)| v),
                         depth_slice: None,
                         resolve_target: None,
                         ops: wgpu::Operations {
                             load: wgpu::LoadOp::Clear(wgpu::Color {
-                                r: t.clear[0],
-                                g: t.clear[1],
-                                b: t.clear[2],
-                                a: t.clear[3],
+                                r: clear(t.clear[0]),
+                                g: clear(t.clear[1]),
+                                b: clear(t.clear[2]),
+                                a: clear(t.clear[3]),
                             }),
                             store: wgpu::StoreOp::Store,
                         },
@@ -216,8 +298,223 @@ impl Gpu {
             if let Some(t) = &timer {
                 self.resolve_timer(t, &mut enc);
             }
+            for ((_, bits), target) in temps.iter().zip(targets) {
+                self.unbits(&mut enc, bits, target.texture)?;
+            }
             self.queue.submit([enc.finish()]);
             timer.map_or(Ok(()), |t| self.read_timer(t))
         })?
     }
+
+    /// Record the compute pass that turns the bit patterns in `bits` into the floats of `dst`.
+    fn unbits(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        bits: &wgpu::TextureView,
+        dst: &GpuTexture,
+    ) -> Result<(), GpuError> {
+        let (entry, slot) = match dst.stored_channels() {
+            1 => ("to_r32float", 1),
+            _ => ("to_rgba32float", 2),
+        };
+        let key = format!("raster-unbits:{entry}");
+        let pipeline = {
+            let mut cache = self.pipelines.lock().unwrap_or_else(|p| p.into_inner());
+            cache
+                .entry(key)
+                .or_insert_with(|| {
+                    let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some("raster-unbits"),
+                        source: wgpu::ShaderSource::Wgsl(UNBITS.into()),
+                    });
+                    Arc::new(self.device.create_compute_pipeline(
+                        &wgpu::ComputePipelineDescriptor {
+                            label: Some("raster-unbits"),
+                            layout: None,
+                            module: &module,
+                            entry_point: Some(entry),
+                            compilation_options: Default::default(),
+                            cache: None,
+                        },
+                    ))
+                })
+                .clone()
+        };
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("raster-unbits"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(bits),
+                },
+                wgpu::BindGroupEntry {
+                    binding: slot,
+                    resource: wgpu::BindingResource::TextureView(dst.view()),
+                },
+            ],
+        });
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("raster-unbits"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(dst.width.div_ceil(8), dst.height.div_ceil(8), 1);
+        Ok(())
+    }
+}
+
+/// `source` with a fragment entry point [`BITS_ENTRY`] beside `fs`: it calls `fs` (made a plain
+/// function) and returns each of its `vec4<f32>` outputs bit-cast to `vec4<u32>` at the same
+/// location, for integer render targets.
+pub fn bits_module(source: &str) -> Result<naga::Module, String> {
+    use naga::{Binding, Expression, FunctionResult, Span, Statement, StructMember, Type, TypeInner};
+    let mut m = naga::front::wgsl::parse_str(source).map_err(|e| e.message().to_string())?;
+    let ep = m
+        .entry_points
+        .iter()
+        .find(|e| e.name == "fs" && e.stage == naga::ShaderStage::Fragment)
+        .cloned()
+        .ok_or("no fragment entry point `fs`")?;
+    let result = ep.function.result.clone().ok_or("`fs` returns nothing")?;
+    let f4 = TypeInner::Vector {
+        size: naga::VectorSize::Quad,
+        scalar: naga::Scalar::F32,
+    };
+    // (location, member index of a struct result or None for a bare vec4)
+    let outputs: Vec<(u32, Option<u32>)> = match (&result.binding, &m.types[result.ty].inner) {
+        (Some(Binding::Location { location, .. }), inner) if *inner == f4 => vec![(*location, None)],
+        (None, TypeInner::Struct { members, .. }) => members
+            .iter()
+            .enumerate()
+            .map(|(i, mem)| match (&mem.binding, &m.types[mem.ty].inner) {
+                (Some(Binding::Location { location, .. }), inner) if *inner == f4 => {
+                    Ok((*location, Some(i as u32)))
+                }
+                _ => Err(format!(
+                    "output {} of `fs` is not a vec4<f32> at a @location",
+                    mem.name.as_deref().unwrap_or("?")
+                )),
+            })
+            .collect::<Result<_, _>>()?,
+        _ => return Err("`fs` must return vec4<f32> outputs at @locations".into()),
+    };
+    let mut inner = ep.function.clone();
+    inner.name = Some("tyndall_fs_inner".into());
+    for a in &mut inner.arguments {
+        a.binding = None;
+    }
+    inner.result = Some(FunctionResult {
+        ty: result.ty,
+        binding: None,
+    });
+    let inner = m.functions.append(inner, Span::UNDEFINED);
+    let u4 = m.types.insert(
+        Type {
+            name: None,
+            inner: TypeInner::Vector {
+                size: naga::VectorSize::Quad,
+                scalar: naga::Scalar::U32,
+            },
+        },
+        Span::UNDEFINED,
+    );
+    let out = m.types.insert(
+        Type {
+            name: Some("TyndallBits".into()),
+            inner: TypeInner::Struct {
+                members: outputs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, (location, _))| StructMember {
+                        name: Some(format!("o{location}")),
+                        ty: u4,
+                        binding: Some(Binding::Location {
+                            location: *location,
+                            interpolation: None,
+                            sampling: None,
+                            blend_src: None,
+                            per_primitive: false,
+                        }),
+                        offset: 16 * k as u32,
+                    })
+                    .collect(),
+                span: 16 * outputs.len() as u32,
+            },
+        },
+        Span::UNDEFINED,
+    );
+    let mut f = naga::Function {
+        name: Some(BITS_ENTRY.into()),
+        arguments: ep.function.arguments.clone(),
+        result: Some(FunctionResult {
+            ty: out,
+            binding: None,
+        }),
+        ..Default::default()
+    };
+    let sp = Span::UNDEFINED;
+    let args = (0..f.arguments.len() as u32)
+        .map(|i| f.expressions.append(Expression::FunctionArgument(i), sp))
+        .collect();
+    let called = f.expressions.append(Expression::CallResult(inner), sp);
+    f.body.push(
+        Statement::Call {
+            function: inner,
+            arguments: args,
+            result: Some(called),
+        },
+        sp,
+    );
+    let start = f.expressions.len();
+    let parts = outputs
+        .iter()
+        .map(|(_, member)| {
+            let v = match member {
+                Some(k) => f.expressions.append(
+                    Expression::AccessIndex {
+                        base: called,
+                        index: *k,
+                    },
+                    sp,
+                ),
+                None => called,
+            };
+            f.expressions.append(
+                Expression::As {
+                    expr: v,
+                    kind: naga::ScalarKind::Uint,
+                    convert: None,
+                },
+                sp,
+            )
+        })
+        .collect();
+    let composed = f.expressions.append(
+        Expression::Compose {
+            ty: out,
+            components: parts,
+        },
+        sp,
+    );
+    let emitted = f.expressions.range_from(start);
+    f.body.push(Statement::Emit(emitted), sp);
+    f.body.push(
+        Statement::Return {
+            value: Some(composed),
+        },
+        sp,
+    );
+    let mut bits = ep;
+    bits.name = BITS_ENTRY.into();
+    bits.function = f;
+    m.entry_points.push(bits);
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&m)
+    .map_err(|e| format!("generated {BITS_ENTRY}: {}", e.as_inner()))?;
+    Ok(m)
 }

@@ -1,6 +1,9 @@
-//! The command line: `tyndall node | eval | render | validate | nodes`.
+//! The command line: `tyndall node | eval | render | pick | validate | bench | edit | nodes |
+//! info`.
 //!
 //! Exit codes: 0 ok, 1 evaluation error, 2 bad input (file, graph, argument).
+
+mod info;
 
 use std::collections::BTreeMap;
 use std::hash::{Hash, Hasher};
@@ -24,6 +27,12 @@ use crate::io::{read_image, write_image, Precision};
 #[derive(Parser, Debug)]
 #[command(name = "tyndall", version, about, long_about = None)]
 pub struct Cli {
+    /// GPU adapter to run on: an index or a part of the name shown by `tyndall info`,
+    /// optionally with its backend (`llvmpipe/gl`, `vulkan`); default `TYNDALL_ADAPTER`, else
+    /// the best adapter that qualifies. One that does not qualify is refused, saying what it
+    /// lacks.
+    #[arg(long, global = true, value_name = "NAME-or-INDEX")]
+    pub adapter: Option<String>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -54,6 +63,15 @@ pub enum Command {
     Edit {
         /// Graph to open (an empty graph when left out).
         graph: Option<PathBuf>,
+    },
+    /// What this machine offers Tyndall: every GPU adapter found (backend, device type,
+    /// driver), whether it qualifies and what it lacks, which one is used and why, the limits
+    /// that matter, the nodes an adapter cannot run, the crate and graph format versions. Paste
+    /// it into a bug report.
+    Info {
+        /// JSON (for scripts and bug-report templates).
+        #[arg(long)]
+        json: bool,
     },
     /// List every node kind with its ports and parameters.
     Nodes {
@@ -329,6 +347,10 @@ pub enum CliError {
     /// Some bench suites failed (exit 1); the others were measured and recorded.
     #[error("bench suites failed: {}", .0.join(", "))]
     Suites(Vec<String>),
+    /// No GPU to run on (exit 1): the message names each adapter seen, what it lacks and what
+    /// to install.
+    #[error("{0}")]
+    NoGpu(String),
 }
 
 impl From<EvalError> for CliError {
@@ -342,7 +364,7 @@ impl CliError {
     pub fn exit_code(&self) -> i32 {
         match self {
             CliError::BadInput(_) => 2,
-            CliError::Eval(_) | CliError::Frames(_) | CliError::Suites(_) => 1,
+            CliError::Eval(_) | CliError::Frames(_) | CliError::Suites(_) | CliError::NoGpu(_) => 1,
         }
     }
 }
@@ -487,7 +509,14 @@ pub fn ensure_runtime_dir() {
 /// Run a parsed command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     let registry = Arc::new(crate::nodes::registry());
+    if cli.adapter.is_some() {
+        crate::gpu::set_adapter_choice(cli.adapter.clone());
+    }
     match cli.command {
+        Command::Info { json } => {
+            print!("{}", info::report(&registry, json));
+            Ok(())
+        }
         Command::Validate { graph } => {
             let g = load_file(&graph, registry.catalog()).map_err(bad)?;
             println!(
@@ -516,12 +545,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 }
 
 fn gpu() -> Result<Arc<Gpu>, CliError> {
-    Gpu::shared().map_err(|e| {
-        CliError::from(EvalError::Node {
-            node: "-".into(),
-            kind: "-".into(),
-            source: e.into(),
-        })
+    Gpu::shared().map_err(|e| match e {
+        crate::gpu::GpuError::NoAdapter(m) => CliError::NoGpu(m),
+        e => CliError::NoGpu(format!("cannot start the GPU: {e}")),
     })
 }
 

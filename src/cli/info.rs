@@ -1,0 +1,186 @@
+//! `tyndall info`: what this machine offers Tyndall, as a bug report should contain it.
+
+use std::fmt::Write as _;
+
+use crate::eval::Registry;
+use crate::gpu::adapter::{self, AdapterReport, Chosen, ShaderNeeds};
+
+/// The nodes of `registry` that an adapter cannot run, with what it lacks for each.
+fn unavailable_nodes(registry: &Registry, r: &AdapterReport) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for k in registry.iter() {
+        let decl = k.decl();
+        let Some(shader) = decl.shader else { continue };
+        let lacks = ShaderNeeds::of(shader.source)
+            .map(|n| r.caps.lacks_for(&n))
+            .unwrap_or_else(|e| vec![format!("its shader does not parse: {e}")]);
+        if !lacks.is_empty() {
+            out.push((decl.schema.kind.to_string(), lacks.join("; ")));
+        }
+    }
+    out
+}
+
+/// The substitutes `src/gpu/` uses on this adapter, in words.
+fn substitutes(r: &AdapterReport) -> Vec<String> {
+    let mut out = Vec::new();
+    let caps = &r.caps;
+    if caps.stored(wgpu::TextureFormat::Rg32Float) != wgpu::TextureFormat::Rg32Float {
+        out.push("Rg32Float textures stored as Rgba32Float (no rg32float storage)".to_string());
+    }
+    if r.qualifies() && caps.render_format(wgpu::TextureFormat::R32Float).is_some() {
+        let f = caps.render_format(wgpu::TextureFormat::R32Float);
+        if f != Some(wgpu::TextureFormat::R32Float) {
+            out.push(format!(
+                "rasterisation into {f:?} bit patterns (no renderable 32-bit float format)",
+                f = f.unwrap_or(wgpu::TextureFormat::R32Uint)
+            ));
+        }
+    }
+    out
+}
+
+/// The report, as text or JSON.
+pub fn report(registry: &Registry, json: bool) -> String {
+    let survey = adapter::survey(crate::gpu::instance(false), crate::gpu::env_backends());
+    let pick = crate::gpu::adapter_choice();
+    let chosen = survey.choose(pick.as_deref());
+    let version = env!("CARGO_PKG_VERSION");
+    let format = crate::graph::FORMAT_VERSION;
+    let backends = std::env::var("WGPU_BACKEND").ok().filter(|v| !v.is_empty());
+    if json {
+        let adapters: Vec<serde_json::Value> = survey
+            .reports
+            .iter()
+            .map(|r| {
+                let l = &r.caps.limits;
+                serde_json::json!({
+                    "index": r.index,
+                    "name": r.info.name,
+                    "backend": adapter::backend_name(r.info.backend),
+                    "device_type": adapter::device_type_name(r.info.device_type),
+                    "driver": r.info.driver,
+                    "driver_info": r.info.driver_info,
+                    "qualifies": r.qualifies(),
+                    "lacks": r.lacks,
+                    "substitutes": substitutes(r),
+                    "nodes_unavailable": unavailable_nodes(registry, r)
+                        .into_iter()
+                        .map(|(k, why)| serde_json::json!({"kind": k, "lacks": why}))
+                        .collect::<Vec<_>>(),
+                    "limits": {
+                        "max_texture_dimension_2d": l.max_texture_dimension_2d,
+                        "max_texture_dimension_3d": l.max_texture_dimension_3d,
+                        "max_buffer_size": l.max_buffer_size,
+                        "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
+                        "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
+                        "max_sampled_textures_per_shader_stage": l.max_sampled_textures_per_shader_stage,
+                    },
+                })
+            })
+            .collect();
+        let (used, why, error) = match &chosen {
+            Ok((i, c)) => (Some(*i), Some(why_chosen(c)), None),
+            Err(e) => (None, None, Some(e.message.clone())),
+        };
+        let v = serde_json::json!({
+            "tyndall": version,
+            "graph_format": format,
+            "wgpu_backend": backends,
+            "tyndall_adapter": pick,
+            "adapters": adapters,
+            "used": used,
+            "why": why,
+            "error": error,
+            "memory_budget_bytes": memory_budget(&survey, used).0,
+            "memory_budget_from": memory_budget(&survey, used).1,
+        });
+        return serde_json::to_string_pretty(&v).unwrap_or_default() + "\n";
+    }
+    let mut s = String::new();
+    let _ = writeln!(s, "tyndall {version} (graph format v{format})");
+    let _ = writeln!(
+        s,
+        "backends: {}{}",
+        backends.as_deref().unwrap_or("all (WGPU_BACKEND unset)"),
+        pick.as_deref()
+            .map_or(String::new(), |p| format!("; adapter chosen by hand: '{p}'"))
+    );
+    if survey.reports.is_empty() {
+        let _ = writeln!(s, "adapters: none found");
+    } else {
+        let _ = writeln!(s, "adapters:");
+    }
+    for r in &survey.reports {
+        let used = matches!(&chosen, Ok((i, _)) if *i == r.index);
+        let _ = writeln!(
+            s,
+            "  [{}] {}{}",
+            r.index,
+            r.describe(),
+            if used { "  <- used" } else { "" }
+        );
+        let _ = writeln!(s, "      driver: {} {}", r.info.driver, r.info.driver_info);
+        if r.qualifies() {
+            let _ = writeln!(s, "      qualifies");
+        } else {
+            let _ = writeln!(s, "      does not qualify: lacks {}", r.lacks.join("; "));
+        }
+        for sub in substitutes(r) {
+            let _ = writeln!(s, "      substitute: {sub}");
+        }
+        if r.qualifies() {
+            for (kind, why) in unavailable_nodes(registry, r) {
+                let _ = writeln!(s, "      cannot run {kind}: lacks {why}");
+            }
+        }
+    }
+    match &chosen {
+        Ok((i, c)) => {
+            let r = &survey.reports[*i];
+            let l = &r.caps.limits;
+            let _ = writeln!(s, "used: [{i}] {}: {}", r.describe(), why_chosen(c));
+            let _ = writeln!(
+                s,
+                "limits: 2D texture side {}, 3D texture side {}, largest buffer {} MiB, largest storage binding {} MiB",
+                l.max_texture_dimension_2d,
+                l.max_texture_dimension_3d,
+                l.max_buffer_size >> 20,
+                l.max_storage_buffer_binding_size >> 20
+            );
+            let (budget, from) = memory_budget(&survey, Some(*i));
+            let _ = writeln!(
+                s,
+                "memory budget in use: {} MiB per allocation (from {from})",
+                budget.unwrap_or(0) >> 20
+            );
+        }
+        Err(e) => {
+            let _ = writeln!(s, "used: none\n{}", e.message);
+        }
+    }
+    s
+}
+
+fn why_chosen(c: &Chosen) -> String {
+    match c {
+        Chosen::ByHand(p) => format!("chosen by hand ('{p}', --adapter or TYNDALL_ADAPTER)"),
+        Chosen::Best => "the best that qualifies (discrete, integrated, virtual, then CPU; Vulkan/Metal/DX12 before GL)".to_string(),
+    }
+}
+
+/// The per-allocation budget the evaluator enforces on adapter `used` (see
+/// [`crate::gpu::Gpu::allocation_limit`]), and where it comes from.
+fn memory_budget(survey: &adapter::Survey, used: Option<usize>) -> (Option<u64>, &'static str) {
+    let env = std::env::var("TYNDALL_GPU_MEMORY_MB")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok());
+    match (env, used) {
+        (Some(mb), _) => (Some(mb.saturating_mul(1 << 20)), "TYNDALL_GPU_MEMORY_MB"),
+        (None, Some(i)) => (
+            Some(survey.reports[i].caps.limits.max_buffer_size),
+            "the adapter's max_buffer_size",
+        ),
+        (None, None) => (None, "no adapter"),
+    }
+}

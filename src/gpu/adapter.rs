@@ -1,0 +1,621 @@
+//! Which adapter Tyndall runs on. This file is the one place that states what Tyndall needs of
+//! a GPU adapter ([`NEEDED_FORMATS`], [`NEEDED_LIMITS`], compute shaders), checks every adapter
+//! of every backend against it ([`survey`]) and chooses the best one that qualifies
+//! ([`Survey::choose`]: discrete, then integrated, then virtual, then CPU; Vulkan / Metal / DX12
+//! before GL). A user picks one by hand with `--adapter NAME-or-INDEX` or `TYNDALL_ADAPTER`.
+//!
+//! What a single shader needs beyond that (storage textures per stage, storage formats,
+//! workgroup size) is read from the shader itself ([`ShaderNeeds::of`]); an adapter that
+//! qualifies but cannot give one node's shader what it needs runs every other node, and that
+//! node fails with one line naming what is missing ([`Capabilities::lacks_for`]).
+//!
+//! Where the adapter offers less than the usual path assumes, [`Capabilities`] also decides the
+//! substitutes the rest of `src/gpu/` uses (one mechanism for every node): a two-channel float
+//! texture that cannot be a storage texture (GL) is stored as four channels, and a float format
+//! that cannot be rendered to is rasterised into one that can.
+
+use std::fmt;
+
+use wgpu::{TextureFormat as F, TextureUsages as U};
+
+/// One texture format Tyndall uses, the usages it needs of it and why.
+#[derive(Debug, Clone, Copy)]
+pub struct FormatNeed {
+    /// The format.
+    pub format: wgpu::TextureFormat,
+    /// Usages every qualifying adapter must allow.
+    pub usages: wgpu::TextureUsages,
+    /// What Tyndall keeps in it.
+    pub role: &'static str,
+}
+
+/// Formats and usages an adapter must offer to qualify. (`Rg32Float` storage and float render
+/// targets are not here: [`Capabilities`] substitutes for them.)
+pub const NEEDED_FORMATS: &[FormatNeed] = &[
+    FormatNeed {
+        format: F::R32Float,
+        usages: U::TEXTURE_BINDING
+            .union(U::STORAGE_BINDING)
+            .union(U::COPY_SRC)
+            .union(U::COPY_DST),
+        role: "Scalar, Depth and ShadowMap values and volumes",
+    },
+    FormatNeed {
+        format: F::Rgba32Float,
+        usages: U::TEXTURE_BINDING
+            .union(U::STORAGE_BINDING)
+            .union(U::COPY_SRC)
+            .union(U::COPY_DST),
+        role: "Image values",
+    },
+    FormatNeed {
+        format: F::Depth32Float,
+        usages: U::RENDER_ATTACHMENT,
+        role: "the depth test of shadow-map and G-buffer rasterisation",
+    },
+];
+
+/// One device limit Tyndall needs at least `need` of.
+#[derive(Debug, Clone, Copy)]
+pub struct LimitNeed {
+    /// wgpu's name of the limit.
+    pub name: &'static str,
+    /// The least value that qualifies.
+    pub need: u64,
+    /// Why.
+    pub why: &'static str,
+    /// Reads the limit.
+    pub get: fn(&wgpu::Limits) -> u64,
+}
+
+/// Limits an adapter must meet to qualify (a shader's own binding counts are checked per node).
+pub const NEEDED_LIMITS: &[LimitNeed] = &[
+    LimitNeed {
+        name: "max_texture_dimension_2d",
+        need: 2048,
+        why: "a 1920×1080 render",
+        get: |l| l.max_texture_dimension_2d as u64,
+    },
+    LimitNeed {
+        name: "max_texture_dimension_3d",
+        need: 256,
+        why: "density volumes",
+        get: |l| l.max_texture_dimension_3d as u64,
+    },
+    LimitNeed {
+        name: "max_compute_invocations_per_workgroup",
+        need: 64,
+        why: "8×8 and 4×4×4 workgroups",
+        get: |l| l.max_compute_invocations_per_workgroup as u64,
+    },
+    LimitNeed {
+        name: "max_storage_textures_per_shader_stage",
+        need: 1,
+        why: "every compute pass writes a storage texture",
+        get: |l| l.max_storage_textures_per_shader_stage as u64,
+    },
+];
+
+/// Formats whose features [`Capabilities`] records.
+const RECORDED: [wgpu::TextureFormat; 6] = [
+    F::R32Float,
+    F::Rg32Float,
+    F::Rgba32Float,
+    F::Depth32Float,
+    F::R32Uint,
+    F::Rgba32Uint,
+];
+
+/// What one adapter offers, as far as Tyndall cares.
+#[derive(Debug, Clone)]
+pub struct Capabilities {
+    /// The adapter's limits.
+    pub limits: wgpu::Limits,
+    /// Its downlevel flags (compute shaders among them).
+    pub downlevel: wgpu::DownlevelFlags,
+    /// Its features.
+    pub features: wgpu::Features,
+    formats: Vec<(wgpu::TextureFormat, wgpu::TextureFormatFeatures)>,
+    /// Take GL's substitutes on any adapter (`TYNDALL_GPU_EMULATE=gl`, or
+    /// [`Capabilities::emulating_gl`]): Rg32Float stored as Rgba32Float, rasterisation into
+    /// integer bit patterns — so their results can be compared with the usual path on one
+    /// adapter.
+    pub emulate_gl: bool,
+}
+
+impl Capabilities {
+    /// Read them off an adapter.
+    pub fn of(adapter: &wgpu::Adapter) -> Self {
+        Self {
+            limits: adapter.limits(),
+            downlevel: adapter.get_downlevel_capabilities().flags,
+            features: adapter.features(),
+            formats: RECORDED
+                .iter()
+                .map(|f| (*f, adapter.get_texture_format_features(*f)))
+                .collect(),
+            emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
+        }
+    }
+
+    /// The same capabilities taking GL's substitutes (see [`Capabilities::emulate_gl`]).
+    pub fn emulating_gl(mut self) -> Self {
+        self.emulate_gl = true;
+        self
+    }
+
+    /// The usages the adapter allows for `format` (empty for a format not recorded).
+    pub fn usages(&self, format: wgpu::TextureFormat) -> wgpu::TextureUsages {
+        self.formats
+            .iter()
+            .find(|(f, _)| *f == format)
+            .map_or(U::empty(), |(_, feat)| feat.allowed_usages)
+    }
+
+    fn allows(&self, format: wgpu::TextureFormat, usages: wgpu::TextureUsages) -> bool {
+        self.usages(format).contains(usages)
+    }
+
+    /// The format a texture of logical format `format` is stored in: itself where the adapter
+    /// lets it be a storage texture, else the four-channel float format (GL has no `rg32float`
+    /// images). Shaders are rewritten to match ([`Capabilities::adapt_source`]).
+    pub fn stored(&self, format: wgpu::TextureFormat) -> wgpu::TextureFormat {
+        if format == F::Rg32Float
+            && (self.emulate_gl || !self.allows(F::Rg32Float, U::STORAGE_BINDING))
+        {
+            F::Rgba32Float
+        } else {
+            format
+        }
+    }
+
+    /// The format a raster pass writes for a target stored as `format`: itself where it is
+    /// renderable, else the 32-bit unsigned-integer format of as many channels (the floats'
+    /// bit patterns, turned back into floats after the pass: see `raster.rs`), or `None` when
+    /// neither can be rendered to.
+    pub fn render_format(&self, format: wgpu::TextureFormat) -> Option<wgpu::TextureFormat> {
+        if !self.emulate_gl && self.allows(format, U::RENDER_ATTACHMENT) {
+            return Some(format);
+        }
+        let bits = if format.components() == 1 {
+            F::R32Uint
+        } else {
+            F::Rgba32Uint
+        };
+        self.allows(bits, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING)
+            .then_some(bits)
+    }
+
+    /// The usages a pooled texture stored as `format` is created with: binding, storage and
+    /// copies always, render attachment where the adapter allows it.
+    pub fn texture_usages(&self, format: wgpu::TextureFormat) -> wgpu::TextureUsages {
+        let base = U::TEXTURE_BINDING | U::STORAGE_BINDING | U::COPY_SRC | U::COPY_DST;
+        base | (self.usages(format) & U::RENDER_ATTACHMENT)
+    }
+
+    /// A shader's WGSL as this adapter runs it: storage formats replaced by what they are
+    /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so).
+    pub fn adapt_source<'a>(&self, source: &'a str) -> std::borrow::Cow<'a, str> {
+        if self.stored(F::Rg32Float) != F::Rg32Float && source.contains("rg32float") {
+            std::borrow::Cow::Owned(source.replace("<rg32float", "<rgba32float"))
+        } else {
+            std::borrow::Cow::Borrowed(source)
+        }
+    }
+
+    /// Why this adapter does not qualify (empty: it does).
+    pub fn lacks(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.downlevel.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
+            out.push("compute shaders".to_string());
+        }
+        for need in NEEDED_FORMATS {
+            let missing = need.usages - self.usages(need.format);
+            if !missing.is_empty() {
+                out.push(format!(
+                    "{:?} as {} (for {})",
+                    need.format,
+                    usage_names(missing),
+                    need.role
+                ));
+            }
+        }
+        if self.render_format(F::R32Float).is_none() {
+            out.push("a renderable 32-bit float format (for shadow maps and G-buffers)".into());
+        }
+        for l in NEEDED_LIMITS {
+            let have = (l.get)(&self.limits);
+            if have < l.need {
+                out.push(format!("{} ≥ {} (has {have}; for {})", l.name, l.need, l.why));
+            }
+        }
+        out
+    }
+
+    /// What this adapter lacks for a shader's entry points (empty: it can run all of them).
+    pub fn lacks_for(&self, needs: &ShaderNeeds) -> Vec<String> {
+        let l = &self.limits;
+        let mut out = Vec::new();
+        let mut note = |what: String| {
+            if !out.contains(&what) {
+                out.push(what);
+            }
+        };
+        for e in &needs.entries {
+            let counts = [
+                ("storage textures", e.storage_textures, l.max_storage_textures_per_shader_stage),
+                ("sampled textures", e.sampled_textures, l.max_sampled_textures_per_shader_stage),
+                ("storage buffers", e.storage_buffers, l.max_storage_buffers_per_shader_stage),
+                ("uniform buffers", e.uniform_buffers, l.max_uniform_buffers_per_shader_stage),
+            ];
+            for (what, need, have) in counts {
+                if need > have {
+                    note(format!(
+                        "{need} {what} per shader stage (entry `{}`; the adapter allows {have})",
+                        e.entry
+                    ));
+                }
+            }
+            let [x, y, z] = e.workgroup;
+            if x > l.max_compute_workgroup_size_x
+                || y > l.max_compute_workgroup_size_y
+                || z > l.max_compute_workgroup_size_z
+                || x * y * z > l.max_compute_invocations_per_workgroup
+            {
+                note(format!("workgroups of {x}×{y}×{z} (entry `{}`)", e.entry));
+            }
+            for f in &e.storage_formats {
+                if !self.allows(self.stored(*f), U::STORAGE_BINDING) {
+                    note(format!("{f:?} storage textures (entry `{}`)", e.entry));
+                }
+            }
+        }
+        out
+    }
+}
+
+fn usage_names(u: wgpu::TextureUsages) -> String {
+    let names = [
+        (U::TEXTURE_BINDING, "texture binding"),
+        (U::STORAGE_BINDING, "storage texture"),
+        (U::RENDER_ATTACHMENT, "render target"),
+        (U::COPY_SRC, "copy source"),
+        (U::COPY_DST, "copy destination"),
+    ];
+    names
+        .iter()
+        .filter(|(f, _)| u.contains(*f))
+        .map(|(_, n)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What one entry point of a shader binds and needs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EntryNeeds {
+    /// The entry point's name.
+    pub entry: String,
+    /// Storage textures it uses.
+    pub storage_textures: u32,
+    /// Sampled (`textureLoad`) textures it uses.
+    pub sampled_textures: u32,
+    /// Storage buffers it uses.
+    pub storage_buffers: u32,
+    /// Uniform buffers it uses.
+    pub uniform_buffers: u32,
+    /// `@workgroup_size` (1, 1, 1 for vertex and fragment stages).
+    pub workgroup: [u32; 3],
+    /// Formats of the storage textures it uses.
+    pub storage_formats: Vec<wgpu::TextureFormat>,
+}
+
+/// What a shader's entry points need, read from the WGSL by naga.
+#[derive(Debug, Clone, Default)]
+pub struct ShaderNeeds {
+    /// One row per entry point.
+    pub entries: Vec<EntryNeeds>,
+}
+
+impl ShaderNeeds {
+    /// Parse and validate `source` and count, per entry point, the resources it uses.
+    pub fn of(source: &str) -> Result<ShaderNeeds, String> {
+        let module = naga::front::wgsl::parse_str(source).map_err(|e| e.message().to_string())?;
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .map_err(|e| e.as_inner().to_string())?;
+        let mut entries = Vec::new();
+        for (i, ep) in module.entry_points.iter().enumerate() {
+            let uses = info.get_entry_point(i);
+            let mut e = EntryNeeds {
+                entry: ep.name.clone(),
+                storage_textures: 0,
+                sampled_textures: 0,
+                storage_buffers: 0,
+                uniform_buffers: 0,
+                workgroup: if ep.stage == naga::ShaderStage::Compute {
+                    ep.workgroup_size
+                } else {
+                    [1, 1, 1]
+                },
+                storage_formats: Vec::new(),
+            };
+            for (h, gv) in module.global_variables.iter() {
+                if uses[h].is_empty() || gv.binding.is_none() {
+                    continue;
+                }
+                match gv.space {
+                    naga::AddressSpace::Uniform => e.uniform_buffers += 1,
+                    naga::AddressSpace::Storage { .. } => e.storage_buffers += 1,
+                    naga::AddressSpace::Handle => match &module.types[gv.ty].inner {
+                        naga::TypeInner::Image { class, .. } => match class {
+                            naga::ImageClass::Storage { format, .. } => {
+                                e.storage_textures += 1;
+                                if let Some(f) = storage_format(*format) {
+                                    if !e.storage_formats.contains(&f) {
+                                        e.storage_formats.push(f);
+                                    }
+                                }
+                            }
+                            _ => e.sampled_textures += 1,
+                        },
+                        _ => {}
+                    },
+                    _ => {}
+                }
+            }
+            entries.push(e);
+        }
+        Ok(ShaderNeeds { entries })
+    }
+}
+
+fn storage_format(f: naga::StorageFormat) -> Option<wgpu::TextureFormat> {
+    use naga::StorageFormat as S;
+    Some(match f {
+        S::R32Float => F::R32Float,
+        S::Rg32Float => F::Rg32Float,
+        S::Rgba32Float => F::Rgba32Float,
+        S::R32Uint => F::R32Uint,
+        S::R32Sint => F::R32Sint,
+        S::Rgba8Unorm => F::Rgba8Unorm,
+        S::Rgba16Float => F::Rgba16Float,
+        _ => return None,
+    })
+}
+
+/// One adapter as [`survey`] found it.
+#[derive(Debug, Clone)]
+pub struct AdapterReport {
+    /// Its index in the survey (what `--adapter N` names).
+    pub index: usize,
+    /// Name, backend, device type, driver.
+    pub info: wgpu::AdapterInfo,
+    /// What it offers.
+    pub caps: Capabilities,
+    /// Why it does not qualify (empty: it does).
+    pub lacks: Vec<String>,
+}
+
+impl AdapterReport {
+    /// Whether it qualifies.
+    pub fn qualifies(&self) -> bool {
+        self.lacks.is_empty()
+    }
+
+    /// `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)`.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({}, {})",
+            self.info.name,
+            backend_name(self.info.backend),
+            device_type_name(self.info.device_type)
+        )
+    }
+
+    /// The sort key of the preference order (smaller is better).
+    fn rank(&self) -> (u8, u8, usize) {
+        let ty = match self.info.device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Cpu => 3,
+            wgpu::DeviceType::Other => 4,
+        };
+        let backend = match self.info.backend {
+            wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+            _ => 1,
+        };
+        (ty, backend, self.index)
+    }
+}
+
+/// A backend's name as a user reads it.
+pub fn backend_name(b: wgpu::Backend) -> &'static str {
+    match b {
+        wgpu::Backend::Vulkan => "Vulkan",
+        wgpu::Backend::Metal => "Metal",
+        wgpu::Backend::Dx12 => "DX12",
+        wgpu::Backend::Gl => "GL",
+        wgpu::Backend::BrowserWebGpu => "WebGPU",
+        wgpu::Backend::Noop => "no-op",
+    }
+}
+
+/// A device type's name as a user reads it.
+pub fn device_type_name(t: wgpu::DeviceType) -> &'static str {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => "discrete GPU",
+        wgpu::DeviceType::IntegratedGpu => "integrated GPU",
+        wgpu::DeviceType::VirtualGpu => "virtual GPU",
+        wgpu::DeviceType::Cpu => "CPU",
+        wgpu::DeviceType::Other => "other",
+    }
+}
+
+/// Every adapter of every backend the instance has (narrowed by `WGPU_BACKEND`), checked.
+pub struct Survey {
+    /// The instance they belong to.
+    pub instance: wgpu::Instance,
+    adapters: Vec<wgpu::Adapter>,
+    /// One report per adapter, in enumeration order.
+    pub reports: Vec<AdapterReport>,
+}
+
+/// Why no adapter could be used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NoAdapter {
+    /// The reason in a few lines (each adapter seen and what it lacks, what to install).
+    pub message: String,
+}
+
+impl fmt::Display for NoAdapter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// What to install when nothing qualifies.
+pub const INSTALL_HINT: &str =
+    "install a Vulkan driver (Debian/Ubuntu: `apt-get install mesa-vulkan-drivers` gives a software Vulkan adapter), or a GPU driver";
+
+/// Enumerate and check every adapter of `backends`. `instance` is made by the caller (its
+/// flags decide validation; see [`crate::gpu::instance`]).
+pub fn survey(instance: wgpu::Instance, backends: wgpu::Backends) -> Survey {
+    let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+    let reports = adapters
+        .iter()
+        .enumerate()
+        .map(|(index, a)| {
+            let caps = Capabilities::of(a);
+            AdapterReport {
+                index,
+                info: a.get_info(),
+                lacks: caps.lacks(),
+                caps,
+            }
+        })
+        .collect();
+    Survey {
+        instance,
+        adapters,
+        reports,
+    }
+}
+
+/// How the adapter in use was chosen.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Chosen {
+    /// By `--adapter` / `TYNDALL_ADAPTER` (the text given).
+    ByHand(String),
+    /// The best that qualifies by device type and backend.
+    Best,
+}
+
+impl Survey {
+    /// The adapter to use: the one `pick` names (an index into the survey or a case-insensitive
+    /// part of its name, optionally with the backend: `llvmpipe`, `1`, `gl`, `llvmpipe/vulkan`),
+    /// refused if it does not qualify; without `pick`, the best that qualifies.
+    pub fn choose(&self, pick: Option<&str>) -> Result<(usize, Chosen), NoAdapter> {
+        if self.reports.is_empty() {
+            return Err(NoAdapter {
+                message: format!(
+                    "no GPU adapter found{}; {INSTALL_HINT}",
+                    backend_filter_note()
+                ),
+            });
+        }
+        if let Some(pick) = pick.map(str::trim).filter(|p| !p.is_empty()) {
+            let r = self.find(pick)?;
+            if !r.qualifies() {
+                return Err(NoAdapter {
+                    message: format!(
+                        "adapter [{}] {} (chosen by --adapter/TYNDALL_ADAPTER '{pick}') cannot run Tyndall: it lacks {}",
+                        r.index,
+                        r.describe(),
+                        r.lacks.join("; ")
+                    ),
+                });
+            }
+            return Ok((r.index, Chosen::ByHand(pick.to_string())));
+        }
+        self.reports
+            .iter()
+            .filter(|r| r.qualifies())
+            .min_by_key(|r| r.rank())
+            .map(|r| (r.index, Chosen::Best))
+            .ok_or_else(|| self.none_qualifies())
+    }
+
+    fn find(&self, pick: &str) -> Result<&AdapterReport, NoAdapter> {
+        if let Ok(i) = pick.parse::<usize>() {
+            return self.reports.get(i).ok_or_else(|| NoAdapter {
+                message: format!(
+                    "--adapter/TYNDALL_ADAPTER {i}: there are only {} adapters (see `tyndall info`)",
+                    self.reports.len()
+                ),
+            });
+        }
+        let (name, backend) = match pick.rsplit_once('/') {
+            Some((n, b)) => (n.to_lowercase(), Some(b.to_lowercase())),
+            None => (pick.to_lowercase(), None),
+        };
+        let matches = |r: &&AdapterReport| {
+            let b = backend_name(r.info.backend).to_lowercase();
+            let by_name = name.is_empty() || r.info.name.to_lowercase().contains(&name);
+            match &backend {
+                Some(want) => by_name && b == *want,
+                // A bare word may name a backend (`gl`, `vulkan`) or part of a name.
+                None => by_name || b == name,
+            }
+        };
+        let found: Vec<&AdapterReport> = self.reports.iter().filter(matches).collect();
+        // Several matches: the best qualifying one of them.
+        found
+            .iter()
+            .filter(|r| r.qualifies())
+            .min_by_key(|r| r.rank())
+            .or(found.first())
+            .copied()
+            .ok_or_else(|| NoAdapter {
+                message: format!(
+                    "--adapter/TYNDALL_ADAPTER '{pick}' names no adapter; found: {}",
+                    self.reports
+                        .iter()
+                        .map(|r| format!("[{}] {}", r.index, r.describe()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            })
+    }
+
+    fn none_qualifies(&self) -> NoAdapter {
+        let seen: Vec<String> = self
+            .reports
+            .iter()
+            .map(|r| format!("  [{}] {}: lacks {}", r.index, r.describe(), r.lacks.join("; ")))
+            .collect();
+        NoAdapter {
+            message: format!(
+                "no usable GPU adapter{}:\n{}\n{INSTALL_HINT}",
+                backend_filter_note(),
+                seen.join("\n")
+            ),
+        }
+    }
+
+    /// The wgpu adapter of report `index`.
+    pub fn adapter(&self, index: usize) -> Option<&wgpu::Adapter> {
+        self.adapters.get(index)
+    }
+}
+
+/// ` (WGPU_BACKEND=vulkan)` when the environment narrows the backends.
+fn backend_filter_note() -> String {
+    std::env::var("WGPU_BACKEND")
+        .ok()
+        .filter(|v| !v.is_empty())
+        .map_or(String::new(), |v| format!(" (WGPU_BACKEND={v})"))
+}
