@@ -1063,7 +1063,10 @@ fn with_no_usable_adapter_every_gpu_command_exits_1_in_a_few_lines() {
         assert!(lines.len() <= 4, "{args:?}: at most 4 lines, got:\n{err}");
         assert!(err.contains("no GPU adapter found"), "{args:?}: {err}");
         assert!(err.contains("mesa-vulkan-drivers"), "{args:?}: {err}");
-        assert!(!err.contains("wgpu"), "{args:?}: no wgpu error stacks: {err}");
+        assert!(
+            !err.contains("wgpu"),
+            "{args:?}: no wgpu error stacks: {err}"
+        );
     }
 }
 
@@ -1082,7 +1085,15 @@ fn info_lists_adapters_and_the_one_used_and_refuses_a_bad_choice() {
     let used = v["used"].as_u64().expect("an adapter is used") as usize;
     assert_eq!(adapters[used]["qualifies"], true);
     for a in adapters {
-        for key in ["name", "backend", "device_type", "driver", "lacks", "nodes_unavailable", "limits"] {
+        for key in [
+            "name",
+            "backend",
+            "device_type",
+            "driver",
+            "lacks",
+            "nodes_unavailable",
+            "limits",
+        ] {
             assert!(a.get(key).is_some(), "adapter without {key}: {a}");
         }
     }
@@ -1101,7 +1112,10 @@ fn info_lists_adapters_and_the_one_used_and_refuses_a_bad_choice() {
     let o = tyndall(&[&blur[..], &["--adapter", "99"][..]].concat());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains(&format!("there are only {n} adapters")), "{err}");
+    assert!(
+        err.contains(&format!("there are only {n} adapters")),
+        "{err}"
+    );
     let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
         .args(blur)
         .env("TYNDALL_ADAPTER", "no-such-adapter")

@@ -143,7 +143,10 @@ fn window_outputs(gpu: tyndall::gpu::Gpu) -> Vec<(String, tyndall::io::Raster)> 
         .iter()
         .map(|(n, p)| {
             let v = &result.outputs[&(n.to_string(), p.to_string())];
-            (format!("{n}.{p}"), tyndall::eval::download(&gpu, v).expect("download"))
+            (
+                format!("{n}.{p}"),
+                tyndall::eval::download(&gpu, v).expect("download"),
+            )
         })
         .collect()
 }
@@ -176,7 +179,11 @@ fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
     );
     let (a, b) = (window_outputs(usual), window_outputs(emulated));
     for ((name, x), (_, y)) in a.iter().zip(&b) {
-        assert_eq!((x.width, x.height, x.channels), (y.width, y.height, y.channels), "{name}");
+        assert_eq!(
+            (x.width, x.height, x.channels),
+            (y.width, y.height, y.channels),
+            "{name}"
+        );
         let differing = x
             .data
             .iter()
@@ -193,8 +200,8 @@ fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
     if common::gpu().is_none() {
         return;
     }
-    let mut gpu = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions::from_env())
-        .expect("device");
+    let mut gpu =
+        tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions::from_env()).expect("device");
     // As if the driver allowed two storage textures per stage (GL ES's minimum is 4; some
     // drivers give fewer to compute than SingleScattering's epipolar passes bind).
     gpu.caps.limits.max_storage_textures_per_shader_stage = 2;
@@ -218,12 +225,18 @@ fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
     let err = ev
         .evaluate(
             &graph,
-            &[tyndall::eval::Target::Port("scatter".into(), "inscatter".into())],
+            &[tyndall::eval::Target::Port(
+                "scatter".into(),
+                "inscatter".into(),
+            )],
             &opts,
         )
         .expect_err("SingleScattering needs more storage textures");
     let msg = err.to_string();
-    assert!(msg.starts_with("node 'scatter' (SingleScattering): this adapter"), "{msg}");
+    assert!(
+        msg.starts_with("node 'scatter' (SingleScattering): this adapter"),
+        "{msg}"
+    );
     assert!(msg.contains("storage textures per shader stage"), "{msg}");
     assert!(msg.contains("allows 2"), "{msg}");
     assert!(!msg.contains('\n'), "one line: {msg}");
@@ -239,7 +252,14 @@ fn shader_needs_are_read_from_the_wgsl() {
     let n = tyndall::gpu::adapter::ShaderNeeds::of(src).expect("parses");
     assert_eq!(n.entries.len(), 2);
     let one = &n.entries[0];
-    assert_eq!((one.entry.as_str(), one.storage_textures, one.sampled_textures), ("one", 1, 1));
+    assert_eq!(
+        (
+            one.entry.as_str(),
+            one.storage_textures,
+            one.sampled_textures
+        ),
+        ("one", 1, 1)
+    );
     assert_eq!(one.workgroup, [8, 4, 1]);
     assert_eq!(one.storage_formats, vec![wgpu::TextureFormat::Rg32Float]);
     let two = &n.entries[1];
@@ -250,7 +270,8 @@ fn shader_needs_are_read_from_the_wgsl() {
 #[test]
 fn the_bit_pattern_entry_point_wraps_every_raster_shader() {
     for stem in ["shadow_map", "g_buffer"] {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("shaders/{stem}.wgsl"));
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("shaders/{stem}.wgsl"));
         let src = std::fs::read_to_string(path).expect("shader");
         let m = tyndall::gpu::bits_module(&src).unwrap_or_else(|e| panic!("{stem}: {e}"));
         assert!(m.entry_points.iter().any(|e| e.name == "fs_bits"), "{stem}");

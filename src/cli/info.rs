@@ -103,8 +103,9 @@ pub fn report(registry: &Registry, json: bool) -> String {
         s,
         "backends: {}{}",
         backends.as_deref().unwrap_or("all (WGPU_BACKEND unset)"),
-        pick.as_deref()
-            .map_or(String::new(), |p| format!("; adapter chosen by hand: '{p}'"))
+        pick.as_deref().map_or(String::new(), |p| format!(
+            "; adapter chosen by hand: '{p}'"
+        ))
     );
     if survey.reports.is_empty() {
         let _ = writeln!(s, "adapters: none found");

@@ -1639,10 +1639,12 @@ pub fn run(path: Option<PathBuf>) -> Result<(), String> {
     let problem = app.gpu_problem.clone();
     if let eframe::egui_wgpu::WgpuSetup::CreateNew(c) = &mut options.wgpu_options.wgpu_setup {
         c.native_adapter_selector = Some(Arc::new(move |adapters, surface| {
-            let presents = |a: &&eframe::wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));
+            let presents =
+                |a: &&eframe::wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));
             let same = |a: &&eframe::wgpu::Adapter| {
                 let i = a.get_info();
-                want.as_ref().is_some_and(|(n, b)| i.name == *n && i.backend == *b)
+                want.as_ref()
+                    .is_some_and(|(n, b)| i.name == *n && i.backend == *b)
             };
             adapters
                 .iter()

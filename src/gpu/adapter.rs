@@ -121,6 +121,10 @@ pub struct Capabilities {
     /// integer bit patterns — so their results can be compared with the usual path on one
     /// adapter.
     pub emulate_gl: bool,
+    /// Whether a compute pass can write every slice of a 3D storage texture. Not on wgpu's GL
+    /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
+    /// 0, …)`), so only slice 0 is written; no substitute is made (volume nodes fail there).
+    pub layered_3d_storage: bool,
 }
 
 impl Capabilities {
@@ -135,6 +139,7 @@ impl Capabilities {
                 .map(|f| (*f, adapter.get_texture_format_features(*f)))
                 .collect(),
             emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
+            layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
         }
     }
 
@@ -206,7 +211,10 @@ impl Capabilities {
     /// Why this adapter does not qualify (empty: it does).
     pub fn lacks(&self) -> Vec<String> {
         let mut out = Vec::new();
-        if !self.downlevel.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS) {
+        if !self
+            .downlevel
+            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        {
             out.push("compute shaders".to_string());
         }
         for need in NEEDED_FORMATS {
@@ -226,7 +234,10 @@ impl Capabilities {
         for l in NEEDED_LIMITS {
             let have = (l.get)(&self.limits);
             if have < l.need {
-                out.push(format!("{} ≥ {} (has {have}; for {})", l.name, l.need, l.why));
+                out.push(format!(
+                    "{} ≥ {} (has {have}; for {})",
+                    l.name, l.need, l.why
+                ));
             }
         }
         out
@@ -243,10 +254,26 @@ impl Capabilities {
         };
         for e in &needs.entries {
             let counts = [
-                ("storage textures", e.storage_textures, l.max_storage_textures_per_shader_stage),
-                ("sampled textures", e.sampled_textures, l.max_sampled_textures_per_shader_stage),
-                ("storage buffers", e.storage_buffers, l.max_storage_buffers_per_shader_stage),
-                ("uniform buffers", e.uniform_buffers, l.max_uniform_buffers_per_shader_stage),
+                (
+                    "storage textures",
+                    e.storage_textures,
+                    l.max_storage_textures_per_shader_stage,
+                ),
+                (
+                    "sampled textures",
+                    e.sampled_textures,
+                    l.max_sampled_textures_per_shader_stage,
+                ),
+                (
+                    "storage buffers",
+                    e.storage_buffers,
+                    l.max_storage_buffers_per_shader_stage,
+                ),
+                (
+                    "uniform buffers",
+                    e.uniform_buffers,
+                    l.max_uniform_buffers_per_shader_stage,
+                ),
             ];
             for (what, need, have) in counts {
                 if need > have {
@@ -263,6 +290,12 @@ impl Capabilities {
                 || x * y * z > l.max_compute_invocations_per_workgroup
             {
                 note(format!("workgroups of {x}×{y}×{z} (entry `{}`)", e.entry));
+            }
+            if e.storage_3d > 0 && !self.layered_3d_storage {
+                note(
+                    "writable 3D storage textures (wgpu's GL backend binds one slice of a 3D image only)"
+                        .to_string(),
+                );
             }
             for f in &e.storage_formats {
                 if !self.allows(self.stored(*f), U::STORAGE_BINDING) {
@@ -297,6 +330,8 @@ pub struct EntryNeeds {
     pub entry: String,
     /// Storage textures it uses.
     pub storage_textures: u32,
+    /// Of those, 3D ones.
+    pub storage_3d: u32,
     /// Sampled (`textureLoad`) textures it uses.
     pub sampled_textures: u32,
     /// Storage buffers it uses.
@@ -332,6 +367,7 @@ impl ShaderNeeds {
             let mut e = EntryNeeds {
                 entry: ep.name.clone(),
                 storage_textures: 0,
+                storage_3d: 0,
                 sampled_textures: 0,
                 storage_buffers: 0,
                 uniform_buffers: 0,
@@ -350,9 +386,12 @@ impl ShaderNeeds {
                     naga::AddressSpace::Uniform => e.uniform_buffers += 1,
                     naga::AddressSpace::Storage { .. } => e.storage_buffers += 1,
                     naga::AddressSpace::Handle => match &module.types[gv.ty].inner {
-                        naga::TypeInner::Image { class, .. } => match class {
+                        naga::TypeInner::Image { class, dim, .. } => match class {
                             naga::ImageClass::Storage { format, .. } => {
                                 e.storage_textures += 1;
+                                if *dim == naga::ImageDimension::D3 {
+                                    e.storage_3d += 1;
+                                }
                                 if let Some(f) = storage_format(*format) {
                                     if !e.storage_formats.contains(&f) {
                                         e.storage_formats.push(f);
@@ -595,7 +634,14 @@ impl Survey {
         let seen: Vec<String> = self
             .reports
             .iter()
-            .map(|r| format!("  [{}] {}: lacks {}", r.index, r.describe(), r.lacks.join("; ")))
+            .map(|r| {
+                format!(
+                    "  [{}] {}: lacks {}",
+                    r.index,
+                    r.describe(),
+                    r.lacks.join("; ")
+                )
+            })
             .collect();
         NoAdapter {
             message: format!(

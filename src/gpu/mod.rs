@@ -319,10 +319,7 @@ impl Gpu {
     /// `Err(Unsupported)` when this adapter cannot give `shader` what its entry points need
     /// (read from the WGSL once per stem and kept).
     pub fn supports(&self, shader: Shader) -> Result<(), GpuError> {
-        let mut known = self
-            .shader_lacks
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
+        let mut known = self.shader_lacks.lock().unwrap_or_else(|e| e.into_inner());
         let lacks = known.entry(shader.stem).or_insert_with(|| {
             adapter::ShaderNeeds::of(shader.source)
                 .map(|n| self.caps.lacks_for(&n))

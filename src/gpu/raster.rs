@@ -173,10 +173,12 @@ impl Gpu {
         let formats = stored
             .iter()
             .map(|f| {
-                self.caps.render_format(*f).ok_or_else(|| GpuError::Unsupported {
-                    adapter: self.describe(),
-                    lacks: format!("a render target for {f:?} values"),
-                })
+                self.caps
+                    .render_format(*f)
+                    .ok_or_else(|| GpuError::Unsupported {
+                        adapter: self.describe(),
+                        lacks: format!("a render target for {f:?} values"),
+                    })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let bits = formats != stored;
@@ -323,10 +325,12 @@ impl Gpu {
             cache
                 .entry(key)
                 .or_insert_with(|| {
-                    let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                        label: Some("raster-unbits"),
-                        source: wgpu::ShaderSource::Wgsl(UNBITS.into()),
-                    });
+                    let module = self
+                        .device
+                        .create_shader_module(wgpu::ShaderModuleDescriptor {
+                            label: Some("raster-unbits"),
+                            source: wgpu::ShaderSource::Wgsl(UNBITS.into()),
+                        });
                     Arc::new(self.device.create_compute_pipeline(
                         &wgpu::ComputePipelineDescriptor {
                             label: Some("raster-unbits"),
@@ -369,7 +373,9 @@ impl Gpu {
 /// function) and returns each of its `vec4<f32>` outputs bit-cast to `vec4<u32>` at the same
 /// location, for integer render targets.
 pub fn bits_module(source: &str) -> Result<naga::Module, String> {
-    use naga::{Binding, Expression, FunctionResult, Span, Statement, StructMember, Type, TypeInner};
+    use naga::{
+        Binding, Expression, FunctionResult, Span, Statement, StructMember, Type, TypeInner,
+    };
     let mut m = naga::front::wgsl::parse_str(source).map_err(|e| e.message().to_string())?;
     let ep = m
         .entry_points
@@ -384,7 +390,9 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
     };
     // (location, member index of a struct result or None for a bare vec4)
     let outputs: Vec<(u32, Option<u32>)> = match (&result.binding, &m.types[result.ty].inner) {
-        (Some(Binding::Location { location, .. }), inner) if *inner == f4 => vec![(*location, None)],
+        (Some(Binding::Location { location, .. }), inner) if *inner == f4 => {
+            vec![(*location, None)]
+        }
         (None, TypeInner::Struct { members, .. }) => members
             .iter()
             .enumerate()
