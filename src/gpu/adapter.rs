@@ -385,23 +385,26 @@ impl ShaderNeeds {
                 match gv.space {
                     naga::AddressSpace::Uniform => e.uniform_buffers += 1,
                     naga::AddressSpace::Storage { .. } => e.storage_buffers += 1,
-                    naga::AddressSpace::Handle => match &module.types[gv.ty].inner {
-                        naga::TypeInner::Image { class, dim, .. } => match class {
-                            naga::ImageClass::Storage { format, .. } => {
-                                e.storage_textures += 1;
-                                if *dim == naga::ImageDimension::D3 {
-                                    e.storage_3d += 1;
-                                }
-                                if let Some(f) = storage_format(*format) {
-                                    if !e.storage_formats.contains(&f) {
-                                        e.storage_formats.push(f);
+                    naga::AddressSpace::Handle => {
+                        if let naga::TypeInner::Image { class, dim, .. } =
+                            &module.types[gv.ty].inner
+                        {
+                            match class {
+                                naga::ImageClass::Storage { format, .. } => {
+                                    e.storage_textures += 1;
+                                    if *dim == naga::ImageDimension::D3 {
+                                        e.storage_3d += 1;
+                                    }
+                                    if let Some(f) = storage_format(*format) {
+                                        if !e.storage_formats.contains(&f) {
+                                            e.storage_formats.push(f);
+                                        }
                                     }
                                 }
+                                _ => e.sampled_textures += 1,
                             }
-                            _ => e.sampled_textures += 1,
-                        },
-                        _ => {}
-                    },
+                        }
+                    }
                     _ => {}
                 }
             }
