@@ -532,7 +532,13 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Node(a) => run_node(registry, a),
-        Command::Edit { graph } => crate::editor::run(graph).map_err(bad),
+        Command::Edit { graph } => crate::editor::run(graph).map_err(|e| {
+            if Gpu::shared().is_err() {
+                CliError::NoGpu(e)
+            } else {
+                bad(e)
+            }
+        }),
         Command::Bench(a) if a.replot => replot(
             &a.out.unwrap_or_else(|| PathBuf::from("bench")),
             a.suite.as_deref(),

@@ -1659,6 +1659,8 @@ pub fn run(path: Option<PathBuf>) -> Result<(), String> {
                 })
         }));
     }
+    let problem = app.gpu_problem.clone();
+    // No adapter can even draw the window: the evaluation's own message, not eframe's.
     eframe::run_native("Tyndall", options, Box::new(|_cc| Ok(Box::new(app))))
-        .map_err(|e| e.to_string())
+        .map_err(|e| problem.unwrap_or_else(|| e.to_string()))
 }
