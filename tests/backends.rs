@@ -18,35 +18,25 @@
 //! storage) changes whole regions and falls far below 50 dB. The substitutes themselves are
 //! checked bit for bit on one adapter in `tests/gpu.rs`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn presets() -> Vec<PathBuf> {
-    let mut files = Vec::new();
-    let mut stack = vec![Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs")];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).expect("read_dir") {
-            let p = e.expect("entry").path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
-                files.push(p);
-            }
-        }
-    }
-    files.sort();
-    files
-}
-
-/// The adapter `tyndall info --json` would use on `backend`, or why there is none.
-fn adapter_on(backend: &str) -> Result<String, String> {
+/// `tyndall info --json` with `WGPU_BACKEND=backend`.
+fn info_on(backend: &str) -> serde_json::Value {
     let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
         .args(["info", "--json"])
         .env("WGPU_BACKEND", backend)
         .env_remove("TYNDALL_ADAPTER")
         .output()
         .expect("run tyndall info");
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("info --json is JSON");
+    serde_json::from_slice(&o.stdout).expect("info --json is JSON")
+}
+
+/// The adapter `tyndall info` would use on `backend`, or why there is none.
+fn adapter_on(backend: &str) -> Result<String, String> {
+    let v = info_on(backend);
     match v["used"].as_u64() {
         Some(i) => Ok(v["adapters"][i as usize]["name"]
             .as_str()
@@ -56,15 +46,9 @@ fn adapter_on(backend: &str) -> Result<String, String> {
     }
 }
 
-/// The node kinds `tyndall info --json` says the adapter used on `backend` cannot run.
+/// The node kinds `tyndall info` says the adapter used on `backend` cannot run.
 fn unavailable_on(backend: &str) -> Vec<String> {
-    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
-        .args(["info", "--json"])
-        .env("WGPU_BACKEND", backend)
-        .env_remove("TYNDALL_ADAPTER")
-        .output()
-        .expect("run tyndall info");
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("info --json is JSON");
+    let v = info_on(backend);
     let used = v["used"].as_u64().unwrap_or(0) as usize;
     v["adapters"][used]["nodes_unavailable"]
         .as_array()
@@ -144,7 +128,7 @@ fn every_preset_renders_on_gl_and_matches_vulkan() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut rendered = 0;
     let mut failures = Vec::new();
-    for f in presets() {
+    for f in common::presets() {
         let g = tyndall::graph::load_file(&f, registry.catalog()).expect("load");
         if !g
             .nodes()

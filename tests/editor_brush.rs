@@ -38,7 +38,7 @@ fn open_fence(dir: &Path) -> Harness<'static, EditorApp> {
 
 #[test]
 fn brush_drags_leave_splats_on_the_plane_in_one_undo_step() {
-    if common::gpu().is_none() {
+    if common::gpu_for(&["BlendVolume"]).is_none() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
@@ -136,7 +136,7 @@ fn brush_drags_leave_splats_on_the_plane_in_one_undo_step() {
 
 #[test]
 fn the_brush_paints_into_the_chosen_volume() {
-    if common::gpu().is_none() {
+    if common::gpu_for(&["BlendVolume"]).is_none() {
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");

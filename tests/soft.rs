@@ -104,7 +104,9 @@ fn spec_for(kernel: Kernel, res: u32, slices: u32, radius: f64, d1: f64) -> Kern
 
 #[test]
 fn gpu_equals_cpu_for_every_kernel() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let map = common::random_raster(24, 24, 1, 0.1, 1.2, 7);
     for kernel in Kernel::NAMES {
         let k = Kernel::from_name(kernel).expect("kernel");
@@ -133,7 +135,9 @@ fn gpu_equals_cpu_for_every_kernel() {
 
 #[test]
 fn zero_light_variance_is_the_hard_test() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let (res, slices) = (32, 16);
     let map = common::random_raster(res, res, 1, 0.05, 1.1, 3);
     let got = run(
@@ -162,7 +166,9 @@ fn zero_light_variance_is_the_hard_test() {
 /// centred light) and variance n σ_κ², so its width at d1 is the exact penumbra's, d1 σ_l.
 #[test]
 fn penumbra_behind_a_straight_edge() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let (res, slices) = (64u32, 40u32);
     let map = edge_map(res);
     let (radius, d1) = (8.0, 5.0);
@@ -209,7 +215,9 @@ fn penumbra_behind_a_straight_edge() {
 
 #[test]
 fn extremes_stay_finite_and_in_range() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let res = 16;
     let empty = Raster::new(res, res, 1, 1.0);
     let full = Raster::new(res, res, 1, 0.0);
@@ -259,7 +267,9 @@ fn extremes_stay_finite_and_in_range() {
 /// test except for samples within one slice of an occluder: V̄ differs little.
 #[test]
 fn scattering_with_a_hard_soft_volume_matches_the_hard_test() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let registry = Arc::new(tyndall::nodes::registry());
     let cat = registry.catalog().clone();
     let text = r#"(version: 2, nodes: {
@@ -328,7 +338,9 @@ fn scattering_with_a_hard_soft_volume_matches_the_hard_test() {
 /// one slice's e² σ_l² — its width grows linearly with the distance, as the exact penumbra's.
 #[test]
 fn linear_growth_matches_the_exact_penumbra_at_every_distance() {
-    let Some(gpu) = common::gpu() else { return };
+    let Some(gpu) = common::gpu_for(&["SoftVisibility"]) else {
+        return;
+    };
     let (res, slices) = (64u32, 40u32);
     let map = edge_map(res);
     let radius = 4.0;

@@ -60,7 +60,7 @@ fn params(n: u32, freq: f32, octaves: u32, persistence: f32, seed: u32) -> nv::N
 
 #[test]
 fn gpu_equals_cpu_with_its_mip_chain() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     let (v, _) = noise(
         &gpu,
         &[
@@ -117,7 +117,7 @@ fn values_spread_over_zero_to_one() {
 
 #[test]
 fn drift_follows_time_and_box_follows_the_scene() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     let p = [
         ("resolution", ParamValue::Int(32)),
         ("speed", ParamValue::Float(0.25)),
@@ -144,7 +144,7 @@ fn drift_follows_time_and_box_follows_the_scene() {
 
 #[test]
 fn extremes_stay_finite() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     for (freq, oct, pers) in [(0.0, 1, 0.0), (256.0, 8, 1.0), (1e-3, 8, 0.0)] {
         let (v, _) = noise(
             &gpu,
@@ -268,7 +268,7 @@ fn scene_depth(w: u32, h: u32) -> Raster {
 
 #[test]
 fn heterogeneity_gpu_equals_cpu() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     let (w, h) = (24, 14);
     let depth = scene_depth(w, h);
     let ins = common::random_raster(w, h, 4, 0.0, 2.0, 9);
@@ -307,7 +307,7 @@ fn heterogeneity_gpu_equals_cpu() {
 
 #[test]
 fn homogeneous_settings_pass_through_and_constant_noise_gives_its_value() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     let (w, h) = (10, 6);
     let depth = scene_depth(w, h);
     let ins = common::random_raster(w, h, 4, 0.0, 2.0, 4);
@@ -345,7 +345,7 @@ fn homogeneous_settings_pass_through_and_constant_noise_gives_its_value() {
 
 #[test]
 fn heterogeneity_extremes_stay_finite() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("NoiseVolume");
     let (w, h) = (8, 5);
     let mut depth = scene_depth(w, h);
     depth.data[0] = 1e30;
@@ -415,7 +415,7 @@ const SPLATS: &str = "(splats: [
 
 #[test]
 fn blend_volume_gpu_equals_cpu_and_follows_its_splats() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("BlendVolume");
     let got = blend(
         &gpu,
         SPLATS,
@@ -448,7 +448,7 @@ fn blend_volume_gpu_equals_cpu_and_follows_its_splats() {
 
 #[test]
 fn blend_volume_extremes_and_roles() {
-    let gpu = require_gpu!();
+    let gpu = require_gpu_for!("BlendVolume");
     // A splat larger than the volume covers it all; values beyond the role's range are clamped.
     let huge =
         "(splats: [(centre: (0.0, 2.0, 0.0), radii: (1e6, 1e6, 1e6), value: 50.0, hardness: 1.0)])";

@@ -28,13 +28,15 @@ fn substitutes(r: &AdapterReport) -> Vec<String> {
     if caps.stored(wgpu::TextureFormat::Rg32Float) != wgpu::TextureFormat::Rg32Float {
         out.push("Rg32Float textures stored as Rgba32Float (no rg32float storage)".to_string());
     }
-    if r.qualifies() && caps.render_format(wgpu::TextureFormat::R32Float).is_some() {
-        let f = caps.render_format(wgpu::TextureFormat::R32Float);
-        if f != Some(wgpu::TextureFormat::R32Float) {
-            out.push(format!(
-                "rasterisation into {f:?} bit patterns (no renderable 32-bit float format)",
-                f = f.unwrap_or(wgpu::TextureFormat::R32Uint)
-            ));
+    for f in [
+        wgpu::TextureFormat::R32Float,
+        wgpu::TextureFormat::Rgba32Float,
+    ] {
+        match caps.render_format(f) {
+            Some(r) if r != f => out.push(format!(
+                "{f:?} rasterised as {r:?} bit patterns (no renderable 32-bit float format)"
+            )),
+            _ => {}
         }
     }
     out

@@ -18,6 +18,8 @@ use std::fmt;
 
 use wgpu::{TextureFormat as F, TextureUsages as U};
 
+pub use super::shader_needs::{EntryNeeds, ShaderNeeds};
+
 /// One texture format Tyndall uses, the usages it needs of it and why.
 #[derive(Debug, Clone, Copy)]
 pub struct FormatNeed {
@@ -116,10 +118,10 @@ pub struct Capabilities {
     /// Its features.
     pub features: wgpu::Features,
     formats: Vec<(wgpu::TextureFormat, wgpu::TextureFormatFeatures)>,
-    /// Take GL's substitutes on any adapter (`TYNDALL_GPU_EMULATE=gl`, or
-    /// [`Capabilities::emulating_gl`]): Rg32Float stored as Rgba32Float, rasterisation into
-    /// integer bit patterns — so their results can be compared with the usual path on one
-    /// adapter.
+    /// Take GL's substitutes on any adapter ([`Capabilities::emulating_gl`], which
+    /// `GpuOptions::emulate_gl` — `TYNDALL_GPU_EMULATE=gl` — asks for): Rg32Float stored as
+    /// Rgba32Float, rasterisation into integer bit patterns — so their results can be compared
+    /// with the usual path on one adapter. Off as read from an adapter.
     pub emulate_gl: bool,
     /// Whether a compute pass can write every slice of a 3D storage texture. Not on wgpu's GL
     /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
@@ -138,7 +140,7 @@ impl Capabilities {
                 .iter()
                 .map(|f| (*f, adapter.get_texture_format_features(*f)))
                 .collect(),
-            emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
+            emulate_gl: false,
             layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
         }
     }
@@ -228,8 +230,12 @@ impl Capabilities {
                 ));
             }
         }
-        if self.render_format(F::R32Float).is_none() {
-            out.push("a renderable 32-bit float format (for shadow maps and G-buffers)".into());
+        for f in [F::R32Float, F::Rgba32Float] {
+            if self.render_format(f).is_none() {
+                out.push(format!(
+                    "a render target for {f:?} values (for shadow maps and G-buffers)"
+                ));
+            }
         }
         for l in NEEDED_LIMITS {
             let have = (l.get)(&self.limits);
@@ -321,111 +327,6 @@ fn usage_names(u: wgpu::TextureUsages) -> String {
         .map(|(_, n)| *n)
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// What one entry point of a shader binds and needs.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct EntryNeeds {
-    /// The entry point's name.
-    pub entry: String,
-    /// Storage textures it uses.
-    pub storage_textures: u32,
-    /// Of those, 3D ones.
-    pub storage_3d: u32,
-    /// Sampled (`textureLoad`) textures it uses.
-    pub sampled_textures: u32,
-    /// Storage buffers it uses.
-    pub storage_buffers: u32,
-    /// Uniform buffers it uses.
-    pub uniform_buffers: u32,
-    /// `@workgroup_size` (1, 1, 1 for vertex and fragment stages).
-    pub workgroup: [u32; 3],
-    /// Formats of the storage textures it uses.
-    pub storage_formats: Vec<wgpu::TextureFormat>,
-}
-
-/// What a shader's entry points need, read from the WGSL by naga.
-#[derive(Debug, Clone, Default)]
-pub struct ShaderNeeds {
-    /// One row per entry point.
-    pub entries: Vec<EntryNeeds>,
-}
-
-impl ShaderNeeds {
-    /// Parse and validate `source` and count, per entry point, the resources it uses.
-    pub fn of(source: &str) -> Result<ShaderNeeds, String> {
-        let module = naga::front::wgsl::parse_str(source).map_err(|e| e.message().to_string())?;
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .map_err(|e| e.as_inner().to_string())?;
-        let mut entries = Vec::new();
-        for (i, ep) in module.entry_points.iter().enumerate() {
-            let uses = info.get_entry_point(i);
-            let mut e = EntryNeeds {
-                entry: ep.name.clone(),
-                storage_textures: 0,
-                storage_3d: 0,
-                sampled_textures: 0,
-                storage_buffers: 0,
-                uniform_buffers: 0,
-                workgroup: if ep.stage == naga::ShaderStage::Compute {
-                    ep.workgroup_size
-                } else {
-                    [1, 1, 1]
-                },
-                storage_formats: Vec::new(),
-            };
-            for (h, gv) in module.global_variables.iter() {
-                if uses[h].is_empty() || gv.binding.is_none() {
-                    continue;
-                }
-                match gv.space {
-                    naga::AddressSpace::Uniform => e.uniform_buffers += 1,
-                    naga::AddressSpace::Storage { .. } => e.storage_buffers += 1,
-                    naga::AddressSpace::Handle => {
-                        if let naga::TypeInner::Image { class, dim, .. } =
-                            &module.types[gv.ty].inner
-                        {
-                            match class {
-                                naga::ImageClass::Storage { format, .. } => {
-                                    e.storage_textures += 1;
-                                    if *dim == naga::ImageDimension::D3 {
-                                        e.storage_3d += 1;
-                                    }
-                                    if let Some(f) = storage_format(*format) {
-                                        if !e.storage_formats.contains(&f) {
-                                            e.storage_formats.push(f);
-                                        }
-                                    }
-                                }
-                                _ => e.sampled_textures += 1,
-                            }
-                        }
-                    }
-                    _ => {}
-                }
-            }
-            entries.push(e);
-        }
-        Ok(ShaderNeeds { entries })
-    }
-}
-
-fn storage_format(f: naga::StorageFormat) -> Option<wgpu::TextureFormat> {
-    use naga::StorageFormat as S;
-    Some(match f {
-        S::R32Float => F::R32Float,
-        S::Rg32Float => F::Rg32Float,
-        S::Rgba32Float => F::Rgba32Float,
-        S::R32Uint => F::R32Uint,
-        S::R32Sint => F::R32Sint,
-        S::Rgba8Unorm => F::Rgba8Unorm,
-        S::Rgba16Float => F::Rgba16Float,
-        _ => return None,
-    })
 }
 
 /// One adapter as [`survey`] found it.

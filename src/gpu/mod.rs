@@ -3,8 +3,10 @@
 
 pub mod adapter;
 mod layout;
+mod options;
 mod pool;
 mod raster;
+mod shader_needs;
 mod timer;
 mod volume;
 
@@ -14,6 +16,9 @@ use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
 pub use layout::{check_uniform_layout, UniformLayout};
+pub use options::{
+    adapter_choice, env_backends, instance, instance_on, set_adapter_choice, GpuOptions,
+};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
 pub use timer::PassTimer;
@@ -951,82 +956,4 @@ fn narrow(data: Vec<f32>, from: u32, to: u32) -> Vec<f32> {
     data.chunks(from as usize)
         .flat_map(|t| t[..to as usize].iter().copied())
         .collect()
-}
-
-/// How [`Gpu::with_options`] makes a context.
-#[derive(Debug, Clone)]
-pub struct GpuOptions {
-    /// Backend validation layers (default: on in debug builds or with
-    /// `TYNDALL_GPU_VALIDATION=1`).
-    pub validation: bool,
-    /// Backends to look at (default: `WGPU_BACKEND`, else all).
-    pub backends: wgpu::Backends,
-    /// The adapter by hand (default: [`adapter_choice`]); `None`: the best that qualifies.
-    pub adapter: Option<String>,
-    /// Take GL's substitutes on any adapter (default: `TYNDALL_GPU_EMULATE=gl`).
-    pub emulate_gl: bool,
-}
-
-impl GpuOptions {
-    /// The defaults, from the environment.
-    pub fn from_env() -> Self {
-        Self {
-            validation: cfg!(debug_assertions)
-                || std::env::var("TYNDALL_GPU_VALIDATION").is_ok_and(|v| v == "1"),
-            backends: env_backends(),
-            adapter: adapter_choice(),
-            emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
-        }
-    }
-}
-
-/// The backends `WGPU_BACKEND` names (`vulkan`, `gl`, `metal`, `dx12`, comma-separated), else
-/// all.
-pub fn env_backends() -> wgpu::Backends {
-    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all())
-}
-
-/// A wgpu instance on every backend `WGPU_BACKEND` allows, with validation layers when asked
-/// (then wgpu's error log records become failures: see [`Gpu::take_errors`]).
-pub fn instance(validation: bool) -> wgpu::Instance {
-    instance_on(validation, env_backends())
-}
-
-/// [`instance`] on the given backends.
-pub fn instance_on(validation: bool, backends: wgpu::Backends) -> wgpu::Instance {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    // Without validation: no flags at all (wgpu's default in debug builds would turn the
-    // validation layer on anyway).
-    desc.flags = wgpu::InstanceFlags::empty();
-    if validation {
-        // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
-        // layer (1.3.239) does not know and reports as invalid SPIR-V.
-        desc.flags = wgpu::InstanceFlags::VALIDATION;
-        // Another logger may already be installed (an application's); then it sees them.
-        if log::set_logger(&LOGGER).is_ok() {
-            log::set_max_level(log::LevelFilter::Warn);
-        }
-    }
-    let mut desc = desc.with_env();
-    desc.backends = backends;
-    wgpu::Instance::new(desc)
-}
-
-static ADAPTER_CHOICE: Mutex<Option<String>> = Mutex::new(None);
-
-/// Choose the adapter by hand for this process (`--adapter`): an index of `tyndall info` or a
-/// part of its name, optionally `/backend`; it wins over `TYNDALL_ADAPTER`. Call it before the
-/// first [`Gpu::shared`].
-pub fn set_adapter_choice(pick: Option<String>) {
-    *ADAPTER_CHOICE.lock().unwrap_or_else(|e| e.into_inner()) = pick;
-}
-
-/// The adapter chosen by hand: [`set_adapter_choice`], else `TYNDALL_ADAPTER`, else none.
-pub fn adapter_choice() -> Option<String> {
-    ADAPTER_CHOICE
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .clone()
-        .or_else(|| std::env::var("TYNDALL_ADAPTER").ok())
-        .filter(|v| !v.trim().is_empty())
 }

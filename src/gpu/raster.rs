@@ -188,21 +188,13 @@ impl Gpu {
             formats
                 .iter()
                 .map(|f| {
-                    let t = self.device.create_texture(&wgpu::TextureDescriptor {
-                        label: Some("raster bits"),
-                        size: wgpu::Extent3d {
-                            width: w,
-                            height: h,
-                            depth_or_array_layers: 1,
-                        },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: *f,
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    let t = self.attachment(
+                        "raster bits",
+                        (w, h),
+                        *f,
+                        wgpu::TextureUsages::RENDER_ATTACHMENT
                             | wgpu::TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    });
+                    );
                     let v = t.create_view(&Default::default());
                     (t, v)
                 })
@@ -211,20 +203,12 @@ impl Gpu {
             Vec::new()
         };
         self.scoped(|| {
-            let depth = self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("depth"),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Depth32Float,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            });
+            let depth = self.attachment(
+                "depth",
+                (w, h),
+                wgpu::TextureFormat::Depth32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            );
             let depth_view = depth.create_view(&Default::default());
             let mut padded = uniform.to_vec();
             padded.resize(uniform.len().div_ceil(16).max(1) * 16, 0);
@@ -306,6 +290,30 @@ impl Gpu {
             self.queue.submit([enc.finish()]);
             timer.map_or(Ok(()), |t| self.read_timer(t))
         })?
+    }
+
+    /// A single-level 2D texture of a raster pass (depth buffer, bit-pattern target).
+    fn attachment(
+        &self,
+        label: &str,
+        (width, height): (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
     }
 
     /// Record the compute pass that turns the bit patterns in `bits` into the floats of `dst`.

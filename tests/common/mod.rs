@@ -22,6 +22,39 @@ pub fn gpu() -> Option<Arc<Gpu>> {
     }
 }
 
+/// Why the shared adapter cannot run node `kind` (`None`: it can, or `kind` runs no shader):
+/// the one-line reason the evaluator gives (e.g. wgpu's GL backend writes no 3D storage
+/// textures, so the volume nodes are refused there).
+pub fn unsupported(gpu: &Gpu, kind: &str) -> Option<String> {
+    let registry = tyndall::nodes::registry();
+    let shader = registry.get(kind)?.decl().shader?;
+    gpu.supports(shader).err().map(|e| format!("{kind}: {e}"))
+}
+
+/// [`gpu`], or `None` (printing why) when the adapter cannot run one of `kinds`: a capability
+/// the adapter lacks is a skip even under `TYNDALL_REQUIRE_GPU=1` (the refusal itself is
+/// tested in `tests/gpu.rs` and `tests/backends.rs`).
+pub fn gpu_for(kinds: &[&str]) -> Option<Arc<Gpu>> {
+    let gpu = gpu()?;
+    if let Some(why) = kinds.iter().find_map(|k| unsupported(&gpu, k)) {
+        eprintln!("skipping on this adapter: {why}");
+        return None;
+    }
+    Some(gpu)
+}
+
+/// Evaluate to a GPU context that can run these node kinds, or return from the test (see
+/// [`gpu_for`]).
+#[macro_export]
+macro_rules! require_gpu_for {
+    ($($kind:expr),+ $(,)?) => {
+        match common::gpu_for(&[$($kind),+]) {
+            Some(g) => g,
+            None => return,
+        }
+    };
+}
+
 /// Evaluate to a GPU context or return from the test (see [`gpu`]).
 #[macro_export]
 macro_rules! require_gpu {
@@ -31,6 +64,24 @@ macro_rules! require_gpu {
             None => return,
         }
     };
+}
+
+/// Every graph file under `graphs/` (the preset library), sorted.
+pub fn presets() -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    let mut stack = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read_dir") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files
 }
 
 /// A deterministic pseudo-random sequence (xorshift) for test inputs.
