@@ -348,14 +348,9 @@ impl AdapterReport {
         self.lacks.is_empty()
     }
 
-    /// `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)`.
+    /// See [`describe`].
     pub fn describe(&self) -> String {
-        format!(
-            "{} ({}, {})",
-            self.info.name,
-            backend_name(self.info.backend),
-            device_type_name(self.info.device_type)
-        )
+        describe(&self.info)
     }
 
     /// The sort key of the preference order (smaller is better).
@@ -373,6 +368,16 @@ impl AdapterReport {
         };
         (ty, backend, self.index)
     }
+}
+
+/// An adapter in one line: `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, CPU)`.
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!(
+        "{} ({}, {})",
+        info.name,
+        backend_name(info.backend),
+        device_type_name(info.device_type)
+    )
 }
 
 /// A backend's name as a user reads it.

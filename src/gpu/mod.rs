@@ -154,7 +154,8 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// Adapter description (name, backend, device type).
     pub info: wgpu::AdapterInfo,
-    /// Device limits (all the adapter offers).
+    /// Device limits (all the adapter offers; the same as `caps.limits`, which
+    /// [`Gpu::supports`] checks shaders against).
     pub limits: wgpu::Limits,
     /// What the adapter offers, and the substitutes chosen where it offers less.
     pub caps: adapter::Capabilities,
@@ -311,14 +312,9 @@ impl Gpu {
         made
     }
 
-    /// One line describing the adapter.
+    /// One line describing the adapter ([`adapter::describe`]).
     pub fn describe(&self) -> String {
-        format!(
-            "{} ({}, {})",
-            self.info.name,
-            adapter::backend_name(self.info.backend),
-            adapter::device_type_name(self.info.device_type)
-        )
+        adapter::describe(&self.info)
     }
 
     /// `Err(Unsupported)` when this adapter cannot give `shader` what its entry points need
