@@ -4,7 +4,7 @@ use std::sync::Mutex;
 
 use super::LOGGER;
 
-/// How [`Gpu::with_options`] makes a context.
+/// How [`Gpu::with_options`](super::Gpu::with_options) makes a context.
 #[derive(Debug, Clone)]
 pub struct GpuOptions {
     /// Backend validation layers (default: on in debug builds or with
@@ -38,7 +38,7 @@ pub fn env_backends() -> wgpu::Backends {
 }
 
 /// A wgpu instance on every backend `WGPU_BACKEND` allows, with validation layers when asked
-/// (then wgpu's error log records become failures: see [`Gpu::take_errors`]).
+/// (then wgpu's error log records become failures: see [`Gpu::take_errors`](super::Gpu::take_errors)).
 pub fn instance(validation: bool) -> wgpu::Instance {
     instance_on(validation, env_backends())
 }
@@ -67,7 +67,7 @@ static ADAPTER_CHOICE: Mutex<Option<String>> = Mutex::new(None);
 
 /// Choose the adapter by hand for this process (`--adapter`): an index of `tyndall info` or a
 /// part of its name, optionally `/backend`; it wins over `TYNDALL_ADAPTER`. Call it before the
-/// first [`Gpu::shared`].
+/// first [`Gpu::shared`](super::Gpu::shared).
 pub fn set_adapter_choice(pick: Option<String>) {
     *ADAPTER_CHOICE.lock().unwrap_or_else(|e| e.into_inner()) = pick;
 }

@@ -377,7 +377,7 @@ impl Gpu {
     }
 }
 
-/// `source` with a fragment entry point [`BITS_ENTRY`] beside `fs`: it calls `fs` (made a plain
+/// `source` with a fragment entry point `fs_bits` beside `fs`: it calls `fs` (made a plain
 /// function) and returns each of its `vec4<f32>` outputs bit-cast to `vec4<u32>` at the same
 /// location, for integer render targets.
 pub fn bits_module(source: &str) -> Result<naga::Module, String> {
