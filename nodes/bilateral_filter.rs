@@ -49,7 +49,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("sigma_range", 0.5, 0.0, 1e9, "guide units", "Range standard deviation σr (metres for a depth guide)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[BilateralParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(

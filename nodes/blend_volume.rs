@@ -71,7 +71,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner when no scene is connected."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[BlendParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("blend_volume", include_str!("../shaders/blend_volume.wgsl"));

@@ -42,7 +42,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("truncate", 3.0, 1.0, 6.0, "σ", "Kernel radius r = ⌈truncate · σ⌉ texels: cost 2(2r + 1) reads per texel."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[BlurParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("blur", include_str!("../shaders/blur.wgsl"));

@@ -59,7 +59,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[CompositeParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("composite", include_str!("../shaders/composite.wgsl"));

@@ -41,7 +41,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("height", 0, 0, 16384, "texels", "Height; 0 uses the evaluation size."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[ConstantParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("constant", include_str!("../shaders/constant.wgsl"));

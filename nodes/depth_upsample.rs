@@ -49,7 +49,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("sigma_depth", 0.05, 0.0, 10.0, "relative", "Depth tolerance as a fraction of the depth."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[UpsampleParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(

@@ -40,7 +40,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("factor", 4, 1, 16, "×", "Reduction per axis."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[DownsampleParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("downsample", include_str!("../shaders/downsample.wgsl"));

@@ -41,7 +41,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("height", 0, 0, 16384, "px", "Height; 0 uses the evaluation size."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[GBufferParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("g_buffer", include_str!("../shaders/g_buffer.wgsl"));

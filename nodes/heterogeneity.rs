@@ -61,7 +61,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("steps", 64, 1, 4096, "samples", "Samples per view ray (quality knob)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[HeteroParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(

@@ -35,7 +35,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "The combined map.")],
     params: &[],
 })
-.shader(SHADER);
+.shaders(&[SHADER]);
 
 const SHADER: Shader = Shader::new(
     "hole_composite",

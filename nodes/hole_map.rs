@@ -40,7 +40,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::flag("calibrated", true, "Make the fraction of hole texels equal h (threshold at the h-quantile)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[HoleParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("hole_map", include_str!("../shaders/hole_map.wgsl"));

@@ -59,7 +59,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     ],
 })
 .files(&[("path", crate::eval::FileRole::Read)])
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[ImageInputParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("image_input", include_str!("../shaders/image_input.wgsl"));

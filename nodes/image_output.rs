@@ -83,7 +83,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::flag("srgb", true, "Encode PNG colour to sRGB; turn off for data maps."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .key_exempt(&["path", "precision", "srgb"])
 .files(&[("path", crate::eval::FileRole::Write)])
 .sink();
@@ -209,7 +209,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::text("aov2_name", "aov2", "Layer name of the aov2 slot."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
 .files(&[("path", crate::eval::FileRole::Write)])
 .sink();

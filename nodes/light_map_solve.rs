@@ -104,7 +104,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias (as on SingleScattering)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[ViewParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(
@@ -300,14 +300,7 @@ impl ViewProblem {
     }
 }
 
-fn decay_integral(len: f32, m: f32) -> f32 {
-    let x = len * m;
-    if x < 1e-3 {
-        len * (1.0 - x * 0.5 + x * x / 6.0)
-    } else {
-        (1.0 - (-x).exp()) / m
-    }
-}
+use crate::nodes::algorithms::shader_lib::decay_integral;
 
 /// The samples of constraint pixel k of a view with nonzero weight: `(texel indices, bilinear
 /// weights × ŵ_i)` for each lit sample (CPU reference of the shader's marching).

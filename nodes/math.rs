@@ -69,7 +69,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("hi", 1.0, -1e30, 1e30, "", "Upper bound for clamp (wins when lo > hi)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[MathParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("math", include_str!("../shaders/math.wgsl"));

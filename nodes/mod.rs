@@ -1,13 +1,15 @@
-//! Node kinds, one file each (ports and parameters, CPU reference, GPU dispatch), and the
-//! registry that hands them to the document and the evaluator.
+//! Node kinds, one stem each (`<stem>.rs`, or a folder `<stem>/mod.rs` with one file per part:
+//! ports and parameters, CPU reference, GPU dispatch), the algorithms several of them share
+//! ([`algorithms`]), and the registry that hands them to the document and the evaluator.
 //!
-//! Adding a node: write `nodes/<stem>.rs` and `shaders/<stem>.wgsl`, then add one line to
-//! [`registry`].
+//! Adding a node: write `nodes/<stem>.rs` and `shaders/<stem>.wgsl` (or the folders), then add
+//! one line to [`registry`]; CONTRIBUTING.md lists every other place.
 
 use std::sync::Arc;
 
 use crate::eval::Registry;
 
+pub mod algorithms;
 pub mod bilateral_filter;
 pub mod blend_volume;
 pub mod blur;

@@ -84,7 +84,7 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
         outputs: OUT,
         params: PARAMS,
     };
-    NodeDecl::new(schema).shader(SHADER).uniforms(UNIFORMS)
+    NodeDecl::new(schema).shaders(&[SHADER]).uniforms(UNIFORMS)
 }
 const UNIFORMS: &[UniformLayout] = &[MorphParams::LAYOUT];
 

@@ -50,7 +50,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the volume when no scene is connected."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("noise_volume", include_str!("../shaders/noise_volume.wgsl"));
@@ -78,13 +78,12 @@ crate::uniforms! {
 }
 
 fn hash(i: [i32; 3], seed: u32) -> u32 {
-    let mut v = (i[0] as u32).wrapping_mul(73_856_093)
-        ^ (i[1] as u32).wrapping_mul(19_349_663)
-        ^ (i[2] as u32).wrapping_mul(83_492_791)
-        ^ seed.wrapping_mul(2_654_435_761);
-    v = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let w = ((v >> ((v >> 28) + 4)) ^ v).wrapping_mul(277_803_737);
-    (w >> 22) ^ w
+    crate::nodes::algorithms::shader_lib::pcg(
+        (i[0] as u32).wrapping_mul(73_856_093)
+            ^ (i[1] as u32).wrapping_mul(19_349_663)
+            ^ (i[2] as u32).wrapping_mul(83_492_791)
+            ^ seed.wrapping_mul(2_654_435_761),
+    )
 }
 
 fn grad(h: u32, p: [f32; 3]) -> f32 {

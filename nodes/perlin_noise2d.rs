@@ -63,7 +63,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("height", 0, 0, 16384, "texels", "Height when `like` is unconnected; 0 = evaluation size."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(
@@ -94,12 +94,11 @@ crate::uniforms! {
 }
 
 fn hash(x: i32, y: i32, s: u32) -> u32 {
-    let mut v = (x as u32).wrapping_mul(1_597_334_677)
-        ^ (y as u32).wrapping_mul(3_812_015_801)
-        ^ s.wrapping_mul(2_891_336_453);
-    v = v.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let w = ((v >> ((v >> 28) + 4)) ^ v).wrapping_mul(277_803_737);
-    (w >> 22) ^ w
+    crate::nodes::algorithms::shader_lib::pcg(
+        (x as u32).wrapping_mul(1_597_334_677)
+            ^ (y as u32).wrapping_mul(3_812_015_801)
+            ^ s.wrapping_mul(2_891_336_453),
+    )
 }
 
 fn gradient(h: u32) -> (f32, f32) {

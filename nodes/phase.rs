@@ -103,7 +103,7 @@ static HG: NodeDecl = NodeDecl::new(NodeSchema {
         SAMPLES,
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
 
 #[rustfmt::skip]
@@ -115,7 +115,7 @@ static RAYLEIGH: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: OUT,
     params: &[SAMPLES],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
 
 #[rustfmt::skip]
@@ -135,7 +135,7 @@ static MIE: NodeDecl = NodeDecl::new(NodeSchema {
         SAMPLES,
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
 
 #[rustfmt::skip]
@@ -155,7 +155,7 @@ static MULTIPLE: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("transmittance", 0.5, 1e-12, 1.0, "", "Transparency T towards the light (select = transmittance)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("phase", include_str!("../shaders/phase.wgsl"));

@@ -57,7 +57,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("exposure", 0.1, 0.0, 1e3, "", "Scales the sum."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[RadialParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("radial_blur", include_str!("../shaders/radial_blur.wgsl"));
@@ -82,24 +82,7 @@ crate::uniforms! {
     }
 }
 
-/// Bilinear sample of `r` at pixel coordinates p (texel centres at i + 0.5, clamp to edge).
-fn bilinear(r: &Raster, p: [f32; 2]) -> Vec<f32> {
-    let (w, h, c) = (r.width as i64, r.height as i64, r.channels as usize);
-    let q = [p[0] - 0.5, p[1] - 0.5];
-    let f = [q[0] - q[0].floor(), q[1] - q[1].floor()];
-    let (x0, y0) = (q[0].floor() as i64, q[1].floor() as i64);
-    let at = |x: i64, y: i64, k: usize| {
-        let (x, y) = (x.clamp(0, w - 1), y.clamp(0, h - 1));
-        r.data[(y * w + x) as usize * c + k]
-    };
-    (0..c)
-        .map(|k| {
-            let top = at(x0, y0, k) + (at(x0 + 1, y0, k) - at(x0, y0, k)) * f[0];
-            let bottom = at(x0, y0 + 1, k) + (at(x0 + 1, y0 + 1, k) - at(x0, y0 + 1, k)) * f[0];
-            top + (bottom - top) * f[1]
-        })
-        .collect()
-}
+use crate::nodes::algorithms::shader_lib::bilinear_texels as bilinear;
 
 /// CPU reference of the node.
 pub fn reference(src: &Raster, p: &RadialParams) -> Raster {

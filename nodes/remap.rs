@@ -44,7 +44,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::flag("clamp", false, "Clamp the result to the target range."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[RemapParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("remap", include_str!("../shaders/remap.wgsl"));

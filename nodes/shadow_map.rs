@@ -39,7 +39,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[ShadowMapParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("shadow_map", include_str!("../shaders/shadow_map.wgsl"));

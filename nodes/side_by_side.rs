@@ -29,7 +29,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("image", &[PortType::Image], "Both images, left then right.")],
     params: &[],
 })
-.shader(SHADER);
+.shaders(&[SHADER]);
 
 const SHADER: Shader = Shader::new("side_by_side", include_str!("../shaders/side_by_side.wgsl"));
 

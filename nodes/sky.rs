@@ -89,7 +89,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::flag("sun_disk", true, "Draw the 0.5° sun disk on the background."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[SkyParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("sky", include_str!("../shaders/sky.wgsl"));

@@ -107,7 +107,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[SoftParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(

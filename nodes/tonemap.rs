@@ -44,7 +44,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::choice("operator", Operator::NAMES, "filmic", "Tone curve: filmic (ACES fit), reinhard, linear (clamp)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[TonemapParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new("tonemap", include_str!("../shaders/tonemap.wgsl"));

@@ -126,7 +126,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("diffusion_cycles", 8, 1, 64, "cycles", "Multigrid V-cycles per diffusion layer (quality knob)."),
     ],
 })
-.shader(SHADER)
+.shaders(&[SHADER])
 .uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(

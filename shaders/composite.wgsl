@@ -1,5 +1,7 @@
 // Composite: Lambert + ambient surfaces shadowed with the original shadow map, attenuated by
 // the medium, plus in-scatter (nodes/composite.rs).
+#import lib/camera
+#import lib/shadow
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
@@ -30,8 +32,7 @@ struct Params {
 @group(0) @binding(9) var aerial_inscatter: texture_2d<f32>;
 
 fn surface_shadow(x: vec3<f32>) -> f32 {
-    let c = P.light_view_proj * vec4<f32>(x, 1.0);
-    let uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    let uvz = light_uvz(P.light_view_proj, x);
     let size = vec2<i32>(textureDimensions(shadow));
     let centre = vec2<i32>(floor(uvz.xy * vec2<f32>(size)));
     let r = i32(P.pcf);
@@ -60,9 +61,7 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
     let a = textureLoad(albedo, id.xy, 0);
     var colour: vec3<f32>;
     if a.a > 0.5 {
-        let ndc = vec4<f32>((f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0, 1.0, 1.0);
-        let far = P.inv_view_proj * ndc;
-        let dir = normalize(far.xyz / far.w - P.eye);
+        let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
         let x = P.eye + dir * textureLoad(depth, id.xy, 0).r;
         let n = textureLoad(normal, id.xy, 0).xyz;
         let direct = P.radiance * max(dot(n, P.to_sun), 0.0) * surface_shadow(x);

@@ -2,6 +2,7 @@
 // marched at `steps` interval midpoints along each view ray to its surface; out = L_scat · h.
 // Volumes are read trilinearly between texel centres (clamped to the edge of their box); the
 // noise N at a fractional level f is the mix of levels ⌊f⌋ and ⌊f⌋ + 1.
+#import lib/camera
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
@@ -71,13 +72,7 @@ fn heterogeneity(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    let ndc = vec2<f32>(
-        (f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
-        1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0,
-    );
-    let far = P.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
-    var dir = far.xyz / far.w - P.eye;
-    dir = select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
+    let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
     var sum = 0.0;
     for (var i = 0u; i < P.steps; i++) {

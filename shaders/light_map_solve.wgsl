@@ -9,6 +9,9 @@
 // (per channel, chosen by the caller so that no sum can reach 2^62: Σ|r| · scale ≤ 2^61, since
 // Σ_i ŵ_i ≤ 1 and bilinear weights sum to 1) and keeps f32's relative precision (6e-8), where
 // one i32 word would round each contribution to ~1e-4 of itself on large problems.
+#import lib/camera
+#import lib/medium
+#import lib/shadow
 
 struct View {
     inv_view_proj: mat4x4<f32>,
@@ -32,38 +35,17 @@ struct View {
 @group(0) @binding(7) var<storage, read_write> acc: array<atomic<u32>>;
 
 fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
-    let ndc = vec2<f32>(
-        (f32(p.x) + 0.5) / f32(size.x) * 2.0 - 1.0,
-        1.0 - (f32(p.y) + 0.5) / f32(size.y) * 2.0,
-    );
-    let far = P.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
-    let dir = far.xyz / far.w - P.eye;
-    return select(vec3<f32>(0.0, 0.0, -1.0), normalize(dir), dot(dir, dir) > 0.0);
-}
-
-// (1 − e^{−len·m})/m, accurate for small len·m.
-fn decay_integral(len: f32, m: f32) -> f32 {
-    let x = len * m;
-    if x < 1e-3 {
-        return len * (1.0 - x * 0.5 + x * x / 6.0);
-    }
-    return (1.0 - exp(-x)) / m;
+    return pixel_ray(P.inv_view_proj, P.eye, p, size);
 }
 
 // Light-space (u, v, depth) of a world point, and whether the sun reaches it (nearest texel,
 // depth bias; outside the map or the light box: lit).
 fn light_uv(x: vec3<f32>) -> vec3<f32> {
-    let c = P.light_view_proj * vec4<f32>(x, 1.0);
-    return vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    return light_uvz(P.light_view_proj, x);
 }
 
 fn visible(l: vec3<f32>) -> bool {
-    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 || l.z < 0.0 || l.z > 1.0 {
-        return true;
-    }
-    let size = vec2<f32>(textureDimensions(shadow));
-    let t = min(vec2<u32>(l.xy * size), vec2<u32>(size) - 1u);
-    return l.z <= textureLoad(shadow, t, 0).r + P.bias;
+    return sun_reaches(shadow, l, P.bias);
 }
 
 // The four texels around light-map coordinate uv and their bilinear weights (clamp to edge).

@@ -1,5 +1,6 @@
 // NoiseVolume (nodes/noise_volume.rs): 3D Perlin noise (Perlin's improved noise with a hashed
 // lattice) summed over octaves and mapped to [0, 1], then the mip chain by 2×2×2 averages.
+#import lib/hash
 
 struct Params {
     size: vec3<u32>,
@@ -17,11 +18,8 @@ struct Params {
 @group(0) @binding(2) var src_level: texture_3d<f32>;
 
 fn hash(i: vec3<i32>, seed: u32) -> u32 {
-    var v = bitcast<u32>(i.x) * 73856093u ^ bitcast<u32>(i.y) * 19349663u
-        ^ bitcast<u32>(i.z) * 83492791u ^ seed * 2654435761u;
-    v = v * 747796405u + 2891336453u;
-    let w = ((v >> ((v >> 28u) + 4u)) ^ v) * 277803737u;
-    return (w >> 22u) ^ w;
+    return pcg(bitcast<u32>(i.x) * 73856093u ^ bitcast<u32>(i.y) * 19349663u
+        ^ bitcast<u32>(i.z) * 83492791u ^ seed * 2654435761u);
 }
 
 fn grad(h: u32, p: vec3<f32>) -> f32 {

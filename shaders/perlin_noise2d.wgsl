@@ -1,4 +1,5 @@
 // PerlinNoise2D: gradient noise for hole maps (nodes/perlin_noise2d.rs; SPEC §4 eq. 4–5).
+#import lib/hash
 
 struct Params {
     scale: f32,
@@ -15,10 +16,7 @@ struct Params {
 @group(0) @binding(1) var out_noise: texture_storage_2d<r32float, write>;
 
 fn hash(x: i32, y: i32, s: u32) -> u32 {
-    var v = bitcast<u32>(x) * 1597334677u ^ bitcast<u32>(y) * 3812015801u ^ s * 2891336453u;
-    v = v * 747796405u + 2891336453u;
-    let w = ((v >> ((v >> 28u) + 4u)) ^ v) * 277803737u;
-    return (w >> 22u) ^ w;
+    return pcg(bitcast<u32>(x) * 1597334677u ^ bitcast<u32>(y) * 3812015801u ^ s * 2891336453u);
 }
 
 // Eight unit-ish gradients, chosen exactly so CPU and GPU agree.

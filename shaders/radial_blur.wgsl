@@ -2,6 +2,7 @@
 // p = the pixel centre, Δ = (p − light)·density/samples; for i = 0…samples−1: p −= Δ,
 // sum += bilinear(p)·decay^i·weight; out = sum·exposure. Coordinates are pixels, texel centres
 // at i + 0.5; the bilinear lookup clamps to the edge.
+#import lib/sampling
 
 struct Params {
     light: vec2<f32>,
@@ -19,14 +20,7 @@ struct Params {
 @group(0) @binding(4) var out_image: texture_storage_2d<rgba32float, write>;
 
 fn bilinear(p: vec2<f32>) -> vec4<f32> {
-    let size = vec2<i32>(textureDimensions(src));
-    let q = p - 0.5;
-    let f = q - floor(q);
-    let i0 = clamp(vec2<i32>(floor(q)), vec2<i32>(0), size - 1);
-    let i1 = clamp(vec2<i32>(floor(q)) + 1, vec2<i32>(0), size - 1);
-    let top = mix(textureLoad(src, vec2<i32>(i0.x, i0.y), 0), textureLoad(src, vec2<i32>(i1.x, i0.y), 0), f.x);
-    let bottom = mix(textureLoad(src, vec2<i32>(i0.x, i1.y), 0), textureLoad(src, vec2<i32>(i1.x, i1.y), 0), f.x);
-    return mix(top, bottom, f.y);
+    return bilinear_texels(src, p);
 }
 
 fn blur(id: vec2<u32>) -> vec4<f32> {

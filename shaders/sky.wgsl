@@ -1,5 +1,6 @@
 // Sky: analytic single-scattering sky and aerial perspective over a flat earth with an
 // exponential atmosphere (nodes/sky.rs; seed 002 eq. 8–15).
+#import lib/camera
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
@@ -76,9 +77,7 @@ fn sky(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    let ndc = vec4<f32>((f32(id.x) + 0.5) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(id.y) + 0.5) / f32(size.y) * 2.0, 1.0, 1.0);
-    let far = P.inv_view_proj * ndc;
-    let dir = normalize(far.xyz / far.w - P.eye);
+    let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
     let d = textureLoad(depth, id.xy, 0).r;
     let background = d >= P.far * 0.999;
     let h = P.altitude + P.eye.y * P.distance_scale;

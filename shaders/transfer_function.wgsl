@@ -1,6 +1,7 @@
 // TransferFunction (nodes/transfer_function.rs): bake the layer stack into an N×N LUT, solve
 // diffusion layers by multigrid, and look the LUT up per pixel with (V̄, normalised depth).
 // Texel (i, j) of the LUT holds the colour at u = (i + 0.5)/N (V̄), v = (j + 0.5)/N (depth).
+#import lib/sampling
 
 struct Layer {
     kind: u32,      // 0 solid, 1 gradient, 2 sampled from `src` (diffusion solution or image)
@@ -40,14 +41,7 @@ struct Lookup {
 
 // Bilinear sample of `t` at (u, v) ∈ [0, 1]², texel centres at (i + 0.5)/size, clamp to edge.
 fn bilinear(t: texture_2d<f32>, uv: vec2<f32>) -> vec4<f32> {
-    let size = vec2<i32>(textureDimensions(t));
-    let x = uv * vec2<f32>(size) - 0.5;
-    let f = x - floor(x);
-    let i0 = clamp(vec2<i32>(floor(x)), vec2<i32>(0), size - 1);
-    let i1 = clamp(vec2<i32>(floor(x)) + 1, vec2<i32>(0), size - 1);
-    let top = mix(textureLoad(t, vec2<i32>(i0.x, i0.y), 0), textureLoad(t, vec2<i32>(i1.x, i0.y), 0), f.x);
-    let bottom = mix(textureLoad(t, vec2<i32>(i0.x, i1.y), 0), textureLoad(t, vec2<i32>(i1.x, i1.y), 0), f.x);
-    return mix(top, bottom, f.y);
+    return bilinear_texels(t, uv * vec2<f32>(textureDimensions(t)));
 }
 
 // One layer composited over the accumulator `a_tex`; `b_tex` is the layer's sampled source.

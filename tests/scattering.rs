@@ -11,8 +11,8 @@ use tyndall::eval::{download, EvalOptions, Evaluator, Matrices, PortValue, Targe
 use tyndall::graph::{Graph, ParamValue};
 use tyndall::io::Raster;
 use tyndall::nodes::single_scattering::{
-    epipolar_reference, henyey_greenstein, reference_pixel, transmittance_integral, EpiKnobs,
-    Medium, ScatterParams,
+    decay_integral, epipolar_reference, henyey_greenstein, reference_pixel, EpiKnobs, Medium,
+    ScatterParams,
 };
 
 /// What a scattering evaluation produced, read back.
@@ -441,14 +441,10 @@ fn empty_map_is_fully_lit_and_full_map_fully_shadowed_exactly() {
 
 #[test]
 fn scattering_factor_limits() {
-    assert_eq!(
-        transmittance_integral(7.5, 0.0),
-        7.5,
-        "σt = 0: the integral is L·s"
-    );
-    assert!((transmittance_integral(7.5, 1e-9) - 7.5).abs() < 1e-5);
-    assert!((transmittance_integral(2.0, 1e4) - 1e-4).abs() < 1e-9);
-    let mid = transmittance_integral(2.0, 0.5);
+    assert_eq!(decay_integral(7.5, 0.0), 7.5, "σt = 0: the integral is L·s");
+    assert!((decay_integral(7.5, 1e-9) - 7.5).abs() < 1e-5);
+    assert!((decay_integral(2.0, 1e4) - 1e-4).abs() < 1e-9);
+    let mid = decay_integral(2.0, 0.5);
     assert!((mid - (1.0 - (-1.0f32).exp()) / 0.5).abs() < 1e-6);
 }
 

@@ -1,75 +1,180 @@
-//! Every shader validates with naga; every node's shader has its node's stem; every uniform
-//! struct's Rust layout matches its WGSL declaration.
+//! Every shader file validates with naga once its `#import`s are composed; every node's shaders
+//! lie under its stem (`shaders/<stem>.wgsl` or `shaders/<stem>/…`, beside `nodes/<stem>.rs` or
+//! `nodes/<stem>/mod.rs`); no shader file is unused; every uniform struct's Rust layout matches
+//! its WGSL declaration.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use tyndall::gpu::{check_uniform_layout, UniformLayout};
+use tyndall::gpu::{check_uniform_layout, compose, shader_files, Shader, UniformLayout};
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Every `*.wgsl` below `dir`, as (path under `shaders/` without `.wgsl`, file).
+fn wgsl_files(dir: &Path, out: &mut Vec<(String, PathBuf)>) {
+    for entry in std::fs::read_dir(dir).expect("shaders/") {
+        let path = entry.expect("entry").path();
+        if path.is_dir() {
+            wgsl_files(&path, out);
+        } else if path.extension().and_then(|e| e.to_str()) == Some("wgsl") {
+            let name = path
+                .strip_prefix(root().join("shaders"))
+                .expect("under shaders/")
+                .with_extension("")
+                .to_string_lossy()
+                .replace('\\', "/");
+            out.push((name, path));
+        }
+    }
+}
+
+fn all_wgsl() -> Vec<(String, PathBuf)> {
+    let mut files = Vec::new();
+    wgsl_files(&root().join("shaders"), &mut files);
+    files.sort();
+    files
+}
+
+fn validate(name: &str, src: &str) {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("shaders/{name}.wgsl (composed): {}", e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("shaders/{name}.wgsl (composed): {e:?}"));
+}
+
 #[test]
 fn every_shader_file_validates_with_naga() {
-    let mut count = 0;
-    for entry in std::fs::read_dir(root().join("shaders")).expect("shaders/") {
-        let path = entry.expect("entry").path();
-        if path.extension().and_then(|e| e.to_str()) != Some("wgsl") {
-            continue;
-        }
-        let src = std::fs::read_to_string(&path).expect("read");
-        let module = naga::front::wgsl::parse_str(&src)
-            .unwrap_or_else(|e| panic!("{}: {}", path.display(), e.emit_to_string(&src)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-        count += 1;
+    let files = all_wgsl();
+    for (name, path) in &files {
+        let src = std::fs::read_to_string(path).expect("read");
+        let composed = compose(name, &src).unwrap_or_else(|e| panic!("{e}"));
+        validate(name, &composed);
     }
-    assert!(count >= 5, "only {count} shaders found");
+    assert!(files.len() >= 5, "only {} shaders found", files.len());
+    // The build-time table `#import` resolves against holds exactly the files on disk.
+    let embedded: Vec<&str> = shader_files().collect();
+    let on_disk: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(embedded, on_disk, "shader table out of date: rebuild");
+}
+
+#[test]
+fn imports_resolve_once_and_fail_clearly() {
+    // Imported twice (directly and through another file): included once.
+    let twice = compose("t", "#import lib/medium\n#import lib/medium\nfn f() {}").expect("ok");
+    assert_eq!(
+        twice.matches("---- #import lib/medium ").count(),
+        1,
+        "{twice}"
+    );
+    let e = compose("t", "#import lib/no_such_file\n").expect_err("unknown import");
+    assert!(e.contains("no shaders/lib/no_such_file.wgsl"), "{e}");
 }
 
 /// Node kinds that run no shader pass: `Scene` only uploads vertex and index buffers, `LightMap`
 /// only uploads (or passes on) a texture and its light matrices.
 const NO_GPU_PASS: &[&str] = &["LightMap", "Scene"];
 
+/// `nodes/<stem>.rs`, or `nodes/<stem>/mod.rs` for a technique in a folder.
+fn node_file(stem: &str) -> Option<PathBuf> {
+    [format!("nodes/{stem}.rs"), format!("nodes/{stem}/mod.rs")]
+        .into_iter()
+        .map(|p| root().join(p))
+        .find(|p| p.exists())
+}
+
 #[test]
-fn every_node_has_a_shader_and_source_file_with_one_stem() {
+fn every_node_has_shaders_and_source_under_one_stem() {
     let registry = tyndall::nodes::registry();
     for kind in registry.iter() {
         let name = kind.schema().kind;
-        let Some(shader) = kind.shader() else {
+        let shaders = kind.shaders();
+        if shaders.is_empty() {
             // Nodes that only upload data (no GPU pass) have no shader; keep that list explicit.
             assert!(NO_GPU_PASS.contains(&name), "{name} has no shader");
             continue;
-        };
-        let wgsl = root().join("shaders").join(format!("{}.wgsl", shader.stem));
-        let rs = root().join("nodes").join(format!("{}.rs", shader.stem));
-        assert!(rs.exists(), "{name}: nodes/{}.rs missing", shader.stem);
-        let on_disk = std::fs::read_to_string(&wgsl)
-            .unwrap_or_else(|_| panic!("{name}: {} missing", wgsl.display()));
-        assert_eq!(
-            on_disk,
-            shader.source,
-            "{name}: embedded shader differs from {}",
-            wgsl.display()
+        }
+        let stem = shaders[0].node_stem();
+        assert!(
+            node_file(stem).is_some(),
+            "{name}: nodes/{stem}.rs or nodes/{stem}/mod.rs missing"
+        );
+        for shader in shaders {
+            assert_eq!(
+                shader.node_stem(),
+                stem,
+                "{name}: {} is not under {stem}",
+                shader.stem
+            );
+            let wgsl = root().join("shaders").join(format!("{}.wgsl", shader.stem));
+            let on_disk = std::fs::read_to_string(&wgsl)
+                .unwrap_or_else(|_| panic!("{name}: {} missing", wgsl.display()));
+            assert_eq!(
+                on_disk,
+                shader.source,
+                "{name}: embedded shader differs from {}",
+                wgsl.display()
+            );
+        }
+    }
+}
+
+/// Every shader file is a node's shader, imported by one, or part of the shared library.
+#[test]
+fn no_shader_file_is_unused() {
+    let registry = tyndall::nodes::registry();
+    let shaders: Vec<Shader> = registry
+        .iter()
+        .flat_map(|k| k.shaders().iter().copied())
+        .collect();
+    let composed: Vec<&str> = shaders
+        .iter()
+        .map(|s| s.wgsl().expect("composes"))
+        .collect();
+    for (name, _) in all_wgsl() {
+        if name.starts_with("lib/") {
+            continue;
+        }
+        let used = shaders.iter().any(|s| s.stem == name)
+            || composed
+                .iter()
+                .any(|c| c.contains(&format!("---- #import {name} ")));
+        assert!(
+            used,
+            "shaders/{name}.wgsl is no node's shader and imported by none"
         );
     }
 }
 
+/// A uniform layout is checked against every shader of its node that declares the struct (at
+/// least one must).
 #[test]
 fn every_uniform_struct_matches_its_wgsl() {
     let registry = tyndall::nodes::registry();
     let mut checked = 0;
     for kind in registry.iter() {
-        let Some(shader) = kind.shader() else {
-            continue;
-        };
         for layout in kind.uniform_layouts() {
-            check_uniform_layout(shader.source, layout)
-                .unwrap_or_else(|e| panic!("{} ({}.wgsl): {e}", kind.schema().kind, shader.stem));
+            let mut found = false;
+            for shader in kind.shaders() {
+                let wgsl = shader.wgsl().expect("composes");
+                if !wgsl.contains(&format!("struct {} {{", layout.wgsl_struct)) {
+                    continue;
+                }
+                found = true;
+                check_uniform_layout(wgsl, layout).unwrap_or_else(|e| {
+                    panic!("{} ({}.wgsl): {e}", kind.schema().kind, shader.stem)
+                });
+            }
+            assert!(
+                found,
+                "{}: no shader declares struct {}",
+                kind.schema().kind,
+                layout.wgsl_struct
+            );
             checked += 1;
         }
     }
@@ -157,17 +262,24 @@ fn layout_check_catches_a_field_added_on_one_side_only() {
 fn every_declared_uniform_struct_is_checked() {
     let registry = tyndall::nodes::registry();
     let mut declared = 0;
-    for entry in std::fs::read_dir(root().join("nodes")).expect("nodes/") {
-        let path = entry.expect("entry").path();
+    let mut files = Vec::new();
+    rust_files(&root().join("nodes"), &mut files);
+    for path in files {
         let src = std::fs::read_to_string(&path).expect("read");
         assert!(
             !src.contains("#[repr(C)]"),
             "{}: declare uniform structs with tyndall::uniforms! so their layout is checked",
             path.display()
         );
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
+        // The node's stem: the file's (`nodes/blur.rs`) or its folder's (`nodes/x/params.rs`).
+        let rel = path
+            .strip_prefix(root().join("nodes"))
+            .expect("under nodes/");
+        let stem = rel
+            .components()
+            .next()
+            .and_then(|c| c.as_os_str().to_str())
+            .map(|s| s.trim_end_matches(".rs").to_string())
             .unwrap_or_default();
         for block in src.split("crate::uniforms! {").skip(1) {
             let name = block
@@ -176,15 +288,27 @@ fn every_declared_uniform_struct_is_checked() {
                 .and_then(|s| s.split('"').next())
                 .expect("uniforms! block names its WGSL struct");
             let listed = registry.iter().any(|k| {
-                k.shader().is_some_and(|s| s.stem == stem)
+                k.shaders().iter().any(|s| s.node_stem() == stem)
                     && k.uniform_layouts().iter().any(|l| l.wgsl_struct == name)
             });
             assert!(
                 listed,
-                "nodes/{stem}.rs: struct {name} is in no kind's `uniforms`"
+                "{}: struct {name} is in no kind's `uniforms`",
+                path.display()
             );
             declared += 1;
         }
     }
     assert!(declared >= 16, "only {declared} uniform structs found");
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("nodes/") {
+        let path = entry.expect("entry").path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().and_then(|e| e.to_str()) == Some("rs") {
+            out.push(path);
+        }
+    }
 }

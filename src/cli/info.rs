@@ -10,10 +10,19 @@ fn unavailable_nodes(registry: &Registry, r: &AdapterReport) -> Vec<(String, Str
     let mut out = Vec::new();
     for k in registry.iter() {
         let decl = k.decl();
-        let Some(shader) = decl.shader else { continue };
-        let lacks = ShaderNeeds::of(shader.source)
-            .map(|n| r.caps.lacks_for(&n))
-            .unwrap_or_else(|e| vec![format!("its shader does not parse: {e}")]);
+        let mut lacks = Vec::new();
+        for shader in decl.shaders {
+            let more = shader
+                .wgsl()
+                .and_then(ShaderNeeds::of)
+                .map(|n| r.caps.lacks_for(&n))
+                .unwrap_or_else(|e| vec![format!("shader {} does not parse: {e}", shader.stem)]);
+            for l in more {
+                if !lacks.contains(&l) {
+                    lacks.push(l);
+                }
+            }
+        }
         if !lacks.is_empty() {
             out.push((decl.schema.kind.to_string(), lacks.join("; ")));
         }

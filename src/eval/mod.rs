@@ -518,8 +518,8 @@ impl Evaluator {
     ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>), NodeError> {
         // An adapter that cannot give this node's shader what it needs: one line naming what
         // is missing, before any of its passes is recorded.
-        if let Some(shader) = k.decl().shader {
-            self.gpu.supports(shader)?;
+        for shader in k.decl().shaders {
+            self.gpu.supports(*shader)?;
         }
         self.gpu.set_timing(opts.gpu_timings);
         let start = Instant::now();

@@ -377,16 +377,17 @@ pub struct KeyInput<'a> {
 ///
 /// ```text
 /// static DECL: NodeDecl = NodeDecl::new(NodeSchema { kind: "Blur", … })
-///     .shader(Shader::new("blur", include_str!("../shaders/blur.wgsl")))
+///     .shaders(&[Shader::new("blur", include_str!("../shaders/blur.wgsl"))])
 ///     .uniforms(&[BlurParams::LAYOUT]);
 /// ```
 #[derive(Debug)]
 pub struct NodeDecl {
     /// Ports, parameters and docs.
     pub schema: NodeSchema,
-    /// The node's shader (`shaders/<stem>.wgsl`, same stem as the node file); `None` for a
-    /// node that runs no GPU pass.
-    pub shader: Option<Shader>,
+    /// The node's shaders: `shaders/<stem>.wgsl`, or for a technique in a folder one file per
+    /// pass or family of passes in `shaders/<stem>/` (see [`Shader`]); empty for a node that
+    /// runs no GPU pass.
+    pub shaders: &'static [Shader],
     /// Uniform structs bound by the shader (declared with [`uniforms!`](crate::uniforms)), for
     /// the layout test.
     pub uniforms: &'static [UniformLayout],
@@ -412,11 +413,11 @@ pub enum FileRole {
 }
 
 impl NodeDecl {
-    /// A declaration with no shader, no uniforms, no exempt parameters, not a sink.
+    /// A declaration with no shaders, no uniforms, no exempt parameters, not a sink.
     pub const fn new(schema: NodeSchema) -> Self {
         Self {
             schema,
-            shader: None,
+            shaders: &[],
             uniforms: &[],
             key_exempt: &[],
             sink: false,
@@ -424,12 +425,9 @@ impl NodeDecl {
         }
     }
 
-    /// Set the shader.
-    pub const fn shader(self, shader: Shader) -> Self {
-        Self {
-            shader: Some(shader),
-            ..self
-        }
+    /// Set the shaders.
+    pub const fn shaders(self, shaders: &'static [Shader]) -> Self {
+        Self { shaders, ..self }
     }
 
     /// Set the uniform structs the shader binds.
@@ -458,7 +456,7 @@ impl NodeDecl {
 /// Each implementation also carries a plain-Rust CPU reference of its maths (a free function in
 /// its file), used by the tests as the oracle. What every kind would write the same way (schema,
 /// shader, uniform layouts, sink flag) is read from [`NodeKind::decl`] by the methods on
-/// `dyn NodeKind` ([`schema`](#method.schema), [`shader`](#method.shader), …).
+/// `dyn NodeKind` ([`schema`](#method.schema), [`shaders`](#method.shaders), …).
 pub trait NodeKind: Send + Sync {
     /// The kind's declaration.
     fn decl(&self) -> &'static NodeDecl;
@@ -502,9 +500,9 @@ impl dyn NodeKind + '_ {
         &self.decl().schema
     }
 
-    /// The node's shader, if it runs a GPU pass.
-    pub fn shader(&self) -> Option<Shader> {
-        self.decl().shader
+    /// The node's shaders (empty when it runs no GPU pass).
+    pub fn shaders(&self) -> &'static [Shader] {
+        self.decl().shaders
     }
 
     /// Uniform structs bound by the shader, for the layout test.

@@ -6,6 +6,7 @@ mod layout;
 mod options;
 mod pool;
 mod raster;
+mod shader;
 mod shader_needs;
 mod timer;
 mod volume;
@@ -21,6 +22,7 @@ pub use options::{
 };
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
+pub use shader::{compose, shader_file, shader_files, Shader};
 pub use timer::PassTimer;
 pub use volume::{mip_count, mip_size, GpuVolume};
 
@@ -127,23 +129,6 @@ pub struct GpuBuffer {
     raw: wgpu::Buffer,
     /// Number of 32-bit words.
     pub words: u32,
-}
-
-/// A WGSL source with the stem of its file in `shaders/`.
-#[derive(Clone, Copy, Debug)]
-pub struct Shader {
-    /// File stem (`math` for `shaders/math.wgsl`), also the node file's stem.
-    pub stem: &'static str,
-    /// WGSL source text.
-    pub source: &'static str,
-}
-
-impl Shader {
-    /// `Shader::new("math", include_str!("../shaders/math.wgsl"))`: the stem and the embedded
-    /// source (a test checks that the source equals `shaders/<stem>.wgsl`).
-    pub const fn new(stem: &'static str, source: &'static str) -> Self {
-        Self { stem, source }
-    }
 }
 
 /// The headless GPU context shared by all nodes.
@@ -322,7 +307,9 @@ impl Gpu {
     pub fn supports(&self, shader: Shader) -> Result<(), GpuError> {
         let mut known = self.shader_lacks.lock().unwrap_or_else(|e| e.into_inner());
         let lacks = known.entry(shader.stem).or_insert_with(|| {
-            adapter::ShaderNeeds::of(shader.source)
+            shader
+                .wgsl()
+                .and_then(adapter::ShaderNeeds::of)
                 .map(|n| self.caps.lacks_for(&n))
                 .unwrap_or_default()
         });
@@ -700,6 +687,7 @@ impl Gpu {
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
         }
+        let source = shader.wgsl().map_err(GpuError::Validation)?;
         let p = self
             .scoped(|| {
                 let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
@@ -763,7 +751,7 @@ impl Gpu {
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(shader.stem),
-                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(shader.source)),
+                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(source)),
                     });
                 Arc::new(
                     self.device

@@ -76,14 +76,15 @@ impl Gpu {
         bits: bool,
     ) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
         let key = format!("{}:raster:{formats:?}", shader.stem);
+        let wgsl = shader.wgsl().map_err(GpuError::Validation)?;
         let source = if bits {
             wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(
-                bits_module(&self.caps.adapt_source(shader.source)).map_err(|e| {
+                bits_module(&self.caps.adapt_source(wgsl)).map_err(|e| {
                     GpuError::Validation(format!("shader {}.wgsl, entry fs: {e}", shader.stem))
                 })?,
             ))
         } else {
-            wgpu::ShaderSource::Wgsl(self.caps.adapt_source(shader.source))
+            wgpu::ShaderSource::Wgsl(self.caps.adapt_source(wgsl))
         };
         let fs_entry = if bits { BITS_ENTRY } else { "fs" };
         let mut cache = match self.render_pipelines.lock() {

@@ -27,8 +27,11 @@ pub fn gpu() -> Option<Arc<Gpu>> {
 /// textures, so the volume nodes are refused there).
 pub fn unsupported(gpu: &Gpu, kind: &str) -> Option<String> {
     let registry = tyndall::nodes::registry();
-    let shader = registry.get(kind)?.decl().shader?;
-    gpu.supports(shader).err().map(|e| format!("{kind}: {e}"))
+    let shaders = registry.get(kind)?.decl().shaders;
+    shaders
+        .iter()
+        .find_map(|s| gpu.supports(*s).err())
+        .map(|e| format!("{kind}: {e}"))
 }
 
 /// [`gpu`], or `None` (printing why) when the adapter cannot run one of `kinds`: a capability

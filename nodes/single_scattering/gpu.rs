@@ -1,0 +1,130 @@
+//! GPU driving: the min-max pyramid, the Epipolar passes, and the one dispatch of each method.
+
+use super::*;
+
+/// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
+pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTexture), GpuError> {
+    let (levels, aw, ah) = pyramid_layout(map.width, map.height);
+    let front = gpu.texture(aw, ah, TexFormat::Rg32F)?;
+    let back = gpu.texture(aw, ah, TexFormat::Rg32F)?;
+    for k in 1..=levels.count as usize {
+        let dst = levels.rect[k];
+        let src = if k == 1 {
+            [0, 0, map.width, map.height]
+        } else {
+            levels.rect[k - 1]
+        };
+        let b = BuildParams {
+            level: k as u32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+            src,
+            dst,
+        };
+        let source = if k == 1 { map } else { &front };
+        gpu.dispatch(
+            MIN_MAX,
+            "build_level",
+            &[
+                (7, Bind::Uniform(bytemuck::bytes_of(&b))),
+                (8, Bind::Texture(source)),
+                (9, Bind::Storage(&back)),
+            ],
+            dst[2],
+            dst[3],
+        )?;
+        // The next level reads this one: copy it into the texture that is read.
+        gpu.copy_region(&back, &front, dst[0], dst[1], dst[2], dst[3])?;
+    }
+    Ok((levels, front))
+}
+
+/// Method `Epipolar` on the GPU: rectify each slice's line of the map and build its min-max
+/// tree (`epi_rectify`, `epi_tree` per level), trace the slices' samples (`epi_sample`),
+/// interpolate every pixel (`epi_gather`), and trace their own ray for the pixels it listed as
+/// having no usable sample (`epi_fallback`).
+/// `binds` are the `MinMax` dispatch's.
+pub(super) fn dispatch_epipolar(
+    gpu: &Gpu,
+    u: &ScatterParams,
+    knobs: EpiKnobs,
+    shadow: &GpuTexture,
+    (w, h): (u32, u32),
+    binds: &[(u32, Bind)],
+) -> Result<(), NodeError> {
+    let g = epipolar_geometry(u, (w, h), (shadow.width, shadow.height), knobs.slices);
+    let table = gpu.upload(knobs.slices, 3, 4, &EpiParams::slice_texels(&g))?;
+    let words = knobs.slices as u64 * 4 * g.tree_n as u64;
+    let too_many = || NodeError::Param {
+        param: "epi_slices".into(),
+        message: format!(
+            "{} slices of {} tree entries need {} MiB, over the adapter's storage-buffer limit \
+             of {} MiB: use fewer slices or a smaller shadow map",
+            knobs.slices,
+            2 * g.tree_n,
+            (words * 4) >> 20,
+            gpu.limits.max_storage_buffer_binding_size >> 20
+        ),
+    };
+    if words * 4 > gpu.limits.max_storage_buffer_binding_size {
+        return Err(too_many());
+    }
+    let tree = gpu.buffer_zeroed(u32::try_from(words).map_err(|_| too_many())?)?;
+    let samples = gpu.texture(knobs.samples, knobs.slices, TexFormat::Rgba32F)?;
+    let base = EpiParams::new(&g, knobs);
+    let constants = [
+        ("EXTINCTION", u.light_extinction as f64),
+        ("LIGHT_MAP", 0.0),
+        ("SOFT", 0.0),
+    ];
+    let pass = |entry: &str, level: u32, extra: Option<(u32, Bind)>, size: (u32, u32)| {
+        let e = EpiParams { level, ..base };
+        let mut b = binds.to_vec();
+        b.push((16, Bind::Uniform(bytemuck::bytes_of(&e))));
+        b.push((17, Bind::Texture(&table)));
+        b.push((18, Bind::Buffer(&tree)));
+        b.extend(extra);
+        gpu.dispatch_with(EPIPOLAR, entry, &b, size, &constants)
+    };
+    pass("epi_rectify", 0, None, (g.tree_n, knobs.slices))?;
+
+    for level in 1..=base.tree_top {
+        pass("epi_tree", level, None, (g.tree_n >> level, knobs.slices))?;
+    }
+    pass(
+        "epi_sample",
+        0,
+        Some((19, Bind::Storage(&samples))),
+        (knobs.samples, knobs.slices),
+    )?;
+    let list = gpu.buffer_zeroed(w * h)?;
+    let count = gpu.buffer_zeroed(1)?;
+    let with_list = |entry: &str, level: u32, size: (u32, u32)| {
+        let e = EpiParams { level, ..base };
+        let mut b = binds.to_vec();
+        b.push((16, Bind::Uniform(bytemuck::bytes_of(&e))));
+        b.push((17, Bind::Texture(&table)));
+        b.push((20, Bind::Texture(&samples)));
+        b.push((21, Bind::Buffer(&list)));
+        b.push((22, Bind::Buffer(&count)));
+        gpu.dispatch_with(EPIPOLAR, entry, &b, size, &constants)
+    };
+    with_list("epi_gather", 0, (w, h))?;
+    // The fall-back pixels (depth discontinuities) trace their own ray: one read-back of the
+    // count sizes that dispatch.
+    let n = gpu
+        .read_buffer_i32(&count)?
+        .first()
+        .copied()
+        .unwrap_or(0)
+        .max(0) as u32;
+    if n > 0 {
+        with_list(
+            "epi_fallback",
+            n.min(w * h),
+            (256, n.min(w * h).div_ceil(256)),
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,414 @@
+//! `SingleScattering`: physically based single scattering in a homogeneous medium lit by the
+//! sun (SPEC §3, seed 000 eq. 1–2).
+//!
+//! `L_scat = σt ρ f(θ) · L_i (1 − e^{−sσt})/σt · V̄`, with `V̄ = s⁻¹ ∫₀ˢ V(x_t) dt` the average
+//! visibility of the view ray up to the first surface at distance `s` (sky: the camera's far
+//! distance), found by marching the shadow map, and `f` the Henyey–Greenstein phase function
+//! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun)
+//! — or, with a `phase` table connected, that table per RGB channel (`nodes/phase.rs`).
+//! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
+//! A sample is lit when it lies outside the map or the light box, or when its light-space depth
+//! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the
+//! `Scene`) times f (1/sr) times σt·length (dimensionless) gives `inscatter` in W/(m²·sr).
+//!
+//! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
+//! objects tagged `medium`, connected on `scene`) the view ray scatters only on [t0, t1], its
+//! part inside the box, and the transmittance of surfaces is e^{−σt (t1 − t0)}. With
+//! `light_extinction = on` the sun reaching a point is attenuated by e^{−σt ℓ}, ℓ the distance
+//! from the point to the box's boundary towards the sun, and the factored form no longer holds:
+//! `L_scat = σt ρ f E ∫_{t0}^{t1} V(t) e^{−σt (t − t0)} e^{−σt ℓ(t)} dt`. ℓ is piecewise linear
+//! along the ray (the nearest of three faces), so the integral of the weight over any stretch is
+//! exact; `BruteForce` weights each sample by its interval's integral, `MinMax` integrates its
+//! lit stretches exactly. `light_extinction = on` with `bounds = none` is refused (an unbounded
+//! medium would extinguish the sun completely).
+//!
+//! Light map (SPEC §5): with `light_map` connected the sun reaching x is multiplied by the map's
+//! colour at x (bilinear, clamp to edge, in the map's own light projection), so the factored
+//! form no longer holds: `L_scat = σt ρ f E Σ_i V_i M(x_i) ∫_{interval i} E(t) dt` — the same
+//! interval weights as light extinction. `BruteForce` only; `MinMax` or `Epipolar` with a light
+//! map is refused.
+//!
+//! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
+//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
+//! method, in the spirit of Chen et al.'s min-max mip-maps, here as a 2D quadtree over the map
+//! instead of 1D rows of an epipolar rectification) builds a pyramid of per-block minimum and
+//! maximum depth and walks each view ray through it: blocks the ray passes entirely in front of
+//! their minimum are lit, blocks it passes entirely behind their maximum are shadowed, and only
+//! mixed blocks are refined down to texels, where the lit length is solved exactly. It computes
+//! the limit of `BruteForce` as steps → ∞ (the same nearest-texel test and bias), so `steps`
+//! and `jitter` do not apply to it; its cost grows with the number of light/shadow transitions
+//! along a ray, not with the ray's length in texels. `Epipolar` (the fast method, after
+//! Engelhardt & Dachsbacher 2010, Yusov 2013 and Chen et al. 2011) traces only `epi_slices` ×
+//! `epi_samples` rays placed on epipolar lines through the sun's screen position, each through a
+//! 1D min-max tree over its line's rectified shadow-map texels, and interpolates every pixel from
+//! the four nearest samples whose depth is within `epi_threshold` of its own; pixels without one
+//! (depth discontinuities) trace their own ray as `MinMax` does. See "Method Epipolar" below.
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `shadow` | in | ShadowMap (required) | the map the medium sees (possibly manipulated) |
+//! | `depth` | in | Depth (required) | camera linear depth and camera matrices |
+//! | `light_map` | in | LightMap (optional) | multiplies the incoming light (BruteForce only); unconnected: 1 |
+//! | `phase` | in | Phase (optional) | tabulated phase function per RGB channel (`HenyeyGreenstein`, `Rayleigh`, `Mie`, `MultipleScatteringPhase`), read linearly between its texel centres; unconnected: Henyey–Greenstein `g` |
+//! | `soft` | in | SoftShadow (optional) | visibility 1 − A from a `SoftVisibility` volume (nearest light texel, linear between slice ends) instead of the hard test; BruteForce only |
+//! | `scene` | in | Scene (optional) | for `bounds = tagged`: its objects tagged `medium` |
+//! | `visibility` | out | Scalar | V̄ ∈ [0, 1] |
+//! | `depth` | out | Depth | the input depth, passed on for transfer functions |
+//! | `inscatter` | out | Image | L_scat, W/(m²·sr) (linear RGB, alpha 1) |
+//! | `transmittance` | out | Scalar | e^{−sσt}, for compositing surfaces behind the medium |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `sigma_t` | Float | 0.08 | 0…1e4 1/m | extinction σt |
+//! | `albedo` | Float | 0.9 | 0…1 | scattering albedo ρ |
+//! | `g` | Float | 0.5 | −0.999…0.999 | Henyey–Greenstein asymmetry |
+//! | `tint` | Colour | (1, 1, 1, 1) | 0…1e6 | multiplies the sun's colour |
+//! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's irradiance |
+//! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
+//! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
+//! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
+//! | `method` | Enum | BruteForce | BruteForce, MinMax, Epipolar | visibility algorithm |
+//! | `bounds` | Enum | none | none, box, tagged | where the medium is |
+//! | `box_min`, `box_max` | Vec3 | (−5, 0, −5), (5, 5, 5) | ±1e6 m | the box (bounds = box) |
+//! | `light_extinction` | Enum | off | off, on | attenuate the sun through the medium |
+//! | `min_level` | Int | 0 | 0…14 | MinMax quality knob: mixed blocks of 2^level texels at and below this level are estimated (occluder depth taken as spread evenly over the block's [min, max]) instead of refined; 0 = exact |
+//! | `epi_slices` | Int | 512 | 4…2048 | Epipolar quality knob: slices (lines through the epipole) |
+//! | `epi_samples` | Int | 256 | 2…4096 | Epipolar quality knob: traced rays per slice, ends included |
+//! | `epi_threshold` | Float | 0.02 | 0…100 | Epipolar quality knob: relative depth / medium-length difference above which a sample is not used for a pixel (0: every pixel traces its own ray) |
+//! | `tree_level` | Int | 0 | 0…14 | Epipolar quality knob: 1D tree nodes of 2^level texels at and below this level are estimated like `min_level`; 0 = exact |
+
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
+use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
+use crate::scene::GpuScene;
+
+mod brute_force;
+mod epipolar;
+mod gpu;
+mod map_ray;
+mod medium;
+mod params;
+
+pub use brute_force::*;
+pub use epipolar::*;
+pub use gpu::*;
+pub use map_ray::*;
+pub use medium::*;
+pub use params::*;
+
+/// The `SingleScattering` node kind.
+pub struct SingleScattering;
+
+/// Visibility methods.
+pub const METHODS: &[&str] = Method::NAMES;
+
+crate::choice_enum! {
+    /// Visibility algorithms.
+    pub enum Method { BruteForce = "BruteForce", MinMax = "MinMax", Epipolar = "Epipolar" }
+}
+
+crate::choice_enum! {
+    /// Where the medium is.
+    pub enum Bounds { None = "none", Box = "box", Tagged = "tagged" }
+}
+
+crate::choice_enum! {
+    /// Whether the sun is attenuated on its way through the medium.
+    pub enum Extinction { Off = "off", On = "on" }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
+    kind: "SingleScattering",
+    category: "Scattering",
+    doc: "Single scattering of the sun in a homogeneous medium: average visibility V̄, in-scatter and transmittance along each view ray.",
+    inputs: &[
+        PortSpec::required("shadow", &[PortType::ShadowMap], "Shadow map the medium sees."),
+        PortSpec::required("depth", &[PortType::Depth], "Camera linear depth (from GBuffer)."),
+        PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the incoming light (unconnected: 1)."),
+        PortSpec::input("phase", &[PortType::Phase], "Tabulated phase function (unconnected: Henyey–Greenstein g)."),
+        PortSpec::input("soft", &[PortType::SoftShadow], "Soft visibility (SoftVisibility) instead of the hard shadow-map test; BruteForce only."),
+        PortSpec::input("scene", &[PortType::Scene], "The scene whose objects tagged `medium` bound the medium (bounds = tagged)."),
+    ],
+    outputs: &[
+        PortSpec::output("visibility", &[PortType::Scalar], "Average visibility V̄ of the view ray."),
+        PortSpec::output("depth", &[PortType::Depth], "The input depth, passed on."),
+        PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance, W/(m²·sr) (linear RGB)."),
+        PortSpec::output("transmittance", &[PortType::Scalar], "e^(−s σt) along the view ray."),
+    ],
+    params: &[
+        ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
+        ParamSpec::float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
+        ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
+        ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
+        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
+        ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
+        ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
+        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
+        ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
+        ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)."),
+        ParamSpec::int("epi_slices", 512, 4, 2048, "slices", "Epipolar quality knob: lines through the sun's screen position whose rays are traced."),
+        ParamSpec::int("epi_samples", 256, 2, 4096, "samples", "Epipolar quality knob: traced rays per slice, end points included."),
+        ParamSpec::float("epi_threshold", 0.02, 0.0, 100.0, "relative", "Epipolar quality knob: a sample whose camera depth (or medium length) differs from a pixel's by more than this share is not used for it; a pixel left with none traces its own ray (0: every pixel does)."),
+        ParamSpec::int("tree_level", 0, 0, 14, "level", "Epipolar quality knob: nodes of the 1D min-max trees spanning 2^level texels at and below this level are estimated, not refined (0 = exact)."),
+        ParamSpec::choice("bounds", Bounds::NAMES, "none", "Where the medium is: none (fills every view ray, the seed's model), box (box_min…box_max), tagged (the bounds of the scene's objects tagged `medium`)."),
+        ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the medium box (bounds = box), scene coordinates."),
+        ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the medium box (bounds = box), scene coordinates."),
+        ParamSpec::choice("light_extinction", Extinction::NAMES, "off", "off: the sun reaches every point unattenuated (seed eq. 1); on: by e^(−σt ℓ), ℓ = distance to the medium's boundary towards the sun (needs bounds)."),
+    ],
+})
+.shaders(&[BRUTE_FORCE, MIN_MAX, EPIPOLAR])
+.uniforms(&[ScatterParams::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT, EpiParams::LAYOUT]);
+
+/// Method `BruteForce` (and its light-map variant).
+const BRUTE_FORCE: Shader = Shader::new(
+    "single_scattering/brute_force",
+    include_str!("../../shaders/single_scattering/brute_force.wgsl"),
+);
+/// Method `MinMax`: the pyramid's levels and the traversal.
+const MIN_MAX: Shader = Shader::new(
+    "single_scattering/min_max",
+    include_str!("../../shaders/single_scattering/min_max.wgsl"),
+);
+/// Method `Epipolar`: rectification, trees, samples, gather, fall-back.
+const EPIPOLAR: Shader = Shader::new(
+    "single_scattering/epipolar",
+    include_str!("../../shaders/single_scattering/epipolar.wgsl"),
+);
+
+/// The bounds of the objects tagged `medium` in the scene on the `scene` port.
+fn tagged_bounds(ctx: &RunCtx) -> Result<(Vec3, Vec3), NodeError> {
+    let input = |message: &str| NodeError::Input {
+        port: "scene".into(),
+        message: message.into(),
+    };
+    let scene = ctx
+        .input("scene")
+        .ok_or_else(|| input("must be connected when bounds = tagged"))?
+        .payload::<GpuScene>()
+        .ok_or_else(|| input("is not a scene"))?;
+    scene.scene.medium.ok_or_else(|| {
+        input("has no objects tagged `medium` (glTF node extras: {\"tags\": [\"medium\"]})")
+    })
+}
+
+impl NodeKind for SingleScattering {
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let (shadow, light) = match ctx.require("shadow")? {
+            PortValue::ShadowMap(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "shadow".into(),
+                    message: "is not a shadow map".into(),
+                })
+            }
+        };
+        let depth_value = ctx.require("depth")?.clone();
+        let (depth, camera) = match &depth_value {
+            PortValue::Depth(t, m) => (t.clone(), *m),
+            _ => {
+                return Err(NodeError::Input {
+                    port: "depth".into(),
+                    message: "is not a depth image".into(),
+                })
+            }
+        };
+        let phase = match ctx.input("phase") {
+            None => None,
+            Some(PortValue::Phase(t)) => Some(t.clone()),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "phase".into(),
+                    message: "is not a phase function".into(),
+                })
+            }
+        };
+        let soft = match ctx.input("soft") {
+            None => None,
+            Some(PortValue::SoftShadow(v, m)) => Some((v.clone(), *m)),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "soft".into(),
+                    message: "is not a soft visibility volume".into(),
+                })
+            }
+        };
+        let light_map = match ctx.input("light_map") {
+            None => None,
+            Some(PortValue::LightMap(t, m)) => Some((t.clone(), *m)),
+            Some(_) => {
+                return Err(NodeError::Input {
+                    port: "light_map".into(),
+                    message: "is not a light map".into(),
+                })
+            }
+        };
+        let tint = ctx.colour("tint")?;
+        let medium = Medium {
+            sigma_t: ctx.f32("sigma_t")?,
+            albedo: ctx.f32("albedo")?,
+            g: ctx.f32("g")?,
+            tint: [tint[0], tint[1], tint[2]],
+            intensity: ctx.f32("intensity")?,
+            steps: ctx.int("steps")? as u32,
+            jitter: ctx.f32("jitter")?,
+            bias: ctx.f32("bias")?,
+            min_level: ctx.int("min_level")? as u32,
+        };
+        let extinction = ctx.choice::<Extinction>("light_extinction")? == Extinction::On;
+        let bounds = match ctx.choice::<Bounds>("bounds")? {
+            Bounds::None if extinction => {
+                return Err(NodeError::Param {
+                    param: "light_extinction".into(),
+                    message: "on needs a bounded medium (the sun is attenuated up to its \
+                              boundary): set bounds to box or tagged"
+                        .into(),
+                })
+            }
+            Bounds::None => None,
+            Bounds::Box => {
+                let (lo, hi) = (
+                    Vec3::from(ctx.vec3("box_min")?),
+                    Vec3::from(ctx.vec3("box_max")?),
+                );
+                if lo.cmpgt(hi).any() {
+                    return Err(NodeError::Param {
+                        param: "box_max".into(),
+                        message: format!("{hi} is below box_min {lo} on some axis"),
+                    });
+                }
+                Some((lo, hi))
+            }
+            Bounds::Tagged => Some(tagged_bounds(ctx)?),
+        };
+        let mut u = ScatterParams::new(&camera, &light, medium).with_bounds(bounds, extinction);
+        let phase = match phase {
+            Some(t) => t,
+            None => Arc::new(ctx.gpu.upload(1, 1, 4, &[0.0; 4])?),
+        };
+        u.phase_width = if ctx.input("phase").is_some() {
+            phase.width
+        } else {
+            0
+        };
+        let (w, h) = (depth.width, depth.height);
+        let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+        let tr = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        let soft_volume = match &soft {
+            Some((v, _)) => v.clone(),
+            None => Arc::new(ctx.gpu.volume([1, 1, 1])?),
+        };
+        let sv = SoftView {
+            view_proj: soft
+                .as_ref()
+                .map_or(light, |(_, m)| *m)
+                .view_proj()
+                .to_cols_array_2d(),
+        };
+        if soft.is_some() {
+            if ctx.choice::<Method>("method")? != Method::BruteForce {
+                return Err(NodeError::Input {
+                    port: "soft".into(),
+                    message:
+                        "needs method BruteForce (MinMax and Epipolar walk the hard shadow map)"
+                            .into(),
+                });
+            }
+            u.soft_slices = soft_volume.size[2];
+        }
+        let mut binds = vec![
+            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+            (1, Bind::Texture(&shadow)),
+            (2, Bind::Texture(&depth)),
+            (3, Bind::Storage(&vis)),
+            (4, Bind::Storage(&ins)),
+            (5, Bind::Storage(&tr)),
+            (13, Bind::Texture(&phase)),
+        ];
+        let method = ctx.choice::<Method>("method")?;
+        // Pipeline constant: light extinction's code is compiled away when it is off.
+        let extinction_constant = if extinction { 1.0 } else { 0.0 };
+        let soft_constant = if soft.is_some() { 1.0 } else { 0.0 };
+        binds.push((14, Bind::Volume(&soft_volume)));
+        binds.push((15, Bind::Uniform(bytemuck::bytes_of(&sv))));
+        if let Some((map, m)) = &light_map {
+            if method != Method::BruteForce {
+                return Err(NodeError::Input {
+                    port: "light_map".into(),
+                    message:
+                        "needs method BruteForce (MinMax and Epipolar integrate visibility only)"
+                            .into(),
+                });
+            }
+            let lm = LightMapView {
+                view_proj: m.view_proj().to_cols_array_2d(),
+                enabled: 1,
+                _pad0: 0,
+                _pad1: 0,
+                _pad2: 0,
+            };
+            binds.push((11, Bind::Texture(map)));
+            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
+            let constants = [
+                ("EXTINCTION", extinction_constant),
+                ("LIGHT_MAP", 1.0),
+                ("SOFT", soft_constant),
+            ];
+            ctx.gpu
+                .dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
+        } else if method != Method::BruteForce {
+            let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
+            binds.push((6, Bind::Texture(&atlas)));
+            binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
+            if method == Method::MinMax {
+                let constants = [
+                    ("EXTINCTION", extinction_constant),
+                    ("LIGHT_MAP", 0.0),
+                    ("SOFT", 0.0),
+                ];
+                ctx.gpu
+                    .dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
+            } else {
+                let knobs = EpiKnobs {
+                    slices: ctx.int("epi_slices")? as u32,
+                    samples: ctx.int("epi_samples")? as u32,
+                    threshold: ctx.f32("epi_threshold")?,
+                    tree_level: ctx.int("tree_level")? as u32,
+                };
+                dispatch_epipolar(ctx.gpu, &u, knobs, &shadow, (w, h), &binds)?;
+            }
+        } else {
+            let lm = LightMapView {
+                view_proj: IDENTITY,
+                enabled: 0,
+                _pad0: 0,
+                _pad1: 0,
+                _pad2: 0,
+            };
+            let none = ctx.gpu.upload(1, 1, 4, &[1.0; 4])?;
+            binds.push((11, Bind::Texture(&none)));
+            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
+            let constants = [
+                ("EXTINCTION", extinction_constant),
+                ("LIGHT_MAP", 0.0),
+                ("SOFT", soft_constant),
+            ];
+            ctx.gpu
+                .dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
+        }
+        ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
+        ctx.set("inscatter", PortValue::Image(Arc::new(ins)));
+        ctx.set("transmittance", PortValue::Scalar(Arc::new(tr)));
+        ctx.set("depth", depth_value);
+        Ok(())
+    }
+}
