@@ -597,7 +597,7 @@ fn pick_and_anchored_constraints_follow_the_surface() {
         ..Default::default()
     };
     let plain = load(&tree_graph("(layers: [])", None));
-    let p = tf::pick(&mut ev, &plain, None, (80, 33), &opts).expect("pick");
+    let p = tyndall::eval::pick::pick(&mut ev, &plain, None, (80, 33), &opts).expect("pick");
     let s = p.surface.clone().expect("the canopy is under this pixel");
     let tfp = p.tf.clone().expect("tf coordinates");
     // The surface point lies at the pixel's depth along its ray: the G-buffer's depth is the

@@ -191,8 +191,9 @@ pub struct PickArgs {
     /// Time (frames) at which key-frames are sampled.
     #[arg(long, default_value_t = 0.0)]
     pub time: f64,
-    /// The TransferFunction (or SingleScattering) node to read; default: the first
-    /// TransferFunction, else the first SingleScattering.
+    /// The node to read (one with `visibility` and `depth` ports); default: the first that
+    /// reads both through inputs (a transfer function), else the first that produces both (a
+    /// scattering node).
     #[arg(long)]
     pub node: Option<String>,
     /// Print JSON.
@@ -245,7 +246,7 @@ fn run_pick(registry: Arc<Registry>, a: PickArgs) -> Result<(), CliError> {
         size: a.size.unwrap_or((960, 540)),
         ..Default::default()
     };
-    let p = crate::nodes::transfer_function::pick(&mut ev, &g, a.node.as_deref(), a.pixel, &opts)?;
+    let p = crate::eval::pick::pick(&mut ev, &g, a.node.as_deref(), a.pixel, &opts)?;
     if a.json {
         println!(
             "{}",

@@ -935,7 +935,8 @@ impl EditorApp {
     /// A click in the viewer while a TF's 3D constraint is armed: pick the surface under the
     /// pixel (an evaluation on this thread) and add a constraint anchored to it.
     pub fn add_3d_constraint(&mut self, id: &str, pixel: (u32, u32), size: (u32, u32)) {
-        use crate::nodes::transfer_function::{pick, Anchor, Constraint};
+        use crate::eval::pick::pick;
+        use crate::nodes::transfer_function::{Anchor, Constraint};
         let result = (|| -> Result<String, String> {
             let gpu = Gpu::shared().map_err(|e| e.to_string())?;
             let mut ev = crate::eval::Evaluator::new(self.registry.clone(), gpu);

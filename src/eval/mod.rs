@@ -6,6 +6,7 @@
 mod convert;
 mod node;
 mod paths;
+pub mod pick;
 mod value;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};

@@ -480,6 +480,16 @@ pub trait NodeKind: Send + Sync {
         Ok(None)
     }
 
+    /// For a node that places what it reads in a 2D table (a transfer function): where the
+    /// picked pixel lands in it (`tyndall pick`, the editor's 3D constraints; see
+    /// [`crate::eval::pick`]). `None`: the kind has no table.
+    fn table_coordinates(
+        &self,
+        _at: &super::pick::PickAt,
+    ) -> Option<Result<super::pick::TablePick, NodeError>> {
+        None
+    }
+
     /// Compute the wanted outputs (GPU work).
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError>;
 

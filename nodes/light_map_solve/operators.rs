@@ -1,0 +1,389 @@
+//! The operator T of the least-squares problem (a constraint pixel's view ray, marched to its
+//! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
+
+use super::*;
+use crate::nodes::algorithms::shader_lib::decay_integral;
+
+/// Medium and sampling of the solve.
+#[derive(Debug, Clone, Copy)]
+pub struct Sampling {
+    /// σt.
+    pub sigma_t: f32,
+    /// Samples per ray.
+    pub steps: u32,
+    /// Shadow bias.
+    pub bias: f32,
+}
+
+/// One view, ready to solve: camera matrices, linear depth, and the rasterised targets.
+#[derive(Debug, Clone)]
+pub struct ViewProblem {
+    /// Camera matrices.
+    pub camera: Matrices,
+    /// Linear depth (one channel) at the view's size.
+    pub depth: Raster,
+    /// Targets: RGBA, a = 1 on constraint pixels.
+    pub targets: Raster,
+}
+
+impl ViewProblem {
+    /// Indices of the constraint pixels.
+    pub fn constrained(&self) -> Vec<usize> {
+        (0..(self.targets.width * self.targets.height) as usize)
+            .filter(|k| self.targets.data[k * 4 + 3] > 0.0)
+            .collect()
+    }
+}
+
+/// The samples of constraint pixel k of a view with nonzero weight: `(texel indices, bilinear
+/// weights × ŵ_i)` for each lit sample (CPU reference of the shader's marching).
+pub(super) fn row(
+    v: &ViewProblem,
+    k: usize,
+    shadow: &Raster,
+    light: &Matrices,
+    n: u32,
+    s: Sampling,
+) -> Vec<([usize; 4], [f32; 4])> {
+    let (w, h) = (v.depth.width, v.depth.height);
+    let (x, y) = ((k as u32) % w, (k as u32) / w);
+    let lvp = light.view_proj();
+    let eye = v.camera.eye();
+    let dir = v.camera.pixel_ray(x, y, w, h);
+    let depth = v.depth.data[k];
+    let total = decay_integral(depth, s.sigma_t);
+    let steps = s.steps as f32;
+    let mut out = Vec::new();
+    if total <= 0.0 {
+        return out;
+    }
+    for i in 0..s.steps {
+        let t = (i as f32 + 0.5) / steps * depth;
+        let c = lvp * (eye + dir * t).extend(1.0);
+        let (u, vv, z) = (c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+        let inside =
+            (0.0..1.0).contains(&u) && (0.0..1.0).contains(&vv) && (0.0..=1.0).contains(&z);
+        if inside {
+            let tx = ((u * shadow.width as f32) as u32).min(shadow.width - 1);
+            let ty = ((vv * shadow.height as f32) as u32).min(shadow.height - 1);
+            if z > shadow.pixel(tx, ty)[0] + s.bias {
+                continue;
+            }
+        }
+        let a = i as f32 / steps * depth;
+        let wi = (-s.sigma_t * a).exp() * decay_integral(depth / steps, s.sigma_t) / total;
+        let q = [u * n as f32 - 0.5, vv * n as f32 - 0.5];
+        let f = [q[0] - q[0].floor(), q[1] - q[1].floor()];
+        let i0 = [q[0].floor() as i64, q[1].floor() as i64];
+        let cl = |v: i64| v.clamp(0, n as i64 - 1) as usize;
+        let (x0, x1, y0, y1) = (cl(i0[0]), cl(i0[0] + 1), cl(i0[1]), cl(i0[1] + 1));
+        let nn = n as usize;
+        out.push((
+            [y0 * nn + x0, y0 * nn + x1, y1 * nn + x0, y1 * nn + x1],
+            [
+                wi * (1.0 - f[0]) * (1.0 - f[1]),
+                wi * f[0] * (1.0 - f[1]),
+                wi * (1.0 - f[0]) * f[1],
+                wi * f[0] * f[1],
+            ],
+        ));
+    }
+    out
+}
+
+/// The operator T on the CPU, rows precomputed (the reference for small problems).
+pub struct CpuOperator {
+    rows: Vec<Vec<([usize; 4], [f32; 4])>>,
+    texels: usize,
+}
+
+impl CpuOperator {
+    /// Build the rows of every constraint pixel of every view, in view order.
+    pub fn new(
+        views: &[ViewProblem],
+        shadow: &Raster,
+        light: &Matrices,
+        n: u32,
+        s: Sampling,
+    ) -> Self {
+        let rows = views
+            .iter()
+            .flat_map(|v| {
+                v.constrained()
+                    .into_iter()
+                    .map(|k| row(v, k, shadow, light, n, s))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        Self {
+            rows,
+            texels: (n * n) as usize,
+        }
+    }
+}
+
+impl Operator for CpuOperator {
+    fn rows(&self) -> usize {
+        self.rows.len()
+    }
+
+    fn texels(&self) -> usize {
+        self.texels
+    }
+
+    fn forward(&mut self, x: &[[f32; 3]]) -> Result<Vec<[f32; 3]>, NodeError> {
+        Ok(self
+            .rows
+            .iter()
+            .map(|r| {
+                let mut s = [0.0f32; 3];
+                for (idx, w) in r {
+                    for c in 0..4 {
+                        for ch in 0..3 {
+                            s[ch] += w[c] * x[idx[c]][ch];
+                        }
+                    }
+                }
+                s
+            })
+            .collect())
+    }
+
+    fn adjoint(&mut self, res: &[[f32; 3]]) -> Result<Vec<[f32; 3]>, NodeError> {
+        let mut out = vec![[0.0f64; 3]; self.texels];
+        for (r, rv) in self.rows.iter().zip(res) {
+            for (idx, w) in r {
+                for c in 0..4 {
+                    for ch in 0..3 {
+                        out[idx[c]][ch] += (w[c] * rv[ch]) as f64;
+                    }
+                }
+            }
+        }
+        Ok(out.iter().map(|v| v.map(|x| x as f32)).collect())
+    }
+}
+
+/// The desired colours of every constraint pixel, in view order.
+pub fn desired(views: &[ViewProblem]) -> Vec<[f32; 3]> {
+    views
+        .iter()
+        .flat_map(|v| {
+            v.constrained()
+                .into_iter()
+                .map(|k| {
+                    [
+                        v.targets.data[k * 4],
+                        v.targets.data[k * 4 + 1],
+                        v.targets.data[k * 4 + 2],
+                    ]
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// GPU.
+
+crate::uniforms! {
+    /// Uniforms of `shaders/light_map_solve.wgsl` (struct `View`).
+    pub struct ViewParams as "View" {
+        /// Camera clip → world.
+        pub inv_view_proj: [[f32; 4]; 4],
+        /// World → light clip.
+        pub light_view_proj: [[f32; 4]; 4],
+        /// Camera position.
+        pub eye: [f32; 3],
+        /// Samples per ray.
+        pub steps: u32,
+        /// Fixed-point scale per channel (adjoint), 2^61 / Σ|r|.
+        pub scale: [f32; 3],
+        /// σt.
+        pub sigma_t: f32,
+        /// Light map size.
+        pub map_size: [u32; 2],
+        /// Shadow bias.
+        pub bias: f32,
+        /// Padding.
+        pub _pad0: u32,
+    }
+}
+
+/// One view's textures on the GPU.
+pub(super) struct GpuView {
+    problem: ViewProblem,
+    depth: GpuTexture,
+    targets: GpuTexture,
+    pixels: Vec<usize>,
+}
+
+/// The operator T on the GPU.
+pub struct GpuOperator<'a> {
+    gpu: &'a Gpu,
+    views: Vec<GpuView>,
+    shadow: &'a GpuTexture,
+    light: Matrices,
+    n: u32,
+    sampling: Sampling,
+    rows: usize,
+}
+
+impl<'a> GpuOperator<'a> {
+    /// Upload the views' depths and targets.
+    pub fn new(
+        gpu: &'a Gpu,
+        views: Vec<ViewProblem>,
+        shadow: &'a GpuTexture,
+        light: Matrices,
+        n: u32,
+        sampling: Sampling,
+    ) -> Result<Self, GpuError> {
+        let mut out = Vec::new();
+        let mut rows = 0;
+        for v in views {
+            let (w, h) = (v.depth.width, v.depth.height);
+            let depth = gpu.upload(w, h, 1, &v.depth.data)?;
+            let targets = gpu.upload(w, h, 4, &v.targets.data)?;
+            let pixels = v.constrained();
+            rows += pixels.len();
+            out.push(GpuView {
+                problem: v,
+                depth,
+                targets,
+                pixels,
+            });
+        }
+        Ok(Self {
+            gpu,
+            views: out,
+            shadow,
+            light,
+            n,
+            sampling,
+            rows,
+        })
+    }
+
+    fn params(&self, v: &ViewProblem, scale: [f32; 3]) -> ViewParams {
+        ViewParams {
+            inv_view_proj: v.camera.view_proj().inverse().to_cols_array_2d(),
+            light_view_proj: self.light.view_proj().to_cols_array_2d(),
+            eye: v.camera.eye().to_array(),
+            steps: self.sampling.steps,
+            scale,
+            sigma_t: self.sampling.sigma_t,
+            map_size: [self.n, self.n],
+            bias: self.sampling.bias,
+            _pad0: 0,
+        }
+    }
+
+    fn upload_map(&self, x: &[[f32; 3]]) -> Result<GpuTexture, GpuError> {
+        let data: Vec<f32> = x.iter().flat_map(|v| [v[0], v[1], v[2], 1.0]).collect();
+        self.gpu.upload(self.n, self.n, 4, &data)
+    }
+}
+
+impl Operator for GpuOperator<'_> {
+    fn rows(&self) -> usize {
+        self.rows
+    }
+
+    fn texels(&self) -> usize {
+        (self.n * self.n) as usize
+    }
+
+    fn forward(&mut self, x: &[[f32; 3]]) -> Result<Vec<[f32; 3]>, NodeError> {
+        let map = self.upload_map(x)?;
+        let mut out = Vec::with_capacity(self.rows);
+        for v in &self.views {
+            let (w, h) = (v.problem.depth.width, v.problem.depth.height);
+            let p = self.params(&v.problem, [0.0; 3]);
+            let tx = self.gpu.texture(w, h, TexFormat::Rgba32F)?;
+            self.gpu.dispatch(
+                SHADER,
+                "forward",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&p))),
+                    (1, Bind::Texture(self.shadow)),
+                    (2, Bind::Texture(&v.depth)),
+                    (3, Bind::Texture(&v.targets)),
+                    (4, Bind::Texture(&map)),
+                    (5, Bind::Storage(&tx)),
+                ],
+                w,
+                h,
+            )?;
+            let data = self.gpu.read_texture(&tx)?;
+            out.extend(
+                v.pixels
+                    .iter()
+                    .map(|&k| [data[k * 4], data[k * 4 + 1], data[k * 4 + 2]]),
+            );
+        }
+        Ok(out)
+    }
+
+    fn adjoint(&mut self, r: &[[f32; 3]]) -> Result<Vec<[f32; 3]>, NodeError> {
+        // Scale per channel so that no texel's sum can leave the i32 range (see the shader).
+        let mut mass = [0.0f64; 3];
+        for v in r {
+            for c in 0..3 {
+                mass[c] += v[c].abs() as f64;
+            }
+        }
+        // 2^61 / Σ|r|, capped so that it stays a finite f32 for tiny residuals.
+        let scale = mass.map(|m| {
+            if m > 0.0 {
+                (2f64.powi(61) / m).min(1e37) as f32
+            } else {
+                0.0
+            }
+        });
+        let texels = self.texels();
+        let acc = self.gpu.buffer_zeroed(6 * texels as u32)?;
+        let mut offset = 0;
+        for v in &self.views {
+            let (w, h) = (v.problem.depth.width, v.problem.depth.height);
+            let mut img = vec![0.0f32; (w * h * 4) as usize];
+            for (i, &k) in v.pixels.iter().enumerate() {
+                img[k * 4..k * 4 + 3].copy_from_slice(&r[offset + i]);
+            }
+            offset += v.pixels.len();
+            let res = self.gpu.upload(w, h, 4, &img)?;
+            let p = self.params(&v.problem, scale);
+            self.gpu.dispatch(
+                SHADER,
+                "adjoint",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&p))),
+                    (1, Bind::Texture(self.shadow)),
+                    (2, Bind::Texture(&v.depth)),
+                    (3, Bind::Texture(&v.targets)),
+                    (6, Bind::Texture(&res)),
+                    (7, Bind::Buffer(&acc)),
+                ],
+                w,
+                h,
+            )?;
+        }
+        let words = self.gpu.read_buffer_i32(&acc)?;
+        let value = |w: usize| -> f64 {
+            let lo = words[2 * w] as u32 as u64;
+            let hi = words[2 * w + 1] as u32 as u64;
+            ((hi << 32) | lo) as i64 as f64
+        };
+        Ok((0..texels)
+            .map(|i| {
+                std::array::from_fn(|c| {
+                    if scale[c] > 0.0 {
+                        (value(c * texels + i) / scale[c] as f64) as f32
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect())
+    }
+}
