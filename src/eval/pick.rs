@@ -1,7 +1,7 @@
 //! `tyndall pick` (and the editor's surface picking): what one pixel's view ray sees — V̄, the
 //! linear depth, the first surface (object, triangle, barycentrics) — and, for a node that
 //! places what it reads in a 2D table, where the pixel lands in it
-//! ([`NodeKind::table_coordinates`]).
+//! ([`NodeKind::table_coordinates`](super::NodeKind::table_coordinates)).
 //!
 //! Everything is found by port, never by node kind: the node read is one with ports named
 //! `visibility` (Scalar) and `depth` (Depth) — by default the first (by id) that reads both
