@@ -70,7 +70,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner when no scene is connected."),
         ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner when no scene is connected."),
     ],
-})
+}).tools(&[crate::eval::EditorTool::SplatVolume, crate::eval::EditorTool::SplatBrush])
+
 .shaders(&[SHADER])
 .uniforms(&[BlendParams::LAYOUT]);
 

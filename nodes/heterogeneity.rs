@@ -60,7 +60,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::float("intensity", 1.0, 0.0, 1e3, "", "Intensity I when no volume is connected."),
         ParamSpec::int("steps", 64, 1, 4096, "samples", "Samples per view ray (quality knob)."),
     ],
-})
+}).tools(&[crate::eval::EditorTool::SplatBrush])
+
 .shaders(&[SHADER])
 .uniforms(&[HeteroParams::LAYOUT]);
 

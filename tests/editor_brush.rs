@@ -151,8 +151,12 @@ fn the_brush_paints_into_the_chosen_volume() {
     // From Heterogeneity, the default volume is the one feeding it.
     h.get_by_label("Paint").click();
     h.run_steps(3);
-    let default =
-        tyndall::editor::brush_panel::target_for(h.state().state.graph(), &h.state().brush, "het");
+    let default = tyndall::editor::brush_panel::target_for(
+        &tyndall::nodes::registry(),
+        h.state().state.graph(),
+        &h.state().brush,
+        "het",
+    );
     assert_eq!(default.as_deref(), Some("painted_alpha"));
     h.state_mut().brush.target = Some(other.clone());
     h.run_steps(2);

@@ -312,3 +312,62 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
         }
     }
 }
+
+/// `src/` knows no technique: no string literal in it equals a node kind (ARCHITECTURE.md's
+/// first invariant). A kind's name may appear in prose (a doc comment, a longer message), and
+/// port type names that a kind shares (`ShadowMap`, `LightMap`, `Scene`) are port types.
+#[test]
+fn no_string_literal_in_src_is_a_node_kind() {
+    let registry = tyndall::nodes::registry();
+    let port_types: Vec<&str> = tyndall::graph::PortType::ALL
+        .iter()
+        .map(|t| t.name())
+        .collect();
+    let kinds: Vec<&str> = registry
+        .iter()
+        .map(|k| k.schema().kind)
+        .filter(|k| !port_types.contains(k))
+        .collect();
+    assert!(kinds.len() > 30, "only {} kinds to look for", kinds.len());
+    let mut files = Vec::new();
+    rust_files(&root().join("src"), &mut files);
+    let mut found = Vec::new();
+    for path in files {
+        let src = std::fs::read_to_string(&path).expect("read");
+        for (n, line) in src.lines().enumerate() {
+            let code = line.trim_start();
+            if code.starts_with("//") {
+                continue;
+            }
+            // Every "…" literal on the line (escapes skipped; raw strings are not used for
+            // kinds).
+            let mut rest = code;
+            while let Some(start) = rest.find('"') {
+                let body = &rest[start + 1..];
+                let mut end = None;
+                let mut escaped = false;
+                for (i, c) in body.char_indices() {
+                    match c {
+                        '\\' if !escaped => escaped = true,
+                        '"' if !escaped => {
+                            end = Some(i);
+                            break;
+                        }
+                        _ => escaped = false,
+                    }
+                }
+                let Some(end) = end else { break };
+                let literal = &body[..end];
+                if kinds.contains(&literal) {
+                    found.push(format!("{}:{}: \"{literal}\"", path.display(), n + 1));
+                }
+                rest = &body[end + 1..];
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "node kinds named in src/:\n{}",
+        found.join("\n")
+    );
+}

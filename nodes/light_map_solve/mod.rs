@@ -110,7 +110,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per constraint ray."),
         ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias (as on SingleScattering)."),
     ],
-})
+}).tools(&[crate::eval::EditorTool::StrokePainting])
+
 .shaders(&[SHADER])
 .uniforms(&[ViewParams::LAYOUT]);
 

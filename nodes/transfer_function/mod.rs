@@ -126,7 +126,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side N of the baked table."),
         ParamSpec::int("diffusion_cycles", 8, 1, 64, "cycles", "Multigrid V-cycles per diffusion layer (quality knob)."),
     ],
-})
+}).tools(&[crate::eval::EditorTool::LayerList])
+
 .shaders(&[SHADER])
 .uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT]);
 
@@ -265,6 +266,13 @@ fn table_pick(at: &PickAt) -> Result<TablePick, NodeError> {
 impl NodeKind for TransferFunction {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
+    }
+
+    /// The key-frames of the layer stack.
+    fn data_key_times(&self, data: &crate::graph::NodeData) -> Vec<f64> {
+        data.parse::<TfData>()
+            .map(|d| d.keys.iter().map(|k| k.t).collect())
+            .unwrap_or_default()
     }
 
     /// (u, v) = (V̄ clamped to [0, 1], the depth normalised over this frame's range).

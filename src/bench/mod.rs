@@ -22,6 +22,7 @@
 
 pub mod chain;
 pub mod plot;
+pub mod record;
 pub mod report;
 
 use std::collections::BTreeMap;

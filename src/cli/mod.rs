@@ -3,7 +3,20 @@
 //!
 //! Exit codes: 0 ok, 1 evaluation error, 2 bad input (file, graph, argument).
 
+mod bench;
+mod eval;
 mod info;
+mod node;
+mod nodes;
+mod pick;
+mod render;
+
+pub use bench::BenchArgs;
+pub use eval::EvalArgs;
+pub use node::NodeArgs;
+pub use nodes::catalog_text;
+pub use pick::PickArgs;
+pub use render::{chunk_of, parse_frame_spec, FrameList, ProgressMode, RenderArgs};
 
 use std::collections::BTreeMap;
 use std::hash::{Hash, Hasher};
@@ -84,47 +97,6 @@ pub enum Command {
     },
 }
 
-/// `tyndall bench` options.
-#[derive(Args, Debug)]
-pub struct BenchArgs {
-    /// Suite name (`benches/NAME.ron`, or every suite in the folder `benches/NAME/`) or path;
-    /// none: every suite under benches/.
-    pub suite: Option<String>,
-    /// Runs per setting (default: the suite's; 1 with --quick).
-    #[arg(long)]
-    pub runs: Option<usize>,
-    /// Evaluation size WIDTHxHEIGHT (default: the suite's).
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// A reduced run: each suite's `quick` settings at its `quick_size`, one run each
-    /// (a few minutes for every suite); results go to bench/quick/ and BENCHMARKS.md is left
-    /// alone unless --docs names it.
-    #[arg(long, conflicts_with = "full")]
-    pub quick: bool,
-    /// Also the settings a suite marks `slow` (left out by default to keep the whole run
-    /// under 15 minutes on two CPU cores).
-    #[arg(long)]
-    pub full: bool,
-    /// CSV file of one suite (default: out/bench/NAME.csv); for a folder of suites, the
-    /// folder to write one CSV per suite in (default: out/bench/NAME/).
-    #[arg(long, conflicts_with = "out")]
-    pub csv: Option<PathBuf>,
-    /// Folder for results.csv and plots/ when every suite runs (default: bench, or
-    /// bench/quick with --quick).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Markdown file whose generated blocks to rewrite (default: BENCHMARKS.md when every
-    /// suite runs without --quick; otherwise none).
-    #[arg(long, conflicts_with = "no_docs")]
-    pub docs: Option<PathBuf>,
-    /// Leave BENCHMARKS.md alone.
-    #[arg(long)]
-    pub no_docs: bool,
-    /// Measure nothing: draw the plots again from the recorded results.csv (in --out).
-    #[arg(long, conflicts_with_all = ["quick", "full", "csv", "docs", "runs", "size"])]
-    pub replot: bool,
-}
-
 /// Options shared by evaluation commands.
 #[derive(Args, Debug, Clone)]
 pub struct Common {
@@ -150,187 +122,6 @@ pub struct Common {
     /// you give on the command line (-o, --output, --set) are yours and always allowed.
     #[arg(long)]
     pub allow_any_path: bool,
-}
-
-/// `tyndall node`.
-#[derive(Args, Debug)]
-pub struct NodeArgs {
-    /// Node kind (see `tyndall nodes`).
-    pub kind: String,
-    /// Parameter: NAME=VALUE (repeatable).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    pub params: Vec<String>,
-    /// RON file holding the node's data block.
-    #[arg(long)]
-    pub data: Option<PathBuf>,
-    /// Input port fed from a file: PORT=FILE (repeatable).
-    #[arg(long = "input", value_name = "PORT=FILE")]
-    pub inputs: Vec<String>,
-    /// Output port written to a file: PORT=FILE (repeatable).
-    #[arg(long = "output", value_name = "PORT=FILE")]
-    pub outputs: Vec<String>,
-    /// Time at which key-frames are sampled.
-    #[arg(long, default_value_t = 0.0)]
-    pub time: f64,
-    /// Default image size, WIDTHxHEIGHT.
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// Print statistics.
-    #[arg(long)]
-    pub stats: bool,
-}
-
-/// `tyndall pick`.
-#[derive(Args, Debug)]
-pub struct PickArgs {
-    /// The graph file.
-    pub graph: PathBuf,
-    /// The pixel, X,Y (x right, y down, in the evaluation size).
-    #[arg(long, value_parser = parse_pixel)]
-    pub pixel: (u32, u32),
-    /// Time (frames) at which key-frames are sampled.
-    #[arg(long, default_value_t = 0.0)]
-    pub time: f64,
-    /// The node to read (one with `visibility` and `depth` ports); default: the first that
-    /// reads both through inputs (a transfer function), else the first that produces both (a
-    /// scattering node).
-    #[arg(long)]
-    pub node: Option<String>,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-    /// Evaluation size, WIDTHxHEIGHT (the pixel refers to it; default 960x540, as `render`).
-    #[arg(long, value_parser = parse_size)]
-    pub size: Option<(u32, u32)>,
-    /// Override a parameter: NODE.PARAM=VALUE (repeatable).
-    #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
-    pub set: Vec<String>,
-    /// Folder that the graph's relative output paths are written under (default: the working
-    /// directory). The graph's relative input paths are read from the graph file's folder.
-    #[arg(long, value_name = "DIR")]
-    pub output_dir: Option<PathBuf>,
-    /// Let the graph write to absolute paths and climb out of the output directory with `..`
-    /// (refused by default, so a preset from someone else cannot overwrite your files). Paths
-    /// you give on the command line (-o, --output, --set) are yours and always allowed.
-    #[arg(long)]
-    pub allow_any_path: bool,
-}
-
-fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
-    let (x, y) = s
-        .split_once(',')
-        .ok_or_else(|| format!("expected X,Y, got {s:?}"))?;
-    let n = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("{v:?} is not a pixel coordinate"))
-    };
-    Ok((n(x)?, n(y)?))
-}
-
-fn run_pick(registry: Arc<Registry>, a: PickArgs) -> Result<(), CliError> {
-    let common = Common {
-        size: a.size,
-        stats: false,
-        wedge: None,
-        set: a.set.clone(),
-        output_dir: None,
-        // pick writes nothing: the graph's output paths do not matter.
-        allow_any_path: true,
-    };
-    let g = load_graph(&registry, &a.graph, &common)?;
-    let gpu = gpu()?;
-    let mut ev = Evaluator::new(registry, gpu);
-    let opts = EvalOptions {
-        time: a.time,
-        size: a.size.unwrap_or((960, 540)),
-        ..Default::default()
-    };
-    let p = crate::eval::pick::pick(&mut ev, &g, a.node.as_deref(), a.pixel, &opts)?;
-    if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&p).map_err(|e| bad(e.to_string()))?
-        );
-        return Ok(());
-    }
-    println!(
-        "pixel {},{} of {}x{} at time {} (node {})",
-        p.pixel[0], p.pixel[1], p.size[0], p.size[1], p.time, p.node
-    );
-    println!("visibility  {:.6}", p.visibility);
-    println!("depth       {:.4} m", p.depth);
-    if let Some(t) = &p.tf {
-        println!(
-            "tf          u {:.6}  v {:.6}  (depth range {} {:.4} … {:.4} m)",
-            t.u, t.v, t.depth_range, t.depth_min, t.depth_max
-        );
-    }
-    match &p.surface {
-        Some(s) => {
-            println!(
-                "surface     object {:?} triangle {} bary ({:.6}, {:.6}, {:.6}) at ({:.4}, {:.4}, {:.4})",
-                s.object, s.triangle, s.bary[0], s.bary[1], s.bary[2], s.position[0], s.position[1], s.position[2]
-            );
-            println!(
-                "anchor      anchor: Some((object: {:?}, triangle: {}, bary: ({:.6}, {:.6}, {:.6})))",
-                s.object, s.triangle, s.bary[0], s.bary[1], s.bary[2]
-            );
-        }
-        None => println!("surface     none (sky, or no scene upstream of the depth)"),
-    }
-    Ok(())
-}
-
-/// `tyndall eval`.
-#[derive(Args, Debug)]
-pub struct EvalArgs {
-    /// The graph file.
-    pub graph: PathBuf,
-    /// Replace a node's `path` parameter (e.g. an ImageInput's file): NODE=FILE (repeatable).
-    #[arg(long = "input", value_name = "NODE=FILE")]
-    pub inputs: Vec<String>,
-    /// Write an output port to a file: NODE.PORT=FILE (repeatable). Without any, the graph's
-    /// outputs (sinks) are evaluated.
-    #[arg(long = "output", value_name = "NODE.PORT=FILE")]
-    pub outputs: Vec<String>,
-    /// Time at which key-frames are sampled.
-    #[arg(long, default_value_t = 0.0)]
-    pub time: f64,
-    /// Shared options.
-    #[command(flatten)]
-    pub common: Common,
-}
-
-/// `tyndall render`.
-#[derive(Args, Debug)]
-pub struct RenderArgs {
-    /// The graph file.
-    pub graph: PathBuf,
-    /// Output file; replaces the `path` of the graph's single output node.
-    #[arg(short = 'o', long = "output")]
-    pub output: Option<PathBuf>,
-    /// Frames to render: `A`, `A-B`, `A-BxS` (every S-th frame), comma-separated (`1,5,7-9`).
-    /// A `####` or `%04d` in an output path becomes the zero-padded frame; other paths get
-    /// `_NNNN` before the extension. Each frame depends only on the graph, its parameters and the
-    /// frame number (noise seeds included), so any subset renders the same pixels.
-    #[arg(long, value_parser = parse_frame_spec)]
-    pub frames: Option<FrameList>,
-    /// Render only chunk K of N (`K/N`, 1-based): the frames split into N contiguous runs, one
-    /// per task of a farm array job (Slurm: `--chunk $((SLURM_ARRAY_TASK_ID + 1))/4`).
-    #[arg(long, value_parser = parse_chunk)]
-    pub chunk: Option<(usize, usize)>,
-    /// Skip frames whose output files all exist (rerunning a killed job resumes it; files are
-    /// written atomically, so a killed frame leaves none).
-    #[arg(long)]
-    pub skip_existing: bool,
-    /// Progress: auto (a bar on a terminal, else `ALF_PROGRESS nn%` lines), bar, alf, json (a
-    /// JSON object per frame on stdout), none.
-    #[arg(long, value_enum, default_value_t = ProgressMode::Auto)]
-    pub progress: ProgressMode,
-    /// Shared options.
-    #[command(flatten)]
-    pub common: Common,
 }
 
 /// A CLI failure with its exit code.
@@ -370,11 +161,11 @@ impl CliError {
     }
 }
 
-fn bad(msg: impl std::fmt::Display) -> CliError {
+pub(super) fn bad(msg: impl std::fmt::Display) -> CliError {
     CliError::BadInput(msg.to_string())
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
+pub(super) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or("expected WIDTHxHEIGHT, e.g. 960x540")?;
@@ -386,85 +177,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// A list of frames (`--frames`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct FrameList(pub Vec<i64>);
-
-/// How `render` reports progress.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ProgressMode {
-    /// A bar on a terminal, else `ALF_PROGRESS nn%` lines.
-    Auto,
-    /// A progress bar (hidden when stderr is not a terminal).
-    Bar,
-    /// `ALF_PROGRESS nn%` lines on stdout (Tractor, OpenCue and Deadline parse them).
-    Alf,
-    /// One JSON object per frame on stdout.
-    Json,
-    /// Nothing but the summary.
-    None,
-}
-
-/// Parse a frame spec: `A`, `A-B`, `A-BxS`, comma-separated; frames ≥ 0, in the order given,
-/// repeats dropped.
-pub fn parse_frame_spec(s: &str) -> Result<FrameList, String> {
-    let mut out: Vec<i64> = Vec::new();
-    for part in s.split(',').map(str::trim) {
-        let num = |t: &str| -> Result<i64, String> {
-            t.trim()
-                .parse::<i64>()
-                .ok()
-                .filter(|v| *v >= 0)
-                .ok_or_else(|| format!("bad frame '{t}' in '{s}' (frames are whole numbers ≥ 0)"))
-        };
-        let (range, step) = match part.split_once(['x', 'X']) {
-            Some((r, st)) => (r, num(st)?),
-            None => (part, 1),
-        };
-        if step == 0 {
-            return Err(format!("'{part}': the step must be at least 1"));
-        }
-        let (a, b) = match range.split_once('-') {
-            Some((a, b)) => (num(a)?, num(b)?),
-            None => (num(range)?, num(range)?),
-        };
-        if b < a {
-            return Err(format!("frame range '{part}' is empty"));
-        }
-        if (b - a) / step > 1_000_000 {
-            return Err(format!("'{part}' is more than a million frames"));
-        }
-        for f in (a..=b).step_by(step as usize) {
-            if !out.contains(&f) {
-                out.push(f);
-            }
-        }
-    }
-    Ok(FrameList(out))
-}
-
-fn parse_chunk(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("'{s}': expected K/N with 1 ≤ K ≤ N, e.g. 2/4");
-    let (k, n) = s.split_once('/').ok_or_else(bad)?;
-    let (k, n): (usize, usize) = (
-        k.trim().parse().map_err(|_| bad())?,
-        n.trim().parse().map_err(|_| bad())?,
-    );
-    if k == 0 || n == 0 || k > n {
-        return Err(bad());
-    }
-    Ok((k, n))
-}
-
-/// Chunk `k` of `n` (1-based) of `frames`: contiguous runs whose lengths differ by at most one.
-pub fn chunk_of(frames: &[i64], (k, n): (usize, usize)) -> &[i64] {
-    let len = frames.len();
-    let start = (k - 1) * len / n;
-    let end = k * len / n;
-    &frames[start..end]
-}
-
-fn split_eq(s: &str, what: &str) -> Result<(String, String), CliError> {
+pub(super) fn split_eq(s: &str, what: &str) -> Result<(String, String), CliError> {
     s.split_once('=')
         .map(|(a, b)| (a.trim().to_string(), b.to_string()))
         .ok_or_else(|| bad(format!("'{s}': expected {what}")))
@@ -532,7 +245,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             print!("{}", catalog_text(&registry, markdown, json));
             Ok(())
         }
-        Command::Node(a) => run_node(registry, a),
+        Command::Node(a) => node::run_node(registry, a),
         Command::Edit { graph } => crate::editor::run(graph).map_err(|e| {
             if Gpu::shared().is_err() {
                 CliError::NoGpu(e)
@@ -540,18 +253,18 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
                 bad(e)
             }
         }),
-        Command::Bench(a) if a.replot => replot(
+        Command::Bench(a) if a.replot => bench::replot(
             &a.out.unwrap_or_else(|| PathBuf::from("bench")),
             a.suite.as_deref(),
         ),
-        Command::Bench(a) => run_bench(registry, a),
-        Command::Eval(a) => run_eval(registry, a),
-        Command::Pick(a) => run_pick(registry, a),
-        Command::Render(a) => run_render(registry, a),
+        Command::Bench(a) => bench::run_bench(registry, a),
+        Command::Eval(a) => eval::run_eval(registry, a),
+        Command::Pick(a) => pick::run_pick(registry, a),
+        Command::Render(a) => render::run_render(registry, a),
     }
 }
 
-fn gpu() -> Result<Arc<Gpu>, CliError> {
+pub(super) fn gpu() -> Result<Arc<Gpu>, CliError> {
     Gpu::shared().map_err(|e| match e {
         crate::gpu::GpuError::NoAdapter(m) => CliError::NoGpu(m),
         e => CliError::NoGpu(format!("cannot start the GPU: {e}")),
@@ -559,7 +272,7 @@ fn gpu() -> Result<Arc<Gpu>, CliError> {
 }
 
 /// `--set`/`--wedge`/`--input`: a parameter from text; a key-framed parameter becomes constant.
-fn set_param_str(
+pub(super) fn set_param_str(
     registry: &Registry,
     g: &mut Graph,
     node: &str,
@@ -572,35 +285,7 @@ fn set_param_str(
         .map_err(bad)
 }
 
-fn file_key(path: &Path) -> u64 {
-    let mut h = std::hash::DefaultHasher::new();
-    path.hash(&mut h);
-    if let Ok(m) = std::fs::metadata(path) {
-        m.len().hash(&mut h);
-        m.modified().ok().hash(&mut h);
-    }
-    h.finish()
-}
-
-/// The port type a file with `channels` channels should become on a port accepting `accepts`.
-fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
-    if channels == 4 {
-        return [PortType::Image, PortType::Lut2D]
-            .into_iter()
-            .find(|t| accepts.contains(t));
-    }
-    accepts
-        .iter()
-        .copied()
-        .find(|t| t.is_single_channel())
-        .or_else(|| {
-            accepts
-                .contains(&PortType::Image)
-                .then_some(PortType::Image)
-        })
-}
-
-fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
+pub(super) fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
     let mut raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
     if let PortValue::Phase(_) = v {
         // A phase table is written as W×1 RGB (its alpha carries nothing).
@@ -624,125 +309,20 @@ fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
     })
 }
 
-fn print_stats(ev: &Evaluation, header: &str) {
+pub(super) fn print_stats(ev: &Evaluation, header: &str) {
     if !header.is_empty() {
         println!("{header}");
     }
     print!("{}", ev.stats);
 }
 
-fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliError> {
-    let catalog = registry.catalog().clone();
-    let schema: &NodeSchema = catalog.get(&a.kind).ok_or_else(|| {
-        bad(format!(
-            "unknown node kind '{}' (known kinds: {})",
-            a.kind,
-            catalog.kind_names()
-        ))
-    })?;
-    let id = a.kind.to_lowercase();
-    let data = match &a.data {
-        Some(d) => {
-            let text =
-                std::fs::read_to_string(d).map_err(|e| bad(format!("{}: {e}", d.display())))?;
-            let v = crate::graph::NodeData::from_text(&text)
-                .map_err(|e| bad(format!("{}:{e}", d.display())))?;
-            Some(v)
-        }
-        None => None,
-    };
-    let mut g = Graph::new();
-    g.insert_node(
-        &catalog,
-        crate::graph::Node {
-            id: id.clone(),
-            kind: a.kind.clone(),
-            params: BTreeMap::new(),
-            keys: BTreeMap::new(),
-            pos: None,
-            data,
-        },
-    )
-    .map_err(bad)?;
-    for p in &a.params {
-        let (name, value) = split_eq(p, "NAME=VALUE")?;
-        set_param_str(&registry, &mut g, &id, &name, &value)?;
-    }
-    let gpu = gpu()?;
-    let mut opts = EvalOptions {
-        time: a.time,
-        gpu_timings: a.stats,
-        progress: Some(node_progress()),
-        ..Default::default()
-    };
-    if let Some(s) = a.size {
-        opts.size = s;
-    }
-    for i in &a.inputs {
-        let (port, file) = split_eq(i, "PORT=FILE")?;
-        let spec = schema.input(&port).ok_or_else(|| {
-            bad(format!(
-                "{} has no input port '{port}' (its inputs: {})",
-                a.kind,
-                schema.input_names()
-            ))
-        })?;
-        let path = PathBuf::from(&file);
-        let raster = read_image(&path, true).map_err(bad)?;
-        let ty = type_for_file(spec.types, raster.channels).ok_or_else(|| {
-            bad(format!(
-                "{file}: a {}-channel image cannot feed {}.{port}",
-                raster.channels, a.kind
-            ))
-        })?;
-        let v = upload_raster(&gpu, &raster, ty).map_err(|e| bad(format!("{file}: {e}")))?;
-        opts.inject
-            .insert((id.clone(), port.clone()), (v, file_key(&path)));
-    }
-    let mut targets = Vec::new();
-    let mut files = Vec::new();
-    for o in &a.outputs {
-        let (port, file) = split_eq(o, "PORT=FILE")?;
-        if schema.output(&port).is_none() {
-            return Err(bad(format!(
-                "{} has no output port '{port}' (its outputs: {})",
-                a.kind,
-                schema.output_names()
-            )));
-        }
-        targets.push(Target::Port(id.clone(), port.clone()));
-        files.push((port, PathBuf::from(file)));
-    }
-    let is_sink = registry.get(&a.kind).is_some_and(|k| k.is_sink());
-    if is_sink {
-        targets.push(Target::Node(id.clone()));
-    } else if targets.is_empty() {
-        return Err(bad(format!(
-            "nothing to write: give --output PORT=FILE (outputs of {}: {})",
-            a.kind,
-            schema.output_names()
-        )));
-    }
-    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
-    let result = ev.evaluate(&g, &targets, &opts)?;
-    for (port, file) in files {
-        if let Some(v) = result.outputs.get(&(id.clone(), port)) {
-            write_value(&gpu, v, &file)?;
-        }
-    }
-    if a.stats {
-        print_stats(&result, "");
-    }
-    Ok(())
-}
-
-struct Wedge {
+pub(super) struct Wedge {
     node: String,
     param: String,
     values: Vec<String>,
 }
 
-fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
+pub(super) fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
     let (target, values) = split_eq(s, "NODE.PARAM=V1,V2,...")?;
     let (node, param) = split_endpoint(&target).map_err(bad)?;
     let values: Vec<String> = values
@@ -760,7 +340,11 @@ fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
     })
 }
 
-fn load_graph(registry: &Registry, path: &Path, common: &Common) -> Result<Graph, CliError> {
+pub(super) fn load_graph(
+    registry: &Registry,
+    path: &Path,
+    common: &Common,
+) -> Result<Graph, CliError> {
     let g = load_file(path, registry.catalog()).map_err(bad)?;
     // The graph's own file paths first (the policy); what the command line sets is the user's.
     let policy = crate::eval::PathPolicy {
@@ -785,13 +369,17 @@ fn load_graph(registry: &Registry, path: &Path, common: &Common) -> Result<Graph
 }
 
 /// One evaluation variant: the graph to evaluate, the file suffix and a label.
-struct Variant {
+pub(super) struct Variant {
     graph: Graph,
     suffix: String,
     label: String,
 }
 
-fn variants(registry: &Registry, g: &Graph, wedge: Option<&str>) -> Result<Vec<Variant>, CliError> {
+pub(super) fn variants(
+    registry: &Registry,
+    g: &Graph,
+    wedge: Option<&str>,
+) -> Result<Vec<Variant>, CliError> {
     let Some(w) = wedge else {
         return Ok(vec![Variant {
             graph: g.clone(),
@@ -829,449 +417,9 @@ fn variants(registry: &Registry, g: &Graph, wedge: Option<&str>) -> Result<Vec<V
     Ok(out)
 }
 
-fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliError> {
-    let mut g = load_graph(&registry, &a.graph, &a.common)?;
-    for i in &a.inputs {
-        let (node, file) = split_eq(i, "NODE=FILE")?;
-        let has_path = g
-            .node(&node)
-            .and_then(|n| registry.catalog().get(&n.kind))
-            .and_then(|s| s.param("path"))
-            .is_some_and(|p| p.kind == ParamKind::Text);
-        if !has_path {
-            return Err(bad(format!(
-                "--input {node}=...: node '{node}' is not in the graph or has no path parameter"
-            )));
-        }
-        g.set_param(registry.catalog(), &node, "path", ParamValue::Text(file))
-            .map_err(bad)?;
-    }
-    let mut targets = Vec::new();
-    let mut files = Vec::new();
-    for o in &a.outputs {
-        let (target, file) = split_eq(o, "NODE.PORT=FILE")?;
-        let (node, port) = split_endpoint(&target).map_err(bad)?;
-        targets.push(Target::Port(node.to_string(), port.to_string()));
-        files.push(((node.to_string(), port.to_string()), file));
-    }
-    let gpu = gpu()?;
-    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
-    if targets.is_empty() {
-        targets = ev.sinks(&g);
-        if targets.is_empty() {
-            return Err(bad(format!(
-                "{}: the graph has no outputs; give --output NODE.PORT=FILE",
-                a.graph.display()
-            )));
-        }
-    }
-    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
-    for v in &vars {
-        let opts = EvalOptions {
-            time: a.time,
-            size: a.common.size.unwrap_or((512, 512)),
-            output_suffix: v.suffix.clone(),
-            frame: None,
-            gpu_timings: a.common.stats,
-            inject: BTreeMap::new(),
-            progress: Some(node_progress()),
-        };
-        let result = ev.evaluate(&v.graph, &targets, &opts)?;
-        for (key, file) in &files {
-            if let Some(val) = result.outputs.get(key) {
-                write_value(&gpu, val, &with_suffix(file, &v.suffix))?;
-            }
-        }
-        if a.common.stats {
-            print_stats(&result, &v.label);
-        }
-    }
-    Ok(())
-}
-
-fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
-    use crate::bench::{self, plot, report};
-    let all = a.suite.is_none();
-    let root = Path::new("benches");
-    if a.suite.is_none() && !root.is_dir() {
-        return Err(bad(
-            "no benches/ folder in the working directory: run `tyndall bench` from the \
-             repository root",
-        ));
-    }
-    let list: Vec<(String, PathBuf)> = match &a.suite {
-        None => report::all_suites(root).map_err(bad)?,
-        Some(name) => bench::suite_files(name)
-            .map_err(bad)?
-            .into_iter()
-            .map(|p| {
-                let name = p
-                    .strip_prefix(root)
-                    .unwrap_or(&p)
-                    .with_extension("")
-                    .to_string_lossy()
-                    .into_owned();
-                (name, p)
-            })
-            .collect(),
-    };
-    if list.is_empty() {
-        return Err(bad("no bench suites found under benches/"));
-    }
-    let out_dir = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(if a.quick { "bench/quick" } else { "bench" }));
-    let docs = match (&a.docs, a.no_docs) {
-        (Some(d), _) => Some(d.clone()),
-        (None, false) if all && !a.quick => Some(PathBuf::from("BENCHMARKS.md")),
-        _ => None,
-    };
-    let command = std::iter::once("tyndall".to_string())
-        .chain(std::env::args().skip(1))
-        .collect::<Vec<_>>()
-        .join(" ");
-    let gpu = gpu()?;
-    let adapter = gpu.describe();
-    let started = std::time::Instant::now();
-    let mut results: Vec<(String, String, Vec<bench::Row>)> = Vec::new();
-    let mut failed: Vec<String> = Vec::new();
-    for (i, (name, path)) in list.iter().enumerate() {
-        eprintln!(
-            "bench [{}/{}] {name} ({:.0} s so far)",
-            i + 1,
-            list.len(),
-            started.elapsed().as_secs_f64()
-        );
-        let mut spec = bench::load_suite(path).map_err(bad)?;
-        if !a.full {
-            spec = spec.without_slow();
-        }
-        if a.quick {
-            spec = spec.reduced();
-        }
-        let size = a.size.unwrap_or(spec.size);
-        let runs = a.runs.unwrap_or(spec.runs);
-        let rows = match bench::run(
-            registry.clone(),
-            gpu.clone(),
-            path,
-            &spec,
-            runs,
-            size,
-            |l| eprintln!("bench {name}: {l}"),
-        ) {
-            Ok(rows) => rows,
-            Err(e) if all => {
-                eprintln!("bench {name}: failed: {e}");
-                failed.push(name.clone());
-                continue;
-            }
-            Err(bench::BenchError::Eval(e)) => return Err(CliError::Eval(e)),
-            Err(e) => return Err(bad(e)),
-        };
-        let text = report::suite_text(&spec, &adapter, (size, runs), &command, &rows);
-        if i > 0 {
-            println!();
-        }
-        print!("{text}");
-        if !all {
-            // One suite: the CSV file given or out/bench/NAME.csv; a folder of suites: one CSV
-            // per suite in the folder given or out/bench/SUITE/.
-            let stem = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "bench".into());
-            let csv_path = match (&a.csv, list.len() > 1) {
-                (Some(c), false) => c.clone(),
-                (Some(c), true) => c.join(format!("{stem}.csv")),
-                (None, false) => PathBuf::from(format!("out/bench/{stem}.csv")),
-                (None, true) => PathBuf::from(format!(
-                    "out/bench/{}/{stem}.csv",
-                    a.suite.as_deref().unwrap_or("bench")
-                )),
-            };
-            // The same columns as bench/results.csv.
-            let one = [(name.clone(), adapter.clone(), rows.clone())];
-            write_file(&csv_path, &report::results_csv(&one).map_err(bad)?)?;
-            println!("csv: {}", csv_path.display());
-        }
-        let mut links = Vec::new();
-        if all || docs.is_some() {
-            let stem = name.replace('/', "-");
-            for p in
-                plot::plots(&out_dir.join("plots"), &stem, &spec, &adapter, &rows).map_err(bad)?
-            {
-                println!("plot: {}", p.display());
-                let alt = p
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                links.push((alt, p.to_string_lossy().into_owned()));
-            }
-        }
-        if let Some(doc) = &docs {
-            let old = std::fs::read_to_string(doc).unwrap_or_else(|_| "# Benchmarks\n".into());
-            let body = report::doc_body(&command, &text, &links);
-            write_file(
-                doc,
-                report::update_doc(&old, name, &spec.title, &body).as_bytes(),
-            )?;
-        }
-        results.push((name.clone(), adapter.clone(), rows));
-        if all || docs.is_some() {
-            // Rewritten after every suite: a run stopped half-way keeps what it measured. The
-            // rows of suites not run this time are kept.
-            let path = out_dir.join("results.csv");
-            let csv = report::results_csv(&results).map_err(bad)?;
-            let old = std::fs::read(&path).unwrap_or_default();
-            write_file(&path, &report::merge_results(&old, &csv).map_err(bad)?)?;
-        }
-    }
-    let mut summary = format!(
-        "{} of {} suites measured in {:.0} s",
-        results.len(),
-        list.len(),
-        started.elapsed().as_secs_f64()
-    );
-    if all || docs.is_some() {
-        summary.push_str(&format!(
-            "; results: {}; plots: {}",
-            out_dir.join("results.csv").display(),
-            out_dir.join("plots").display()
-        ));
-    }
-    if let Some(doc) = &docs {
-        summary.push_str(&format!("; tables: {}", doc.display()));
-    }
-    println!("\n{summary}");
-    if failed.is_empty() {
-        Ok(())
-    } else {
-        Err(CliError::Suites(failed))
-    }
-}
-
-/// `tyndall bench --replot`: the plots of every suite recorded in `out/results.csv` (or of one
-/// suite), drawn again without measuring.
-fn replot(out: &Path, only: Option<&str>) -> Result<(), CliError> {
-    use crate::bench::{load_suite, plot, report};
-    let csv = out.join("results.csv");
-    let text = std::fs::read(&csv).map_err(|e| bad(format!("{}: {e}", csv.display())))?;
-    for (name, adapter, rows) in report::rows_from_csv(&text).map_err(bad)? {
-        if only.is_some_and(|o| o != name) {
-            continue;
-        }
-        let spec = load_suite(&Path::new("benches").join(format!("{name}.ron"))).map_err(bad)?;
-        let stem = name.replace('/', "-");
-        for p in plot::plots(&out.join("plots"), &stem, &spec, &adapter, &rows).map_err(bad)? {
-            println!("plot: {}", p.display());
-        }
-    }
-    Ok(())
-}
-
-/// Write a file atomically, creating its folder.
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| bad(format!("{}: {e}", dir.display())))?;
-    }
-    crate::graph::write_atomic(path, bytes).map_err(bad)
-}
-
-fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), CliError> {
-    let mut g = load_graph(&registry, &a.graph, &a.common)?;
-    let gpu = gpu()?;
-    let mut ev = Evaluator::new(registry.clone(), gpu);
-    let targets = ev.sinks(&g);
-    if targets.is_empty() {
-        return Err(bad(format!(
-            "{}: the graph has no output nodes to render",
-            a.graph.display()
-        )));
-    }
-    if let Some(o) = &a.output {
-        let [Target::Node(sink)] = targets.as_slice() else {
-            return Err(bad(format!(
-                "-o needs a graph with exactly one output node; this one has {}",
-                targets.len()
-            )));
-        };
-        g.set_param(
-            registry.catalog(),
-            sink,
-            "path",
-            ParamValue::Text(o.to_string_lossy().into_owned()),
-        )
-        .map_err(bad)?;
-    }
-    let all: Vec<Option<i64>> = match &a.frames {
-        Some(list) => list.0.iter().copied().map(Some).collect(),
-        None if a.chunk.is_some() => return Err(bad("--chunk needs --frames")),
-        None => vec![None],
-    };
-    let frames: Vec<Option<i64>> = match a.chunk {
-        Some(c) => {
-            let list: Vec<i64> = all.iter().flatten().copied().collect();
-            chunk_of(&list, c).iter().copied().map(Some).collect()
-        }
-        None => all,
-    };
-    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
-    let total = frames.len() * vars.len();
-    use std::io::IsTerminal;
-    let mode = match a.progress {
-        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
-        ProgressMode::Auto => ProgressMode::Alf,
-        m => m,
-    };
-    let bar = if mode == ProgressMode::Bar {
-        progress(total as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let clock = std::time::Instant::now();
-    let (mut written, mut skipped, mut failed) = (Vec::new(), 0usize, Vec::new());
-    let mut done = 0usize;
-    for f in &frames {
-        for v in &vars {
-            // The files this frame writes: every sink's `path`, named for the frame.
-            let files: Vec<PathBuf> = targets
-                .iter()
-                .filter_map(|t| match t {
-                    Target::Node(id) => v.graph.node(id),
-                    Target::Port(..) => None,
-                })
-                .filter_map(|n| {
-                    // The node's own path, else its kind's default.
-                    let default = registry.get(&n.kind).and_then(|k| {
-                        k.decl()
-                            .schema
-                            .params
-                            .iter()
-                            .find(|p| p.name == "path")
-                            .map(|p| p.default.value())
-                    });
-                    match n.params.get("path").cloned().or(default) {
-                        Some(ParamValue::Text(p)) if !p.is_empty() => Some(p),
-                        _ => None,
-                    }
-                })
-                .map(|p| crate::eval::output_path(&p, &v.suffix, *f))
-                .collect();
-            let status =
-                if a.skip_existing && !files.is_empty() && files.iter().all(|p| p.is_file()) {
-                    skipped += 1;
-                    "skipped"
-                } else {
-                    let opts = EvalOptions {
-                        time: f.map_or(0.0, |f| f as f64),
-                        size: a.common.size.unwrap_or((960, 540)),
-                        output_suffix: v.suffix.clone(),
-                        frame: *f,
-                        gpu_timings: a.common.stats,
-                        inject: BTreeMap::new(),
-                        progress: Some(node_progress()),
-                    };
-                    match ev.evaluate(&v.graph, &targets, &opts) {
-                        Ok(result) => {
-                            if a.common.stats {
-                                let label = match f {
-                                    Some(f) => format!("frame {f} {}", v.label),
-                                    None => v.label.clone(),
-                                };
-                                print_stats(&result, label.trim());
-                            }
-                            written.extend(files.iter().cloned());
-                            "written"
-                        }
-                        Err(e) if e.device_lost() => {
-                            // Nothing more can run on a lost device: stop, exit 1.
-                            bar.finish_and_clear();
-                            eprintln!("error: frame {}: {e}", frame_label(*f));
-                            return Err(e.into());
-                        }
-                        Err(e) if frames.len() * vars.len() > 1 => {
-                            // One bad frame does not stop the others; the exit code says so.
-                            bar.suspend(|| eprintln!("error: frame {}: {e}", frame_label(*f)));
-                            failed.push(frame_label(*f));
-                            "failed"
-                        }
-                        Err(e) => return Err(e.into()),
-                    }
-                };
-            done += 1;
-            bar.inc(1);
-            report(mode, *f, status, &files, (done, total));
-        }
-    }
-    bar.finish_and_clear();
-    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
-    let renders = match vars.len() {
-        1 => plural(frames.len(), "frame"),
-        n => format!(
-            "{} × {}",
-            plural(frames.len(), "frame"),
-            plural(n, "wedge value")
-        ),
-    };
-    println!(
-        "{} written for {renders}, {skipped} skipped (already there), {} failed, {:.1} s",
-        plural(written.len(), "file"),
-        failed.len(),
-        clock.elapsed().as_secs_f64()
-    );
-    if !failed.is_empty() {
-        return Err(CliError::Frames(failed));
-    }
-    Ok(())
-}
-
-fn frame_label(f: Option<i64>) -> String {
-    f.map_or_else(|| "-".into(), |f| f.to_string())
-}
-
-/// One progress report after a frame (`mode` is never `Auto` here).
-fn report(
-    mode: ProgressMode,
-    frame: Option<i64>,
-    status: &str,
-    files: &[PathBuf],
-    (done, total): (usize, usize),
-) {
-    match mode {
-        ProgressMode::Alf => println!("ALF_PROGRESS {}%", done * 100 / total.max(1)),
-        ProgressMode::Json => {
-            let files: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
-            let line = serde_json::json!({
-                "frame": frame,
-                "status": status,
-                "files": files,
-                "done": done,
-                "total": total,
-            });
-            println!("{line}");
-        }
-        _ => {}
-    }
-}
-
-/// A progress bar on a terminal; hidden otherwise (long work prints plain lines via `--stats`).
-fn progress(total: u64) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if total <= 1 || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(total);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {elapsed}") {
-        bar.set_style(style);
-    }
-    bar
-}
-
 /// Progress of long-running nodes (a light-map solve): a bar on a terminal, else a plain line
 /// at every tenth of the work.
-fn node_progress() -> crate::eval::ProgressSink {
+pub(super) fn node_progress() -> crate::eval::ProgressSink {
     use std::io::IsTerminal;
     use std::sync::Mutex;
     let terminal = std::io::stderr().is_terminal();
@@ -1309,138 +457,4 @@ fn node_progress() -> crate::eval::ProgressSink {
             }
         }
     }))
-}
-
-fn default_text(p: &crate::graph::ParamSpec) -> String {
-    match p.default.value() {
-        ParamValue::Text(s) => format!("\"{s}\""),
-        v => v.to_string(),
-    }
-}
-
-fn range_text(p: &crate::graph::ParamSpec) -> String {
-    match p.kind {
-        ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3 => {
-            format!("[{}, {}]", num(p.min), num(p.max))
-        }
-        ParamKind::Enum(names) => names.join(" | "),
-        ParamKind::Bool => "true | false".into(),
-        ParamKind::Text => "text".into(),
-    }
-}
-
-/// The catalog as plain text, Markdown or JSON.
-pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
-    use std::fmt::Write;
-    let schemas: Vec<&NodeSchema> = registry.catalog().iter().collect();
-    if json {
-        let v: Vec<serde_json::Value> = schemas
-            .iter()
-            .map(|s| {
-                let ports = |dir: &str, ps: &[crate::graph::PortSpec]| -> Vec<serde_json::Value> {
-                    ps.iter()
-                        .map(|p| {
-                            serde_json::json!({
-                                "name": p.name, "direction": dir,
-                                "types": p.types.iter().map(|t| t.name()).collect::<Vec<_>>(),
-                                "required": p.required, "doc": p.doc,
-                            })
-                        })
-                        .collect()
-                };
-                let mut all = ports("input", s.inputs);
-                all.extend(ports("output", s.outputs));
-                serde_json::json!({
-                    "kind": s.kind, "category": s.category, "doc": s.doc,
-                    "ports": all,
-                    "params": s.params.iter().map(|p| {
-                        let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);
-                        serde_json::json!({
-                            "name": p.name, "type": p.kind.name(),
-                            "default": match p.default.value() {
-                                ParamValue::Float(v) => serde_json::json!(v),
-                                ParamValue::Int(v) => serde_json::json!(v),
-                                ParamValue::Bool(v) => serde_json::json!(v),
-                                ParamValue::Enum(v) | ParamValue::Text(v) => serde_json::json!(v),
-                                ParamValue::Colour(c) => serde_json::json!(c),
-                                ParamValue::Vec3(c) => serde_json::json!(c),
-                            },
-                            "min": if numeric { serde_json::json!(p.min) } else { serde_json::Value::Null },
-                            "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },
-                            "values": match p.kind { ParamKind::Enum(n) => serde_json::json!(n), _ => serde_json::Value::Null },
-                            "unit": p.unit, "doc": p.doc,
-                        })
-                    }).collect::<Vec<_>>(),
-                })
-            })
-            .collect();
-        return serde_json::to_string_pretty(&v).unwrap_or_default() + "\n";
-    }
-    let mut out = String::new();
-    if markdown {
-        out.push_str("# Tyndall node catalog\n\nGenerated by `tyndall nodes --markdown`; do not edit by hand.\n\n");
-    }
-    for s in schemas {
-        if markdown {
-            let _ = writeln!(out, "## {}\n\n*{}* — {}\n", s.kind, s.category, s.doc);
-            let _ = writeln!(out, "| port | direction | type | doc |\n|---|---|---|---|");
-            for (dir, ps) in [("in", s.inputs), ("out", s.outputs)] {
-                for p in ps {
-                    let types: Vec<&str> = p.types.iter().map(|t| t.name()).collect();
-                    let _ = writeln!(
-                        out,
-                        "| `{}` | {dir} | {} | {} |",
-                        p.name,
-                        types.join(" \\| "),
-                        p.doc
-                    );
-                }
-            }
-            let _ = writeln!(
-                out,
-                "\n| parameter | type | default | range | unit | doc |\n|---|---|---|---|---|---|"
-            );
-            for p in s.params {
-                let _ = writeln!(
-                    out,
-                    "| `{}` | {} | {} | {} | {} | {} |",
-                    p.name,
-                    p.kind.name(),
-                    default_text(p),
-                    range_text(p).replace('|', "\\|"),
-                    p.unit,
-                    p.doc
-                );
-            }
-            out.push('\n');
-        } else {
-            let _ = writeln!(out, "{} ({}): {}", s.kind, s.category, s.doc);
-            for (dir, ps) in [("in ", s.inputs), ("out", s.outputs)] {
-                for p in ps {
-                    let types: Vec<&str> = p.types.iter().map(|t| t.name()).collect();
-                    let _ = writeln!(
-                        out,
-                        "  {dir} {:<10} {:<16} {}",
-                        p.name,
-                        types.join("|"),
-                        p.doc
-                    );
-                }
-            }
-            for p in s.params {
-                let _ = writeln!(
-                    out,
-                    "  param {:<10} {:<7} default {} range {} {} — {}",
-                    p.name,
-                    p.kind.name(),
-                    default_text(p),
-                    range_text(p),
-                    p.unit,
-                    p.doc
-                );
-            }
-            out.push('\n');
-        }
-    }
-    out
 }

@@ -16,7 +16,7 @@ use super::canvas::CanvasView;
 use super::view::{probe, to_srgb8, Channel};
 use super::worker::{NodeReport, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
-use crate::eval::Registry;
+use crate::eval::{EditorTool, Registry};
 use crate::gpu::Gpu;
 use crate::graph::{save_string, Interp, Key, ParamKind, ParamValue};
 use crate::io::Raster;
@@ -588,20 +588,22 @@ impl EditorApp {
             let rel = (p - response.rect.min) / response.rect.size();
             [rel.x * size.0 as f32, rel.y * size.1 as f32]
         };
-        let kind = self
+        let selected = self
             .selected
             .as_ref()
             .and_then(|id| self.state.graph().node(id))
-            .map(|n| (n.id.clone(), n.kind.clone()));
-        match kind {
-            Some((id, k)) if k == "TransferFunction" && self.tf.arm_3d => {
+            .and_then(|n| Some((n.id.clone(), self.registry.get(&n.kind)?.clone())));
+        let tool = |t: EditorTool| selected.as_ref().is_some_and(|(_, k)| k.has_tool(t));
+        let id = selected.as_ref().map(|(id, _)| id.clone());
+        match id {
+            Some(id) if tool(EditorTool::LayerList) && self.tf.arm_3d => {
                 if let (true, Some(p)) = (response.clicked(), response.interact_pointer_pos()) {
                     let [x, y] = at(p);
                     let px = ((x as u32).min(size.0 - 1), (y as u32).min(size.1 - 1));
                     self.add_3d_constraint(&id, px, size);
                 }
             }
-            Some((id, k)) if k == "LightMapSolve" => {
+            Some(id) if tool(EditorTool::StrokePainting) => {
                 if self.strokes.armed {
                     for (p, start) in stroke_points(ui, &response) {
                         if let Err(e) = super::stroke_panel::paint(
@@ -646,7 +648,7 @@ impl EditorApp {
                     }
                 }
             }
-            Some((id, k)) if k == "BlendVolume" || k == "Heterogeneity" => {
+            Some(id) if tool(EditorTool::SplatBrush) => {
                 self.brush_in_viewer(ui, &response, &id, size);
             }
             _ => {}
@@ -827,20 +829,36 @@ impl EditorApp {
         if let Some(setting) = self.bench.show(ui, &node.kind, &current) {
             self.use_measured(&id, &setting);
         }
-        let message = match node.kind.as_str() {
-            "TransferFunction" => {
-                super::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
+        // The tools the node's declaration names, in its order.
+        let tools = self
+            .registry
+            .get(&node.kind)
+            .map_or(&[][..], |k| k.decl().tools);
+        for tool in tools {
+            let message = match tool {
+                EditorTool::LayerList => {
+                    super::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
+                }
+                EditorTool::StrokePainting => super::stroke_panel::show(
+                    ui,
+                    &mut self.state,
+                    &id,
+                    &mut self.strokes,
+                    VIEW_SIZE,
+                ),
+                // A volume that is also brushed shows the brush once.
+                EditorTool::SplatBrush => super::brush_panel::show(
+                    ui,
+                    &self.registry,
+                    &mut self.state,
+                    &id,
+                    &mut self.brush,
+                ),
+                EditorTool::SplatVolume => None,
+            };
+            if let Some(m) = message {
+                self.status = m;
             }
-            "LightMapSolve" => {
-                super::stroke_panel::show(ui, &mut self.state, &id, &mut self.strokes, VIEW_SIZE)
-            }
-            "BlendVolume" | "Heterogeneity" => {
-                super::brush_panel::show(ui, &mut self.state, &id, &mut self.brush)
-            }
-            _ => None,
-        };
-        if let Some(m) = message {
-            self.status = m;
         }
     }
 
@@ -857,7 +875,9 @@ impl EditorApp {
         if !self.brush.armed {
             return;
         }
-        let Some(target) = brush::target_for(self.state.graph(), &self.brush, selected) else {
+        let Some(target) =
+            brush::target_for(&self.registry, self.state.graph(), &self.brush, selected)
+        else {
             return;
         };
         let view = match self
@@ -1018,20 +1038,20 @@ impl EditorApp {
                         egui::Stroke::new(2.0, egui::Color32::from_rgb(240, 200, 60)),
                     );
                 }
-                // Key-frames of a transfer function's layer stack (its data block).
-                if n.kind == "TransferFunction" {
-                    let tf = n
-                        .data
-                        .as_ref()
-                        .and_then(|d| d.parse::<crate::nodes::transfer_function::TfData>().ok());
-                    for k in tf.map(|d| d.keys).unwrap_or_default() {
-                        let x = x_of(k.t);
-                        painter.circle_filled(
-                            egui::pos2(x, rect.center().y),
-                            4.0,
-                            egui::Color32::from_rgb(230, 90, 220),
-                        );
-                    }
+                // Key-frames inside the node's data block (a layer stack's), as its kind reads
+                // them.
+                let kind = self.registry.get(&n.kind);
+                let data_keys = match (kind, n.data.as_ref()) {
+                    (Some(k), Some(d)) => k.data_key_times(d),
+                    _ => Vec::new(),
+                };
+                for t in data_keys {
+                    let x = x_of(t);
+                    painter.circle_filled(
+                        egui::pos2(x, rect.center().y),
+                        4.0,
+                        egui::Color32::from_rgb(230, 90, 220),
+                    );
                 }
             }
             let x = x_of(self.time);

@@ -344,9 +344,9 @@ mod tests {
     #[test]
     fn results_are_parsed_and_settings_matched_on_the_nodes_own_keys() {
         let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
-            visibility/tree,gpu,scatter,SingleScattering,method=MinMax min_level=2,setting,10,9,0.01,0.1\n\
+            visibility/tree,gpu,scatter,Scatter,method=MinMax min_level=2,setting,10,9,0.01,0.1\n\
             chain,gpu,,,cold=true,step,100,90,,\n\
-            visibility/tree,gpu,scatter,SingleScattering,method=BruteForce shadow.resolution=2048 steps=64,setting,20,19,0.002,0.02\n";
+            visibility/tree,gpu,scatter,Scatter,method=BruteForce shadow.resolution=2048 steps=64,setting,20,19,0.002,0.02\n";
         let rows = parse(text).unwrap();
         assert_eq!(rows.len(), 2, "the chain step has no error and is left out");
         let params: BTreeMap<String, String> = [
@@ -363,14 +363,14 @@ mod tests {
         // Rows that set none of the kind's own parameters measure no knob of it.
         let mut curves = Curves::default();
         let other = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
-            medium,gpu,s32,SingleScattering,node=s32 output=inscatter,setting,10,9,0.01,0.1\n";
+            medium,gpu,s32,Scatter,node=s32 output=inscatter,setting,10,9,0.01,0.1\n";
         curves.rows = parse(&format!(
             "{}{}",
             other,
             text.lines().skip(1).collect::<Vec<_>>().join("\n")
         ))
         .unwrap();
-        let of = curves.of_kind("SingleScattering");
+        let of = curves.of_kind("Scatter");
         assert_eq!(of.keys().copied().collect::<Vec<_>>(), ["visibility/tree"]);
     }
 }

@@ -1,5 +1,7 @@
 //! The 3D brush (seed 000 §4.3, SPEC §6): painting a `BlendVolume` from the viewer. Shown under
-//! the parameters of a selected `BlendVolume` or `Heterogeneity`.
+//! the parameters of a selected node whose kind declares the brush tool
+//! ([`EditorTool::SplatBrush`]: `BlendVolume`, `Heterogeneity`); it paints into a node declaring
+//! [`EditorTool::SplatVolume`].
 //!
 //! A plane orthogonal to the camera's view direction sits at `depth` metres along it (the
 //! slider moves it along its normal). While the brush is armed the viewer tints the pixels
@@ -14,7 +16,8 @@
 //!
 //! The camera is the scene's (the one feeding the volume's `scene` input, else the graph's
 //! first `Scene`) at the viewer picture's aspect; the tint needs that scene's depth, rendered
-//! once per scene and picture size by a `GBuffer` evaluated on this thread.
+//! once per scene and picture size by the kind that renders a scene's depth (found by its
+//! ports: the G-buffer) evaluated on this thread.
 
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
@@ -23,13 +26,10 @@ use eframe::egui;
 use glam::{Mat4, Quat, Vec3, Vec4};
 
 use crate::editor::EditorState;
-use crate::eval::{EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
+use crate::eval::{EditorTool, EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
 use crate::gpu::Gpu;
-use crate::graph::Graph;
+use crate::graph::{Graph, PortType};
 use crate::nodes::blend_volume::{BlendData, Role, Splat};
-
-/// The kind the brush paints into.
-pub const VOLUME_KIND: &str = "BlendVolume";
 
 /// The brush's state.
 pub struct BrushPanel {
@@ -91,16 +91,25 @@ pub struct BrushView {
     pub depth: Vec<f32>,
 }
 
-/// The `BlendVolume` nodes of the graph with their role, by id.
-pub fn volumes(graph: &Graph) -> Vec<(String, Role)> {
+/// Whether node `id` is a volume the brush paints into (its kind declares
+/// [`EditorTool::SplatVolume`]).
+fn is_volume(registry: &Registry, graph: &Graph, id: &str) -> bool {
+    graph
+        .node(id)
+        .and_then(|n| registry.get(&n.kind))
+        .is_some_and(|k| k.has_tool(EditorTool::SplatVolume))
+}
+
+/// The volumes of the graph the brush can paint into, with their role, by id.
+pub fn volumes(registry: &Registry, graph: &Graph) -> Vec<(String, Role)> {
     graph
         .nodes()
-        .filter(|n| n.kind == VOLUME_KIND)
+        .filter(|n| is_volume(registry, graph, &n.id))
         .map(|n| (n.id.clone(), role_of(graph, &n.id)))
         .collect()
 }
 
-/// The role of `BlendVolume` `id` (its default, α, when unset or unknown).
+/// The role of volume `id` (its default, α, when unset or unknown).
 fn role_of(graph: &Graph, id: &str) -> Role {
     match graph.node(id).and_then(|n| n.params.get("role")) {
         Some(crate::graph::ParamValue::Enum(r)) => Role::from_name(r).unwrap_or(Role::Alpha),
@@ -110,8 +119,8 @@ fn role_of(graph: &Graph, id: &str) -> Role {
 
 /// The volume the brush paints into when none was chosen: the selected `BlendVolume`, else the
 /// first one feeding the selected node, else the graph's first.
-pub fn default_target(graph: &Graph, selected: &str) -> Option<String> {
-    let vols = volumes(graph);
+pub fn default_target(registry: &Registry, graph: &Graph, selected: &str) -> Option<String> {
+    let vols = volumes(registry, graph);
     if vols.iter().any(|(id, _)| id == selected) {
         return Some(selected.to_string());
     }
@@ -124,12 +133,17 @@ pub fn default_target(graph: &Graph, selected: &str) -> Option<String> {
 }
 
 /// The volume painted now for `selected`: the chosen one while it exists, else the default.
-pub fn target_for(graph: &Graph, panel: &BrushPanel, selected: &str) -> Option<String> {
+pub fn target_for(
+    registry: &Registry,
+    graph: &Graph,
+    panel: &BrushPanel,
+    selected: &str,
+) -> Option<String> {
     panel
         .target
         .clone()
-        .filter(|t| graph.node(t).is_some_and(|n| n.kind == VOLUME_KIND))
-        .or_else(|| default_target(graph, selected))
+        .filter(|t| is_volume(registry, graph, t))
+        .or_else(|| default_target(registry, graph, selected))
 }
 
 /// The nearest node downstream of `id` (breadth first, consumers in id order) that has a
@@ -150,18 +164,34 @@ pub fn nearest_picture(graph: &Graph, registry: &Registry, id: &str) -> Option<S
     None
 }
 
-/// The scene output the brush's camera comes from: the volume's `scene` input, else the
-/// graph's first `Scene` node.
-fn scene_source(graph: &Graph, target: &str) -> Option<(String, String)> {
+/// The scene output the brush's camera comes from: the volume's `scene` input, else the first
+/// Scene output of the graph's nodes (by id).
+fn scene_source(registry: &Registry, graph: &Graph, target: &str) -> Option<(String, String)> {
     graph
         .source_of(target, "scene")
         .map(|(n, p)| (n.to_string(), p.to_string()))
         .or_else(|| {
-            graph
-                .nodes()
-                .find(|n| n.kind == "Scene")
-                .map(|n| (n.id.clone(), "scene".to_string()))
+            graph.nodes().find_map(|n| {
+                let out = registry.get(&n.kind)?.schema().outputs;
+                let port = out.iter().find(|p| p.types.contains(&PortType::Scene))?;
+                Some((n.id.clone(), port.name.to_string()))
+            })
         })
+}
+
+/// A kind that renders a scene's depth: a required Scene input, a Depth output, no other
+/// required input and no side effect (the G-buffer): `(kind, scene input, depth output)`.
+fn depth_renderer(registry: &Registry) -> Option<(&'static str, &'static str, &'static str)> {
+    registry.iter().find_map(|k| {
+        let s = k.schema();
+        let required: Vec<_> = s.inputs.iter().filter(|p| p.required).collect();
+        let [scene] = required.as_slice() else {
+            return None;
+        };
+        let depth = s.outputs.iter().find(|p| p.types == [PortType::Depth])?;
+        (scene.types.contains(&PortType::Scene) && !k.is_sink())
+            .then_some((s.kind, scene.name, depth.name))
+    })
 }
 
 /// Render the scene's depth for the brush: a `GBuffer` fed by the scene source, evaluated at
@@ -172,13 +202,15 @@ pub fn render_view(
     target: &str,
     size: (u32, u32),
 ) -> Result<BrushView, String> {
-    let (scene, port) = scene_source(graph, target)
+    let (scene, port) = scene_source(registry, graph, target)
         .ok_or("the graph has no Scene: the brush needs a camera to paint from")?;
+    let (kind, scene_in, depth_out) =
+        depth_renderer(registry).ok_or("no node kind renders a scene's depth")?;
     let key = format!("{:?}/{port}@{size:?}", graph.node(&scene));
     let mut g = graph.clone();
     let cat = registry.catalog();
-    let gb = g.add_node(cat, "GBuffer").map_err(|e| e.to_string())?;
-    g.connect(cat, &format!("{scene}.{port}"), &format!("{gb}.scene"))
+    let gb = g.add_node(cat, kind).map_err(|e| e.to_string())?;
+    g.connect(cat, &format!("{scene}.{port}"), &format!("{gb}.{scene_in}"))
         .map_err(|e| e.to_string())?;
     let gpu = Gpu::shared().map_err(|e| e.to_string())?;
     let mut ev = Evaluator::new(registry.clone(), gpu.clone());
@@ -187,11 +219,11 @@ pub fn render_view(
         ..Default::default()
     };
     let r = ev
-        .evaluate(&g, &[Target::Port(gb.clone(), "depth".into())], &opts)
+        .evaluate(&g, &[Target::Port(gb.clone(), depth_out.into())], &opts)
         .map_err(|e| e.to_string())?;
     let value = r
         .outputs
-        .get(&(gb, "depth".to_string()))
+        .get(&(gb, depth_out.to_string()))
         .ok_or("the scene's depth was not produced")?;
     let PortValue::Depth(_, camera) = value else {
         return Err("the GBuffer's depth is not a Depth value".into());
@@ -216,7 +248,7 @@ impl BrushPanel {
         target: &str,
         size: (u32, u32),
     ) -> Result<&BrushView, String> {
-        let key = scene_source(graph, target)
+        let key = scene_source(registry, graph, target)
             .map(|(s, p)| format!("{:?}/{p}@{size:?}", graph.node(&s)))
             .unwrap_or_default();
         if self.view.as_ref().is_none_or(|v| v.key != key) {
@@ -337,14 +369,15 @@ pub fn end_stroke(state: &mut EditorState, panel: &mut BrushPanel) {
 /// refused.
 pub fn show(
     ui: &mut egui::Ui,
+    registry: &Registry,
     state: &mut EditorState,
     selected: &str,
     panel: &mut BrushPanel,
 ) -> Option<String> {
     ui.separator();
     ui.heading("3D brush");
-    let vols = volumes(state.graph());
-    let Some(target) = target_for(state.graph(), panel, selected) else {
+    let vols = volumes(registry, state.graph());
+    let Some(target) = target_for(registry, state.graph(), panel, selected) else {
         ui.label("Add a BlendVolume to paint into.");
         return None;
     };

@@ -19,8 +19,8 @@ use thiserror::Error;
 
 pub use convert::{download, upload_raster};
 pub use node::{
-    check_side, output_path, with_frame, with_suffix, FileRole, KeyInput, NodeDecl, NodeError,
-    NodeKind, Registry, RunCtx,
+    check_side, output_path, with_frame, with_suffix, EditorTool, FileRole, KeyInput, NodeDecl,
+    NodeError, NodeKind, Registry, RunCtx,
 };
 pub use paths::{resolve_files, PathPolicy, PathRefused};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};

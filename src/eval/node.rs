@@ -400,6 +400,28 @@ pub struct NodeDecl {
     /// Text parameters naming files, and whether the node reads or writes them (the CLI resolves
     /// them: see [`crate::eval::resolve_files`]).
     pub files: &'static [(&'static str, FileRole)],
+    /// The editor tools that edit this node's data block (empty: parameters only).
+    pub tools: &'static [EditorTool],
+}
+
+/// A tool of the editor (`src/editor/`) that edits a node's data block. The editor offers a
+/// node the tools its declaration names, and knows no node kind; a tool works on one shape of
+/// data block, so a new node reuses a tool by keeping that shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EditorTool {
+    /// A layer list with key-frames over a 2D table preview with a constraint field, and a click
+    /// in the viewer adding a constraint anchored to the surface under it (a data block of
+    /// `transfer_function::TfData` shape; the node gives the click's table coordinates with
+    /// [`NodeKind::table_coordinates`]).
+    LayerList,
+    /// Strokes painted over the viewer, per view (`light_map_solve::SolveData` shape).
+    StrokePainting,
+    /// A volume the 3D splat brush paints into: the node's data block holds the splats
+    /// (`blend_volume::BlendData` shape).
+    SplatVolume,
+    /// The 3D splat brush, shown with this node: it paints into the [`EditorTool::SplatVolume`]
+    /// node feeding it (or the node itself, when it is one).
+    SplatBrush,
 }
 
 /// How a node uses a file named by a text parameter.
@@ -422,6 +444,7 @@ impl NodeDecl {
             key_exempt: &[],
             sink: false,
             files: &[],
+            tools: &[],
         }
     }
 
@@ -448,6 +471,11 @@ impl NodeDecl {
     /// Declare the text parameters that name files the node reads or writes.
     pub const fn files(self, files: &'static [(&'static str, FileRole)]) -> Self {
         Self { files, ..self }
+    }
+
+    /// Declare the editor tools that edit the node's data block.
+    pub const fn tools(self, tools: &'static [EditorTool]) -> Self {
+        Self { tools, ..self }
     }
 }
 
@@ -490,6 +518,12 @@ pub trait NodeKind: Send + Sync {
         None
     }
 
+    /// Times (frames) of the key-frames inside the node's data block, for the editor's
+    /// timeline (key-frames of parameters are the graph's and need no hook).
+    fn data_key_times(&self, _data: &NodeData) -> Vec<f64> {
+        Vec::new()
+    }
+
     /// Compute the wanted outputs (GPU work).
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError>;
 
@@ -528,6 +562,21 @@ impl dyn NodeKind + '_ {
     /// Whether the node is a sink.
     pub fn is_sink(&self) -> bool {
         self.decl().sink
+    }
+
+    /// Whether the editor offers `tool` for this node.
+    pub fn has_tool(&self, tool: EditorTool) -> bool {
+        self.decl().tools.contains(&tool)
+    }
+
+    /// The text parameters naming files the node uses in `role` ([`NodeDecl::files`]), in
+    /// declaration order.
+    pub fn file_params(&self, role: FileRole) -> impl Iterator<Item = &'static str> + '_ {
+        self.decl()
+            .files
+            .iter()
+            .filter(move |(_, r)| *r == role)
+            .map(|(name, _)| *name)
     }
 }
 
