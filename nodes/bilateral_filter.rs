@@ -34,6 +34,16 @@ pub struct BilateralFilter;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        radius: i64 = ParamSpec::int("radius", 4, 0, 64, "taps", "Taps on each side of a pixel, in each pass (quality knob)."),
+        sigma_spatial: f32 = ParamSpec::float("sigma_spatial", 2.0, 0.0, 256.0, "px", "Spatial standard deviation σs."),
+        sigma_range: f32 = ParamSpec::float("sigma_range", 0.5, 0.0, 1e9, "guide units", "Range standard deviation σr (metres for a depth guide)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "BilateralFilter",
     category: "Image",
@@ -43,11 +53,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("guide", &[PortType::Depth, PortType::Scalar], "Edges to keep (same size); unconnected: the luminance of each pass's input."),
     ],
     outputs: &[PortSpec::output("image", IMG, "The filtered image, same type as the input.")],
-    params: &[
-        ParamSpec::int("radius", 4, 0, 64, "taps", "Taps on each side of a pixel, in each pass (quality knob)."),
-        ParamSpec::float("sigma_spatial", 2.0, 0.0, 256.0, "px", "Spatial standard deviation σs."),
-        ParamSpec::float("sigma_range", 0.5, 0.0, 1e9, "guide units", "Range standard deviation σr (metres for a depth guide)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[BilateralParams::LAYOUT]);
@@ -194,6 +200,7 @@ impl NodeKind for BilateralFilter {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let src = ctx.require_texture("image")?;
         if src.format == TexFormat::Rg32F {
             return Err(NodeError::Input {
@@ -221,9 +228,9 @@ impl NodeKind for BilateralFilter {
             None => None,
         };
         let s = Settings {
-            radius: ctx.int("radius")? as i32,
-            sigma_spatial: ctx.f32("sigma_spatial")?,
-            sigma_range: ctx.f32("sigma_range")?,
+            radius: p.radius as i32,
+            sigma_spatial: p.sigma_spatial,
+            sigma_range: p.sigma_range,
         };
         let rows = gpu_pass(ctx.gpu, &src, guide.as_deref(), s, 0)?;
         let out = gpu_pass(ctx.gpu, &rows, guide.as_deref(), s, 1)?;

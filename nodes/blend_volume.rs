@@ -57,19 +57,25 @@ impl Role {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        role: Role = ParamSpec::choice("role", Role::NAMES, "alpha", "What the volume drives: alpha (0…1), frequency (mip levels 0…16) or intensity (0…1e3); values are clamped to that range."),
+        base: f32 = ParamSpec::float("base", 0.0, 0.0, 1e3, "", "Value before any splat (and what erasers restore)."),
+        resolution: i64 = ParamSpec::int("resolution", 64, 16, 256, "texels", "Side of the cube."),
+        box_min: [f32; 3] = ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner when no scene is connected."),
+        box_max: [f32; 3] = ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner when no scene is connected."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "BlendVolume",
     category: "Medium",
     doc: "A painted volume (α, frequency or intensity for Heterogeneity): splats in the data block baked on the GPU.",
     inputs: &[PortSpec::input("scene", &[PortType::Scene], "Its bounds place the volume (else box_min…box_max).")],
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The painted volume and its world-space box.")],
-    params: &[
-        ParamSpec::choice("role", Role::NAMES, "alpha", "What the volume drives: alpha (0…1), frequency (mip levels 0…16) or intensity (0…1e3); values are clamped to that range."),
-        ParamSpec::float("base", 0.0, 0.0, 1e3, "", "Value before any splat (and what erasers restore)."),
-        ParamSpec::int("resolution", 64, 16, 256, "texels", "Side of the cube."),
-        ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner when no scene is connected."),
-        ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner when no scene is connected."),
-    ],
+    params: Params::SPECS,
 }).tools(&[crate::eval::EditorTool::SplatVolume, crate::eval::EditorTool::SplatBrush])
 
 .shaders(&[SHADER])
@@ -244,7 +250,8 @@ impl NodeKind for BlendVolume {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let role = ctx.choice::<Role>("role")?;
+        let p = Params::from_ctx(ctx)?;
+        let role = p.role;
         let (lo, hi) = role.range();
         let mut data: BlendData = ctx.data()?;
         for (i, s) in data.splats.iter_mut().enumerate() {
@@ -267,9 +274,9 @@ impl NodeKind for BlendVolume {
             s.hardness = s.hardness.clamp(0.0, 1.0);
             s.value = s.value.clamp(lo, hi);
         }
-        let base = ctx.f32("base")?.clamp(lo, hi);
-        let bounds = super::util::volume_box(ctx)?;
-        let n = ctx.texture_side("resolution", 3)?;
+        let base = p.base.clamp(lo, hi);
+        let bounds = super::util::volume_box(ctx, [p.box_min, p.box_max])?;
+        let n = ctx.side("resolution", p.resolution, 3)?;
         ctx.check_bytes("resolution", u64::from(n).pow(3) * 4)?;
         let v = bake(ctx.gpu, &data.splats, base, n, bounds)?;
         ctx.set("volume", PortValue::Volume(Arc::new(v), bounds));

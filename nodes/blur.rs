@@ -31,16 +31,22 @@ pub struct Blur;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        sigma: f64 = ParamSpec::float("sigma", 2.0, 0.0, 256.0, "texels", "Standard deviation σ of the Gaussian; 0 is the identity."),
+        truncate: f64 = ParamSpec::float("truncate", 3.0, 1.0, 6.0, "σ", "Kernel radius r = ⌈truncate · σ⌉ texels: cost 2(2r + 1) reads per texel."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Blur",
     category: "Image",
     doc: "Separable Gaussian blur of a Scalar or Image (σ in texels, edges clamped); truncate is the quality knob.",
     inputs: &[PortSpec::required("in", IMG, "Values to blur.")],
     outputs: &[PortSpec::output("out", IMG, "Blurred values, same type and size as `in`.")],
-    params: &[
-        ParamSpec::float("sigma", 2.0, 0.0, 256.0, "texels", "Standard deviation σ of the Gaussian; 0 is the identity."),
-        ParamSpec::float("truncate", 3.0, 1.0, 6.0, "σ", "Kernel radius r = ⌈truncate · σ⌉ texels: cost 2(2r + 1) reads per texel."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[BlurParams::LAYOUT]);
@@ -157,6 +163,7 @@ impl NodeKind for Blur {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let value = ctx.require("in")?.clone();
         let tex = ctx.require_texture("in")?;
         if tex.format == TexFormat::Rg32F {
@@ -165,8 +172,8 @@ impl NodeKind for Blur {
                 message: "has an internal two-channel format".into(),
             });
         }
-        let sigma = ctx.f64("sigma")?;
-        let r = radius(sigma, ctx.f64("truncate")?);
+        let sigma = p.sigma;
+        let r = radius(sigma, p.truncate);
         if r == 0 {
             ctx.set("out", value);
             return Ok(());

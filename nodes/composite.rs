@@ -37,6 +37,17 @@ use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 pub struct Composite;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        ambient: [f32; 4] = ParamSpec::colour("ambient", [0.04, 0.05, 0.07, 1.0], 0.0, 1e6, "linear RGB", "Ambient light on surfaces."),
+        sky: [f32; 4] = ParamSpec::colour("sky", [0.2, 0.27, 0.38, 1.0], 0.0, 1e6, "linear RGB", "Radiance of sky pixels."),
+        bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Surface shadow bias in light-space depth."),
+        pcf: i64 = ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Composite",
     category: "Scattering",
@@ -52,12 +63,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("aerial_inscatter", &[PortType::Image], "The atmosphere's in-scatter and sky (Sky.inscatter), added last."),
     ],
     outputs: &[PortSpec::output("image", &[PortType::Image], "Linear radiance.")],
-    params: &[
-        ParamSpec::colour("ambient", [0.04, 0.05, 0.07, 1.0], 0.0, 1e6, "linear RGB", "Ambient light on surfaces."),
-        ParamSpec::colour("sky", [0.2, 0.27, 0.38, 1.0], 0.0, 1e6, "linear RGB", "Radiance of sky pixels."),
-        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Surface shadow bias in light-space depth."),
-        ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[CompositeParams::LAYOUT]);
@@ -104,6 +110,7 @@ impl NodeKind for Composite {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let albedo = ctx.require_texture("albedo")?;
         let normal = ctx.require_texture("normal")?;
         let (depth, cam) = match ctx.require("depth")? {
@@ -145,18 +152,17 @@ impl NodeKind for Composite {
             .input("aerial_inscatter")
             .and_then(|v| v.texture().cloned());
         let (vp, lvp) = (cam.view_proj(), light.view_proj());
-        let c = |name: &str| -> Result<[f32; 4], NodeError> { ctx.colour(name) };
         let u = CompositeParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
             light_view_proj: lvp.to_cols_array_2d(),
             eye: cam.eye().to_array(),
-            pcf: ctx.int("pcf")? as u32,
+            pcf: p.pcf as u32,
             to_sun: light.backward().to_array(),
-            bias: ctx.f32("bias")?,
+            bias: p.bias,
             radiance: light.radiance,
             has_inscatter: inscatter.is_some() as u32,
-            ambient: c("ambient")?,
-            sky: c("sky")?,
+            ambient: p.ambient,
+            sky: p.sky,
             has_transmittance: transmittance.is_some() as u32,
             has_aerial_transmittance: aerial_t.is_some() as u32,
             has_aerial_inscatter: aerial_l.is_some() as u32,

@@ -25,6 +25,17 @@ use crate::io::Raster;
 pub struct Constant;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        value: f32 = ParamSpec::float("value", 0.0, -1e30, 1e30, "", "Value of the Scalar output."),
+        colour: [f32; 4] = ParamSpec::colour("colour", [1.0, 1.0, 1.0, 1.0], -1e30, 1e30, "linear RGBA", "Colour of the Image output."),
+        width: i64 = ParamSpec::int("width", 0, 0, 16384, "texels", "Width; 0 uses the evaluation size."),
+        height: i64 = ParamSpec::int("height", 0, 0, 16384, "texels", "Height; 0 uses the evaluation size."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Constant",
     category: "Input",
@@ -34,12 +45,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("value", &[PortType::Scalar], "Every texel equals `value`."),
         PortSpec::output("colour", &[PortType::Image], "Every texel equals `colour`."),
     ],
-    params: &[
-        ParamSpec::float("value", 0.0, -1e30, 1e30, "", "Value of the Scalar output."),
-        ParamSpec::colour("colour", [1.0, 1.0, 1.0, 1.0], -1e30, 1e30, "linear RGBA", "Colour of the Image output."),
-        ParamSpec::int("width", 0, 0, 16384, "texels", "Width; 0 uses the evaluation size."),
-        ParamSpec::int("height", 0, 0, 16384, "texels", "Height; 0 uses the evaluation size."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[ConstantParams::LAYOUT]);
@@ -78,10 +84,11 @@ impl NodeKind for Constant {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let (w, h) = size_or_default(ctx, "width", "height")?;
+        let p = Params::from_ctx(ctx)?;
+        let (w, h) = size_or_default(ctx, p.width, p.height);
         let u = ConstantParams {
-            colour: ctx.colour("colour")?,
-            value: ctx.f32("value")?,
+            colour: p.colour,
+            value: p.value,
             _pad0: 0.0,
             _pad1: 0.0,
             _pad2: 0.0,

@@ -35,6 +35,14 @@ pub struct DepthUpsample;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        sigma_depth: f32 = ParamSpec::float("sigma_depth", 0.05, 0.0, 10.0, "relative", "Depth tolerance as a fraction of the depth."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "DepthUpsample",
     category: "Image",
@@ -45,9 +53,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("low_depth", &[PortType::Depth], "The depth the low-resolution result was computed with (unconnected: `depth` point-sampled)."),
     ],
     outputs: &[PortSpec::output("image", IMG, "The upsampled result, same type, at the depth's size.")],
-    params: &[
-        ParamSpec::float("sigma_depth", 0.05, 0.0, 10.0, "relative", "Depth tolerance as a fraction of the depth."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[UpsampleParams::LAYOUT]);
@@ -155,6 +161,7 @@ impl NodeKind for DepthUpsample {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let low = ctx.require_texture("image")?;
         if low.format == TexFormat::Rg32F {
             return Err(NodeError::Input {
@@ -183,7 +190,7 @@ impl NodeKind for DepthUpsample {
             });
         }
         let u = UpsampleParams {
-            sigma_depth: ctx.f32("sigma_depth")?,
+            sigma_depth: p.sigma_depth,
             _pad0: 0,
             _pad1: 0,
             _pad2: 0,

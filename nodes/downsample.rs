@@ -30,15 +30,21 @@ pub struct Downsample;
 const TYPES: &[PortType] = &[PortType::Depth, PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        factor: i64 = ParamSpec::int("factor", 4, 1, 16, "×", "Reduction per axis."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Downsample",
     category: "Image",
     doc: "Reduce by an integer factor with point sampling (depths stay depths of real surfaces): march at reduced resolution, then DepthUpsample.",
     inputs: &[PortSpec::required("in", TYPES, "Depth, Scalar or Image to reduce.")],
     outputs: &[PortSpec::output("out", TYPES, "The reduced image, same type (a Depth keeps its camera).")],
-    params: &[
-        ParamSpec::int("factor", 4, 1, 16, "×", "Reduction per axis."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[DownsampleParams::LAYOUT]);
@@ -111,6 +117,7 @@ impl NodeKind for Downsample {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let v = ctx.require("in")?.clone();
         let src = ctx.require_texture("in")?;
         if src.format == TexFormat::Rg32F {
@@ -119,7 +126,7 @@ impl NodeKind for Downsample {
                 message: "has an internal two-channel format".into(),
             });
         }
-        let out = Arc::new(downsample(ctx.gpu, &src, ctx.int("factor")? as u32)?);
+        let out = Arc::new(downsample(ctx.gpu, &src, p.factor as u32)?);
         ctx.set(
             "out",
             match v {

@@ -67,13 +67,16 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec::choice("method", Method::NAMES, "Reference", "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)."),
-    ParamSpec::int("length", 15, 0, 4096, "texels", "Kernel length k along the epipolar line; 0 is the identity."),
-    ParamSpec::float("epipole_x", 0.0, -1e9, 1e9, "texels", "Epipole x (when `camera` is unconnected); may lie outside the map."),
-    ParamSpec::float("epipole_y", 0.0, -1e9, 1e9, "texels", "Epipole y (when `camera` is unconnected); may lie outside the map."),
-    ParamSpec::float("epipole_depth", 0.0, -1e9, 1e9, "depth", "Epipole light-space depth z_l (when `camera` is unconnected); may lie outside [0, 1]."),
-];
+crate::params! {
+    /// The family's parameters, read once per run.
+    pub struct Params {
+        method: Method = ParamSpec::choice("method", Method::NAMES, "Reference", "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)."),
+        length: i64 = ParamSpec::int("length", 15, 0, 4096, "texels", "Kernel length k along the epipolar line; 0 is the identity."),
+        epipole_x: f32 = ParamSpec::float("epipole_x", 0.0, -1e9, 1e9, "texels", "Epipole x (when `camera` is unconnected); may lie outside the map."),
+        epipole_y: f32 = ParamSpec::float("epipole_y", 0.0, -1e9, 1e9, "texels", "Epipole y (when `camera` is unconnected); may lie outside the map."),
+        epipole_depth: f32 = ParamSpec::float("epipole_depth", 0.0, -1e9, 1e9, "depth", "Epipole light-space depth z_l (when `camera` is unconnected); may lie outside [0, 1]."),
+    }
+}
 
 #[rustfmt::skip]
 const IN: &[PortSpec] = &[
@@ -92,7 +95,7 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
         doc,
         inputs: IN,
         outputs: OUT,
-        params: PARAMS,
+        params: Params::SPECS,
     };
     NodeDecl::new(schema).shaders(&[SHADER]).uniforms(UNIFORMS)
 }
@@ -444,6 +447,7 @@ impl NodeKind for Epipolar {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let prm = Params::from_ctx(ctx)?;
         let (tex, light) = match ctx.require("map")? {
             PortValue::ShadowMap(t, m) => (t.clone(), *m),
             _ => {
@@ -461,12 +465,9 @@ impl NodeKind for Epipolar {
                     message: "is not a depth image".into(),
                 })
             }
-            None => (
-                [ctx.f32("epipole_x")?, ctx.f32("epipole_y")?],
-                ctx.f32("epipole_depth")?,
-            ),
+            None => ([prm.epipole_x, prm.epipole_y], prm.epipole_depth),
         };
-        let length = ctx.int("length")? as i32;
+        let length = prm.length as i32;
         if length == 0 {
             ctx.set("map", PortValue::ShadowMap(tex, light));
             return Ok(());
@@ -480,7 +481,7 @@ impl NodeKind for Epipolar {
             _pad1: 0,
             _pad2: 0,
         };
-        let run_pass = if ctx.choice::<Method>("method")? == Method::Fast {
+        let run_pass = if prm.method == Method::Fast {
             fast_pass
         } else {
             pass

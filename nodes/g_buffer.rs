@@ -26,6 +26,15 @@ use crate::scene::GpuScene;
 pub struct GBufferNode;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        width: i64 = ParamSpec::int("width", 0, 0, 16384, "px", "Width; 0 uses the evaluation size."),
+        height: i64 = ParamSpec::int("height", 0, 0, 16384, "px", "Height; 0 uses the evaluation size."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "GBuffer",
     category: "Scene",
@@ -36,10 +45,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("normal", &[PortType::Image], "World normal facing the camera; alpha 1 on geometry."),
         PortSpec::output("albedo", &[PortType::Image], "Base colour; alpha 1 on geometry, 0 on sky."),
     ],
-    params: &[
-        ParamSpec::int("width", 0, 0, 16384, "px", "Width; 0 uses the evaluation size."),
-        ParamSpec::int("height", 0, 0, 16384, "px", "Height; 0 uses the evaluation size."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[GBufferParams::LAYOUT]);
@@ -64,6 +70,7 @@ impl NodeKind for GBufferNode {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let scene =
             ctx.require("scene")?
                 .payload::<GpuScene>()
@@ -71,7 +78,7 @@ impl NodeKind for GBufferNode {
                     port: "scene".into(),
                     message: "is not a scene".into(),
                 })?;
-        let (w, h) = size_or_default(ctx, "width", "height")?;
+        let (w, h) = size_or_default(ctx, p.width, p.height);
         let (depth, normal, albedo, m) = render(ctx.gpu, scene, &scene.scene.camera, w, h)?;
         ctx.set("depth", PortValue::Depth(Arc::new(depth), m));
         ctx.set("normal", PortValue::Image(Arc::new(normal)));

@@ -38,6 +38,17 @@ use crate::io::Raster;
 pub struct Heterogeneity;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        alpha: f32 = ParamSpec::float("alpha", 0.5, 0.0, 1.0, "", "Heterogeneity amount α when no volume is connected."),
+        frequency: f32 = ParamSpec::float("frequency", 0.0, 0.0, 16.0, "level", "Noise mip level f when no volume is connected (0 = finest)."),
+        intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e3, "", "Intensity I when no volume is connected."),
+        steps: i64 = ParamSpec::int("steps", 64, 1, 4096, "samples", "Samples per view ray (quality knob)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Heterogeneity",
     category: "Medium",
@@ -54,12 +65,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("image", &[PortType::Image], "L̂_scat = L_scat · h."),
         PortSpec::output("h", &[PortType::Scalar], "The heterogeneity factor h."),
     ],
-    params: &[
-        ParamSpec::float("alpha", 0.5, 0.0, 1.0, "", "Heterogeneity amount α when no volume is connected."),
-        ParamSpec::float("frequency", 0.0, 0.0, 16.0, "level", "Noise mip level f when no volume is connected (0 = finest)."),
-        ParamSpec::float("intensity", 1.0, 0.0, 1e3, "", "Intensity I when no volume is connected."),
-        ParamSpec::int("steps", 64, 1, 4096, "samples", "Samples per view ray (quality knob)."),
-    ],
+    params: Params::SPECS,
 }).tools(&[crate::eval::EditorTool::SplatBrush])
 
 .shaders(&[SHADER])
@@ -244,6 +250,7 @@ impl NodeKind for Heterogeneity {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let ins_value = ctx.require("inscatter")?.clone();
         let ins = ctx.require_texture("inscatter")?;
         let (depth, m) = match ctx.require("depth")? {
@@ -273,7 +280,7 @@ impl NodeKind for Heterogeneity {
             volume(ctx, "frequency")?,
             volume(ctx, "intensity")?,
         );
-        let (alpha, intensity) = (ctx.f32("alpha")?, ctx.f32("intensity")?);
+        let (alpha, intensity) = (p.alpha, p.intensity);
         if a.is_none() && i.is_none() && alpha == 0.0 && intensity == 1.0 {
             // h ≡ 1: nothing to march.
             ctx.pass_through();
@@ -294,11 +301,11 @@ impl NodeKind for Heterogeneity {
         let u = HeteroParams {
             inv_view_proj: m.view_proj().inverse().to_cols_array_2d(),
             eye: m.eye().to_array(),
-            steps: ctx.int("steps")? as u32,
+            steps: p.steps as u32,
             noise_min: nb[0],
             alpha,
             noise_max: nb[1],
-            frequency: ctx.f32("frequency")?,
+            frequency: p.frequency,
             alpha_min: ab[0],
             intensity,
             alpha_max: ab[1],

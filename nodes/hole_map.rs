@@ -29,16 +29,22 @@ use crate::io::Raster;
 pub struct HoleMap;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        probability: f64 = ParamSpec::float("probability", 0.3, 0.0, 1.0, "", "Hole probability h."),
+        calibrated: bool = ParamSpec::flag("calibrated", true, "Make the fraction of hole texels equal h (threshold at the h-quantile)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "HoleMap",
     category: "Occluders",
     doc: "Holes where noise < h; calibrated: h is the fraction of hole texels.",
     inputs: &[PortSpec::required("noise", &[PortType::Scalar], "Noise in [0, 1] (PerlinNoise2D).")],
     outputs: &[PortSpec::output("holes", &[PortType::Scalar], "1 where a hole is punched, else 0.")],
-    params: &[
-        ParamSpec::float("probability", 0.3, 0.0, 1.0, "", "Hole probability h."),
-        ParamSpec::flag("calibrated", true, "Make the fraction of hole texels equal h (threshold at the h-quantile)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[HoleParams::LAYOUT]);
@@ -90,10 +96,11 @@ impl NodeKind for HoleMap {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let input = ctx.require("noise")?.clone();
         let tex = ctx.require_texture("noise")?;
-        let h = ctx.f64("probability")?;
-        let threshold = if ctx.bool("calibrated")? {
+        let h = p.probability;
+        let threshold = if p.calibrated {
             calibrated_threshold(&download(ctx.gpu, &input)?.data, h)
         } else {
             h as f32

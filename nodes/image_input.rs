@@ -24,7 +24,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::eval::{KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
@@ -41,6 +41,16 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        path: String = ParamSpec::text("path", "", "File to read (.exr or .png)."),
+        channel: Channel = ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
+        srgb: bool = ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ImageInput",
     category: "Input/Output",
@@ -52,11 +62,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("shadow", &[PortType::ShadowMap], "The one channel as a shadow map with identity matrices."),
         PortSpec::output("depth", &[PortType::Depth], "The one channel as linear depth with identity matrices."),
     ],
-    params: &[
-        ParamSpec::text("path", "", "File to read (.exr or .png)."),
-        ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
-        ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
-    ],
+    params: Params::SPECS,
 })
 .files(&[("path", crate::eval::FileRole::Read)])
 .shaders(&[SHADER])
@@ -112,21 +118,17 @@ impl NodeKind for ImageInput {
         &DECL
     }
 
-    fn volatile_key(&self, key: &KeyInput) -> u64 {
-        let params = key.params;
-        super::util::file_stamp(params, "path")
-    }
-
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let path = ctx.text("path")?;
+        let prm = Params::from_ctx(ctx)?;
+        let path = prm.path.as_str();
         if path.is_empty() {
             return Err(NodeError::Param {
                 param: "path".into(),
                 message: "is empty: set the file to read".into(),
             });
         }
-        let file = crate::io::read_image(Path::new(path), ctx.bool("srgb")?)?;
-        let channel = ctx.choice::<Channel>("channel")?;
+        let file = crate::io::read_image(Path::new(path), prm.srgb)?;
+        let channel = prm.channel;
         let src = ctx
             .gpu
             .upload(file.width, file.height, file.channels, &file.data)?;

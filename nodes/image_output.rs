@@ -71,17 +71,23 @@ const ANY: &[PortType] = &[
 ];
 
 #[rustfmt::skip]
+crate::params! {
+    /// `ImageOutput`'s parameters.
+    pub struct OutParams {
+        path: String = ParamSpec::text("path", "out.exr", "File to write (.exr or .png)."),
+        precision: Storage = ParamSpec::choice("precision", Storage::NAMES, "auto", "Sample storage: auto (EXR f32, PNG u8), f32, f16, u8, u16."),
+        srgb: bool = ParamSpec::flag("srgb", true, "Encode PNG colour to sRGB; turn off for data maps."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ImageOutput",
     category: "Input/Output",
     doc: "Writes its input to an EXR (f32/f16) or PNG (8/16-bit) file; NaN/Inf become 0.",
     inputs: &[PortSpec::required("image", ANY, "What to write.")],
     outputs: &[],
-    params: &[
-        ParamSpec::text("path", "out.exr", "File to write (.exr or .png)."),
-        ParamSpec::choice("precision", Storage::NAMES, "auto", "Sample storage: auto (EXR f32, PNG u8), f32, f16, u8, u16."),
-        ParamSpec::flag("srgb", true, "Encode PNG colour to sRGB; turn off for data maps."),
-    ],
+    params: OutParams::SPECS,
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "srgb"])
@@ -116,8 +122,7 @@ fn sanitized(ctx: &RunCtx, port: &str) -> Result<PortValue, NodeError> {
 }
 
 /// The file a sink writes: its `path` (not empty) named for the wedge and frame.
-fn file_to_write(ctx: &RunCtx) -> Result<std::path::PathBuf, NodeError> {
-    let path = ctx.text("path")?;
+fn file_to_write(ctx: &RunCtx, path: &str) -> Result<std::path::PathBuf, NodeError> {
     if path.is_empty() {
         return Err(NodeError::Param {
             param: "path".into(),
@@ -161,13 +166,14 @@ impl NodeKind for ImageOutput {
     }
 
     fn commit(&self, ctx: &RunCtx, outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
-        let path = file_to_write(ctx)?;
-        let precision = resolve_precision(&path, ctx.choice("precision")?)?;
+        let p = OutParams::from_ctx(ctx)?;
+        let path = file_to_write(ctx, &p.path)?;
+        let precision = resolve_precision(&path, p.precision)?;
         let value = outputs
             .get("written")
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;
         let raster = download(ctx.gpu, value)?;
-        write_image(&path, &raster, precision, ctx.bool("srgb")?)?;
+        write_image(&path, &raster, precision, p.srgb)?;
         Ok(())
     }
 }
@@ -187,6 +193,18 @@ crate::choice_enum! {
 const LAYERS: &[&str] = &["rgba", "visibility", "depth", "inscatter", "transmittance"];
 
 #[rustfmt::skip]
+crate::params! {
+    /// `AovOutput`'s parameters.
+    pub struct AovParams {
+        path: String = ParamSpec::text("path", "out/aovs.exr", "The .exr file to write."),
+        precision: LayerStorage = ParamSpec::choice("precision", LayerStorage::NAMES, "half", "Storage of the layers not in float_layers: half (16-bit) or float (32-bit)."),
+        float_layers: String = ParamSpec::text("float_layers", "depth", "Comma-separated layers always stored as 32-bit floats."),
+        aov1_name: String = ParamSpec::text("aov1_name", "aov1", "Layer name of the aov1 slot."),
+        aov2_name: String = ParamSpec::text("aov2_name", "aov2", "Layer name of the aov2 slot."),
+    }
+}
+
+#[rustfmt::skip]
 static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "AovOutput",
     category: "Input/Output",
@@ -201,13 +219,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("aov2", ANY, "Any image-like port, as layer `aov2_name`."),
     ],
     outputs: &[],
-    params: &[
-        ParamSpec::text("path", "out/aovs.exr", "The .exr file to write."),
-        ParamSpec::choice("precision", LayerStorage::NAMES, "half", "Storage of the layers not in float_layers: half (16-bit) or float (32-bit)."),
-        ParamSpec::text("float_layers", "depth", "Comma-separated layers always stored as 32-bit floats."),
-        ParamSpec::text("aov1_name", "aov1", "Layer name of the aov1 slot."),
-        ParamSpec::text("aov2_name", "aov2", "Layer name of the aov2 slot."),
-    ],
+    params: AovParams::SPECS,
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
@@ -250,10 +262,11 @@ impl NodeKind for AovOutput {
     }
 
     fn commit(&self, ctx: &RunCtx, outputs: &BTreeMap<String, PortValue>) -> Result<(), NodeError> {
-        let path = file_to_write(ctx)?;
-        let half = ctx.choice::<LayerStorage>("precision")? == LayerStorage::Half;
-        let floats: Vec<String> = ctx
-            .text("float_layers")?
+        let p = AovParams::from_ctx(ctx)?;
+        let path = file_to_write(ctx, &p.path)?;
+        let half = p.precision == LayerStorage::Half;
+        let floats: Vec<String> = p
+            .float_layers
             .split(',')
             .map(|s| s.trim().to_string())
             .filter(|s| !s.is_empty())
@@ -262,8 +275,8 @@ impl NodeKind for AovOutput {
         let mut layers = Vec::new();
         for (port, written) in outputs {
             let name = match port.as_str() {
-                "aov1" => ctx.text("aov1_name")?.trim().to_string(),
-                "aov2" => ctx.text("aov2_name")?.trim().to_string(),
+                "aov1" => p.aov1_name.trim().to_string(),
+                "aov2" => p.aov2_name.trim().to_string(),
                 other => other.to_string(),
             };
             if name.is_empty() || name.contains('.') {

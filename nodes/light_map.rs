@@ -20,11 +20,20 @@
 
 use std::sync::Arc;
 
-use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 /// The `LightMap` node kind.
 pub struct LightMap;
+
+#[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        path: String = ParamSpec::text("path", "", "PNG (sRGB) or EXR (linear) file with the map; empty: the constant `colour`."),
+        colour: [f32; 4] = ParamSpec::colour("colour", [1.0; 4], 0.0, 1e6, "linear RGB", "The constant map when no image or file is given."),
+    }
+}
 
 #[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
@@ -36,10 +45,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("image", &[PortType::Image], "The map's texels (overrides `path`)."),
     ],
     outputs: &[PortSpec::output("light_map", &[PortType::LightMap], "The light map (for SingleScattering.light_map).")],
-    params: &[
-        ParamSpec::text("path", "", "PNG (sRGB) or EXR (linear) file with the map; empty: the constant `colour`."),
-        ParamSpec::colour("colour", [1.0; 4], 0.0, 1e6, "linear RGB", "The constant map when no image or file is given."),
-    ],
+    params: Params::SPECS,
 })
 .files(&[("path", crate::eval::FileRole::Read)]);
 
@@ -48,11 +54,8 @@ impl NodeKind for LightMap {
         &DECL
     }
 
-    fn volatile_key(&self, key: &KeyInput) -> u64 {
-        super::util::file_stamp(key.params, "path")
-    }
-
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let m = match ctx.require("shadow")? {
             PortValue::ShadowMap(_, m) => *m,
             _ => {
@@ -68,9 +71,9 @@ impl NodeKind for LightMap {
                 message: "is not an image".into(),
             })?,
             None => {
-                let path = ctx.text("path")?;
+                let path = p.path.as_str();
                 if path.is_empty() {
-                    let c = ctx.colour("colour")?;
+                    let c = p.colour;
                     Arc::new(ctx.gpu.upload(1, 1, 4, &[c[0], c[1], c[2], 1.0])?)
                 } else {
                     let r = super::transfer_function::read_layer_image(path).map_err(|e| {

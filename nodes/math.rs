@@ -51,6 +51,19 @@ pub const OPS: &[&str] = Op::NAMES;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        op: Op = ParamSpec::choice("op", Op::NAMES, "add", "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)."),
+        a: f32 = ParamSpec::float("a", 0.0, -1e30, 1e30, "", "Value of a when input a is unconnected."),
+        b: f32 = ParamSpec::float("b", 0.0, -1e30, 1e30, "", "Value of b when input b is unconnected."),
+        factor: f32 = ParamSpec::float("factor", 0.5, -1e6, 1e6, "", "Weight of b for mix (0 = a, 1 = b)."),
+        lo: f32 = ParamSpec::float("lo", 0.0, -1e30, 1e30, "", "Lower bound for clamp."),
+        hi: f32 = ParamSpec::float("hi", 1.0, -1e30, 1e30, "", "Upper bound for clamp (wins when lo > hi)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Math",
     category: "Image",
@@ -60,14 +73,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("b", IMG, "Second operand (the `b` parameter when unconnected)."),
     ],
     outputs: &[PortSpec::output("out", IMG, "Image if either input is an Image, else Scalar.")],
-    params: &[
-        ParamSpec::choice("op", Op::NAMES, "add", "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)."),
-        ParamSpec::float("a", 0.0, -1e30, 1e30, "", "Value of a when input a is unconnected."),
-        ParamSpec::float("b", 0.0, -1e30, 1e30, "", "Value of b when input b is unconnected."),
-        ParamSpec::float("factor", 0.5, -1e6, 1e6, "", "Weight of b for mix (0 = a, 1 = b)."),
-        ParamSpec::float("lo", 0.0, -1e30, 1e30, "", "Lower bound for clamp."),
-        ParamSpec::float("hi", 1.0, -1e30, 1e30, "", "Upper bound for clamp (wins when lo > hi)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[MathParams::LAYOUT]);
@@ -205,7 +211,8 @@ impl NodeKind for Math {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let op_code = ctx.choice::<Op>("op")? as u32;
+        let p = Params::from_ctx(ctx)?;
+        let op_code = p.op as u32;
         let (a_mode, ta) = operand(ctx, "a");
         let (b_mode, tb) = operand(ctx, "b");
         let (w, h) = match (ta, tb) {
@@ -237,11 +244,11 @@ impl NodeKind for Math {
             a_mode,
             b_mode,
             _pad0: 0,
-            a_const: ctx.f32("a")?,
-            b_const: ctx.f32("b")?,
-            factor: ctx.f32("factor")?,
-            lo: ctx.f32("lo")?,
-            hi: ctx.f32("hi")?,
+            a_const: p.a,
+            b_const: p.b,
+            factor: p.factor,
+            lo: p.lo,
+            hi: p.hi,
             _pad1: 0.0,
             _pad2: 0.0,
             _pad3: 0.0,

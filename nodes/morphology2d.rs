@@ -61,12 +61,15 @@ crate::choice_enum! {
 const MAPS: &[PortType] = &[PortType::Scalar, PortType::ShadowMap];
 
 #[rustfmt::skip]
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
-    ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity."),
-    ParamSpec::choice("unit", Unit::NAMES, "texels", "texels, or metres (converted with the shadow map's light matrices)."),
-    ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (van Herk / Gil–Werman, chords) or BruteForce (whole footprint); same result."),
-];
+crate::params! {
+    /// The family's parameters, read once per run.
+    pub struct Params {
+        shape: Shape = ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
+        radius: f64 = ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity."),
+        unit: Unit = ParamSpec::choice("unit", Unit::NAMES, "texels", "texels, or metres (converted with the shadow map's light matrices)."),
+        method: Method = ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (van Herk / Gil–Werman, chords) or BruteForce (whole footprint); same result."),
+    }
+}
 
 #[rustfmt::skip]
 const IN: &[PortSpec] = &[PortSpec::required("map", MAPS, "Shadow map (or any one-channel image).")];
@@ -82,7 +85,7 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
         doc,
         inputs: IN,
         outputs: OUT,
-        params: PARAMS,
+        params: Params::SPECS,
     };
     NodeDecl::new(schema).shaders(&[SHADER]).uniforms(UNIFORMS)
 }
@@ -355,14 +358,10 @@ impl NodeKind for Morphology2D {
                 })
             }
         };
-        let r = radius_texels(
-            ctx.f64("radius")?,
-            ctx.choice("unit")?,
-            m.as_ref(),
-            tex.width,
-        )?;
-        let circle = ctx.choice::<Shape>("shape")? == Shape::Circle;
-        let brute = ctx.choice::<Method>("method")? == Method::BruteForce;
+        let p = Params::from_ctx(ctx)?;
+        let r = radius_texels(p.radius, p.unit, m.as_ref(), tex.width)?;
+        let circle = p.shape == Shape::Circle;
+        let brute = p.method == Method::BruteForce;
         let out = match self.0 {
             Op::Dilate => filter(ctx.gpu, &tex, r, circle, false, brute)?,
             Op::Erode => filter(ctx.gpu, &tex, r, circle, true, brute)?,

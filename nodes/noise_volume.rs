@@ -33,22 +33,28 @@ use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 pub struct NoiseVolume;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        resolution: i64 = ParamSpec::int("resolution", 64, 32, 256, "texels", "Side of the cube."),
+        frequency: f32 = ParamSpec::float("frequency", 4.0, 0.0, 256.0, "cells", "Noise cells across the volume at the first octave."),
+        octaves: i64 = ParamSpec::int("octaves", 3, 1, 8, "", "Octaves summed (each twice the frequency)."),
+        persistence: f32 = ParamSpec::float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio between octaves."),
+        seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation."),
+        speed: f32 = ParamSpec::float("speed", 0.0, -100.0, 100.0, "cells/frame", "Drift of the noise along z per frame (animation)."),
+        box_min: [f32; 3] = ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the volume when no scene is connected."),
+        box_max: [f32; 3] = ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the volume when no scene is connected."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "NoiseVolume",
     category: "Medium",
     doc: "3D Perlin noise in [0, 1] (octaves, persistence, seed, drift with time), mip-mapped, covering the scene's bounds or a box.",
     inputs: &[PortSpec::input("scene", &[PortType::Scene], "Its bounds place the volume (else box_min…box_max).")],
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The noise volume and its world-space box.")],
-    params: &[
-        ParamSpec::int("resolution", 64, 32, 256, "texels", "Side of the cube."),
-        ParamSpec::float("frequency", 4.0, 0.0, 256.0, "cells", "Noise cells across the volume at the first octave."),
-        ParamSpec::int("octaves", 3, 1, 8, "", "Octaves summed (each twice the frequency)."),
-        ParamSpec::float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio between octaves."),
-        ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation."),
-        ParamSpec::float("speed", 0.0, -100.0, 100.0, "cells/frame", "Drift of the noise along z per frame (animation)."),
-        ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the volume when no scene is connected."),
-        ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the volume when no scene is connected."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
@@ -219,27 +225,28 @@ impl NodeKind for NoiseVolume {
 
     fn volatile_key(&self, key: &KeyInput) -> u64 {
         // The drift makes the volume depend on the time.
-        match key.params.get("speed").and_then(|v| v.as_f64()) {
-            Some(s) if s != 0.0 => key.time.to_bits(),
+        match Params::from_params(key.params) {
+            Ok(p) if p.speed != 0.0 => key.time.to_bits(),
             _ => 0,
         }
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let n = ctx.texture_side("resolution", 3)?;
+        let prm = Params::from_ctx(ctx)?;
+        let n = ctx.side("resolution", prm.resolution, 3)?;
         ctx.check_bytes("resolution", u64::from(n).pow(3) * 4)?;
-        let drift = ctx.f32("speed")? * ctx.time as f32;
+        let drift = prm.speed * ctx.time as f32;
         let p = NoiseParams {
             size: [n; 3],
-            octaves: ctx.int("octaves")? as u32,
+            octaves: prm.octaves as u32,
             offset: [0.0, 0.0, drift],
-            frequency: ctx.f32("frequency")?,
-            persistence: ctx.f32("persistence")?,
-            seed: ctx.int("seed")? as u32,
+            frequency: prm.frequency,
+            persistence: prm.persistence,
+            seed: prm.seed as u32,
             _pad0: 0,
             _pad1: 0,
         };
-        let bounds = super::util::volume_box(ctx)?;
+        let bounds = super::util::volume_box(ctx, [prm.box_min, prm.box_max])?;
         let v = build(ctx.gpu, &p)?;
         ctx.set("volume", PortValue::Volume(Arc::new(v), bounds));
         Ok(())

@@ -44,24 +44,30 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        frequency: f64 = ParamSpec::float("frequency", 1.0, 0.0, 1e4, "", "Frequency f (lookup point t·g·f); 0 gives a constant map."),
+        grid: f64 = ParamSpec::float("grid", 16.0, 0.0, 4096.0, "cells", "Gradient grid size g across the map."),
+        octaves: i64 = ParamSpec::int("octaves", 4, 1, 8, "", "Number of octaves o."),
+        persistence: f32 = ParamSpec::float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio p between octaves."),
+        seed: i64 = ParamSpec::int("seed", 0, 0, 2147483647, "", "Lattice hash seed."),
+        mode: Mode = ParamSpec::choice("mode", Mode::NAMES, "seed", "seed: eq. 5 as read in SPEC §4; fbm: classic fBm (lacunarity 2)."),
+        time: f64 = ParamSpec::float("time", 0.0, -1e6, 1e6, "", "Animation time (key-frame it)."),
+        speed: f64 = ParamSpec::float("speed", 0.0, -1e3, 1e3, "rad/unit", "Rotation speed of the two-step lookup; 0 = static."),
+        width: i64 = ParamSpec::int("width", 0, 0, 16384, "texels", "Width when `like` is unconnected; 0 = evaluation size."),
+        height: i64 = ParamSpec::int("height", 0, 0, 16384, "texels", "Height when `like` is unconnected; 0 = evaluation size."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "PerlinNoise2D",
     category: "Occluders",
     doc: "2D Perlin noise in [0, 1] (seed eq. 5 octaves or fBm), optionally animated by the two-step rotated lookup.",
     inputs: &[PortSpec::input("like", &[PortType::ShadowMap, PortType::Scalar], "Take the output size from this map.")],
     outputs: &[PortSpec::output("noise", &[PortType::Scalar], "Noise N in [0, 1].")],
-    params: &[
-        ParamSpec::float("frequency", 1.0, 0.0, 1e4, "", "Frequency f (lookup point t·g·f); 0 gives a constant map."),
-        ParamSpec::float("grid", 16.0, 0.0, 4096.0, "cells", "Gradient grid size g across the map."),
-        ParamSpec::int("octaves", 4, 1, 8, "", "Number of octaves o."),
-        ParamSpec::float("persistence", 0.5, 0.0, 1.0, "", "Amplitude ratio p between octaves."),
-        ParamSpec::int("seed", 0, 0, 2147483647, "", "Lattice hash seed."),
-        ParamSpec::choice("mode", Mode::NAMES, "seed", "seed: eq. 5 as read in SPEC §4; fbm: classic fBm (lacunarity 2)."),
-        ParamSpec::float("time", 0.0, -1e6, 1e6, "", "Animation time (key-frame it)."),
-        ParamSpec::float("speed", 0.0, -1e3, 1e3, "rad/unit", "Rotation speed of the two-step lookup; 0 = static."),
-        ParamSpec::int("width", 0, 0, 16384, "texels", "Width when `like` is unconnected; 0 = evaluation size."),
-        ParamSpec::int("height", 0, 0, 16384, "texels", "Height when `like` is unconnected; 0 = evaluation size."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
@@ -175,17 +181,18 @@ impl NodeKind for PerlinNoise2D {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let (w, h) = match ctx.input("like").and_then(|v| v.texture()) {
             Some(t) => (t.width, t.height),
-            None => size_or_default(ctx, "width", "height")?,
+            None => size_or_default(ctx, p.width, p.height),
         };
         let u = NoiseParams {
-            scale: (ctx.f64("grid")? * ctx.f64("frequency")?) as f32,
-            persistence: ctx.f32("persistence")?,
-            octaves: ctx.int("octaves")? as u32,
-            mode: ctx.choice::<Mode>("mode")? as u32,
-            seed: ctx.int("seed")? as u32,
-            angle: (ctx.f64("time")? * ctx.f64("speed")?) as f32,
+            scale: (p.grid * p.frequency) as f32,
+            persistence: p.persistence,
+            octaves: p.octaves as u32,
+            mode: p.mode as u32,
+            seed: p.seed as u32,
+            angle: (p.time * p.speed) as f32,
             _pad0: 0,
             _pad1: 0,
         };

@@ -92,16 +92,55 @@ const SAMPLES: ParamSpec = ParamSpec::int(
 );
 
 #[rustfmt::skip]
+crate::params! {
+    /// `HenyeyGreenstein`'s parameters.
+    pub struct HgParams {
+        g: f32 = ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Asymmetry: the mean cosine of the scattering angle (> 0 forward)."),
+        samples: i64 = SAMPLES,
+    }
+}
+
+#[rustfmt::skip]
+crate::params! {
+    /// `Rayleigh`'s parameters.
+    pub struct RayleighParams {
+        samples: i64 = SAMPLES,
+    }
+}
+
+#[rustfmt::skip]
+crate::params! {
+    /// `Mie`'s parameters: the population's are in effect only under `preset = custom`.
+    pub struct MieParams {
+        preset: Preset = ParamSpec::choice("preset", Preset::NAMES, "cloud", "cloud: 10 µm, spread 1.5; rain: 1 mm, spread 1.2 (both n = 1.33); custom: the parameters below."),
+        radius: f64 = ParamSpec::float("radius", 10.0, 0.001, 2000.0, "µm", "Median radius of the log-normal number distribution (custom).").when("preset", &["custom"]),
+        spread: f64 = ParamSpec::float("spread", 1.5, 1.0, 3.0, "", "Geometric standard deviation of the radius; 1 = a single size (custom).").when("preset", &["custom"]),
+        n_real: f64 = ParamSpec::float("n_real", 1.33, 1.0, 3.0, "", "Real refractive index relative to air (custom; water 1.33).").when("preset", &["custom"]),
+        n_imag: f64 = ParamSpec::float("n_imag", 0.0, 0.0, 10.0, "", "Imaginary refractive index, ≥ 0 absorbs (custom).").when("preset", &["custom"]),
+        radii: i64 = ParamSpec::int("radii", 64, 1, 256, "sizes", "Radii sampled over ±3 ln(spread) (quality knob; time is linear in it)."),
+        samples: i64 = SAMPLES,
+    }
+}
+
+#[rustfmt::skip]
+crate::params! {
+    /// `MultipleScatteringPhase`'s parameters.
+    pub struct MultipleParams {
+        select: Select = ParamSpec::choice("select", Select::NAMES, "count", "count: use n; transmittance: n = ⌊−albedo · ln(transmittance)⌋ + 1."),
+        n: i64 = ParamSpec::int("n", 2, 1, 26, "scatters", "Number of scattering events (select = count).").when("select", &["count"]),
+        albedo: f64 = ParamSpec::float("albedo", 1.0, 0.0, 1.0, "", "Single-scattering albedo α (select = transmittance).").when("select", &["transmittance"]),
+        transmittance: f64 = ParamSpec::float("transmittance", 0.5, 1e-12, 1.0, "", "Transparency T towards the light (select = transmittance).").when("select", &["transmittance"]),
+    }
+}
+
+#[rustfmt::skip]
 static HG: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "HenyeyGreenstein",
     category: "Scattering",
     doc: "Henyey–Greenstein phase function (1 − g²)/(4π (1 + g² − 2g cos θ)^{3/2}) as a table.",
     inputs: &[],
     outputs: OUT,
-    params: &[
-        ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Asymmetry: the mean cosine of the scattering angle (> 0 forward)."),
-        SAMPLES,
-    ],
+    params: HgParams::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
@@ -113,7 +152,7 @@ static RAYLEIGH: NodeDecl = NodeDecl::new(NodeSchema {
     doc: "Rayleigh phase function 3/(16π)(1 + cos²θ) of air molecules, as a table.",
     inputs: &[],
     outputs: OUT,
-    params: &[SAMPLES],
+    params: RayleighParams::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
@@ -125,15 +164,7 @@ static MIE: NodeDecl = NodeDecl::new(NodeSchema {
     doc: "Lorenz–Mie phase function of water droplets (or any spheres) with a log-normal size distribution.",
     inputs: &[],
     outputs: OUT,
-    params: &[
-        ParamSpec::choice("preset", Preset::NAMES, "cloud", "cloud: 10 µm, spread 1.5; rain: 1 mm, spread 1.2 (both n = 1.33); custom: the parameters below."),
-        ParamSpec::float("radius", 10.0, 0.001, 2000.0, "µm", "Median radius of the log-normal number distribution (custom)."),
-        ParamSpec::float("spread", 1.5, 1.0, 3.0, "", "Geometric standard deviation of the radius; 1 = a single size (custom)."),
-        ParamSpec::float("n_real", 1.33, 1.0, 3.0, "", "Real refractive index relative to air (custom; water 1.33)."),
-        ParamSpec::float("n_imag", 0.0, 0.0, 10.0, "", "Imaginary refractive index, ≥ 0 absorbs (custom)."),
-        ParamSpec::int("radii", 64, 1, 256, "sizes", "Radii sampled over ±3 ln(spread) (quality knob; time is linear in it)."),
-        SAMPLES,
-    ],
+    params: MieParams::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
@@ -148,12 +179,7 @@ static MULTIPLE: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("phase", &[PortType::Phase], "Ams_n, normalised."),
         PortSpec::output("forward", &[PortType::Image], "1×1: F_n per channel, the part of Ams_n in the forward hemisphere."),
     ],
-    params: &[
-        ParamSpec::choice("select", Select::NAMES, "count", "count: use n; transmittance: n = ⌊−albedo · ln(transmittance)⌋ + 1."),
-        ParamSpec::int("n", 2, 1, 26, "scatters", "Number of scattering events (select = count)."),
-        ParamSpec::float("albedo", 1.0, 0.0, 1.0, "", "Single-scattering albedo α (select = transmittance)."),
-        ParamSpec::float("transmittance", 0.5, 1e-12, 1.0, "", "Transparency T towards the light (select = transmittance)."),
-    ],
+    params: MultipleParams::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
@@ -506,13 +532,9 @@ fn input_table(ctx: &RunCtx) -> Result<(Arc<GpuTexture>, PhaseTable), NodeError>
 }
 
 fn run_multiple(ctx: &mut RunCtx) -> Result<(), NodeError> {
+    let p = MultipleParams::from_ctx(ctx)?;
     let (input, table) = input_table(ctx)?;
-    let n = scatter_count(
-        ctx.choice::<Select>("select")?,
-        ctx.int("n")?.max(1) as u32,
-        ctx.f64("albedo")?,
-        ctx.f64("transmittance")?,
-    );
+    let n = scatter_count(p.select, p.n.max(1) as u32, p.albedo, p.transmittance);
     let w = input.width;
     let out = if n <= 1 {
         input
@@ -570,22 +592,26 @@ impl NodeKind for PhaseNode {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let samples =
-            || -> Result<u32, NodeError> { Ok(ctx.int("samples")?.clamp(1, 8192) as u32) };
+        let samples = |n: i64| n.clamp(1, 8192) as u32;
         let table = match self.0 {
             Model::HenyeyGreenstein => {
-                analytic(ctx.gpu, "henyey_greenstein", samples()?, ctx.f32("g")?)?
+                let p = HgParams::from_ctx(ctx)?;
+                analytic(ctx.gpu, "henyey_greenstein", samples(p.samples), p.g)?
             }
-            Model::Rayleigh => analytic(ctx.gpu, "rayleigh", samples()?, 0.0)?,
+            Model::Rayleigh => {
+                let p = RayleighParams::from_ctx(ctx)?;
+                analytic(ctx.gpu, "rayleigh", samples(p.samples), 0.0)?
+            }
             Model::Mie => {
-                let w = samples()?;
+                let prm = MieParams::from_ctx(ctx)?;
+                let w = samples(prm.samples);
                 let custom = Population {
-                    radius_um: ctx.f64("radius")?,
-                    spread: ctx.f64("spread")?,
-                    m: Complex64::new(ctx.f64("n_real")?, ctx.f64("n_imag")?),
+                    radius_um: prm.radius,
+                    spread: prm.spread,
+                    m: Complex64::new(prm.n_real, prm.n_imag),
                 };
-                let p = population(ctx.choice::<Preset>("preset")?, custom);
-                let radii = ctx.int("radii")?.clamp(1, 256) as usize;
+                let p = population(prm.preset, custom);
+                let radii = prm.radii.clamp(1, 256) as usize;
                 let report = |k: usize| {
                     let nm = WAVELENGTHS_NM[k.min(2)];
                     ctx.report(k as u64 + 1, 3, format!("Lorenz–Mie series at {nm} nm"));

@@ -38,6 +38,20 @@ pub struct RadialBlur;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        light_x: f32 = ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
+        light_y: f32 = ParamSpec::float("light_y", 100.0, -1e6, 1e6, "px", "Light position y in pixels (down)."),
+        samples: i64 = ParamSpec::int("samples", 64, 1, 1024, "samples", "Samples per pixel (quality knob)."),
+        density: f32 = ParamSpec::float("density", 0.9, 0.0, 10.0, "", "Fraction of the way to the light the samples cover."),
+        decay: f32 = ParamSpec::float("decay", 0.96, 0.0, 1.0, "", "Falloff per sample."),
+        weight: f32 = ParamSpec::float("weight", 0.4, 0.0, 1e3, "", "Weight of each sample."),
+        exposure: f32 = ParamSpec::float("exposure", 0.1, 0.0, 1e3, "", "Scales the sum."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "RadialBlur",
     category: "Scattering",
@@ -47,15 +61,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("scene", &[PortType::Scene], "Places the light at the sun's screen position (overrides light_x, light_y)."),
     ],
     outputs: &[PortSpec::output("image", IMG, "The blurred shafts, same type as `occlusion`.")],
-    params: &[
-        ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
-        ParamSpec::float("light_y", 100.0, -1e6, 1e6, "px", "Light position y in pixels (down)."),
-        ParamSpec::int("samples", 64, 1, 1024, "samples", "Samples per pixel (quality knob)."),
-        ParamSpec::float("density", 0.9, 0.0, 10.0, "", "Fraction of the way to the light the samples cover."),
-        ParamSpec::float("decay", 0.96, 0.0, 1.0, "", "Falloff per sample."),
-        ParamSpec::float("weight", 0.4, 0.0, 1e3, "", "Weight of each sample."),
-        ParamSpec::float("exposure", 0.1, 0.0, 1e3, "", "Scales the sum."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[RadialParams::LAYOUT]);
@@ -133,6 +139,7 @@ impl NodeKind for RadialBlur {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let prm = Params::from_ctx(ctx)?;
         let src = ctx.require_texture("occlusion")?;
         if src.format == TexFormat::Rg32F {
             return Err(NodeError::Input {
@@ -148,15 +155,15 @@ impl NodeKind for RadialBlur {
                 })?;
                 sun_pixel(&scene.scene, src.width, src.height)
             }
-            None => [ctx.f32("light_x")?, ctx.f32("light_y")?],
+            None => [prm.light_x, prm.light_y],
         };
         let p = RadialParams {
             light,
-            samples: ctx.int("samples")? as u32,
-            density: ctx.f32("density")?,
-            decay: ctx.f32("decay")?,
-            weight: ctx.f32("weight")?,
-            exposure: ctx.f32("exposure")?,
+            samples: prm.samples as u32,
+            density: prm.density,
+            decay: prm.decay,
+            weight: prm.weight,
+            exposure: prm.exposure,
             _pad0: 0,
         };
         let out = ctx.gpu.texture(src.width, src.height, src.format)?;

@@ -30,19 +30,25 @@ pub struct Remap;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        from_min: f32 = ParamSpec::float("from_min", 0.0, -1e30, 1e30, "", "Source value mapped to to_min."),
+        from_max: f32 = ParamSpec::float("from_max", 1.0, -1e30, 1e30, "", "Source value mapped to to_max (equal to from_min: a step)."),
+        to_min: f32 = ParamSpec::float("to_min", 0.0, -1e30, 1e30, "", "Target of from_min."),
+        to_max: f32 = ParamSpec::float("to_max", 1.0, -1e30, 1e30, "", "Target of from_max."),
+        clamp: bool = ParamSpec::flag("clamp", false, "Clamp the result to the target range."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Remap",
     category: "Image",
     doc: "Linearly maps values from [from_min, from_max] to [to_min, to_max], optionally clamped; alpha is kept.",
     inputs: &[PortSpec::required("in", IMG, "Values to remap.")],
     outputs: &[PortSpec::output("out", IMG, "Remapped values, same type and size as `in`.")],
-    params: &[
-        ParamSpec::float("from_min", 0.0, -1e30, 1e30, "", "Source value mapped to to_min."),
-        ParamSpec::float("from_max", 1.0, -1e30, 1e30, "", "Source value mapped to to_max (equal to from_min: a step)."),
-        ParamSpec::float("to_min", 0.0, -1e30, 1e30, "", "Target of from_min."),
-        ParamSpec::float("to_max", 1.0, -1e30, 1e30, "", "Target of from_max."),
-        ParamSpec::flag("clamp", false, "Clamp the result to the target range."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[RemapParams::LAYOUT]);
@@ -107,13 +113,14 @@ impl NodeKind for Remap {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let tex = ctx.require_texture("in")?;
         let u = RemapParams {
-            from_min: ctx.f32("from_min")?,
-            from_max: ctx.f32("from_max")?,
-            to_min: ctx.f32("to_min")?,
-            to_max: ctx.f32("to_max")?,
-            clamp: ctx.bool("clamp")? as u32,
+            from_min: p.from_min,
+            from_max: p.from_max,
+            to_min: p.to_min,
+            to_max: p.to_max,
+            clamp: p.clamp as u32,
             _pad0: 0,
             _pad1: 0,
             _pad2: 0,

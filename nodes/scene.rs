@@ -34,7 +34,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::scene::{builtin, load_gltf, Builtin, GpuScene, Sun};
 
@@ -47,30 +47,36 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        name: Builtin = ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
+        path: String = ParamSpec::text("path", "", "glTF file (.gltf/.glb); overrides `name`."),
+        seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation of the built-in scene."),
+        camera: Source = ParamSpec::choice("camera", Source::NAMES, "scene", "Use the scene's camera, or the cam_*/target_*/fov parameters."),
+        cam_x: f32 = ParamSpec::float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
+        cam_y: f32 = ParamSpec::float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
+        cam_z: f32 = ParamSpec::float("cam_z", 9.0, -1e5, 1e5, "m", "Camera position z (camera = custom)."),
+        target_x: f32 = ParamSpec::float("target_x", 0.0, -1e5, 1e5, "m", "Point looked at, x (camera = custom)."),
+        target_y: f32 = ParamSpec::float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
+        target_z: f32 = ParamSpec::float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
+        fov: f32 = ParamSpec::float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
+        light: Source = ParamSpec::choice("light", Source::NAMES, "scene", "Use the scene's sun, or the sun_* parameters."),
+        sun_azimuth: f32 = ParamSpec::float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
+        sun_elevation: f32 = ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
+        sun_colour: [f32; 4] = ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
+        sun_intensity: f32 = ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "W/m²", "Sun irradiance on a surface facing it, multiplying the colour (light = custom); a glTF sun's lux are read as lux / 683."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Scene",
     category: "Scene",
     doc: "A built-in procedural scene (torus, tree, window, fence, figure) or a glTF file, with camera and sun.",
     inputs: &[],
     outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and sun.")],
-    params: &[
-        ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
-        ParamSpec::text("path", "", "glTF file (.gltf/.glb); overrides `name`."),
-        ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation of the built-in scene."),
-        ParamSpec::choice("camera", Source::NAMES, "scene", "Use the scene's camera, or the cam_*/target_*/fov parameters."),
-        ParamSpec::float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
-        ParamSpec::float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
-        ParamSpec::float("cam_z", 9.0, -1e5, 1e5, "m", "Camera position z (camera = custom)."),
-        ParamSpec::float("target_x", 0.0, -1e5, 1e5, "m", "Point looked at, x (camera = custom)."),
-        ParamSpec::float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
-        ParamSpec::float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
-        ParamSpec::float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
-        ParamSpec::choice("light", Source::NAMES, "scene", "Use the scene's sun, or the sun_* parameters."),
-        ParamSpec::float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
-        ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
-        ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
-        ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "W/m²", "Sun irradiance on a surface facing it, multiplying the colour (light = custom); a glTF sun's lux are read as lux / 683."),
-    ],
+    params: Params::SPECS,
 })
 .files(&[("path", crate::eval::FileRole::Read)]);
 
@@ -79,18 +85,11 @@ impl NodeKind for SceneNode {
         &DECL
     }
 
-    fn volatile_key(&self, key: &KeyInput) -> u64 {
-        let params = key.params;
-        super::util::file_stamp(params, "path")
-    }
-
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let path = ctx.text("path")?;
+        let p = Params::from_ctx(ctx)?;
+        let path = p.path.as_str();
         let mut scene = if path.is_empty() {
-            builtin(
-                ctx.choice::<Builtin>("name")?.name(),
-                ctx.int("seed")? as u64,
-            )
+            builtin(p.name.name(), p.seed as u64)
         } else {
             load_gltf(Path::new(path))
         }
@@ -102,23 +101,18 @@ impl NodeKind for SceneNode {
             },
             message: e.to_string(),
         })?;
-        if ctx.choice::<Source>("camera")? == Source::Custom {
-            scene.camera.position =
-                Vec3::new(ctx.f32("cam_x")?, ctx.f32("cam_y")?, ctx.f32("cam_z")?);
-            scene.camera.target = Vec3::new(
-                ctx.f32("target_x")?,
-                ctx.f32("target_y")?,
-                ctx.f32("target_z")?,
-            );
-            scene.camera.fov_y = ctx.f32("fov")?;
+        if p.camera == Source::Custom {
+            scene.camera.position = Vec3::new(p.cam_x, p.cam_y, p.cam_z);
+            scene.camera.target = Vec3::new(p.target_x, p.target_y, p.target_z);
+            scene.camera.fov_y = p.fov;
         }
-        if ctx.choice::<Source>("light")? == Source::Custom {
-            let c = ctx.colour("sun_colour")?;
+        if p.light == Source::Custom {
+            let c = p.sun_colour;
             scene.sun = Sun {
-                azimuth: ctx.f32("sun_azimuth")?,
-                elevation: ctx.f32("sun_elevation")?,
+                azimuth: p.sun_azimuth,
+                elevation: p.sun_elevation,
                 colour: [c[0], c[1], c[2]],
-                intensity: ctx.f32("sun_intensity")?,
+                intensity: p.sun_intensity,
             };
         }
         let gpu_scene = GpuScene::upload(ctx.gpu, scene)?;

@@ -27,17 +27,23 @@ use crate::scene::{fit_light, GpuScene};
 pub struct ShadowMapNode;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        resolution: i64 = ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map."),
+        include: String = ParamSpec::text("include", "", "Comma-separated tags: draw only objects with one of them (empty: all)."),
+        exclude: String = ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ShadowMap",
     category: "Scene",
     doc: "Orthographic light-space depth of the scene (0 near, 1 far / no occluder), fitted to the scene bounds.",
     inputs: &[PortSpec::required("scene", &[PortType::Scene], "The scene to render from the sun.")],
     outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "Depth in [0, 1] with the light's matrices.")],
-    params: &[
-        ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map."),
-        ParamSpec::text("include", "", "Comma-separated tags: draw only objects with one of them (empty: all)."),
-        ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[ShadowMapParams::LAYOUT]);
@@ -75,6 +81,7 @@ impl NodeKind for ShadowMapNode {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let scene =
             ctx.require("scene")?
                 .payload::<GpuScene>()
@@ -82,13 +89,13 @@ impl NodeKind for ShadowMapNode {
                     port: "scene".into(),
                     message: "is not a scene".into(),
                 })?;
-        let res = ctx.texture_side("resolution", 2)?;
+        let res = ctx.side("resolution", p.resolution, 2)?;
         ctx.check_bytes("resolution", u64::from(res).pow(2) * 4)?;
         let (view, proj) = fit_light(scene.scene.sun.to_sun(), scene.scene.bounds());
         let u = ShadowMapParams {
             light_view_proj: (proj * view).to_cols_array_2d(),
         };
-        let ranges = scene.select(&tags(ctx.text("include")?), &tags(ctx.text("exclude")?));
+        let ranges = scene.select(&tags(p.include.as_str()), &tags(p.exclude.as_str()));
         let out = ctx.gpu.texture(res, res, TexFormat::R32F)?;
         ctx.gpu.raster(
             SHADER,

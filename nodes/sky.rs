@@ -61,6 +61,24 @@ use crate::scene::{GpuScene, Sun};
 pub struct Sky;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        beta_sea_level: [f32; 3] = ParamSpec::vec3("beta_sea_level", [5.8e-6, 1.35e-5, 3.31e-5], 0.0, 1.0, "1/m", "Air's scattering coefficient at sea level for 680/550/440 nm."),
+        scale_height: f32 = ParamSpec::float("scale_height", 8000.0, 1.0, 1e6, "m", "Height over which the density falls by e (1/γ)."),
+        aerosol: f32 = ParamSpec::float("aerosol", 0.0, 0.0, 1.0, "1/m", "Aerosol scattering coefficient at sea level (same profile as air)."),
+        aerosol_g: f32 = ParamSpec::float("aerosol_g", 0.76, -0.999, 0.999, "", "Aerosol Henyey–Greenstein asymmetry when no phase is connected."),
+        altitude: f32 = ParamSpec::float("altitude", 0.0, -1e4, 1e5, "m", "Height of the scene's y = 0 above sea level."),
+        distance_scale: f32 = ParamSpec::float("distance_scale", 1.0, 1e-3, 1e6, "m/unit", "Metres per scene unit: exaggerates aerial perspective in small scenes."),
+        intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
+        sun_azimuth: f32 = ParamSpec::float("sun_azimuth", 0.0, -360.0, 360.0, "°", "Sun azimuth without a scene (clockwise from +Z seen from above)."),
+        sun_elevation: f32 = ParamSpec::float("sun_elevation", 20.0, -90.0, 90.0, "°", "Sun elevation without a scene."),
+        sun_irradiance: f32 = ParamSpec::float("sun_irradiance", 20.0, 0.0, 1e6, "W/m²", "Sun irradiance without a scene."),
+        sun_disk: bool = ParamSpec::flag("sun_disk", true, "Draw the 0.5° sun disk on the background."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Sky",
     category: "Scattering",
@@ -75,19 +93,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("transmittance", &[PortType::Image], "Per channel, eye to surface; 0 on the background."),
         PortSpec::output("sky", &[PortType::Image], "The background alone (sky and sun disk); 0 on surfaces."),
     ],
-    params: &[
-        ParamSpec::vec3("beta_sea_level", [5.8e-6, 1.35e-5, 3.31e-5], 0.0, 1.0, "1/m", "Air's scattering coefficient at sea level for 680/550/440 nm."),
-        ParamSpec::float("scale_height", 8000.0, 1.0, 1e6, "m", "Height over which the density falls by e (1/γ)."),
-        ParamSpec::float("aerosol", 0.0, 0.0, 1.0, "1/m", "Aerosol scattering coefficient at sea level (same profile as air)."),
-        ParamSpec::float("aerosol_g", 0.76, -0.999, 0.999, "", "Aerosol Henyey–Greenstein asymmetry when no phase is connected."),
-        ParamSpec::float("altitude", 0.0, -1e4, 1e5, "m", "Height of the scene's y = 0 above sea level."),
-        ParamSpec::float("distance_scale", 1.0, 1e-3, 1e6, "m/unit", "Metres per scene unit: exaggerates aerial perspective in small scenes."),
-        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
-        ParamSpec::float("sun_azimuth", 0.0, -360.0, 360.0, "°", "Sun azimuth without a scene (clockwise from +Z seen from above)."),
-        ParamSpec::float("sun_elevation", 20.0, -90.0, 90.0, "°", "Sun elevation without a scene."),
-        ParamSpec::float("sun_irradiance", 20.0, 0.0, 1e6, "W/m²", "Sun irradiance without a scene."),
-        ParamSpec::flag("sun_disk", true, "Draw the 0.5° sun disk on the background."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[SkyParams::LAYOUT]);
@@ -241,6 +247,7 @@ impl NodeKind for Sky {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let (depth, cam): (_, Matrices) = match ctx.require("depth")? {
             PortValue::Depth(t, m) => (t.clone(), *m),
             _ => {
@@ -250,7 +257,7 @@ impl NodeKind for Sky {
                 })
             }
         };
-        let intensity = ctx.f32("intensity")?;
+        let intensity = p.intensity;
         let (to_sun, sun) = match ctx.input("scene") {
             Some(v) => {
                 let s = &v
@@ -265,10 +272,10 @@ impl NodeKind for Sky {
             }
             None => {
                 let s = Sun {
-                    azimuth: ctx.f32("sun_azimuth")?,
-                    elevation: ctx.f32("sun_elevation")?,
+                    azimuth: p.sun_azimuth,
+                    elevation: p.sun_elevation,
                     colour: [1.0; 3],
-                    intensity: ctx.f32("sun_irradiance")?,
+                    intensity: p.sun_irradiance,
                 };
                 (s.to_sun(), s.radiance().map(|c| c * intensity))
             }
@@ -288,15 +295,15 @@ impl NodeKind for Sky {
             eye: cam.eye().to_array(),
             far: cam.far,
             to_sun: to_sun.to_array(),
-            gamma: 1.0 / ctx.f32("scale_height")?.max(1e-6),
+            gamma: 1.0 / p.scale_height.max(1e-6),
             sun,
-            altitude: ctx.f32("altitude")?,
-            beta_air: ctx.vec3("beta_sea_level")?,
-            aerosol: ctx.f32("aerosol")?,
-            distance_scale: ctx.f32("distance_scale")?,
-            aerosol_g: ctx.f32("aerosol_g")?,
+            altitude: p.altitude,
+            beta_air: p.beta_sea_level,
+            aerosol: p.aerosol,
+            distance_scale: p.distance_scale,
+            aerosol_g: p.aerosol_g,
             phase_width: phase.as_ref().map_or(0, |t| t.width),
-            sun_disk: ctx.bool("sun_disk")? as u32,
+            sun_disk: p.sun_disk as u32,
         };
         let table = match phase {
             Some(t) => t,

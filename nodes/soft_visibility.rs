@@ -85,27 +85,33 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        slices: i64 = ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
+        resolution: i64 = ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer."),
+        kernel: Kernel = ParamSpec::choice("kernel", Kernel::NAMES, "TopHat", "Convolution kernel; all share the mean and variance of seed 004 eq. 7."),
+        sun_radius: f64 = ParamSpec::float("sun_radius", 1.0, 0.0, 10.0, "°", "Angular radius of the sun (the real sun: 0.27°)."),
+        d1: f64 = ParamSpec::float("d1", 4.0, 0.01, 1e4, "m", "Distance behind an occluder where the penumbra is exact (seed 004's optimal distance)."),
+        ellipse_x: f64 = ParamSpec::float("ellipse_x", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space x."),
+        ellipse_y: f64 = ParamSpec::float("ellipse_y", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space y."),
+        rotation: f64 = ParamSpec::float("rotation", 0.0, -180.0, 180.0, "°", "Turn of the light's shape."),
+        samples: i64 = ParamSpec::int("samples", 8, 2, 64, "samples", "Poisson disk samples."),
+        size: i64 = ParamSpec::int("size", 5, 2, 15, "taps", "Gaussian taps per axis."),
+        seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
+        bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
+        growth: Growth = ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SoftVisibility",
     category: "Scattering",
     doc: "Soft shadows of a sun of finite size by iterative convolution of light-space slices (seed 004), for SingleScattering's `soft` input.",
     inputs: &[PortSpec::required("shadow", &[PortType::ShadowMap], "The occluders and the light's box.")],
     outputs: &[PortSpec::output("soft", &[PortType::SoftShadow], "Occlusion per light texel and depth slice.")],
-    params: &[
-        ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
-        ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer."),
-        ParamSpec::choice("kernel", Kernel::NAMES, "TopHat", "Convolution kernel; all share the mean and variance of seed 004 eq. 7."),
-        ParamSpec::float("sun_radius", 1.0, 0.0, 10.0, "°", "Angular radius of the sun (the real sun: 0.27°)."),
-        ParamSpec::float("d1", 4.0, 0.01, 1e4, "m", "Distance behind an occluder where the penumbra is exact (seed 004's optimal distance)."),
-        ParamSpec::float("ellipse_x", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space x."),
-        ParamSpec::float("ellipse_y", 1.0, 0.0, 10.0, "", "Relative variance of the light along light-space y."),
-        ParamSpec::float("rotation", 0.0, -180.0, 180.0, "°", "Turn of the light's shape."),
-        ParamSpec::int("samples", 8, 2, 64, "samples", "Poisson disk samples."),
-        ParamSpec::int("size", 5, 2, 15, "taps", "Gaussian taps per axis."),
-        ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
-        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
-        ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[SoftParams::LAYOUT]);
@@ -480,20 +486,21 @@ pub fn reference(
 
 /// The kernel settings of a run.
 fn spec_of(ctx: &RunCtx, light: &Matrices, res: u32, slices: u32) -> Result<KernelSpec, NodeError> {
+    let p = Params::from_ctx(ctx)?;
     Ok(KernelSpec {
-        kernel: ctx.choice::<Kernel>("kernel")?,
+        kernel: p.kernel,
         variance: variance_texels(
             light,
             res,
             slices,
-            ctx.f64("sun_radius")?,
-            ctx.f64("d1")?,
-            [ctx.f64("ellipse_x")?, ctx.f64("ellipse_y")?],
+            p.sun_radius,
+            p.d1,
+            [p.ellipse_x, p.ellipse_y],
         ),
-        rotation: ctx.f64("rotation")?.to_radians(),
-        samples: ctx.int("samples")?.clamp(2, 64) as u32,
-        size: ctx.int("size")?.clamp(2, 15) as u32,
-        seed: ctx.int("seed")?.max(0) as u32,
+        rotation: p.rotation.to_radians(),
+        samples: p.samples.clamp(2, 64) as u32,
+        size: p.size.clamp(2, 15) as u32,
+        seed: p.seed.max(0) as u32,
     })
 }
 
@@ -503,6 +510,7 @@ impl NodeKind for SoftVisibility {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let (map, light) = match ctx.require("shadow")? {
             PortValue::ShadowMap(t, m) => (t.clone(), *m),
             _ => {
@@ -512,8 +520,8 @@ impl NodeKind for SoftVisibility {
                 })
             }
         };
-        let res = ctx.texture_side("resolution", 3)?;
-        let slices = ctx.int("slices")?.clamp(1, 1024) as u32;
+        let res = ctx.side("resolution", p.resolution, 3)?;
+        let slices = p.slices.clamp(1, 1024) as u32;
         crate::eval::check_side(
             "slices",
             slices as i64,
@@ -545,14 +553,14 @@ impl NodeKind for SoftVisibility {
         let volume = ctx.gpu.volume([res, res, slices])?;
         let a = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
         let b = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
-        let bias = ctx.f32("bias")?;
-        let linear = ctx.choice::<Growth>("growth")? == Growth::Linear;
+        let bias = p.bias;
+        let linear = p.growth == Growth::Linear;
         let step_var = step_variance(
             &light,
             res,
             slices,
-            ctx.f64("sun_radius")?,
-            [ctx.f64("ellipse_x")?, ctx.f64("ellipse_y")?],
+            p.sun_radius,
+            [p.ellipse_x, p.ellipse_y],
         )
         .map(|v| v as f32);
         for k in 0..slices {

@@ -33,16 +33,22 @@ crate::choice_enum! {
 pub const OPERATORS: &[&str] = Operator::NAMES;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        exposure: f32 = ParamSpec::float("exposure", 0.0, -20.0, 20.0, "stops", "Multiplies the input by 2^exposure."),
+        operator: Operator = ParamSpec::choice("operator", Operator::NAMES, "filmic", "Tone curve: filmic (ACES fit), reinhard, linear (clamp)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Tonemap",
     category: "Image",
     doc: "Exposure (stops) and a filmic (ACES fit), Reinhard or clamped linear tone curve.",
     inputs: &[PortSpec::required("image", &[PortType::Image], "Linear radiance.")],
     outputs: &[PortSpec::output("out", &[PortType::Image], "Display-referred values in [0, 1].")],
-    params: &[
-        ParamSpec::float("exposure", 0.0, -20.0, 20.0, "stops", "Multiplies the input by 2^exposure."),
-        ParamSpec::choice("operator", Operator::NAMES, "filmic", "Tone curve: filmic (ACES fit), reinhard, linear (clamp)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[SHADER])
 .uniforms(&[TonemapParams::LAYOUT]);
@@ -82,10 +88,11 @@ impl NodeKind for Tonemap {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let tex = ctx.require_texture("image")?;
         let u = TonemapParams {
-            scale: 2f32.powf(ctx.f32("exposure")?),
-            op: ctx.choice::<Operator>("operator")? as u32,
+            scale: 2f32.powf(p.exposure),
+            op: p.operator as u32,
             _pad0: 0,
             _pad1: 0,
         };

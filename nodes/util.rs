@@ -1,18 +1,15 @@
 //! Small helpers shared by node files (no node kind lives here).
 
-use std::collections::BTreeMap;
-use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
 use crate::eval::{NodeError, PortValue, RunCtx};
 use crate::gpu::{GpuTexture, TexFormat};
-use crate::graph::ParamValue;
 
-/// Resolve a `width`/`height` pair of parameters where 0 means "the evaluation size".
-pub fn size_or_default(ctx: &RunCtx, w: &str, h: &str) -> Result<(u32, u32), NodeError> {
+/// Resolve a `width`/`height` pair of parameter values where 0 means "the evaluation size".
+pub fn size_or_default(ctx: &RunCtx, w: i64, h: i64) -> (u32, u32) {
     let (dw, dh) = ctx.size;
     let pick = |v: i64, d: u32| if v <= 0 { d } else { v as u32 };
-    Ok((pick(ctx.int(w)?, dw), pick(ctx.int(h)?, dh)))
+    (pick(w, dw), pick(h, dh))
 }
 
 /// A 1×1 texture to bind where an optional input is not connected (the shader does not read it).
@@ -28,28 +25,10 @@ pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
     }
 }
 
-/// Cache-key material for a file named by a `Text` parameter: its size and modification time
-/// (so editing the file on disk re-runs the node).
-pub fn file_stamp(params: &BTreeMap<String, ParamValue>, param: &str) -> u64 {
-    match params.get(param) {
-        Some(ParamValue::Text(p)) => path_stamp(std::path::Path::new(p)),
-        _ => 0,
-    }
-}
-
-/// Cache-key material for a file: its size and modification time (0 when it cannot be read).
-pub fn path_stamp(path: &std::path::Path) -> u64 {
-    let mut h = std::hash::DefaultHasher::new();
-    if let Ok(m) = std::fs::metadata(path) {
-        m.len().hash(&mut h);
-        m.modified().ok().hash(&mut h);
-    }
-    h.finish()
-}
-
 /// The world box a volume covers: the bounds of the scene on the `scene` input, else the
-/// `box_min`…`box_max` parameters (refused when inverted). Shared by the volume nodes.
-pub fn volume_box(ctx: &RunCtx) -> Result<[[f32; 3]; 2], NodeError> {
+/// `box_min`…`box_max` parameters' values `[lo, hi]` (refused when inverted). Shared by the
+/// volume nodes.
+pub fn volume_box(ctx: &RunCtx, [lo, hi]: [[f32; 3]; 2]) -> Result<[[f32; 3]; 2], NodeError> {
     if let Some(v) = ctx.input("scene") {
         let s = v
             .payload::<crate::scene::GpuScene>()
@@ -60,7 +39,6 @@ pub fn volume_box(ctx: &RunCtx) -> Result<[[f32; 3]; 2], NodeError> {
         let (lo, hi) = s.scene.bounds();
         return Ok([lo.to_array(), hi.to_array()]);
     }
-    let (lo, hi) = (ctx.vec3("box_min")?, ctx.vec3("box_max")?);
     if (0..3).any(|k| lo[k] > hi[k]) {
         return Err(NodeError::Param {
             param: "box_max".into(),

@@ -88,6 +88,21 @@ pub use operators::*;
 pub struct LightMapSolve;
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        resolution: i64 = ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side of the light map."),
+        iterations: i64 = ParamSpec::int("iterations", 32, 0, 10000, "", "Conjugate-gradient iterations at most."),
+        tolerance: f64 = ParamSpec::float("tolerance", 1e-4, 0.0, 1.0, "", "Stop when ‖Tᵀ r‖ falls below tolerance × its first value."),
+        non_negative: bool = ParamSpec::flag("non_negative", true, "Keep every texel ≥ 0 (shortened steps, frozen texels, CG restarts)."),
+        start: f32 = ParamSpec::float("start", 1.0, 0.0, 1e6, "", "The constant start map; texels no stroke reaches keep it."),
+        sigma_t: f32 = ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction σt of the medium (as on SingleScattering)."),
+        steps: i64 = ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per constraint ray."),
+        bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias (as on SingleScattering)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "LightMapSolve",
     category: "Colour",
@@ -100,16 +115,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("light_map", &[PortType::LightMap], "The solved light map."),
         PortSpec::output("residual", &[PortType::Scalar], "‖T x − b‖ at the start and after each iteration (one texel each)."),
     ],
-    params: &[
-        ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side of the light map."),
-        ParamSpec::int("iterations", 32, 0, 10000, "", "Conjugate-gradient iterations at most."),
-        ParamSpec::float("tolerance", 1e-4, 0.0, 1.0, "", "Stop when ‖Tᵀ r‖ falls below tolerance × its first value."),
-        ParamSpec::flag("non_negative", true, "Keep every texel ≥ 0 (shortened steps, frozen texels, CG restarts)."),
-        ParamSpec::float("start", 1.0, 0.0, 1e6, "", "The constant start map; texels no stroke reaches keep it."),
-        ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction σt of the medium (as on SingleScattering)."),
-        ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per constraint ray."),
-        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias (as on SingleScattering)."),
-    ],
+    params: Params::SPECS,
 }).tools(&[crate::eval::EditorTool::StrokePainting])
 
 .shaders(&[SHADER])
@@ -167,6 +173,7 @@ impl NodeKind for LightMapSolve {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let scene =
             ctx.require("scene")?
                 .payload::<GpuScene>()
@@ -184,18 +191,18 @@ impl NodeKind for LightMapSolve {
             }
         };
         let data: SolveData = ctx.data()?;
-        let n = ctx.texture_side("resolution", 2)?;
+        let n = ctx.side("resolution", p.resolution, 2)?;
         ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;
         let sampling = Sampling {
-            sigma_t: ctx.f32("sigma_t")?,
-            steps: ctx.int("steps")? as u32,
-            bias: ctx.f32("bias")?,
+            sigma_t: p.sigma_t,
+            steps: p.steps as u32,
+            bias: p.bias,
         };
         let set = Settings {
-            iterations: ctx.int("iterations")? as u32,
-            tolerance: ctx.f64("tolerance")?,
-            non_negative: ctx.bool("non_negative")?,
-            start: ctx.f32("start")?,
+            iterations: p.iterations as u32,
+            tolerance: p.tolerance,
+            non_negative: p.non_negative,
+            start: p.start,
         };
         for (i, v) in data.views.iter().enumerate() {
             let bad = v.strokes.iter().any(|s| {

@@ -122,6 +122,31 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        sigma_t: f32 = ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
+        albedo: f32 = ParamSpec::float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
+        g: f32 = ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
+        tint: [f32; 4] = ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
+        intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
+        steps: i64 = ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
+        jitter: f32 = ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
+        bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
+        method: Method = ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
+        min_level: i64 = ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact).").when("method", &["MinMax", "Epipolar"]),
+        epi_slices: i64 = ParamSpec::int("epi_slices", 512, 4, 2048, "slices", "Epipolar quality knob: lines through the sun's screen position whose rays are traced.").when("method", &["Epipolar"]),
+        epi_samples: i64 = ParamSpec::int("epi_samples", 256, 2, 4096, "samples", "Epipolar quality knob: traced rays per slice, end points included.").when("method", &["Epipolar"]),
+        epi_threshold: f32 = ParamSpec::float("epi_threshold", 0.02, 0.0, 100.0, "relative", "Epipolar quality knob: a sample whose camera depth (or medium length) differs from a pixel's by more than this share is not used for it; a pixel left with none traces its own ray (0: every pixel does).").when("method", &["Epipolar"]),
+        tree_level: i64 = ParamSpec::int("tree_level", 0, 0, 14, "level", "Epipolar quality knob: nodes of the 1D min-max trees spanning 2^level texels at and below this level are estimated, not refined (0 = exact).").when("method", &["Epipolar"]),
+        bounds: Bounds = ParamSpec::choice("bounds", Bounds::NAMES, "none", "Where the medium is: none (fills every view ray, the seed's model), box (box_min…box_max), tagged (the bounds of the scene's objects tagged `medium`)."),
+        box_min: [f32; 3] = ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the medium box (bounds = box), scene coordinates.").when("bounds", &["box"]),
+        box_max: [f32; 3] = ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the medium box (bounds = box), scene coordinates.").when("bounds", &["box"]),
+        light_extinction: Extinction = ParamSpec::choice("light_extinction", Extinction::NAMES, "off", "off: the sun reaches every point unattenuated (seed eq. 1); on: by e^(−σt ℓ), ℓ = distance to the medium's boundary towards the sun (needs bounds)."),
+    }
+}
+
+#[rustfmt::skip]
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SingleScattering",
     category: "Scattering",
@@ -140,26 +165,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance, W/(m²·sr) (linear RGB)."),
         PortSpec::output("transmittance", &[PortType::Scalar], "e^(−s σt) along the view ray."),
     ],
-    params: &[
-        ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
-        ParamSpec::float("albedo", 0.9, 0.0, 1.0, "", "Scattering albedo ρ."),
-        ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
-        ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
-        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
-        ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
-        ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
-        ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
-        ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
-        ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact)."),
-        ParamSpec::int("epi_slices", 512, 4, 2048, "slices", "Epipolar quality knob: lines through the sun's screen position whose rays are traced."),
-        ParamSpec::int("epi_samples", 256, 2, 4096, "samples", "Epipolar quality knob: traced rays per slice, end points included."),
-        ParamSpec::float("epi_threshold", 0.02, 0.0, 100.0, "relative", "Epipolar quality knob: a sample whose camera depth (or medium length) differs from a pixel's by more than this share is not used for it; a pixel left with none traces its own ray (0: every pixel does)."),
-        ParamSpec::int("tree_level", 0, 0, 14, "level", "Epipolar quality knob: nodes of the 1D min-max trees spanning 2^level texels at and below this level are estimated, not refined (0 = exact)."),
-        ParamSpec::choice("bounds", Bounds::NAMES, "none", "Where the medium is: none (fills every view ray, the seed's model), box (box_min…box_max), tagged (the bounds of the scene's objects tagged `medium`)."),
-        ParamSpec::vec3("box_min", [-5.0, 0.0, -5.0], -1e6, 1e6, "m", "Low corner of the medium box (bounds = box), scene coordinates."),
-        ParamSpec::vec3("box_max", [5.0, 5.0, 5.0], -1e6, 1e6, "m", "High corner of the medium box (bounds = box), scene coordinates."),
-        ParamSpec::choice("light_extinction", Extinction::NAMES, "off", "off: the sun reaches every point unattenuated (seed eq. 1); on: by e^(−σt ℓ), ℓ = distance to the medium's boundary towards the sun (needs bounds)."),
-    ],
+    params: Params::SPECS,
 })
 .shaders(&[BRUTE_FORCE, MIN_MAX, EPIPOLAR])
 .uniforms(&[ScatterParams::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT, EpiParams::LAYOUT]);
@@ -202,6 +208,7 @@ impl NodeKind for SingleScattering {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let (shadow, light) = match ctx.require("shadow")? {
             PortValue::ShadowMap(t, m) => (t.clone(), *m),
             _ => {
@@ -251,20 +258,20 @@ impl NodeKind for SingleScattering {
                 })
             }
         };
-        let tint = ctx.colour("tint")?;
+        let tint = p.tint;
         let medium = Medium {
-            sigma_t: ctx.f32("sigma_t")?,
-            albedo: ctx.f32("albedo")?,
-            g: ctx.f32("g")?,
+            sigma_t: p.sigma_t,
+            albedo: p.albedo,
+            g: p.g,
             tint: [tint[0], tint[1], tint[2]],
-            intensity: ctx.f32("intensity")?,
-            steps: ctx.int("steps")? as u32,
-            jitter: ctx.f32("jitter")?,
-            bias: ctx.f32("bias")?,
-            min_level: ctx.int("min_level")? as u32,
+            intensity: p.intensity,
+            steps: p.steps as u32,
+            jitter: p.jitter,
+            bias: p.bias,
+            min_level: p.min_level as u32,
         };
-        let extinction = ctx.choice::<Extinction>("light_extinction")? == Extinction::On;
-        let bounds = match ctx.choice::<Bounds>("bounds")? {
+        let extinction = p.light_extinction == Extinction::On;
+        let bounds = match p.bounds {
             Bounds::None if extinction => {
                 return Err(NodeError::Param {
                     param: "light_extinction".into(),
@@ -275,10 +282,7 @@ impl NodeKind for SingleScattering {
             }
             Bounds::None => None,
             Bounds::Box => {
-                let (lo, hi) = (
-                    Vec3::from(ctx.vec3("box_min")?),
-                    Vec3::from(ctx.vec3("box_max")?),
-                );
+                let (lo, hi) = (Vec3::from(p.box_min), Vec3::from(p.box_max));
                 if lo.cmpgt(hi).any() {
                     return Err(NodeError::Param {
                         param: "box_max".into(),
@@ -315,7 +319,7 @@ impl NodeKind for SingleScattering {
                 .to_cols_array_2d(),
         };
         if soft.is_some() {
-            if ctx.choice::<Method>("method")? != Method::BruteForce {
+            if p.method != Method::BruteForce {
                 return Err(NodeError::Input {
                     port: "soft".into(),
                     message:
@@ -334,7 +338,7 @@ impl NodeKind for SingleScattering {
             (5, Bind::Storage(&tr)),
             (13, Bind::Texture(&phase)),
         ];
-        let method = ctx.choice::<Method>("method")?;
+        let method = p.method;
         // Pipeline constant: light extinction's code is compiled away when it is off.
         let extinction_constant = if extinction { 1.0 } else { 0.0 };
         let soft_constant = if soft.is_some() { 1.0 } else { 0.0 };
@@ -379,10 +383,10 @@ impl NodeKind for SingleScattering {
                     .dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
             } else {
                 let knobs = EpiKnobs {
-                    slices: ctx.int("epi_slices")? as u32,
-                    samples: ctx.int("epi_samples")? as u32,
-                    threshold: ctx.f32("epi_threshold")?,
-                    tree_level: ctx.int("tree_level")? as u32,
+                    slices: p.epi_slices as u32,
+                    samples: p.epi_samples as u32,
+                    threshold: p.epi_threshold,
+                    tree_level: p.tree_level as u32,
                 };
                 dispatch_epipolar(ctx.gpu, &u, knobs, &shadow, (w, h), &binds)?;
             }

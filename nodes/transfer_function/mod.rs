@@ -85,7 +85,7 @@ use serde::{Deserialize, Serialize};
 use crate::eval::pick::{PickAt, TablePick};
 use crate::eval::{KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
 
 /// The `TransferFunction` node kind.
@@ -99,6 +99,20 @@ crate::choice_enum! {
 crate::choice_enum! {
     /// Where the depth range comes from.
     pub enum DepthRange { Manual = "manual", Auto = "auto" }
+}
+
+#[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        mode: Mode = ParamSpec::choice("mode", Mode::NAMES, "Replace", "Replace: output = TF colour × intensity; Modulate: in-scatter × TF colour × intensity."),
+        intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Scales the output."),
+        depth_range: DepthRange = ParamSpec::choice("depth_range", DepthRange::NAMES, "manual", "manual: depth_min…depth_max; auto: the frame's 1st…99th percentile of finite surface depth (transfers between scenes of different size)."),
+        depth_min: f32 = ParamSpec::float("depth_min", 0.0, 0.0, 1e7, "m", "Depth at v = 0 (depth_range = manual).").when("depth_range", &["manual"]),
+        depth_max: f32 = ParamSpec::float("depth_max", 50.0, 0.0, 1e7, "m", "Depth at v = 1 (depth_range = manual).").when("depth_range", &["manual"]),
+        resolution: i64 = ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side N of the baked table."),
+        diffusion_cycles: i64 = ParamSpec::int("diffusion_cycles", 8, 1, 64, "cycles", "Multigrid V-cycles per diffusion layer (quality knob)."),
+    }
 }
 
 #[rustfmt::skip]
@@ -117,15 +131,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("image", &[PortType::Image], "The recoloured in-scatter (linear RGB)."),
         PortSpec::output("lut", &[PortType::Lut2D], "The baked table: N×N RGBA, x = V̄, y = normalised depth."),
     ],
-    params: &[
-        ParamSpec::choice("mode", Mode::NAMES, "Replace", "Replace: output = TF colour × intensity; Modulate: in-scatter × TF colour × intensity."),
-        ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Scales the output."),
-        ParamSpec::choice("depth_range", DepthRange::NAMES, "manual", "manual: depth_min…depth_max; auto: the frame's 1st…99th percentile of finite surface depth (transfers between scenes of different size)."),
-        ParamSpec::float("depth_min", 0.0, 0.0, 1e7, "m", "Depth at v = 0 (depth_range = manual)."),
-        ParamSpec::float("depth_max", 50.0, 0.0, 1e7, "m", "Depth at v = 1 (depth_range = manual)."),
-        ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side N of the baked table."),
-        ParamSpec::int("diffusion_cycles", 8, 1, 64, "cycles", "Multigrid V-cycles per diffusion layer (quality knob)."),
-    ],
+    params: Params::SPECS,
 }).tools(&[crate::eval::EditorTool::LayerList])
 
 .shaders(&[SHADER])
@@ -230,8 +236,9 @@ impl Frame {
 
     /// The depth range: the parameters, or the frame's percentiles.
     fn range(&self, ctx: &RunCtx) -> Result<(f32, f32), NodeError> {
-        Ok(match ctx.choice::<DepthRange>("depth_range")? {
-            DepthRange::Manual => (ctx.f32("depth_min")?, ctx.f32("depth_max")?),
+        let p = Params::from_ctx(ctx)?;
+        Ok(match p.depth_range {
+            DepthRange::Manual => (p.depth_min, p.depth_max),
             DepthRange::Auto => auto_range(&ctx.gpu.read_texture(&self.depth)?, &self.camera),
         })
     }
@@ -239,18 +246,12 @@ impl Frame {
 
 /// Where a picked pixel lands in the TF: the depth range as the node would use it this frame.
 fn table_pick(at: &PickAt) -> Result<TablePick, NodeError> {
-    let param = |name: &str| {
-        at.params.get(name).ok_or_else(|| NodeError::Param {
-            param: name.into(),
-            message: "missing".into(),
-        })
-    };
-    let auto = matches!(param("depth_range")?, ParamValue::Enum(s) if s == "auto");
+    let p = Params::from_params(at.params)?;
+    let auto = p.depth_range == DepthRange::Auto;
     let (lo, hi) = if auto {
         auto_range(&at.depth_image.data, at.camera)
     } else {
-        let f = |v: &ParamValue| v.as_f64().unwrap_or(0.0) as f32;
-        (f(param("depth_min")?), f(param("depth_max")?))
+        (p.depth_min, p.depth_max)
     };
     let v = at.visibility;
     Ok(TablePick {
@@ -316,21 +317,22 @@ impl NodeKind for TransferFunction {
             .chain(data.keys.iter().flat_map(|k| &k.layers))
         {
             if let Layer::Image { path } = &e.layer {
-                super::util::path_stamp(Path::new(path)).hash(&mut h);
+                crate::eval::file_stamp(Path::new(path)).hash(&mut h);
             }
         }
         h.finish()
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
         let frame = Frame::of(ctx)?;
         let lut = match ctx.input("lut") {
             Some(PortValue::Lut2D(t)) => t.clone(),
             Some(_) => return Err(input_err("lut", "is not a Lut2D")),
             None => {
-                let n = ctx.texture_side("resolution", 2)?;
+                let n = ctx.side("resolution", p.resolution, 2)?;
                 ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;
-                let cycles = ctx.int("diffusion_cycles")? as u32;
+                let cycles = p.diffusion_cycles as u32;
                 let mut layers = stack(ctx)?;
                 resolve_anchors(ctx, &mut layers, frame.as_ref())?;
                 Arc::new(bake_gpu(ctx.gpu, &layers, n, cycles)?)
@@ -340,7 +342,7 @@ impl NodeKind for TransferFunction {
             let f = frame.ok_or_else(|| {
                 input_err("visibility", "must be connected, with `depth`, for `image`")
             })?;
-            let mode = ctx.choice::<Mode>("mode")?;
+            let mode = p.mode;
             let inscatter = match mode {
                 Mode::Modulate => {
                     let t = ctx
@@ -358,7 +360,7 @@ impl NodeKind for TransferFunction {
             let k = LookupParams {
                 depth_min,
                 depth_max,
-                intensity: ctx.f32("intensity")?,
+                intensity: p.intensity,
                 modulate: (mode == Mode::Modulate) as u32,
             };
             let image = mg_pass(

@@ -285,6 +285,16 @@ pub(super) fn set_param_str(
         .map_err(bad)
 }
 
+/// Warn (on stderr) about each `--set` parameter that is not in effect once every `--set` is
+/// applied: its value is kept but changes nothing.
+pub(super) fn warn_not_in_effect(registry: &Registry, g: &Graph, set: &[(String, String)]) {
+    for (node, param) in set {
+        if let Err(why) = g.param_in_effect(registry.catalog(), node, param, 0.0) {
+            eprintln!("warning: {node}.{param} is set but changes nothing: it counts {why}");
+        }
+    }
+}
+
 pub(super) fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
     let mut raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
     if let PortValue::Phase(_) = v {
@@ -360,11 +370,14 @@ pub(super) fn load_graph(
         allow_any: common.allow_any_path,
     };
     let mut g = crate::eval::resolve_files(registry, &g, &policy).map_err(bad)?;
+    let mut set = Vec::new();
     for s in &common.set {
         let (target, value) = split_eq(s, "NODE.PARAM=VALUE")?;
         let (node, param) = split_endpoint(&target).map_err(bad)?;
         set_param_str(registry, &mut g, node, param, &value)?;
+        set.push((node.to_string(), param.to_string()));
     }
+    warn_not_in_effect(registry, &g, &set);
     Ok(g)
 }
 

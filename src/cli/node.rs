@@ -91,10 +91,13 @@ pub(super) fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliEr
         },
     )
     .map_err(bad)?;
+    let mut set = Vec::new();
     for p in &a.params {
         let (name, value) = split_eq(p, "NAME=VALUE")?;
         set_param_str(&registry, &mut g, &id, &name, &value)?;
+        set.push((id.clone(), name));
     }
+    warn_not_in_effect(&registry, &g, &set);
     let gpu = gpu()?;
     let mut opts = EvalOptions {
         time: a.time,

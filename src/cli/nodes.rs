@@ -20,6 +20,18 @@ pub(super) fn range_text(p: &crate::graph::ParamSpec) -> String {
     }
 }
 
+/// A parameter's doc, with when it is in effect when not always.
+fn doc_text(p: &crate::graph::ParamSpec) -> String {
+    match p.when {
+        Some((param, values)) => format!(
+            "{} In effect only with {param} = {}.",
+            p.doc,
+            values.join(" or ")
+        ),
+        None => p.doc.to_string(),
+    }
+}
+
 /// The catalog as plain text, Markdown or JSON.
 pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
     use std::fmt::Write;
@@ -46,7 +58,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                     "ports": all,
                     "params": s.params.iter().map(|p| {
                         let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);
-                        serde_json::json!({
+                        let mut v = serde_json::json!({
                             "name": p.name, "type": p.kind.name(),
                             "default": match p.default.value() {
                                 ParamValue::Float(v) => serde_json::json!(v),
@@ -60,7 +72,12 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                             "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },
                             "values": match p.kind { ParamKind::Enum(n) => serde_json::json!(n), _ => serde_json::Value::Null },
                             "unit": p.unit, "doc": p.doc,
-                        })
+                        });
+                        // Only parameters that are not always in effect carry the key.
+                        if let (Some((param, values)), Some(o)) = (p.when, v.as_object_mut()) {
+                            o.insert("in_effect".into(), serde_json::json!({ "param": param, "values": values }));
+                        }
+                        v
                     }).collect::<Vec<_>>(),
                 })
             })
@@ -100,7 +117,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                     default_text(p),
                     range_text(p).replace('|', "\\|"),
                     p.unit,
-                    p.doc
+                    doc_text(p)
                 );
             }
             out.push('\n');
@@ -127,7 +144,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
                     default_text(p),
                     range_text(p),
                     p.unit,
-                    p.doc
+                    doc_text(p)
                 );
             }
             out.push('\n');

@@ -5,6 +5,7 @@
 
 mod convert;
 mod node;
+mod params;
 mod paths;
 pub mod pick;
 mod value;
@@ -22,7 +23,8 @@ pub use node::{
     check_side, output_path, with_frame, with_suffix, EditorTool, FileRole, KeyInput, NodeDecl,
     NodeError, NodeKind, Registry, RunCtx,
 };
-pub use paths::{resolve_files, PathPolicy, PathRefused};
+pub use params::{FromParam, ParamReader};
+pub use paths::{file_stamp, resolve_files, PathPolicy, PathRefused};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::{Gpu, GpuError};
@@ -628,6 +630,13 @@ fn key_and_inputs(
         time: opts.time,
     })
     .hash(&mut h);
+    // Every file the node declares it reads: its size and modification time, so editing the
+    // file on disk re-runs the node.
+    for name in k.file_params(FileRole::Read) {
+        if let Some(ParamValue::Text(p)) = params.get(name) {
+            paths::file_stamp(std::path::Path::new(p)).hash(&mut h);
+        }
+    }
     opts.size.hash(&mut h);
     let mut inputs = BTreeMap::new();
     for input in k.schema().inputs {

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use thiserror::Error;
 
+use super::params::ParamReader;
 use super::value::PortValue;
 use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
 use crate::graph::{Choice, NodeData, NodeSchema, ParamValue};
@@ -80,49 +81,42 @@ pub struct RunCtx<'a> {
 }
 
 impl RunCtx<'_> {
-    fn param(&self, name: &str) -> Result<&ParamValue, NodeError> {
-        self.params.get(name).ok_or_else(|| NodeError::Param {
-            param: name.to_string(),
-            message: "not declared by this node".into(),
-        })
+    fn reader(&self) -> ParamReader<'_> {
+        ParamReader(self.params)
     }
 
-    /// A `Float` or `Int` parameter as f64.
+    /// A `Float` or `Int` parameter as f64 (see [`ParamReader`]).
     pub fn f64(&self, name: &str) -> Result<f64, NodeError> {
-        self.param(name)?.as_f64().ok_or_else(|| NodeError::Param {
-            param: name.to_string(),
-            message: "is not numeric".into(),
-        })
+        self.reader().f64(name)
     }
 
     /// A numeric parameter as f32.
     pub fn f32(&self, name: &str) -> Result<f32, NodeError> {
-        Ok(self.f64(name)? as f32)
+        self.reader().f32(name)
     }
 
     /// An `Int` parameter.
     pub fn int(&self, name: &str) -> Result<i64, NodeError> {
-        match self.param(name)? {
-            ParamValue::Int(v) => Ok(*v),
-            ParamValue::Float(v) => Ok(v.round() as i64),
-            _ => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is not an integer".into(),
-            }),
-        }
+        self.reader().int(name)
     }
 
     /// An `Int` parameter giving a texture's side (`dims` = 2 for a 2D texture, 3 for a volume),
     /// checked against the adapter's limit: a value beyond it fails naming the parameter and
     /// the limit instead of failing later inside the GPU layer.
     pub fn texture_side(&self, name: &str, dims: u32) -> Result<u32, NodeError> {
+        self.side(name, self.int(name)?, dims)
+    }
+
+    /// [`RunCtx::texture_side`] for a value already read (a typed parameter): `name` is the
+    /// parameter the error names.
+    pub fn side(&self, name: &str, value: i64, dims: u32) -> Result<u32, NodeError> {
         let limits = &self.gpu.limits;
         let limit = if dims == 3 {
             limits.max_texture_dimension_3d
         } else {
             limits.max_texture_dimension_2d
         };
-        check_side(name, self.int(name)?, limit, dims)
+        check_side(name, value, limit, dims)
     }
 
     /// Refuse an allocation of `bytes` that the parameter(s) `params` ask for (e.g.
@@ -147,75 +141,27 @@ impl RunCtx<'_> {
 
     /// A `Bool` parameter.
     pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
-        match self.param(name)? {
-            ParamValue::Bool(v) => Ok(*v),
-            _ => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is not a boolean".into(),
-            }),
-        }
+        self.reader().bool(name)
     }
 
-    /// A `Text` parameter. An `Enum` parameter is refused here: read it with
-    /// [`RunCtx::choice`], which checks the value against its names.
+    /// A `Text` parameter (a choice is refused: see [`ParamReader::text`]).
     pub fn text(&self, name: &str) -> Result<&str, NodeError> {
-        match self.param(name)? {
-            ParamValue::Text(v) => Ok(v),
-            ParamValue::Enum(_) => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is a choice: read it with RunCtx::choice".into(),
-            }),
-            _ => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is not text".into(),
-            }),
-        }
+        ParamReader(self.params).text(name)
     }
 
-    /// An `Enum` parameter as its [`Choice`] type (declared with
-    /// [`choice_enum!`](crate::choice_enum)). A value that is not one of `T::NAMES` is an error
-    /// naming the parameter, the value and the accepted names (the evaluator adds the node):
-    /// never a silent fallback to the first option.
+    /// An `Enum` parameter as its [`Choice`] type (see [`ParamReader::choice`]).
     pub fn choice<T: Choice>(&self, name: &str) -> Result<T, NodeError> {
-        let v = self.param(name)?;
-        let text = match v {
-            ParamValue::Enum(t) | ParamValue::Text(t) => t.as_str(),
-            _ => {
-                return Err(NodeError::Param {
-                    param: name.to_string(),
-                    message: format!("is a {}, not one of {}", v.kind_name(), T::NAMES.join(", ")),
-                })
-            }
-        };
-        T::from_name(text).ok_or_else(|| NodeError::Param {
-            param: name.to_string(),
-            message: format!(
-                "unknown value \"{text}\" (expected one of {})",
-                T::NAMES.join(", ")
-            ),
-        })
+        self.reader().choice(name)
     }
 
     /// A `Vec3` parameter.
     pub fn vec3(&self, name: &str) -> Result<[f32; 3], NodeError> {
-        match self.param(name)? {
-            ParamValue::Vec3(c) => Ok(c.map(|v| v as f32)),
-            _ => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is not a 3-vector".into(),
-            }),
-        }
+        self.reader().vec3(name)
     }
 
     /// A `Colour` parameter.
     pub fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
-        match self.param(name)? {
-            ParamValue::Colour(c) => Ok(c.map(|v| v as f32)),
-            _ => Err(NodeError::Param {
-                param: name.to_string(),
-                message: "is not a colour".into(),
-            }),
-        }
+        self.reader().colour(name)
     }
 
     /// The data block parsed into the node's structure; `T::default()` when the node has none.

@@ -112,3 +112,17 @@ pub fn resolve_files(
     }
     Ok(out)
 }
+
+/// Cache-key material for a file: its size and modification time (0 when it cannot be read).
+/// The evaluator adds it for every file parameter a node declares it reads
+/// ([`NodeDecl::files`](super::NodeDecl::files)); a node whose data block names files adds
+/// theirs in [`NodeKind::volatile_key`](super::NodeKind::volatile_key).
+pub fn file_stamp(path: &std::path::Path) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::hash::DefaultHasher::new();
+    if let Ok(m) = std::fs::metadata(path) {
+        m.len().hash(&mut h);
+        m.modified().ok().hash(&mut h);
+    }
+    h.finish()
+}

@@ -285,6 +285,28 @@ impl Graph {
         Ok(())
     }
 
+    /// Whether parameter `name` of node `id` is in effect at time `t` (see
+    /// [`ParamSpec::when`](crate::graph::ParamSpec::when)): `Err` says what would make it count.
+    pub fn param_in_effect(
+        &self,
+        catalog: &Catalog,
+        id: &str,
+        name: &str,
+        t: f64,
+    ) -> Result<(), String> {
+        let Ok(schema) = self.schema_of(catalog, id) else {
+            return Ok(());
+        };
+        let Some(spec) = schema.param(name) else {
+            return Ok(());
+        };
+        spec.in_effect(|other| {
+            self.param_at(catalog, id, other, t)
+                .ok()
+                .map(|v| v.to_string())
+        })
+    }
+
     /// A parameter's value at time `t`: key-frames if any, else the explicit value, else the
     /// default. Int parameters round interpolated values to nearest; results are clamped to the
     /// hard range.

@@ -233,6 +233,10 @@ pub struct ParamSpec {
     pub unit: &'static str,
     /// One-line description.
     pub doc: &'static str,
+    /// When the parameter is in effect: only while parameter `.0` has one of the values `.1`
+    /// (e.g. Mie's `radius` only under `preset = custom`); `None`: always. A value set while it
+    /// is not in effect is kept but changes nothing: the editor greys it out and `--set` warns.
+    pub when: Option<(&'static str, &'static [&'static str])>,
 }
 
 impl ParamSpec {
@@ -257,6 +261,7 @@ impl ParamSpec {
             max,
             unit,
             doc,
+            when: None,
         }
     }
 
@@ -282,6 +287,7 @@ impl ParamSpec {
             max,
             unit,
             doc,
+            when: None,
         }
     }
 
@@ -305,6 +311,7 @@ impl ParamSpec {
             max: 0.0,
             unit: "",
             doc,
+            when: None,
         }
     }
 
@@ -318,6 +325,7 @@ impl ParamSpec {
             max: 0.0,
             unit: "",
             doc,
+            when: None,
         }
     }
 
@@ -331,6 +339,7 @@ impl ParamSpec {
             max: 0.0,
             unit: "",
             doc,
+            when: None,
         }
     }
 
@@ -352,6 +361,7 @@ impl ParamSpec {
             max,
             unit,
             doc,
+            when: None,
         }
     }
 
@@ -372,6 +382,27 @@ impl ParamSpec {
             max,
             unit,
             doc,
+            when: None,
+        }
+    }
+
+    /// In effect only while parameter `param` is one of `values` (see [`ParamSpec::when`]).
+    pub const fn when(self, param: &'static str, values: &'static [&'static str]) -> Self {
+        Self {
+            when: Some((param, values)),
+            ..self
+        }
+    }
+
+    /// Whether the parameter is in effect given `value_of` (another parameter's current value,
+    /// as text); `Err` names what would make it count, e.g. "only with preset = custom".
+    pub fn in_effect(&self, value_of: impl Fn(&str) -> Option<String>) -> Result<(), String> {
+        let Some((param, values)) = self.when else {
+            return Ok(());
+        };
+        match value_of(param) {
+            Some(v) if values.contains(&v.as_str()) => Ok(()),
+            _ => Err(format!("only with {param} = {}", values.join(" or "))),
         }
     }
 

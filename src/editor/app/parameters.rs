@@ -2,6 +2,7 @@
 //! measured settings, then the editor tools its declaration names.
 
 use super::*;
+use crate::graph::ParamSpec;
 
 impl EditorApp {
     /// Set node `id`'s parameters to a measured setting (`name → value` text, as in
@@ -38,146 +39,19 @@ impl EditorApp {
         }
         ui.separator();
         for p in schema.params {
-            let current = self
-                .state
-                .graph()
-                .param_at(self.state.catalog(), &id, p.name, self.time)
-                .unwrap_or(p.default.value());
-            let mut changed: Option<ParamValue> = None;
-            let mut toggle_key = false;
-            ui.horizontal(|ui| {
-                ui.label(p.name)
-                    .on_hover_text(format!("{} ({})", p.doc, p.expected()));
-                match (&p.kind, &current) {
-                    (ParamKind::Float, ParamValue::Float(v)) => {
-                        let mut x = *v;
-                        let speed = ((p.max - p.min) / 500.0).clamp(1e-4, 1.0);
-                        if ui
-                            .add(
-                                egui::DragValue::new(&mut x)
-                                    .range(p.min..=p.max)
-                                    .speed(speed),
-                            )
-                            .on_hover_text(p.doc)
-                            .changed()
-                        {
-                            changed = Some(ParamValue::Float(x));
-                        }
-                    }
-                    (ParamKind::Int, ParamValue::Int(v)) => {
-                        let mut x = *v;
-                        if ui
-                            .add(egui::DragValue::new(&mut x).range(p.min as i64..=p.max as i64))
-                            .on_hover_text(p.doc)
-                            .changed()
-                        {
-                            changed = Some(ParamValue::Int(x));
-                        }
-                    }
-                    (ParamKind::Bool, ParamValue::Bool(v)) => {
-                        let mut x = *v;
-                        if ui.checkbox(&mut x, "").on_hover_text(p.doc).changed() {
-                            changed = Some(ParamValue::Bool(x));
-                        }
-                    }
-                    (ParamKind::Enum(names), ParamValue::Enum(v)) => {
-                        egui::ComboBox::from_id_salt(p.name)
-                            .selected_text(v.as_str())
-                            .show_ui(ui, |ui| {
-                                for n in *names {
-                                    if ui.selectable_label(v == n, *n).clicked() {
-                                        changed = Some(ParamValue::Enum(n.to_string()));
-                                    }
-                                }
-                            });
-                    }
-                    (ParamKind::Text, ParamValue::Text(v)) => {
-                        let mut x = v.clone();
-                        if ui.text_edit_singleline(&mut x).lost_focus() && &x != v {
-                            changed = Some(ParamValue::Text(x));
-                        }
-                    }
-                    (ParamKind::Colour, ParamValue::Colour(c)) => {
-                        let mut rgba = [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32];
-                        if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
-                            changed = Some(ParamValue::Colour(rgba.map(|x| x as f64)));
-                        }
-                    }
-                    (ParamKind::Vec3, ParamValue::Vec3(c)) => {
-                        let mut v = *c;
-                        let mut edited = false;
-                        for x in &mut v {
-                            edited |= ui
-                                .add(egui::DragValue::new(x).range(p.min..=p.max).speed(0.05))
-                                .on_hover_text(p.doc)
-                                .changed();
-                        }
-                        if edited {
-                            changed = Some(ParamValue::Vec3(v));
-                        }
-                    }
-                    _ => {
-                        ui.label(current.to_string());
-                    }
-                }
-                if matches!(p.kind, ParamKind::Float | ParamKind::Int) {
-                    let keys = node.keys.get(p.name);
-                    let here = keys.is_some_and(|k| k.iter().any(|k| k.t == self.time));
-                    let (mark, tip) = match (keys.is_some(), here) {
-                        (_, true) => ("◆", "key at this frame: click to remove it"),
-                        (true, false) => ("◇", "animated: click to add a key at this frame"),
-                        (false, _) => ("○", "click to key this parameter at this frame"),
-                    };
-                    if ui
-                        .add(egui::Button::new(mark).small())
-                        .on_hover_text(tip)
-                        .clicked()
-                    {
-                        toggle_key = true;
-                    }
-                }
-            });
-            let keys = node.keys.get(p.name).cloned();
-            let numeric = |v: &ParamValue| match v {
-                ParamValue::Float(x) => Some(*x),
-                ParamValue::Int(x) => Some(*x as f64),
-                _ => None,
-            };
-            let result = if toggle_key {
-                let mut k = keys.unwrap_or_default();
-                if let Some(i) = k.iter().position(|k| k.t == self.time) {
-                    k.remove(i);
-                } else if let Some(v) = numeric(&current) {
-                    k.push(Key {
-                        t: self.time,
-                        v,
-                        interp: Interp::Linear,
-                    });
-                }
-                Some(self.state.set_keys(&id, p.name, k))
-            } else if let Some(v) = changed {
-                // A keyed parameter edits (or adds) its key at this frame, as in Blender.
-                match (keys, numeric(&v)) {
-                    (Some(mut k), Some(x)) => {
-                        match k.iter_mut().find(|k| k.t == self.time) {
-                            Some(key) => key.v = x,
-                            None => k.push(Key {
-                                t: self.time,
-                                v: x,
-                                interp: Interp::Linear,
-                            }),
-                        }
-                        Some(self.state.set_keys(&id, p.name, k))
-                    }
-                    _ => Some(self.state.set_param(&id, p.name, v)),
-                }
-            } else {
-                None
-            };
-            if let Some(Err(e)) = result {
-                self.status = e.to_string();
-            }
+            self.parameter(ui, &node, p);
         }
+        self.measured_and_tools(ui, &node, schema);
+    }
+
+    /// The measured settings of the node's kind, then the tools its declaration names.
+    fn measured_and_tools(
+        &mut self,
+        ui: &mut egui::Ui,
+        node: &crate::graph::Node,
+        schema: &crate::graph::NodeSchema,
+    ) {
+        let id = node.id.clone();
         let current: BTreeMap<String, String> = schema
             .params
             .iter()
@@ -225,4 +99,167 @@ impl EditorApp {
             }
         }
     }
+
+    /// One parameter's row: its widget (greyed out, with the reason, while the parameter is
+    /// not in effect), its key-frame button, and the edit it makes.
+    fn parameter(&mut self, ui: &mut egui::Ui, node: &crate::graph::Node, p: &ParamSpec) {
+        let id = node.id.as_str();
+        let current = self
+            .state
+            .graph()
+            .param_at(self.state.catalog(), id, p.name, self.time)
+            .unwrap_or(p.default.value());
+        let in_effect =
+            self.state
+                .graph()
+                .param_in_effect(self.state.catalog(), id, p.name, self.time);
+        let mut changed: Option<ParamValue> = None;
+        let mut toggle_key = false;
+        ui.horizontal(|ui| {
+            let label = ui.add_enabled(in_effect.is_ok(), egui::Label::new(p.name));
+            match &in_effect {
+                Ok(()) => label.on_hover_text(format!("{} ({})", p.doc, p.expected())),
+                Err(why) => {
+                    label.on_disabled_hover_text(format!("{} — not in effect: counts {why}", p.doc))
+                }
+            };
+            ui.add_enabled_ui(in_effect.is_ok(), |ui| {
+                changed = param_widget(ui, p, &current);
+            });
+            if matches!(p.kind, ParamKind::Float | ParamKind::Int) {
+                let keys = node.keys.get(p.name);
+                let here = keys.is_some_and(|k| k.iter().any(|k| k.t == self.time));
+                let (mark, tip) = match (keys.is_some(), here) {
+                    (_, true) => ("◆", "key at this frame: click to remove it"),
+                    (true, false) => ("◇", "animated: click to add a key at this frame"),
+                    (false, _) => ("○", "click to key this parameter at this frame"),
+                };
+                if ui
+                    .add(egui::Button::new(mark).small())
+                    .on_hover_text(tip)
+                    .clicked()
+                {
+                    toggle_key = true;
+                }
+            }
+        });
+        let keys = node.keys.get(p.name).cloned();
+        let numeric = |v: &ParamValue| match v {
+            ParamValue::Float(x) => Some(*x),
+            ParamValue::Int(x) => Some(*x as f64),
+            _ => None,
+        };
+        let result = if toggle_key {
+            let mut k = keys.unwrap_or_default();
+            if let Some(i) = k.iter().position(|k| k.t == self.time) {
+                k.remove(i);
+            } else if let Some(v) = numeric(&current) {
+                k.push(Key {
+                    t: self.time,
+                    v,
+                    interp: Interp::Linear,
+                });
+            }
+            Some(self.state.set_keys(id, p.name, k))
+        } else if let Some(v) = changed {
+            // A keyed parameter edits (or adds) its key at this frame, as in Blender.
+            match (keys, numeric(&v)) {
+                (Some(mut k), Some(x)) => {
+                    match k.iter_mut().find(|k| k.t == self.time) {
+                        Some(key) => key.v = x,
+                        None => k.push(Key {
+                            t: self.time,
+                            v: x,
+                            interp: Interp::Linear,
+                        }),
+                    }
+                    Some(self.state.set_keys(id, p.name, k))
+                }
+                _ => Some(self.state.set_param(id, p.name, v)),
+            }
+        } else {
+            None
+        };
+        if let Some(Err(e)) = result {
+            self.status = e.to_string();
+        }
+    }
+}
+
+/// The widget of one parameter for its kind; `Some(value)` when the user changed it.
+fn param_widget(ui: &mut egui::Ui, p: &ParamSpec, current: &ParamValue) -> Option<ParamValue> {
+    let mut changed = None;
+    match (&p.kind, current) {
+        (ParamKind::Float, ParamValue::Float(v)) => {
+            let mut x = *v;
+            let speed = ((p.max - p.min) / 500.0).clamp(1e-4, 1.0);
+            if ui
+                .add(
+                    egui::DragValue::new(&mut x)
+                        .range(p.min..=p.max)
+                        .speed(speed),
+                )
+                .on_hover_text(p.doc)
+                .changed()
+            {
+                changed = Some(ParamValue::Float(x));
+            }
+        }
+        (ParamKind::Int, ParamValue::Int(v)) => {
+            let mut x = *v;
+            if ui
+                .add(egui::DragValue::new(&mut x).range(p.min as i64..=p.max as i64))
+                .on_hover_text(p.doc)
+                .changed()
+            {
+                changed = Some(ParamValue::Int(x));
+            }
+        }
+        (ParamKind::Bool, ParamValue::Bool(v)) => {
+            let mut x = *v;
+            if ui.checkbox(&mut x, "").on_hover_text(p.doc).changed() {
+                changed = Some(ParamValue::Bool(x));
+            }
+        }
+        (ParamKind::Enum(names), ParamValue::Enum(v)) => {
+            egui::ComboBox::from_id_salt(p.name)
+                .selected_text(v.as_str())
+                .show_ui(ui, |ui| {
+                    for n in *names {
+                        if ui.selectable_label(v == n, *n).clicked() {
+                            changed = Some(ParamValue::Enum(n.to_string()));
+                        }
+                    }
+                });
+        }
+        (ParamKind::Text, ParamValue::Text(v)) => {
+            let mut x = v.clone();
+            if ui.text_edit_singleline(&mut x).lost_focus() && &x != v {
+                changed = Some(ParamValue::Text(x));
+            }
+        }
+        (ParamKind::Colour, ParamValue::Colour(c)) => {
+            let mut rgba = [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32];
+            if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
+                changed = Some(ParamValue::Colour(rgba.map(|x| x as f64)));
+            }
+        }
+        (ParamKind::Vec3, ParamValue::Vec3(c)) => {
+            let mut v = *c;
+            let mut edited = false;
+            for x in &mut v {
+                edited |= ui
+                    .add(egui::DragValue::new(x).range(p.min..=p.max).speed(0.05))
+                    .on_hover_text(p.doc)
+                    .changed();
+            }
+            if edited {
+                changed = Some(ParamValue::Vec3(v));
+            }
+        }
+        _ => {
+            ui.label(current.to_string());
+        }
+    }
+    changed
 }
