@@ -1,8 +1,9 @@
 //! Tyndall: a GPU node-graph compositor for stylizing volumetric light shafts.
 //!
-//! Layout (see DESIGN.md): [`graph`] is the document, [`eval`] the evaluator, [`gpu`] the wgpu
-//! context, [`io`] image files, [`nodes`] the node kinds and their registry, [`cli`] the command
-//! line.
+//! Layout (ARCHITECTURE.md in the repository is the map): [`graph`] is the document, [`eval`]
+//! the evaluator and the node interface, [`gpu`] the wgpu context, [`nodes`] the node kinds
+//! (techniques) and their registry, [`scene`] scenes, [`io`] image files, [`cli`] the command
+//! line, [`editor`] the egui editor, [`bench`] speed-against-accuracy measurements.
 #![deny(missing_docs)]
 
 pub mod bench;

@@ -68,15 +68,124 @@ fn wgpu_validation_errors_surface_as_errors() {
         source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n@compute @workgroup_size(8, 8) fn main(@builtin(global_invocation_id) id: vec3<u32>) { textureStore(o, vec2<i32>(id.xy), vec4<f32>(1.0)); }",
     };
     let t = gpu.texture(4, 4, TexFormat::R32F).expect("tex");
-    // Wrong entry point name: pipeline creation fails validation.
+    // A storage texture of another format than the shader declares: wgpu's pipeline
+    // validation refuses the layout (Tyndall's own binding check passes: same kind).
+    let wide = gpu.texture(4, 4, TexFormat::Rgba32F).expect("tex");
     let err = gpu
-        .dispatch(shader, "no_such_entry", &[(0, Bind::Storage(&t))], 4, 4)
+        .dispatch(shader, "main", &[(0, Bind::Storage(&wide))], 4, 4)
         .expect_err("invalid pipeline");
     assert!(err.to_string().contains("GPU error"), "{err}");
     // The context is usable afterwards and the error was consumed.
     gpu.dispatch(shader, "main", &[(0, Bind::Storage(&t))], 4, 4)
         .expect("valid dispatch");
     assert_eq!(gpu.read_texture(&t).expect("read"), vec![1.0; 16]);
+}
+
+/// The binding table is checked against what the entry point uses (a binding it uses that is
+/// missing or of another kind is refused, naming it), and the workgroup count comes from the
+/// entry point's own `@workgroup_size`, not an assumed 8 × 8.
+#[test]
+fn dispatches_check_bindings_and_read_the_workgroup_size() {
+    let gpu = require_gpu!();
+    let shader = Shader {
+        stem: "test_only_binds",
+        source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
+                 @group(0) @binding(1) var i: texture_2d<f32>;\n\
+                 @compute @workgroup_size(3, 5) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                     let s = textureDimensions(o);\n\
+                     if id.x >= s.x || id.y >= s.y { return; }\n\
+                     textureStore(o, vec2<i32>(id.xy), textureLoad(i, vec2<i32>(id.xy), 0) + 1.0);\n\
+                 }\n\
+                 @compute @workgroup_size(1) fn one(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                     textureStore(o, vec2<i32>(id.xy), vec4<f32>(7.0));\n\
+                 }",
+    };
+    let out = gpu.texture(7, 11, TexFormat::R32F).expect("tex");
+    let input = gpu.upload(7, 11, 1, &vec![2.0; 77]).expect("upload");
+    let missing = gpu
+        .dispatch(shader, "copy", &[(0, Bind::Storage(&out))], 7, 11)
+        .expect_err("binding 1 missing");
+    assert!(
+        missing
+            .to_string()
+            .contains("binding 1 (`i`) is used but not bound"),
+        "{missing}"
+    );
+    let wrong = gpu
+        .dispatch(
+            shader,
+            "copy",
+            &[(0, Bind::Storage(&out)), (1, Bind::Storage(&input))],
+            7,
+            11,
+        )
+        .expect_err("binding 1 of the wrong kind");
+    assert!(
+        wrong
+            .to_string()
+            .contains("is a 2D texture but was given a 2D storage texture"),
+        "{wrong}"
+    );
+    let unknown = gpu
+        .dispatch(shader, "nope", &[(0, Bind::Storage(&out))], 7, 11)
+        .expect_err("no such entry point");
+    assert!(
+        unknown.to_string().contains("no entry point `nope`"),
+        "{unknown}"
+    );
+    // 3 × 5 workgroups over 7 × 11: every texel written (8 × 8 groups would cover it too, so
+    // also check a 1 × 1 workgroup covers exactly the invocations asked for).
+    gpu.dispatch(
+        shader,
+        "copy",
+        &[(0, Bind::Storage(&out)), (1, Bind::Texture(&input))],
+        7,
+        11,
+    )
+    .expect("copy");
+    assert_eq!(gpu.read_texture(&out).expect("read"), vec![3.0; 77]);
+    gpu.dispatch(shader, "one", &[(0, Bind::Storage(&out))], 2, 3)
+        .expect("one");
+    let got = gpu.read_texture(&out).expect("read");
+    let sevens = got.iter().filter(|v| **v == 7.0).count();
+    assert_eq!(
+        sevens, 6,
+        "a 1 × 1 workgroup over 2 × 3 invocations writes 6 texels"
+    );
+}
+
+/// A node's passes are submitted once: the default preset's multi-pass nodes (the tree's
+/// shadow map, the scattering) report one submission each, and a node that reads back between
+/// passes more.
+#[test]
+fn a_node_run_is_one_submission_unless_it_reads_back() {
+    let gpu = require_gpu!();
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu);
+    let target = [tyndall::eval::Target::Port("tonemap".into(), "out".into())];
+    let opts = tyndall::eval::EvalOptions {
+        size: (32, 18),
+        ..Default::default()
+    };
+    let r = ev.evaluate(&graph, &target, &opts).expect("evaluate");
+    let ran: Vec<_> = r.stats.nodes.iter().filter(|n| n.status.ran()).collect();
+    assert!(!ran.is_empty());
+    for n in &ran {
+        assert!(
+            n.submits <= 1,
+            "{} ({}) submitted {} times",
+            n.id,
+            n.kind,
+            n.submits
+        );
+    }
+    assert!(
+        r.stats.to_string().contains("GPU submissions: "),
+        "{}",
+        r.stats
+    );
 }
 
 #[test]

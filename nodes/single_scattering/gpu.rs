@@ -128,3 +128,103 @@ pub(super) fn dispatch_epipolar(
     }
     Ok(())
 }
+
+/// What the passes read besides the uniforms.
+pub(super) struct Inputs<'a> {
+    /// The shadow map.
+    pub shadow: &'a GpuTexture,
+    /// Linear camera depth.
+    pub depth: &'a GpuTexture,
+    /// The shadow map's light.
+    pub light: Matrices,
+    /// A tabulated phase function (`None`: Henyey–Greenstein g).
+    pub phase: Option<&'a GpuTexture>,
+    /// A soft visibility volume and its light (BruteForce only).
+    pub soft: Option<(&'a crate::gpu::GpuVolume, Matrices)>,
+    /// A light map and its matrices (BruteForce only).
+    pub light_map: Option<(&'a GpuTexture, Matrices)>,
+}
+
+/// The method's passes: `[visibility, in-scatter, transmittance]`. Placeholders fill the
+/// bindings of unconnected inputs; pipeline constants compile away what is off.
+pub(super) fn scatter(
+    gpu: &Gpu,
+    u: &ScatterParams,
+    i: &Inputs,
+    p: &Params,
+) -> Result<[GpuTexture; 3], NodeError> {
+    let (w, h) = (i.depth.width, i.depth.height);
+    let vis = gpu.texture(w, h, TexFormat::R32F)?;
+    let ins = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    let tr = gpu.texture(w, h, TexFormat::R32F)?;
+    let no_phase;
+    let phase = match i.phase {
+        Some(t) => t,
+        None => {
+            no_phase = gpu.upload(1, 1, 4, &[0.0; 4])?;
+            &no_phase
+        }
+    };
+    let no_soft;
+    let soft_volume = match i.soft {
+        Some((v, _)) => v,
+        None => {
+            no_soft = gpu.volume([1, 1, 1])?;
+            &no_soft
+        }
+    };
+    let sv = SoftView {
+        view_proj: i
+            .soft
+            .map_or(i.light, |(_, m)| m)
+            .view_proj()
+            .to_cols_array_2d(),
+    };
+    let mut binds = vec![
+        (0, Bind::Uniform(bytemuck::bytes_of(u))),
+        (1, Bind::Texture(i.shadow)),
+        (2, Bind::Texture(i.depth)),
+        (3, Bind::Storage(&vis)),
+        (4, Bind::Storage(&ins)),
+        (5, Bind::Storage(&tr)),
+        (13, Bind::Texture(phase)),
+        (14, Bind::Volume(soft_volume)),
+        (15, Bind::Uniform(bytemuck::bytes_of(&sv))),
+    ];
+    // Pipeline constants: code for what is off is compiled away.
+    let on = |b: bool| if b { 1.0 } else { 0.0 };
+    let constants = [
+        ("EXTINCTION", on(u.light_extinction != 0)),
+        ("LIGHT_MAP", on(i.light_map.is_some())),
+        ("SOFT", on(i.soft.is_some())),
+    ];
+    if p.method == Method::BruteForce {
+        let no_map;
+        let (map, lm) = match i.light_map {
+            Some((t, m)) => (t, LightMapView::new(m.view_proj().to_cols_array_2d(), 1)),
+            None => {
+                no_map = gpu.upload(1, 1, 4, &[1.0; 4])?;
+                (&no_map, LightMapView::new(IDENTITY, 0))
+            }
+        };
+        binds.push((11, Bind::Texture(map)));
+        binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
+        gpu.dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
+        return Ok([vis, ins, tr]);
+    }
+    let (levels, atlas) = build_pyramid(gpu, i.shadow)?;
+    binds.push((6, Bind::Texture(&atlas)));
+    binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
+    if p.method == Method::MinMax {
+        gpu.dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
+    } else {
+        let knobs = EpiKnobs {
+            slices: p.epi_slices as u32,
+            samples: p.epi_samples as u32,
+            threshold: p.epi_threshold,
+            tree_level: p.tree_level as u32,
+        };
+        dispatch_epipolar(gpu, u, knobs, i.shadow, (w, h), &binds)?;
+    }
+    Ok([vis, ins, tr])
+}

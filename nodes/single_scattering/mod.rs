@@ -186,6 +186,74 @@ const EPIPOLAR: Shader = Shader::new(
     include_str!("../../shaders/single_scattering/epipolar.wgsl"),
 );
 
+impl Params {
+    /// The medium and quality settings the references and uniforms take.
+    fn medium(&self) -> Medium {
+        Medium {
+            sigma_t: self.sigma_t,
+            albedo: self.albedo,
+            g: self.g,
+            tint: [self.tint[0], self.tint[1], self.tint[2]],
+            intensity: self.intensity,
+            steps: self.steps as u32,
+            jitter: self.jitter,
+            bias: self.bias,
+            min_level: self.min_level as u32,
+        }
+    }
+}
+
+/// A soft visibility volume and a light map work with BruteForce only.
+fn check_method(method: Method, soft: bool, light_map: bool) -> Result<(), NodeError> {
+    let refuse = |port: &str, why: &str| NodeError::Input {
+        port: port.into(),
+        message: format!("needs method BruteForce ({why})"),
+    };
+    if method == Method::BruteForce {
+        Ok(())
+    } else if soft {
+        Err(refuse(
+            "soft",
+            "MinMax and Epipolar walk the hard shadow map",
+        ))
+    } else if light_map {
+        Err(refuse(
+            "light_map",
+            "MinMax and Epipolar integrate visibility only",
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// Where the medium is: `None` (everywhere), the box, or the tagged objects' bounds.
+fn medium_bounds(
+    ctx: &RunCtx,
+    p: &Params,
+    extinction: bool,
+) -> Result<Option<(Vec3, Vec3)>, NodeError> {
+    match p.bounds {
+        Bounds::None if extinction => Err(NodeError::Param {
+            param: "light_extinction".into(),
+            message: "on needs a bounded medium (the sun is attenuated up to its boundary): set \
+                      bounds to box or tagged"
+                .into(),
+        }),
+        Bounds::None => Ok(None),
+        Bounds::Box => {
+            let (lo, hi) = (Vec3::from(p.box_min), Vec3::from(p.box_max));
+            if lo.cmpgt(hi).any() {
+                return Err(NodeError::Param {
+                    param: "box_max".into(),
+                    message: format!("{hi} is below box_min {lo} on some axis"),
+                });
+            }
+            Ok(Some((lo, hi)))
+        }
+        Bounds::Tagged => Ok(Some(tagged_bounds(ctx)?)),
+    }
+}
+
 /// The bounds of the objects tagged `medium` in the scene on the `scene` port.
 fn tagged_bounds(ctx: &RunCtx) -> Result<(Vec3, Vec3), NodeError> {
     let input = |message: &str| NodeError::Input {
@@ -209,206 +277,29 @@ impl NodeKind for SingleScattering {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let (shadow, light) = match ctx.require("shadow")? {
-            PortValue::ShadowMap(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "shadow".into(),
-                    message: "is not a shadow map".into(),
-                })
-            }
-        };
+        let (shadow, light) = ctx.shadow_map("shadow")?;
         let depth_value = ctx.require("depth")?.clone();
-        let (depth, camera) = match &depth_value {
-            PortValue::Depth(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "depth".into(),
-                    message: "is not a depth image".into(),
-                })
-            }
-        };
-        let phase = match ctx.input("phase") {
-            None => None,
-            Some(PortValue::Phase(t)) => Some(t.clone()),
-            Some(_) => {
-                return Err(NodeError::Input {
-                    port: "phase".into(),
-                    message: "is not a phase function".into(),
-                })
-            }
-        };
-        let soft = match ctx.input("soft") {
-            None => None,
-            Some(PortValue::SoftShadow(v, m)) => Some((v.clone(), *m)),
-            Some(_) => {
-                return Err(NodeError::Input {
-                    port: "soft".into(),
-                    message: "is not a soft visibility volume".into(),
-                })
-            }
-        };
-        let light_map = match ctx.input("light_map") {
-            None => None,
-            Some(PortValue::LightMap(t, m)) => Some((t.clone(), *m)),
-            Some(_) => {
-                return Err(NodeError::Input {
-                    port: "light_map".into(),
-                    message: "is not a light map".into(),
-                })
-            }
-        };
-        let tint = p.tint;
-        let medium = Medium {
-            sigma_t: p.sigma_t,
-            albedo: p.albedo,
-            g: p.g,
-            tint: [tint[0], tint[1], tint[2]],
-            intensity: p.intensity,
-            steps: p.steps as u32,
-            jitter: p.jitter,
-            bias: p.bias,
-            min_level: p.min_level as u32,
-        };
+        let (depth, camera) = ctx.depth("depth")?;
+        let phase = ctx.phase_opt("phase")?;
+        let soft = ctx.soft_shadow_opt("soft")?;
+        let light_map = ctx.light_map_opt("light_map")?;
+        check_method(p.method, soft.is_some(), light_map.is_some())?;
         let extinction = p.light_extinction == Extinction::On;
-        let bounds = match p.bounds {
-            Bounds::None if extinction => {
-                return Err(NodeError::Param {
-                    param: "light_extinction".into(),
-                    message: "on needs a bounded medium (the sun is attenuated up to its \
-                              boundary): set bounds to box or tagged"
-                        .into(),
-                })
-            }
-            Bounds::None => None,
-            Bounds::Box => {
-                let (lo, hi) = (Vec3::from(p.box_min), Vec3::from(p.box_max));
-                if lo.cmpgt(hi).any() {
-                    return Err(NodeError::Param {
-                        param: "box_max".into(),
-                        message: format!("{hi} is below box_min {lo} on some axis"),
-                    });
-                }
-                Some((lo, hi))
-            }
-            Bounds::Tagged => Some(tagged_bounds(ctx)?),
-        };
-        let mut u = ScatterParams::new(&camera, &light, medium).with_bounds(bounds, extinction);
-        let phase = match phase {
-            Some(t) => t,
-            None => Arc::new(ctx.gpu.upload(1, 1, 4, &[0.0; 4])?),
-        };
-        u.phase_width = if ctx.input("phase").is_some() {
-            phase.width
-        } else {
-            0
-        };
-        let (w, h) = (depth.width, depth.height);
-        let vis = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let ins = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
-        let tr = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let soft_volume = match &soft {
-            Some((v, _)) => v.clone(),
-            None => Arc::new(ctx.gpu.volume([1, 1, 1])?),
-        };
-        let sv = SoftView {
-            view_proj: soft
-                .as_ref()
-                .map_or(light, |(_, m)| *m)
-                .view_proj()
-                .to_cols_array_2d(),
-        };
-        if soft.is_some() {
-            if p.method != Method::BruteForce {
-                return Err(NodeError::Input {
-                    port: "soft".into(),
-                    message:
-                        "needs method BruteForce (MinMax and Epipolar walk the hard shadow map)"
-                            .into(),
-                });
-            }
-            u.soft_slices = soft_volume.size[2];
+        let bounds = medium_bounds(ctx, &p, extinction)?;
+        let mut u = ScatterParams::new(&camera, &light, p.medium()).with_bounds(bounds, extinction);
+        u.phase_width = phase.as_ref().map_or(0, |t| t.width);
+        if let Some((v, _)) = &soft {
+            u.soft_slices = v.size[2];
         }
-        let mut binds = vec![
-            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-            (1, Bind::Texture(&shadow)),
-            (2, Bind::Texture(&depth)),
-            (3, Bind::Storage(&vis)),
-            (4, Bind::Storage(&ins)),
-            (5, Bind::Storage(&tr)),
-            (13, Bind::Texture(&phase)),
-        ];
-        let method = p.method;
-        // Pipeline constant: light extinction's code is compiled away when it is off.
-        let extinction_constant = if extinction { 1.0 } else { 0.0 };
-        let soft_constant = if soft.is_some() { 1.0 } else { 0.0 };
-        binds.push((14, Bind::Volume(&soft_volume)));
-        binds.push((15, Bind::Uniform(bytemuck::bytes_of(&sv))));
-        if let Some((map, m)) = &light_map {
-            if method != Method::BruteForce {
-                return Err(NodeError::Input {
-                    port: "light_map".into(),
-                    message:
-                        "needs method BruteForce (MinMax and Epipolar integrate visibility only)"
-                            .into(),
-                });
-            }
-            let lm = LightMapView {
-                view_proj: m.view_proj().to_cols_array_2d(),
-                enabled: 1,
-                _pad0: 0,
-                _pad1: 0,
-                _pad2: 0,
-            };
-            binds.push((11, Bind::Texture(map)));
-            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
-            let constants = [
-                ("EXTINCTION", extinction_constant),
-                ("LIGHT_MAP", 1.0),
-                ("SOFT", soft_constant),
-            ];
-            ctx.gpu
-                .dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
-        } else if method != Method::BruteForce {
-            let (levels, atlas) = build_pyramid(ctx.gpu, &shadow)?;
-            binds.push((6, Bind::Texture(&atlas)));
-            binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
-            if method == Method::MinMax {
-                let constants = [
-                    ("EXTINCTION", extinction_constant),
-                    ("LIGHT_MAP", 0.0),
-                    ("SOFT", 0.0),
-                ];
-                ctx.gpu
-                    .dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
-            } else {
-                let knobs = EpiKnobs {
-                    slices: p.epi_slices as u32,
-                    samples: p.epi_samples as u32,
-                    threshold: p.epi_threshold,
-                    tree_level: p.tree_level as u32,
-                };
-                dispatch_epipolar(ctx.gpu, &u, knobs, &shadow, (w, h), &binds)?;
-            }
-        } else {
-            let lm = LightMapView {
-                view_proj: IDENTITY,
-                enabled: 0,
-                _pad0: 0,
-                _pad1: 0,
-                _pad2: 0,
-            };
-            let none = ctx.gpu.upload(1, 1, 4, &[1.0; 4])?;
-            binds.push((11, Bind::Texture(&none)));
-            binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
-            let constants = [
-                ("EXTINCTION", extinction_constant),
-                ("LIGHT_MAP", 0.0),
-                ("SOFT", soft_constant),
-            ];
-            ctx.gpu
-                .dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
-        }
+        let inputs = gpu::Inputs {
+            shadow: &shadow,
+            depth: &depth,
+            light,
+            phase: phase.as_deref(),
+            soft: soft.as_ref().map(|(v, m)| (&**v, *m)),
+            light_map: light_map.as_ref().map(|(t, m)| (&**t, *m)),
+        };
+        let [vis, ins, tr] = gpu::scatter(ctx.gpu, &u, &inputs, &p)?;
         ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
         ctx.set("inscatter", PortValue::Image(Arc::new(ins)));
         ctx.set("transmittance", PortValue::Scalar(Arc::new(tr)));

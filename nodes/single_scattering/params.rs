@@ -4,7 +4,7 @@
 use super::*;
 
 crate::uniforms! {
-    /// Uniforms of `shaders/single_scattering.wgsl` (struct `Params`).
+    /// Uniforms of `shaders/single_scattering/common.wgsl` (struct `Params`).
     pub struct ScatterParams as "Params" {
         /// Camera clip → world.
         pub inv_view_proj: [[f32; 4]; 4],
@@ -214,6 +214,19 @@ impl EpiParams {
                 [s.line_o[0], s.line_o[1], s.line_d[0], s.line_d[1]]
             }))
             .collect()
+    }
+}
+
+impl LightMapView {
+    /// The light map's world → light-clip matrix (column-major) and whether one is connected.
+    pub fn new(view_proj: [[f32; 4]; 4], enabled: u32) -> Self {
+        Self {
+            view_proj,
+            enabled,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        }
     }
 }
 

@@ -4,6 +4,7 @@
 //! The evaluator knows no node kind: a [`Registry`] of [`NodeKind`]s is handed to it.
 
 mod convert;
+mod inputs;
 mod node;
 mod params;
 mod paths;
@@ -190,6 +191,10 @@ pub struct NodeStat {
     pub time: Duration,
     /// GPU time of its passes from timestamp queries (with `gpu_timings`, when supported).
     pub gpu_time: Option<Duration>,
+    /// Command buffers submitted while it ran: 1 for a node whose passes all went into one
+    /// encoder, more for one that reads results back between passes (counted over the whole
+    /// GPU context, so an evaluation on another thread at the same time adds to it).
+    pub submits: u64,
 }
 
 /// Statistics of one evaluation, one entry per node of the document in topological order.
@@ -253,7 +258,8 @@ impl fmt::Display for Stats {
                 gpu
             )?;
         }
-        Ok(())
+        let submits: u64 = self.nodes.iter().map(|n| n.submits).sum();
+        writeln!(f, "GPU submissions: {submits}")
     }
 }
 
@@ -368,7 +374,7 @@ impl Evaluator {
         let plan = self.plan(graph, targets)?;
         let order = graph.topo_order();
         let mut done = Upstream::default();
-        let mut stats: BTreeMap<String, (Status, Duration, Option<Duration>)> = BTreeMap::new();
+        let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
         let empty = BTreeSet::new();
         let gpu = self.gpu.clone();
         for id in order.iter().filter(|id| plan.needed.contains(*id)) {
@@ -401,11 +407,11 @@ impl Evaluator {
             };
             let outputs = match self.reuse(id, key, want) {
                 Some(outputs) => {
-                    stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None));
+                    stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None, 0));
                     outputs
                 }
                 None => {
-                    let (outputs, wall, gpu) =
+                    let (outputs, wall, gpu, submits) =
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
                     self.record(id, key, &outputs);
                     let status = if ctx.passed_through {
@@ -413,7 +419,7 @@ impl Evaluator {
                     } else {
                         Status::Ran
                     };
-                    stats.insert(id.clone(), (status, wall, gpu));
+                    stats.insert(id.clone(), (status, wall, gpu, submits));
                     outputs
                 }
             };
@@ -518,7 +524,7 @@ impl Evaluator {
         ctx: &mut RunCtx,
         want: &BTreeSet<String>,
         opts: &EvalOptions,
-    ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>), NodeError> {
+    ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>, u64), NodeError> {
         // An adapter that cannot give this node's shader what it needs: one line naming what
         // is missing, before any of its passes is recorded.
         for shader in k.decl().shaders {
@@ -526,11 +532,17 @@ impl Evaluator {
         }
         self.gpu.set_timing(opts.gpu_timings);
         let start = Instant::now();
-        let ran = k.run(ctx).and_then(|()| {
+        let submitted = self.gpu.submit_count();
+        // The node's passes go into one command encoder, submitted once (see gpu/batch.rs).
+        self.gpu.begin_batch();
+        let ran = k.run(ctx);
+        let ended = self.gpu.end_batch();
+        let ran = ran.and(ended.map_err(NodeError::from)).and_then(|()| {
             self.gpu.wait()?;
             self.gpu.take_errors()?;
             Ok(())
         });
+        let submits = self.gpu.submit_count() - submitted;
         let elapsed = start.elapsed();
         let gpu_time = self.gpu.take_gpu_time();
         self.gpu.set_timing(false);
@@ -538,7 +550,7 @@ impl Evaluator {
         if let Some(p) = want.iter().find(|p| !ctx.outputs.contains_key(*p)) {
             return Err(NodeError::Other(format!("did not produce output '{p}'")));
         }
-        Ok((std::mem::take(&mut ctx.outputs), elapsed, gpu_time))
+        Ok((std::mem::take(&mut ctx.outputs), elapsed, gpu_time, submits))
     }
 
     /// Step 4, record: keep a node's fresh outputs in the cache under its key.
@@ -660,13 +672,16 @@ fn key_and_inputs(
     Ok((h.finish(), inputs))
 }
 
+/// How one node's run went: status, wall time, GPU time, submissions.
+type NodeRun = (Status, Duration, Option<Duration>, u64);
+
 /// Step 5, report: the requested ports' values and one statistic per node in topological order.
 fn report(
     graph: &Graph,
     targets: &[Target],
     order: &[String],
     results: &BTreeMap<String, BTreeMap<String, PortValue>>,
-    stats: &BTreeMap<String, (Status, Duration, Option<Duration>)>,
+    stats: &BTreeMap<String, NodeRun>,
 ) -> Evaluation {
     let mut outputs = BTreeMap::new();
     for t in targets {
@@ -680,17 +695,18 @@ fn report(
         .iter()
         .filter_map(|id| {
             let node = graph.node(id)?;
-            let (status, time, gpu_time) =
+            let (status, time, gpu_time, submits) =
                 stats
                     .get(id)
                     .copied()
-                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None));
+                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None, 0));
             Some(NodeStat {
                 id: id.clone(),
                 kind: node.kind.clone(),
                 status,
                 time,
                 gpu_time,
+                submits,
             })
         })
         .collect();

@@ -2,10 +2,13 @@
 //! a pipeline cache, one compute-dispatch helper and the one row-padded readback helper.
 
 pub mod adapter;
+mod batch;
+mod dispatch;
 mod layout;
 mod options;
 mod pool;
 mod raster;
+mod readback;
 mod shader;
 mod shader_needs;
 mod timer;
@@ -150,6 +153,10 @@ pub struct Gpu {
     pub chosen: adapter::Chosen,
     /// What each shader needs, by stem (read once per stem with naga), against `caps`.
     shader_lacks: Mutex<HashMap<&'static str, Vec<String>>>,
+    /// What each shader's entry points use, by stem (read once per stem with naga).
+    shader_needs: Mutex<HashMap<&'static str, Arc<adapter::ShaderNeeds>>>,
+    /// Command buffers submitted so far ([`Gpu::submit_count`]).
+    submits: std::sync::atomic::AtomicU64,
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
@@ -269,6 +276,8 @@ impl Gpu {
             adapter_index: index,
             chosen,
             shader_lacks: Mutex::new(HashMap::new()),
+            shader_needs: Mutex::new(HashMap::new()),
+            submits: std::sync::atomic::AtomicU64::new(0),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             errors,
@@ -424,6 +433,9 @@ impl Gpu {
 
     /// Overwrite every texel of `tex` with interleaved float samples.
     fn write(&self, tex: &GpuTexture, data: &[f32]) -> Result<(), GpuError> {
+        // A queue write runs before the next submission: submit what is recorded, so that a
+        // recorded pass still reading this (recycled) texture sees its old contents.
+        self.flush()?;
         let (width, height) = (tex.width, tex.height);
         let widened = widen(data, tex.format.channels(), tex.stored_channels());
         let data: &[f32] = &widened;
@@ -472,102 +484,6 @@ impl Gpu {
         Ok(GpuBuffer { raw, words })
     }
 
-    /// Read a storage buffer back as i32 words.
-    pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
-        let size = (b.words.max(1) as u64) * 4;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        self.scoped(|| {
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            enc.copy_buffer_to_buffer(&b.raw, 0, &staging, 0, size);
-            self.queue.submit([enc.finish()]);
-        })?;
-        let bytes = self.map_read(&staging)?;
-        let words: Vec<i32> = bytemuck::cast_slice(&bytes).to_vec();
-        Ok(words[..b.words as usize].to_vec())
-    }
-
-    /// Wait for `buffer` (MAP_READ) to be readable and copy its bytes out.
-    fn map_read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        let (tx, rx) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait()?;
-        receive(&rx)?.map_err(|e| GpuError::Readback(e.to_string()))?;
-        let bytes = buffer
-            .get_mapped_range(..)
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .to_vec();
-        buffer.unmap();
-        Ok(bytes)
-    }
-
-    /// Read a texture back to the CPU. Returns `width * height * channels` interleaved floats,
-    /// rows top to bottom, padding removed.
-    pub fn read_texture(&self, tex: &GpuTexture) -> Result<Vec<f32>, GpuError> {
-        let stored = tex.stored_channels();
-        let texels = self.read_texels(tex.raw(), 0, [tex.width, tex.height, 1], stored * 4)?;
-        Ok(narrow(texels, stored, tex.format.channels()))
-    }
-
-    /// The one row-padded readback helper (2D textures and volume levels): mip `level` of
-    /// `texture`, `size` texels, `bpt` bytes per texel; x fastest, then y, then z.
-    pub(crate) fn read_texels(
-        &self,
-        texture: &wgpu::Texture,
-        level: u32,
-        size: [u32; 3],
-        bpt: u32,
-    ) -> Result<Vec<f32>, GpuError> {
-        let [w, h, d] = size;
-        let row = w * bpt;
-        let padded =
-            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: (padded * h * d) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        self.scoped(|| {
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: level,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded),
-                        rows_per_image: Some(h),
-                    },
-                },
-                wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: d,
-                },
-            );
-            self.queue.submit([enc.finish()]);
-        })?;
-        let bytes = self.map_read(&buffer)?;
-        let mut out = Vec::with_capacity((row / 4 * h * d) as usize);
-        for r in 0..h * d {
-            let start = (r * padded) as usize;
-            out.extend_from_slice(bytemuck::cast_slice(&bytes[start..start + row as usize]));
-        }
-        Ok(out)
-    }
-
     /// Copy a `width × height` block from `src` at `(x, y)` to the same place in `dst` (same
     /// format).
     pub fn copy_region(
@@ -580,25 +496,25 @@ impl Gpu {
         height: u32,
     ) -> Result<(), GpuError> {
         self.scoped(|| {
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
-                wgpu::TexelCopyTextureInfo {
-                    texture: t.raw(),
-                    mip_level: 0,
-                    origin: wgpu::Origin3d { x, y, z: 0 },
-                    aspect: wgpu::TextureAspect::All,
+            self.encode(|enc| {
+                fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+                    wgpu::TexelCopyTextureInfo {
+                        texture: t.raw(),
+                        mip_level: 0,
+                        origin: wgpu::Origin3d { x, y, z: 0 },
+                        aspect: wgpu::TextureAspect::All,
+                    }
                 }
-            }
-            enc.copy_texture_to_texture(
-                at(src, x, y),
-                at(dst, x, y),
-                wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-            );
-            self.queue.submit([enc.finish()]);
+                enc.copy_texture_to_texture(
+                    at(src, x, y),
+                    at(dst, x, y),
+                    wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            })
         })
     }
 
@@ -651,270 +567,6 @@ impl Gpu {
         if let Ok(mut l) = self.lost.lock() {
             l.get_or_insert_with(|| "Destroyed: simulated".into());
         }
-    }
-
-    fn pipeline(
-        &self,
-        shader: Shader,
-        entry: &str,
-        binds: &[(u32, Bind)],
-        constants: &[(&str, f64)],
-    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
-        let mut key = format!("{}:{entry}", shader.stem);
-        for (name, value) in constants {
-            key.push_str(&format!(":{name}={value}"));
-        }
-        for (n, b) in binds {
-            key.push_str(&format!(":{n}"));
-            key.push_str(match b {
-                Bind::Uniform(_) => ":u",
-                Bind::Texture(_) => ":t",
-                Bind::Storage(t) => match t.stored_channels() {
-                    1 => ":s1",
-                    2 => ":s2",
-                    _ => ":s4",
-                },
-                Bind::Buffer(_) => ":b",
-                Bind::Volume(_) => ":v",
-                Bind::VolumeLevel(..) => ":vs",
-                Bind::VolumeLevelRead(..) => ":v",
-            });
-        }
-        let mut cache = match self.pipelines.lock() {
-            Ok(c) => c,
-            Err(p) => p.into_inner(),
-        };
-        if let Some(p) = cache.get(&key) {
-            return Ok(p.clone());
-        }
-        let source = shader.wgsl().map_err(GpuError::Validation)?;
-        let p = self
-            .scoped(|| {
-                let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
-                    .iter()
-                    .map(|(i, b)| wgpu::BindGroupLayoutEntry {
-                        binding: *i,
-                        visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: match b {
-                            Bind::Uniform(_) => wgpu::BindingType::Buffer {
-                                ty: wgpu::BufferBindingType::Uniform,
-                                has_dynamic_offset: false,
-                                min_binding_size: None,
-                            },
-                            Bind::Texture(_) => wgpu::BindingType::Texture {
-                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                                multisampled: false,
-                            },
-                            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
-                                access: wgpu::StorageTextureAccess::WriteOnly,
-                                format: t.stored(),
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                            },
-                            Bind::Buffer(_) => wgpu::BindingType::Buffer {
-                                ty: wgpu::BufferBindingType::Storage { read_only: false },
-                                has_dynamic_offset: false,
-                                min_binding_size: None,
-                            },
-                            Bind::Volume(_) | Bind::VolumeLevelRead(..) => {
-                                wgpu::BindingType::Texture {
-                                    sample_type: wgpu::TextureSampleType::Float {
-                                        filterable: false,
-                                    },
-                                    view_dimension: wgpu::TextureViewDimension::D3,
-                                    multisampled: false,
-                                }
-                            }
-                            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
-                                access: wgpu::StorageTextureAccess::WriteOnly,
-                                format: wgpu::TextureFormat::R32Float,
-                                view_dimension: wgpu::TextureViewDimension::D3,
-                            },
-                        },
-                        count: None,
-                    })
-                    .collect();
-                let bgl = self
-                    .device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some(&key),
-                        entries: &entries,
-                    });
-                let layout = self
-                    .device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(&key),
-                        bind_group_layouts: &[Some(&bgl)],
-                        immediate_size: 0,
-                    });
-                let module = self
-                    .device
-                    .create_shader_module(wgpu::ShaderModuleDescriptor {
-                        label: Some(shader.stem),
-                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(source)),
-                    });
-                Arc::new(
-                    self.device
-                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(&key),
-                            layout: Some(&layout),
-                            module: &module,
-                            entry_point: Some(entry),
-                            compilation_options: wgpu::PipelineCompilationOptions {
-                                constants,
-                                ..Default::default()
-                            },
-                            cache: None,
-                        }),
-                )
-            })
-            .map_err(|e| match e {
-                GpuError::Validation(m) => {
-                    GpuError::Validation(format!("shader {}.wgsl, entry {entry}: {m}", shader.stem))
-                }
-                other => other,
-            })?;
-        cache.insert(key, p.clone());
-        Ok(p)
-    }
-
-    /// Run one compute entry point over a `width × height` grid with 8×8 workgroups
-    /// (`@workgroup_size(8, 8)` in the shader). Bindings are `(binding number, resource)` in
-    /// group 0. Pipelines are cached by (shader stem, entry point, binding signature).
-    pub fn dispatch(
-        &self,
-        shader: Shader,
-        entry: &str,
-        binds: &[(u32, Bind)],
-        width: u32,
-        height: u32,
-    ) -> Result<(), GpuError> {
-        self.dispatch_with(shader, entry, binds, (width, height), &[])
-    }
-
-    /// [`Gpu::dispatch`] with values for the shader's pipeline-overridable constants
-    /// (`override NAME: T = default;` in WGSL): each set of values is its own cached pipeline, and
-    /// the driver compiles branches on them away. For switches that stay fixed over a dispatch
-    /// (a mode of the node): code behind a uniform-buffer flag is still compiled in and, on SIMD
-    /// drivers such as lavapipe, may be stepped through masked in every loop iteration.
-    pub fn dispatch_with(
-        &self,
-        shader: Shader,
-        entry: &str,
-        binds: &[(u32, Bind)],
-        (width, height): (u32, u32),
-        constants: &[(&str, f64)],
-    ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds, constants)?;
-        let groups = [width.div_ceil(8), height.div_ceil(8), 1];
-        let start = tracing().then(|| {
-            let _ = self.wait();
-            std::time::Instant::now()
-        });
-        self.scoped(|| self.record(&pipeline, shader, binds, groups))??;
-        if let Some(start) = start {
-            self.wait()?;
-            eprintln!(
-                "pass {}:{entry} {width}x{height}: {:.2} ms",
-                shader.stem,
-                start.elapsed().as_secs_f64() * 1e3
-            );
-        }
-        Ok(())
-    }
-
-    /// Run compute entry point `entry` (`@workgroup_size(4, 4, 4)`) over `size` invocations in
-    /// x, y, z — for passes over volumes.
-    pub fn dispatch_3d(
-        &self,
-        shader: Shader,
-        entry: &str,
-        binds: &[(u32, Bind)],
-        size: [u32; 3],
-    ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds, &[])?;
-        let groups = size.map(|s| s.div_ceil(4));
-        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
-    }
-
-    fn record(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        shader: Shader,
-        binds: &[(u32, Bind)],
-        groups: [u32; 3],
-    ) -> Result<(), GpuError> {
-        let buffers: Vec<Option<wgpu::Buffer>> = binds
-            .iter()
-            .map(|(_, b)| match b {
-                Bind::Uniform(bytes) => {
-                    let size = (bytes.len() as u64).div_ceil(16) * 16;
-                    let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("uniform"),
-                        size: size.max(16),
-                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
-                    let mut padded = bytes.to_vec();
-                    padded.resize(size.max(16) as usize, 0);
-                    self.queue.write_buffer(&buf, 0, &padded);
-                    Some(buf)
-                }
-                _ => None,
-            })
-            .collect();
-        let mut entries = Vec::with_capacity(binds.len());
-        for ((i, b), buf) in binds.iter().zip(&buffers) {
-            let resource = match (b, buf) {
-                (Bind::Texture(t), _) | (Bind::Storage(t), _) => {
-                    wgpu::BindingResource::TextureView(t.view())
-                }
-                (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
-                (Bind::Buffer(b), _) => b.raw.as_entire_binding(),
-                (Bind::Volume(v), _) => wgpu::BindingResource::TextureView(v.view()),
-                (Bind::VolumeLevel(v, l), _) | (Bind::VolumeLevelRead(v, l), _) => {
-                    wgpu::BindingResource::TextureView(v.level_view(*l))
-                }
-                (Bind::Uniform(_), None) => {
-                    return Err(GpuError::Validation(format!(
-                        "{}: uniform {i} has no buffer",
-                        shader.stem
-                    )))
-                }
-            };
-            entries.push(wgpu::BindGroupEntry {
-                binding: *i,
-                resource,
-            });
-        }
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(shader.stem),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
-        let timer = self.pass_timer();
-        let mut enc = self.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(shader.stem),
-                timestamp_writes: timer.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.query,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                }),
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
-        }
-        if let Some(t) = &timer {
-            self.resolve_timer(t, &mut enc);
-        }
-        self.queue.submit([enc.finish()]);
-        if let Some(t) = timer {
-            self.read_timer(t)?;
-        }
-        Ok(())
     }
 }
 

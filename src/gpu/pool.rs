@@ -110,13 +110,21 @@ impl GpuTexture {
 impl Drop for GpuTexture {
     fn drop(&mut self) {
         // wgpu textures are reference-counted handles: the pool keeps a clone of this one.
-        if let Some(home) = self.home.upgrade() {
-            if let Ok(mut free) = home.lock() {
-                if free.len() < self.capacity {
-                    free.push((self.width, self.height, self.format, self.tex.clone()));
+        let home = self.home.clone();
+        let entry = (self.width, self.height, self.format, self.tex.clone());
+        let capacity = self.capacity;
+        let release = move || {
+            if let Some(home) = home.upgrade() {
+                if let Ok(mut free) = home.lock() {
+                    if free.len() < capacity {
+                        free.push(entry);
+                    }
                 }
             }
-        }
+        };
+        // Recorded passes of this thread's batch may still use it: back to the pool only once
+        // the batch is submitted, so no other thread's earlier submission reuses it first.
+        super::batch::release_after_batch(Box::new(release));
     }
 }
 

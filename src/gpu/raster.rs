@@ -250,46 +250,55 @@ impl Gpu {
                     })
                 })
                 .collect();
-            let timer = self.pass_timer();
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some(shader.stem),
-                    color_attachments: &attachments,
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &depth_view,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
-                            store: wgpu::StoreOp::Discard,
+            // Into this thread's batch (see batch.rs); timed, with its timestamps resolved in it.
+            let record = |enc: &mut wgpu::CommandEncoder,
+                          timer: Option<&super::PassTimer>|
+             -> Result<(), GpuError> {
+                {
+                    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some(shader.stem),
+                        color_attachments: &attachments,
+                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                            view: &depth_view,
+                            depth_ops: Some(wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(1.0),
+                                store: wgpu::StoreOp::Discard,
+                            }),
+                            stencil_ops: None,
                         }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: timer.as_ref().map(|t| wgpu::RenderPassTimestampWrites {
-                        query_set: &t.query,
-                        beginning_of_pass_write_index: Some(0),
-                        end_of_pass_write_index: Some(1),
-                    }),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for r in mesh.ranges {
-                    if !r.is_empty() {
-                        pass.draw_indexed(r.clone(), 0, 0..1);
+                        timestamp_writes: timer.map(|t| wgpu::RenderPassTimestampWrites {
+                            query_set: &t.query,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        }),
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    pass.set_pipeline(&pipeline);
+                    pass.set_bind_group(0, &group, &[]);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    for r in mesh.ranges {
+                        if !r.is_empty() {
+                            pass.draw_indexed(r.clone(), 0, 0..1);
+                        }
                     }
                 }
+                if let Some(t) = timer {
+                    self.resolve_timer(t, enc);
+                }
+                for ((_, bits), target) in temps.iter().zip(targets) {
+                    self.unbits(enc, bits, target.texture)?;
+                }
+                Ok(())
+            };
+            match self.pass_timer() {
+                None => self.encode(|enc| record(enc, None)),
+                Some(timer) => {
+                    self.encode(|enc| record(enc, Some(&timer)))?;
+                    self.after_submit(timer)
+                }
             }
-            if let Some(t) = &timer {
-                self.resolve_timer(t, &mut enc);
-            }
-            for ((_, bits), target) in temps.iter().zip(targets) {
-                self.unbits(&mut enc, bits, target.texture)?;
-            }
-            self.queue.submit([enc.finish()]);
-            timer.map_or(Ok(()), |t| self.read_timer(t))
         })?
     }
 

@@ -23,6 +23,50 @@ pub struct EntryNeeds {
     pub workgroup: [u32; 3],
     /// Formats of the storage textures it uses.
     pub storage_formats: Vec<wgpu::TextureFormat>,
+    /// Every `@group(0)` binding it uses: (number, variable name, kind).
+    pub bindings: Vec<(u32, String, BindingKind)>,
+}
+
+/// What kind of resource a binding takes (what [`super::Bind`] must match).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BindingKind {
+    /// `var<uniform>`.
+    Uniform,
+    /// `var<storage>`.
+    StorageBuffer,
+    /// `texture_2d<f32>` (read with `textureLoad`).
+    Texture2d,
+    /// `texture_3d<f32>`.
+    Texture3d,
+    /// `texture_storage_2d<…, write>`.
+    StorageTexture2d,
+    /// `texture_storage_3d<…, write>`.
+    StorageTexture3d,
+    /// Anything else (samplers, arrays of textures).
+    Other,
+}
+
+impl BindingKind {
+    /// Its name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            BindingKind::Uniform => "a uniform buffer",
+            BindingKind::StorageBuffer => "a storage buffer",
+            BindingKind::Texture2d => "a 2D texture",
+            BindingKind::Texture3d => "a 3D texture",
+            BindingKind::StorageTexture2d => "a 2D storage texture",
+            BindingKind::StorageTexture3d => "a 3D storage texture",
+            BindingKind::Other => "another kind of binding",
+        }
+    }
+}
+
+impl EntryNeeds {
+    /// The groups of a dispatch covering `size` invocations (x, y, z) with this entry point's
+    /// workgroup size.
+    pub fn groups(&self, size: [u32; 3]) -> [u32; 3] {
+        [0, 1, 2].map(|k| size[k].div_ceil(self.workgroup[k].max(1)))
+    }
 }
 
 /// What a shader's entry points need, read from the WGSL by naga.
@@ -58,11 +102,18 @@ impl ShaderNeeds {
                     [1, 1, 1]
                 },
                 storage_formats: Vec::new(),
+                bindings: Vec::new(),
             };
             for (h, gv) in module.global_variables.iter() {
-                if uses[h].is_empty() || gv.binding.is_none() {
+                let Some(binding) = &gv.binding else { continue };
+                if uses[h].is_empty() {
                     continue;
                 }
+                e.bindings.push((
+                    binding.binding,
+                    gv.name.clone().unwrap_or_default(),
+                    binding_kind(&module, gv),
+                ));
                 match gv.space {
                     naga::AddressSpace::Uniform => e.uniform_buffers += 1,
                     naga::AddressSpace::Storage { .. } => e.storage_buffers += 1,
@@ -107,4 +158,24 @@ fn storage_format(f: naga::StorageFormat) -> Option<wgpu::TextureFormat> {
         S::Rgba16Float => F::Rgba16Float,
         _ => return None,
     })
+}
+
+fn binding_kind(module: &naga::Module, gv: &naga::GlobalVariable) -> BindingKind {
+    match gv.space {
+        naga::AddressSpace::Uniform => BindingKind::Uniform,
+        naga::AddressSpace::Storage { .. } => BindingKind::StorageBuffer,
+        naga::AddressSpace::Handle => match &module.types[gv.ty].inner {
+            naga::TypeInner::Image { class, dim, .. } => {
+                let d3 = *dim == naga::ImageDimension::D3;
+                match (class, d3) {
+                    (naga::ImageClass::Storage { .. }, false) => BindingKind::StorageTexture2d,
+                    (naga::ImageClass::Storage { .. }, true) => BindingKind::StorageTexture3d,
+                    (_, false) => BindingKind::Texture2d,
+                    (_, true) => BindingKind::Texture3d,
+                }
+            }
+            _ => BindingKind::Other,
+        },
+        _ => BindingKind::Other,
+    }
 }

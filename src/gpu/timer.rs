@@ -34,7 +34,7 @@ impl Gpu {
             .then(|| std::time::Duration::from_nanos(ns))
     }
 
-    fn timing_active(&self) -> bool {
+    pub(crate) fn timing_active(&self) -> bool {
         TIMING.with(|t| t.get())
             && self
                 .device

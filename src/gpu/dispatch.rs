@@ -1,0 +1,366 @@
+//! Compute dispatches: pipelines cached by (shader, entry point, binding signature), the
+//! bindings checked against what the entry point uses, the workgroup count from the entry
+//! point's own `@workgroup_size`.
+
+use super::shader_needs::BindingKind;
+use super::*;
+
+impl Gpu {
+    /// What `shader` needs, read once per stem with naga and kept.
+    pub(crate) fn needs(&self, shader: Shader) -> Result<Arc<adapter::ShaderNeeds>, GpuError> {
+        let mut known = self.shader_needs.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = known.get(shader.stem) {
+            return Ok(n.clone());
+        }
+        let needs = shader
+            .wgsl()
+            .and_then(adapter::ShaderNeeds::of)
+            .map_err(|e| GpuError::Validation(format!("shader {}.wgsl: {e}", shader.stem)))?;
+        let needs = Arc::new(needs);
+        known.insert(shader.stem, needs.clone());
+        Ok(needs)
+    }
+
+    /// What entry point `entry` of `shader` uses (its workgroup size, its bindings).
+    fn entry_needs(&self, shader: Shader, entry: &str) -> Result<EntryRef, GpuError> {
+        let needs = self.needs(shader)?;
+        let index = needs
+            .entries
+            .iter()
+            .position(|e| e.entry == entry)
+            .ok_or_else(|| {
+                GpuError::Validation(format!(
+                    "shader {}.wgsl has no entry point `{entry}`",
+                    shader.stem
+                ))
+            })?;
+        Ok(EntryRef { needs, index })
+    }
+
+    fn pipeline(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        constants: &[(&str, f64)],
+    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
+        let mut key = format!("{}:{entry}", shader.stem);
+        for (name, value) in constants {
+            key.push_str(&format!(":{name}={value}"));
+        }
+        for (n, b) in binds {
+            key.push_str(&format!(":{n}"));
+            key.push_str(match b {
+                Bind::Uniform(_) => ":u",
+                Bind::Texture(_) => ":t",
+                Bind::Storage(t) => match t.stored_channels() {
+                    1 => ":s1",
+                    2 => ":s2",
+                    _ => ":s4",
+                },
+                Bind::Buffer(_) => ":b",
+                Bind::Volume(_) => ":v",
+                Bind::VolumeLevel(..) => ":vs",
+                Bind::VolumeLevelRead(..) => ":v",
+            });
+        }
+        let mut cache = match self.pipelines.lock() {
+            Ok(c) => c,
+            Err(p) => p.into_inner(),
+        };
+        if let Some(p) = cache.get(&key) {
+            return Ok(p.clone());
+        }
+        check_binds(shader, &*self.entry_needs(shader, entry)?, binds)?;
+        let source = shader.wgsl().map_err(GpuError::Validation)?;
+        let p = self
+            .scoped(|| {
+                let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
+                    .iter()
+                    .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                        binding: *i,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: match b {
+                            Bind::Uniform(_) => wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Uniform,
+                                has_dynamic_offset: false,
+                                min_binding_size: None,
+                            },
+                            Bind::Texture(_) => wgpu::BindingType::Texture {
+                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                                multisampled: false,
+                            },
+                            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
+                                access: wgpu::StorageTextureAccess::WriteOnly,
+                                format: t.stored(),
+                                view_dimension: wgpu::TextureViewDimension::D2,
+                            },
+                            Bind::Buffer(_) => wgpu::BindingType::Buffer {
+                                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                                has_dynamic_offset: false,
+                                min_binding_size: None,
+                            },
+                            Bind::Volume(_) | Bind::VolumeLevelRead(..) => {
+                                wgpu::BindingType::Texture {
+                                    sample_type: wgpu::TextureSampleType::Float {
+                                        filterable: false,
+                                    },
+                                    view_dimension: wgpu::TextureViewDimension::D3,
+                                    multisampled: false,
+                                }
+                            }
+                            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
+                                access: wgpu::StorageTextureAccess::WriteOnly,
+                                format: wgpu::TextureFormat::R32Float,
+                                view_dimension: wgpu::TextureViewDimension::D3,
+                            },
+                        },
+                        count: None,
+                    })
+                    .collect();
+                let bgl = self
+                    .device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(&key),
+                        entries: &entries,
+                    });
+                let layout = self
+                    .device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some(&key),
+                        bind_group_layouts: &[Some(&bgl)],
+                        immediate_size: 0,
+                    });
+                let module = self
+                    .device
+                    .create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(shader.stem),
+                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(source)),
+                    });
+                Arc::new(
+                    self.device
+                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(&key),
+                            layout: Some(&layout),
+                            module: &module,
+                            entry_point: Some(entry),
+                            compilation_options: wgpu::PipelineCompilationOptions {
+                                constants,
+                                ..Default::default()
+                            },
+                            cache: None,
+                        }),
+                )
+            })
+            .map_err(|e| match e {
+                GpuError::Validation(m) => {
+                    GpuError::Validation(format!("shader {}.wgsl, entry {entry}: {m}", shader.stem))
+                }
+                other => other,
+            })?;
+        cache.insert(key, p.clone());
+        Ok(p)
+    }
+
+    /// Run one compute entry point over (at least) `width × height` invocations, in workgroups
+    /// of the entry point's own `@workgroup_size` (read from the WGSL). Bindings are
+    /// `(binding number, resource)` in group 0, checked against what the entry point uses.
+    /// Pipelines are cached by (shader stem, entry point, binding signature).
+    pub fn dispatch(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        width: u32,
+        height: u32,
+    ) -> Result<(), GpuError> {
+        self.dispatch_with(shader, entry, binds, (width, height), &[])
+    }
+
+    /// [`Gpu::dispatch`] with values for the shader's pipeline-overridable constants
+    /// (`override NAME: T = default;` in WGSL): each set of values is its own cached pipeline, and
+    /// the driver compiles branches on them away. For switches that stay fixed over a dispatch
+    /// (a mode of the node): code behind a uniform-buffer flag is still compiled in and, on SIMD
+    /// drivers such as lavapipe, may be stepped through masked in every loop iteration.
+    pub fn dispatch_with(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        (width, height): (u32, u32),
+        constants: &[(&str, f64)],
+    ) -> Result<(), GpuError> {
+        let pipeline = self.pipeline(shader, entry, binds, constants)?;
+        let groups = self.entry_needs(shader, entry)?.groups([width, height, 1]);
+        let start = tracing().then(|| {
+            let _ = self.wait();
+            std::time::Instant::now()
+        });
+        self.scoped(|| self.record(&pipeline, shader, binds, groups))??;
+        if let Some(start) = start {
+            self.wait()?;
+            eprintln!(
+                "pass {}:{entry} {width}x{height}: {:.2} ms",
+                shader.stem,
+                start.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        Ok(())
+    }
+
+    /// Run compute entry point `entry` over (at least) `size` invocations in x, y, z, in
+    /// workgroups of its own `@workgroup_size` — for passes over volumes.
+    pub fn dispatch_3d(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        size: [u32; 3],
+    ) -> Result<(), GpuError> {
+        let pipeline = self.pipeline(shader, entry, binds, &[])?;
+        let groups = self.entry_needs(shader, entry)?.groups(size);
+        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
+    }
+
+    fn record(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        shader: Shader,
+        binds: &[(u32, Bind)],
+        groups: [u32; 3],
+    ) -> Result<(), GpuError> {
+        let buffers: Vec<Option<wgpu::Buffer>> = binds
+            .iter()
+            .map(|(_, b)| match b {
+                Bind::Uniform(bytes) => {
+                    let size = (bytes.len() as u64).div_ceil(16) * 16;
+                    let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("uniform"),
+                        size: size.max(16),
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    let mut padded = bytes.to_vec();
+                    padded.resize(size.max(16) as usize, 0);
+                    self.queue.write_buffer(&buf, 0, &padded);
+                    Some(buf)
+                }
+                _ => None,
+            })
+            .collect();
+        let mut entries = Vec::with_capacity(binds.len());
+        for ((i, b), buf) in binds.iter().zip(&buffers) {
+            let resource = match (b, buf) {
+                (Bind::Texture(t), _) | (Bind::Storage(t), _) => {
+                    wgpu::BindingResource::TextureView(t.view())
+                }
+                (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
+                (Bind::Buffer(b), _) => b.raw.as_entire_binding(),
+                (Bind::Volume(v), _) => wgpu::BindingResource::TextureView(v.view()),
+                (Bind::VolumeLevel(v, l), _) | (Bind::VolumeLevelRead(v, l), _) => {
+                    wgpu::BindingResource::TextureView(v.level_view(*l))
+                }
+                (Bind::Uniform(_), None) => {
+                    return Err(GpuError::Validation(format!(
+                        "{}: uniform {i} has no buffer",
+                        shader.stem
+                    )))
+                }
+            };
+            entries.push(wgpu::BindGroupEntry {
+                binding: *i,
+                resource,
+            });
+        }
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(shader.stem),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let pass = |enc: &mut wgpu::CommandEncoder, timer: Option<&super::PassTimer>| {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(shader.stem),
+                timestamp_writes: timer.map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.query,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+        };
+        // Into this thread's batch (see batch.rs); timed, with its timestamps resolved after it.
+        let Some(timer) = self.pass_timer() else {
+            self.encode(|enc| pass(enc, None));
+            return Ok(());
+        };
+        self.encode(|enc| {
+            pass(enc, Some(&timer));
+            self.resolve_timer(&timer, enc);
+        });
+        self.after_submit(timer)
+    }
+}
+
+/// One entry point's needs, kept with the shader's.
+struct EntryRef {
+    needs: Arc<adapter::ShaderNeeds>,
+    index: usize,
+}
+
+impl std::ops::Deref for EntryRef {
+    type Target = adapter::EntryNeeds;
+    fn deref(&self) -> &adapter::EntryNeeds {
+        &self.needs.entries[self.index]
+    }
+}
+
+/// The kind of binding a resource fills.
+fn kind_of(b: &Bind) -> BindingKind {
+    match b {
+        Bind::Uniform(_) => BindingKind::Uniform,
+        Bind::Texture(_) => BindingKind::Texture2d,
+        Bind::Storage(_) => BindingKind::StorageTexture2d,
+        Bind::Buffer(_) => BindingKind::StorageBuffer,
+        Bind::Volume(_) | Bind::VolumeLevelRead(..) => BindingKind::Texture3d,
+        Bind::VolumeLevel(..) => BindingKind::StorageTexture3d,
+    }
+}
+
+/// The checked binding table: every binding the entry point uses is given, as a resource of
+/// its kind (a resource for a binding the entry point does not use is allowed: a node passes
+/// one list to the several entry points of a method).
+fn check_binds(
+    shader: Shader,
+    e: &adapter::EntryNeeds,
+    binds: &[(u32, Bind)],
+) -> Result<(), GpuError> {
+    for (number, name, kind) in &e.bindings {
+        let at = || {
+            format!(
+                "shader {}.wgsl, entry {}: binding {number} (`{name}`)",
+                shader.stem, e.entry
+            )
+        };
+        match binds.iter().find(|(n, _)| n == number) {
+            None => {
+                return Err(GpuError::Validation(format!(
+                    "{} is used but not bound",
+                    at()
+                )))
+            }
+            Some((_, b)) if kind_of(b) != *kind && *kind != BindingKind::Other => {
+                return Err(GpuError::Validation(format!(
+                    "{} is {} but was given {}",
+                    at(),
+                    kind.name(),
+                    kind_of(b).name()
+                )))
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
