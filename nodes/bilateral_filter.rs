@@ -208,12 +208,8 @@ impl NodeKind for BilateralFilter {
                 message: "has an internal two-channel format".into(),
             });
         }
-        let guide = match ctx.input("guide") {
-            Some(v) => {
-                let t = v.texture().cloned().ok_or_else(|| NodeError::Input {
-                    port: "guide".into(),
-                    message: "is not an image".into(),
-                })?;
+        let guide = match ctx.texture_opt("guide")? {
+            Some(t) => {
                 if (t.width, t.height) != (src.width, src.height) {
                     return Err(NodeError::Input {
                         port: "guide".into(),

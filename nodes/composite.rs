@@ -113,24 +113,8 @@ impl NodeKind for Composite {
         let p = Params::from_ctx(ctx)?;
         let albedo = ctx.require_texture("albedo")?;
         let normal = ctx.require_texture("normal")?;
-        let (depth, cam) = match ctx.require("depth")? {
-            PortValue::Depth(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "depth".into(),
-                    message: "is not a depth image".into(),
-                })
-            }
-        };
-        let (shadow, light) = match ctx.require("shadow")? {
-            PortValue::ShadowMap(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "shadow".into(),
-                    message: "is not a shadow map".into(),
-                })
-            }
-        };
+        let (depth, cam) = ctx.depth("depth")?;
+        let (shadow, light) = ctx.shadow_map("shadow")?;
         let (w, h) = (depth.width, depth.height);
         for (port, t) in [("albedo", &albedo), ("normal", &normal)] {
             if (t.width, t.height) != (w, h) {

@@ -24,7 +24,7 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
@@ -145,14 +145,7 @@ pub fn reference(low: &Raster, low_depth: &Raster, high_depth: &Raster, sigma: f
 }
 
 fn depth_of(ctx: &RunCtx, port: &str) -> Result<Option<Arc<crate::gpu::GpuTexture>>, NodeError> {
-    match ctx.input(port) {
-        None => Ok(None),
-        Some(PortValue::Depth(t, _)) => Ok(Some(t.clone())),
-        Some(_) => Err(NodeError::Input {
-            port: port.into(),
-            message: "is not a depth image".into(),
-        }),
-    }
+    Ok(ctx.depth_opt(port)?.map(|(t, _)| t))
 }
 
 impl NodeKind for DepthUpsample {

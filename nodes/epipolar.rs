@@ -448,23 +448,9 @@ impl NodeKind for Epipolar {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
-        let (tex, light) = match ctx.require("map")? {
-            PortValue::ShadowMap(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "map".into(),
-                    message: "is not a shadow map".into(),
-                })
-            }
-        };
-        let (l, z_l) = match ctx.input("camera") {
-            Some(PortValue::Depth(_, cam)) => epipole(&light, cam, tex.width, tex.height),
-            Some(_) => {
-                return Err(NodeError::Input {
-                    port: "camera".into(),
-                    message: "is not a depth image".into(),
-                })
-            }
+        let (tex, light) = ctx.shadow_map("map")?;
+        let (l, z_l) = match ctx.depth_opt("camera")? {
+            Some((_, cam)) => epipole(&light, &cam, tex.width, tex.height),
             None => ([prm.epipole_x, prm.epipole_y], prm.epipole_depth),
         };
         let length = prm.length as i32;

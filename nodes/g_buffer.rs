@@ -71,13 +71,7 @@ impl NodeKind for GBufferNode {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let scene =
-            ctx.require("scene")?
-                .payload::<GpuScene>()
-                .ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
+        let scene = ctx.scene("scene")?;
         let (w, h) = size_or_default(ctx, p.width, p.height);
         let (depth, normal, albedo, m) = render(ctx.gpu, scene, &scene.scene.camera, w, h)?;
         ctx.set("depth", PortValue::Depth(Arc::new(depth), m));

@@ -234,14 +234,7 @@ pub fn reference_h(
 type BoxedVolume = (Arc<GpuVolume>, [[f32; 3]; 2]);
 
 fn volume(ctx: &RunCtx, port: &str) -> Result<Option<BoxedVolume>, NodeError> {
-    match ctx.input(port) {
-        None => Ok(None),
-        Some(PortValue::Volume(v, b)) => Ok(Some((v.clone(), *b))),
-        Some(_) => Err(NodeError::Input {
-            port: port.into(),
-            message: "is not a volume".into(),
-        }),
-    }
+    ctx.volume_opt(port)
 }
 
 impl NodeKind for Heterogeneity {
@@ -253,15 +246,7 @@ impl NodeKind for Heterogeneity {
         let p = Params::from_ctx(ctx)?;
         let ins_value = ctx.require("inscatter")?.clone();
         let ins = ctx.require_texture("inscatter")?;
-        let (depth, m) = match ctx.require("depth")? {
-            PortValue::Depth(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "depth".into(),
-                    message: "is not a depth image".into(),
-                })
-            }
-        };
+        let (depth, m) = ctx.depth("depth")?;
         if (depth.width, depth.height) != (ins.width, ins.height) {
             return Err(NodeError::Input {
                 port: "depth".into(),

@@ -60,13 +60,7 @@ fn map(
     ctx: &RunCtx,
     port: &str,
 ) -> Result<(Arc<crate::gpu::GpuTexture>, crate::eval::Matrices), NodeError> {
-    match ctx.require(port)? {
-        PortValue::ShadowMap(t, m) => Ok((t.clone(), *m)),
-        _ => Err(NodeError::Input {
-            port: port.into(),
-            message: "is not a shadow map".into(),
-        }),
-    }
+    ctx.shadow_map(port)
 }
 
 impl NodeKind for HoleComposite {

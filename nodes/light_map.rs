@@ -56,20 +56,9 @@ impl NodeKind for LightMap {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let m = match ctx.require("shadow")? {
-            PortValue::ShadowMap(_, m) => *m,
-            _ => {
-                return Err(NodeError::Input {
-                    port: "shadow".into(),
-                    message: "is not a shadow map".into(),
-                })
-            }
-        };
-        let tex = match ctx.input("image") {
-            Some(v) => v.texture().cloned().ok_or_else(|| NodeError::Input {
-                port: "image".into(),
-                message: "is not an image".into(),
-            })?,
+        let (_, m) = ctx.shadow_map("shadow")?;
+        let tex = match ctx.texture_opt("image")? {
+            Some(t) => t,
             None => {
                 let path = p.path.as_str();
                 if path.is_empty() {

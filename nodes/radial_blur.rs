@@ -30,7 +30,6 @@ use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
-use crate::scene::GpuScene;
 
 /// The `RadialBlur` node kind.
 pub struct RadialBlur;
@@ -147,14 +146,8 @@ impl NodeKind for RadialBlur {
                 message: "has an internal two-channel format".into(),
             });
         }
-        let light = match ctx.input("scene") {
-            Some(v) => {
-                let scene = v.payload::<GpuScene>().ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
-                sun_pixel(&scene.scene, src.width, src.height)
-            }
+        let light = match ctx.scene_opt("scene")? {
+            Some(scene) => sun_pixel(&scene.scene, src.width, src.height),
             None => [prm.light_x, prm.light_y],
         };
         let p = RadialParams {

@@ -21,7 +21,7 @@ use std::sync::Arc;
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::{fit_light, GpuScene};
+use crate::scene::fit_light;
 
 /// The `ShadowMap` node kind.
 pub struct ShadowMapNode;
@@ -82,13 +82,7 @@ impl NodeKind for ShadowMapNode {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let scene =
-            ctx.require("scene")?
-                .payload::<GpuScene>()
-                .ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
+        let scene = ctx.scene("scene")?;
         let res = ctx.side("resolution", p.resolution, 2)?;
         ctx.check_bytes("resolution", u64::from(res).pow(2) * 4)?;
         let (view, proj) = fit_light(scene.scene.sun.to_sun(), scene.scene.bounds());

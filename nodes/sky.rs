@@ -55,7 +55,7 @@ use super::phase::{hg_value, rayleigh_value, PhaseTable};
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::{GpuScene, Sun};
+use crate::scene::Sun;
 
 /// The `Sky` node kind.
 pub struct Sky;
@@ -248,26 +248,11 @@ impl NodeKind for Sky {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let (depth, cam): (_, Matrices) = match ctx.require("depth")? {
-            PortValue::Depth(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "depth".into(),
-                    message: "is not a depth image".into(),
-                })
-            }
-        };
+        let (depth, cam): (_, Matrices) = ctx.depth("depth")?;
         let intensity = p.intensity;
-        let (to_sun, sun) = match ctx.input("scene") {
+        let (to_sun, sun) = match ctx.scene_opt("scene")? {
             Some(v) => {
-                let s = &v
-                    .payload::<GpuScene>()
-                    .ok_or_else(|| NodeError::Input {
-                        port: "scene".into(),
-                        message: "is not a scene".into(),
-                    })?
-                    .scene
-                    .sun;
+                let s = &v.scene.sun;
                 (s.to_sun(), s.radiance().map(|c| c * intensity))
             }
             None => {
@@ -280,16 +265,7 @@ impl NodeKind for Sky {
                 (s.to_sun(), s.radiance().map(|c| c * intensity))
             }
         };
-        let phase = match ctx.input("phase") {
-            None => None,
-            Some(PortValue::Phase(t)) => Some(t.clone()),
-            Some(_) => {
-                return Err(NodeError::Input {
-                    port: "phase".into(),
-                    message: "is not a phase function".into(),
-                })
-            }
-        };
+        let phase = ctx.phase_opt("phase")?;
         let u = SkyParams {
             inv_view_proj: cam.view_proj().inverse().to_cols_array_2d(),
             eye: cam.eye().to_array(),

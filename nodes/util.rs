@@ -29,13 +29,7 @@ pub fn image_like(t: Arc<GpuTexture>) -> PortValue {
 /// `box_min`…`box_max` parameters' values `[lo, hi]` (refused when inverted). Shared by the
 /// volume nodes.
 pub fn volume_box(ctx: &RunCtx, [lo, hi]: [[f32; 3]; 2]) -> Result<[[f32; 3]; 2], NodeError> {
-    if let Some(v) = ctx.input("scene") {
-        let s = v
-            .payload::<crate::scene::GpuScene>()
-            .ok_or_else(|| NodeError::Input {
-                port: "scene".into(),
-                message: "is not a scene".into(),
-            })?;
+    if let Some(s) = ctx.scene_opt("scene")? {
         let (lo, hi) = s.scene.bounds();
         return Ok([lo.to_array(), hi.to_array()]);
     }

@@ -66,6 +66,26 @@ fn corners(uv: vec2<f32>) -> Corners {
     return c;
 }
 
+// Sample i of `steps` along a constraint pixel's view ray (direction `dir`, surface at `s`):
+// its light-space point and its weight ŵ_i V_i (0 when shadowed or for an empty ray).
+struct Sample {
+    l: vec3<f32>,
+    w: f32,
+}
+
+fn sample_at(dir: vec3<f32>, s: f32, i: u32) -> Sample {
+    let n = f32(P.steps);
+    let total = decay_integral(s, P.sigma_t);
+    var m: Sample;
+    m.l = light_uv(P.eye + dir * ((f32(i) + 0.5) / n * s));
+    m.w = 0.0;
+    if visible(m.l) && total > 0.0 {
+        let a = f32(i) / n * s;
+        m.w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
+    }
+    return m;
+}
+
 fn x_at(idx: i32) -> vec3<f32> {
     let w = i32(P.map_size.x);
     return textureLoad(x_map, vec2<i32>(idx % w, idx / w), 0).rgb;
@@ -83,18 +103,14 @@ fn forward(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
-    let n = f32(P.steps);
-    let total = decay_integral(s, P.sigma_t);
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < P.steps; i++) {
-        let t = (f32(i) + 0.5) / n * s;
-        let l = light_uv(P.eye + dir * t);
-        if !visible(l) || total <= 0.0 {
+        let m = sample_at(dir, s, i);
+        if m.w <= 0.0 {
             continue;
         }
-        let a = f32(i) / n * s;
-        let w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
-        let c = corners(l.xy);
+        let w = m.w;
+        let c = corners(m.l.xy);
         let v = c.w.x * x_at(c.idx.x) + c.w.y * x_at(c.idx.y) + c.w.z * x_at(c.idx.z) + c.w.w * x_at(c.idx.w);
         sum += w * v;
     }
@@ -139,17 +155,13 @@ fn adjoint(@builtin(global_invocation_id) id: vec3<u32>) {
     let r = textureLoad(residual, id.xy, 0).rgb;
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
-    let n = f32(P.steps);
-    let total = decay_integral(s, P.sigma_t);
     for (var i = 0u; i < P.steps; i++) {
-        let t = (f32(i) + 0.5) / n * s;
-        let l = light_uv(P.eye + dir * t);
-        if !visible(l) || total <= 0.0 {
+        let m = sample_at(dir, s, i);
+        if m.w <= 0.0 {
             continue;
         }
-        let a = f32(i) / n * s;
-        let w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
-        let c = corners(l.xy);
+        let w = m.w;
+        let c = corners(m.l.xy);
         add(c.idx.x, r * (w * c.w.x));
         add(c.idx.y, r * (w * c.w.y));
         add(c.idx.z, r * (w * c.w.z));

@@ -3,7 +3,7 @@
 //! Layout (ARCHITECTURE.md in the repository is the map): [`graph`] is the document, [`eval`]
 //! the evaluator and the node interface, [`gpu`] the wgpu context, [`nodes`] the node kinds
 //! (techniques) and their registry, [`scene`] scenes, [`io`] image files, [`cli`] the command
-//! line, [`editor`] the egui editor, [`bench`] speed-against-accuracy measurements.
+//! line, [`editor`] the egui editor, [`bench`](mod@bench) speed-against-accuracy measurements.
 #![deny(missing_docs)]
 
 pub mod bench;

@@ -174,22 +174,8 @@ impl NodeKind for LightMapSolve {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let scene =
-            ctx.require("scene")?
-                .payload::<GpuScene>()
-                .ok_or_else(|| NodeError::Input {
-                    port: "scene".into(),
-                    message: "is not a scene".into(),
-                })?;
-        let (shadow, light) = match ctx.require("shadow")? {
-            PortValue::ShadowMap(t, m) => (t.clone(), *m),
-            _ => {
-                return Err(NodeError::Input {
-                    port: "shadow".into(),
-                    message: "is not a shadow map".into(),
-                })
-            }
-        };
+        let scene = ctx.scene("scene")?;
+        let (shadow, light) = ctx.shadow_map("shadow")?;
         let data: SolveData = ctx.data()?;
         let n = ctx.side("resolution", p.resolution, 2)?;
         ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;

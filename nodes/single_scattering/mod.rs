@@ -84,7 +84,6 @@ use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, ID
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use crate::io::Raster;
-use crate::scene::GpuScene;
 
 mod brute_force;
 mod epipolar;
@@ -261,10 +260,8 @@ fn tagged_bounds(ctx: &RunCtx) -> Result<(Vec3, Vec3), NodeError> {
         message: message.into(),
     };
     let scene = ctx
-        .input("scene")
-        .ok_or_else(|| input("must be connected when bounds = tagged"))?
-        .payload::<GpuScene>()
-        .ok_or_else(|| input("is not a scene"))?;
+        .scene_opt("scene")?
+        .ok_or_else(|| input("must be connected when bounds = tagged"))?;
     scene.scene.medium.ok_or_else(|| {
         input("has no objects tagged `medium` (glTF node extras: {\"tags\": [\"medium\"]})")
     })

@@ -45,10 +45,8 @@ pub(super) fn resolve_anchors(
         return Ok(());
     }
     let scene = ctx
-        .input("scene")
-        .ok_or_else(|| input_err("scene", "must be connected for anchored constraints"))?
-        .payload::<crate::scene::GpuScene>()
-        .ok_or_else(|| input_err("scene", "is not a scene"))?;
+        .scene_opt("scene")?
+        .ok_or_else(|| input_err("scene", "must be connected for anchored constraints"))?;
     let f = frame.ok_or_else(|| {
         input_err(
             "visibility",

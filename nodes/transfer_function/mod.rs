@@ -210,17 +210,10 @@ struct Frame {
 impl Frame {
     /// The connected `visibility` and `depth`, checked; `None` when either is unconnected.
     fn of(ctx: &RunCtx) -> Result<Option<Frame>, NodeError> {
-        let vis = match ctx.input("visibility") {
-            None => return Ok(None),
-            Some(v) => v
-                .texture()
-                .cloned()
-                .ok_or_else(|| input_err("visibility", "is not an image"))?,
-        };
-        let (depth, camera) = match ctx.input("depth") {
-            None => return Ok(None),
-            Some(PortValue::Depth(t, m)) => (t.clone(), *m),
-            Some(_) => return Err(input_err("depth", "is not a depth image")),
+        let (Some(vis), Some((depth, camera))) =
+            (ctx.scalar_opt("visibility")?, ctx.depth_opt("depth")?)
+        else {
+            return Ok(None);
         };
         if (depth.width, depth.height) != (vis.width, vis.height) {
             return Err(input_err(
@@ -326,9 +319,8 @@ impl NodeKind for TransferFunction {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let frame = Frame::of(ctx)?;
-        let lut = match ctx.input("lut") {
-            Some(PortValue::Lut2D(t)) => t.clone(),
-            Some(_) => return Err(input_err("lut", "is not a Lut2D")),
+        let lut = match ctx.lut2d_opt("lut")? {
+            Some(t) => t,
             None => {
                 let n = ctx.side("resolution", p.resolution, 2)?;
                 ctx.check_bytes("resolution", u64::from(n).pow(2) * 16)?;

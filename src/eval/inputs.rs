@@ -60,3 +60,29 @@ getters! {
     /// A required Lut2D input.
     lut2d, lut2d_opt, "a 2D table": Lut2D(t) -> Arc<GpuTexture>;
 }
+
+impl RunCtx<'_> {
+    /// A required Scene input: the scene and its uploaded meshes.
+    pub fn scene(&self, port: &str) -> Result<&crate::scene::GpuScene, NodeError> {
+        let v = self.require(port)?;
+        v.payload::<crate::scene::GpuScene>()
+            .ok_or_else(|| wrong(port, "a scene", v))
+    }
+
+    /// The texture on an optional image-like input (Scalar, Image, Depth, ShadowMap — a port
+    /// accepting several of them): `None` when unconnected; see [`RunCtx::require_texture`].
+    pub fn texture_opt(&self, port: &str) -> Result<Option<Arc<GpuTexture>>, NodeError> {
+        match self.input(port) {
+            None => Ok(None),
+            Some(_) => self.require_texture(port).map(Some),
+        }
+    }
+
+    /// [`RunCtx::scene`] of an optional input: `None` when unconnected.
+    pub fn scene_opt(&self, port: &str) -> Result<Option<&crate::scene::GpuScene>, NodeError> {
+        match self.input(port) {
+            None => Ok(None),
+            Some(_) => self.scene(port).map(Some),
+        }
+    }
+}

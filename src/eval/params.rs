@@ -129,41 +129,18 @@ pub trait FromParam: Sized {
     fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError>;
 }
 
-impl FromParam for f32 {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.f32(name)
-    }
+/// `FromParam` for types a [`ParamReader`] method reads directly.
+macro_rules! from_reader {
+    ($($ty:ty => $method:ident),+ $(,)?) => {
+        $(impl FromParam for $ty {
+            fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
+                r.$method(name)
+            }
+        })+
+    };
 }
 
-impl FromParam for f64 {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.f64(name)
-    }
-}
-
-impl FromParam for i64 {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.int(name)
-    }
-}
-
-impl FromParam for bool {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.bool(name)
-    }
-}
-
-impl FromParam for [f32; 3] {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.vec3(name)
-    }
-}
-
-impl FromParam for [f32; 4] {
-    fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {
-        r.colour(name)
-    }
-}
+from_reader!(f32 => f32, f64 => f64, i64 => int, bool => bool, [f32; 3] => vec3, [f32; 4] => colour);
 
 impl FromParam for u32 {
     fn from_param(r: ParamReader, name: &str) -> Result<Self, NodeError> {

@@ -52,19 +52,19 @@ impl Gpu {
     /// Submit what was recorded since [`Gpu::begin_batch`] (once) and stop batching.
     pub fn end_batch(&self) -> Result<(), GpuError> {
         let pending = BATCH.with(|b| b.borrow_mut().take()).flatten();
-        let submitted = match pending {
-            Some(enc) => self.scoped(|| self.submit(enc.finish())),
-            None => Ok(()),
-        };
-        release_retired();
-        submitted?;
-        self.read_timers()
+        self.submit_pending(pending)
     }
 
     /// Submit what this thread's batch holds so far and keep batching (before a read-back or a
     /// queue write).
     pub(crate) fn flush(&self) -> Result<(), GpuError> {
         let pending = BATCH.with(|b| b.borrow_mut().as_mut().and_then(Option::take));
+        self.submit_pending(pending)
+    }
+
+    /// Submit a batch's encoder (if anything was recorded), then return the textures retired
+    /// meanwhile to the pool and read the passes' timers.
+    fn submit_pending(&self, pending: Option<wgpu::CommandEncoder>) -> Result<(), GpuError> {
         let submitted = match pending {
             Some(enc) => self.scoped(|| self.submit(enc.finish())),
             None => Ok(()),

@@ -23,6 +23,7 @@ pub use layout::{check_uniform_layout, UniformLayout};
 pub use options::{
     adapter_choice, env_backends, instance, instance_on, set_adapter_choice, GpuOptions,
 };
+use pool::{narrow, widen};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
 pub use shader::{compose, shader_file, shader_files, Shader};
@@ -568,28 +569,4 @@ impl Gpu {
             l.get_or_insert_with(|| "Destroyed: simulated".into());
         }
     }
-}
-
-/// Interleaved samples of `from` channels as `to ≥ from` channels (extra channels zero).
-fn widen(data: &[f32], from: u32, to: u32) -> std::borrow::Cow<'_, [f32]> {
-    if from >= to || from == 0 {
-        return std::borrow::Cow::Borrowed(data);
-    }
-    let (from, to) = (from as usize, to as usize);
-    let mut out = Vec::with_capacity(data.len() / from * to);
-    for texel in data.chunks(from) {
-        out.extend_from_slice(texel);
-        out.extend(std::iter::repeat_n(0.0, to - from));
-    }
-    std::borrow::Cow::Owned(out)
-}
-
-/// Interleaved samples of `from` channels cut to the first `to ≤ from`.
-fn narrow(data: Vec<f32>, from: u32, to: u32) -> Vec<f32> {
-    if to >= from || to == 0 {
-        return data;
-    }
-    data.chunks(from as usize)
-        .flat_map(|t| t[..to as usize].iter().copied())
-        .collect()
 }

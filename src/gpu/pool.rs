@@ -183,3 +183,27 @@ impl TexturePool {
         self.free.lock().map(|f| f.len()).unwrap_or(0)
     }
 }
+
+/// Interleaved samples of `from` channels as `to ≥ from` channels (extra channels zero).
+pub(crate) fn widen(data: &[f32], from: u32, to: u32) -> std::borrow::Cow<'_, [f32]> {
+    if from >= to || from == 0 {
+        return std::borrow::Cow::Borrowed(data);
+    }
+    let (from, to) = (from as usize, to as usize);
+    let mut out = Vec::with_capacity(data.len() / from * to);
+    for texel in data.chunks(from) {
+        out.extend_from_slice(texel);
+        out.extend(std::iter::repeat_n(0.0, to - from));
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// Interleaved samples of `from` channels cut to the first `to ≤ from`.
+pub(crate) fn narrow(data: Vec<f32>, from: u32, to: u32) -> Vec<f32> {
+    if to >= from || to == 0 {
+        return data;
+    }
+    data.chunks(from as usize)
+        .flat_map(|t| t[..to as usize].iter().copied())
+        .collect()
+}

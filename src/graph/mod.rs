@@ -10,6 +10,7 @@ mod error;
 mod format;
 mod schema;
 mod types;
+mod value;
 
 pub use data::NodeData;
 pub use document::{check_param_value, split_endpoint, EdgeRefs, Graph, Node, Wire};
@@ -20,6 +21,7 @@ pub use format::{
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
-    num, position, sample_keys, Choice, DefaultValue, Direction, Interp, Key, ParamKind,
-    ParamProblem, ParamSpec, ParamValue, PortSpec, PortType,
+    position, sample_keys, Choice, DefaultValue, Direction, Interp, Key, ParamKind, ParamSpec,
+    PortSpec, PortType,
 };
+pub use value::{num, ParamProblem, ParamValue};

@@ -1,0 +1,145 @@
+//! What an evaluation reports: per node, ran, reused or not needed, its times and its GPU
+//! submissions (`tyndall eval --stats`); and the progress of long-running nodes.
+
+use std::fmt;
+use std::time::Duration;
+
+/// What happened to one node in one evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// Computed in this evaluation.
+    Ran,
+    /// Run in this evaluation, but the node found its work unnecessary for these inputs and
+    /// parameters and forwarded an input unchanged (see [`RunCtx::pass_through`](super::RunCtx::pass_through)).
+    PassedThrough,
+    /// Its cached result was reused.
+    Reused,
+    /// No requested output depends on it.
+    NotNeeded,
+}
+
+impl Status {
+    /// Whether the node ran in this evaluation (fully or as a pass-through).
+    pub fn ran(self) -> bool {
+        matches!(self, Status::Ran | Status::PassedThrough)
+    }
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Status::Ran => "ran",
+            Status::PassedThrough => "passed through",
+            Status::Reused => "reused",
+            Status::NotNeeded => "not needed",
+        })
+    }
+}
+
+/// Statistics of one node.
+#[derive(Debug, Clone)]
+pub struct NodeStat {
+    /// Node id.
+    pub id: String,
+    /// Node kind.
+    pub kind: String,
+    /// Ran, reused or not needed.
+    pub status: Status,
+    /// Wall-clock time of its GPU work including completion (zero unless it ran).
+    pub time: Duration,
+    /// GPU time of its passes from timestamp queries (with `gpu_timings`, when supported).
+    pub gpu_time: Option<Duration>,
+    /// Command buffers submitted while it ran: 1 for a node whose passes all went into one
+    /// encoder, more for one that reads results back between passes (counted over the whole
+    /// GPU context, so an evaluation on another thread at the same time adds to it).
+    pub submits: u64,
+}
+
+/// Statistics of one evaluation, one entry per node of the document in topological order.
+#[derive(Debug, Clone, Default)]
+pub struct Stats {
+    /// Per node.
+    pub nodes: Vec<NodeStat>,
+}
+
+impl Stats {
+    /// The status of node `id`.
+    pub fn status(&self, id: &str) -> Option<Status> {
+        self.nodes.iter().find(|n| n.id == id).map(|n| n.status)
+    }
+
+    /// Ids of nodes with this status.
+    pub fn with_status(&self, s: Status) -> Vec<&str> {
+        self.nodes
+            .iter()
+            .filter(|n| n.status == s)
+            .map(|n| n.id.as_str())
+            .collect()
+    }
+}
+
+impl fmt::Display for Stats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let w = self
+            .nodes
+            .iter()
+            .map(|n| n.id.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
+        let k = self
+            .nodes
+            .iter()
+            .map(|n| n.kind.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
+        writeln!(
+            f,
+            "{:<w$}  {:<k$}  {:<14}  {:>10}  {:>10}",
+            "node", "kind", "status", "wall ms", "gpu ms"
+        )?;
+        let ms = |d: Duration| format!("{:.3}", d.as_secs_f64() * 1e3);
+        for n in &self.nodes {
+            let (wall, gpu) = if n.status.ran() {
+                (ms(n.time), n.gpu_time.map_or("-".into(), ms))
+            } else {
+                ("-".into(), "-".into())
+            };
+            writeln!(
+                f,
+                "{:<w$}  {:<k$}  {:<14}  {:>10}  {:>10}",
+                n.id,
+                n.kind,
+                n.status.to_string(),
+                wall,
+                gpu
+            )?;
+        }
+        let submits: u64 = self.nodes.iter().map(|n| n.submits).sum();
+        writeln!(f, "GPU submissions: {submits}")
+    }
+}
+
+/// One progress report of a running node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// The node's id.
+    pub node: String,
+    /// Steps done.
+    pub done: u64,
+    /// Steps in all (0 when unknown).
+    pub total: u64,
+    /// What is going on (e.g. "residual 4.3e-1").
+    pub message: String,
+}
+
+/// A receiver of [`Progress`] reports, shared with the nodes of an evaluation.
+#[derive(Clone)]
+pub struct ProgressSink(pub std::sync::Arc<dyn Fn(&Progress) + Send + Sync>);
+
+impl std::fmt::Debug for ProgressSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ProgressSink")
+    }
+}
