@@ -6,6 +6,7 @@
 
 mod data;
 mod document;
+mod edges;
 mod error;
 mod format;
 mod schema;

@@ -1,0 +1,160 @@
+//! Edges of a graph: connecting ports (type-checked against the catalog, one source per input,
+//! no cycles) and disconnecting them.
+
+use petgraph::visit::EdgeRef;
+use petgraph::Direction as PgDir;
+
+use super::document::*;
+use super::*;
+
+impl Graph {
+    /// Connect output `from` (`node.port`) to input `to` (`node.port`).
+    ///
+    /// Refused (document unchanged) when a node or port is missing, the types are incompatible,
+    /// the input already has an edge, or the edge would close a cycle; the error names both ends.
+    pub fn connect(&mut self, catalog: &Catalog, from: &str, to: &str) -> Result<(), GraphError> {
+        self.connect_impl(catalog, from, to, true)
+    }
+
+    /// Like [`Graph::connect`] but without the type checks, for loading a whole file: a
+    /// polymorphic output's type depends on edges listed later, so the loader adds every edge
+    /// and then calls [`Graph::check_all_types`] once.
+    pub fn connect_deferred(
+        &mut self,
+        catalog: &Catalog,
+        from: &str,
+        to: &str,
+    ) -> Result<(), GraphError> {
+        self.connect_impl(catalog, from, to, false)
+    }
+
+    pub(super) fn connect_impl(
+        &mut self,
+        catalog: &Catalog,
+        from: &str,
+        to: &str,
+        check_types: bool,
+    ) -> Result<(), GraphError> {
+        let (fnode, fport) = split_endpoint(from)?;
+        let (tnode, tport) = split_endpoint(to)?;
+        let missing = |node: &str| GraphError::EdgeMissingNode {
+            from: from.to_string(),
+            to: to.to_string(),
+            node: node.to_string(),
+        };
+        let fix = *self.index.get(fnode).ok_or_else(|| missing(fnode))?;
+        let tix = *self.index.get(tnode).ok_or_else(|| missing(tnode))?;
+        let fschema = self.schema_of(catalog, fnode)?;
+        let tschema = self.schema_of(catalog, tnode)?;
+        if fschema.output(fport).is_none() {
+            return Err(GraphError::EdgeMissingPort {
+                from: from.into(),
+                to: to.into(),
+                node: fnode.into(),
+                kind: fschema.kind.into(),
+                direction: "output",
+                port: fport.into(),
+                known: fschema.output_names(),
+            });
+        }
+        if tschema.input(tport).is_none() {
+            return Err(GraphError::EdgeMissingPort {
+                from: from.into(),
+                to: to.into(),
+                node: tnode.into(),
+                kind: tschema.kind.into(),
+                direction: "input",
+                port: tport.into(),
+                known: tschema.input_names(),
+            });
+        }
+        if let Some((sn, sp)) = self.source_of(tnode, tport) {
+            return Err(GraphError::InputTaken {
+                from: from.into(),
+                to: to.into(),
+                existing: format!("{sn}.{sp}"),
+            });
+        }
+        if fix == tix || petgraph::algo::has_path_connecting(&self.g, tix, fix, None) {
+            return Err(GraphError::Cycle {
+                from: from.into(),
+                to: to.into(),
+                from_node: fnode.into(),
+                to_node: tnode.into(),
+            });
+        }
+        if check_types {
+            self.check_edge_type(catalog, fnode, fport, tnode, tport)?;
+        }
+        let e = self.g.add_edge(
+            fix,
+            tix,
+            Wire {
+                from_port: fport.to_string(),
+                to_port: tport.to_string(),
+            },
+        );
+        // A polymorphic output may have changed type: re-check every edge downstream.
+        if !check_types {
+            return Ok(());
+        }
+        if let Err(err) = self.check_all_types(catalog) {
+            self.g.remove_edge(e);
+            return Err(err);
+        }
+        Ok(())
+    }
+
+    /// Remove the edge into input `port` of node `id`; returns whether there was one.
+    pub fn disconnect(&mut self, id: &str, port: &str) -> bool {
+        let Some(ix) = self.index.get(id) else {
+            return false;
+        };
+        let e = self
+            .g
+            .edges_directed(*ix, PgDir::Incoming)
+            .find(|e| e.weight().to_port == port)
+            .map(|e| e.id());
+        match e {
+            Some(e) => self.g.remove_edge(e).is_some(),
+            None => false,
+        }
+    }
+
+    pub(super) fn check_edge_type(
+        &self,
+        catalog: &Catalog,
+        fnode: &str,
+        fport: &str,
+        tnode: &str,
+        tport: &str,
+    ) -> Result<(), GraphError> {
+        let tschema = self.schema_of(catalog, tnode)?;
+        let Some(ft) = self.output_type(catalog, fnode, fport) else {
+            return Ok(());
+        };
+        let accepts = tschema.input(tport).map(|p| p.types).unwrap_or(&[]);
+        if accepts.iter().any(|t| ft.can_feed(*t)) {
+            Ok(())
+        } else {
+            Err(GraphError::TypeMismatch {
+                from: format!("{fnode}.{fport}"),
+                to: format!("{tnode}.{tport}"),
+                from_type: ft,
+                to_types: accepts
+                    .iter()
+                    .map(|t| t.name())
+                    .collect::<Vec<_>>()
+                    .join(" | "),
+            })
+        }
+    }
+
+    /// Check the type of every edge.
+    pub fn check_all_types(&self, catalog: &Catalog) -> Result<(), GraphError> {
+        for e in self.edges() {
+            self.check_edge_type(catalog, &e.from_node, &e.from_port, &e.to_node, &e.to_port)?;
+        }
+        Ok(())
+    }
+}
