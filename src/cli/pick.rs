@@ -27,13 +27,10 @@ pub struct PickArgs {
     /// Override a parameter: NODE.PARAM=VALUE (repeatable).
     #[arg(long = "set", value_name = "NODE.PARAM=VALUE")]
     pub set: Vec<String>,
-    /// Folder that the graph's relative output paths are written under (default: the working
-    /// directory). The graph's relative input paths are read from the graph file's folder.
+    /// Accepted as `eval` and `render` take it; pick writes no file, so it changes nothing.
     #[arg(long, value_name = "DIR")]
     pub output_dir: Option<PathBuf>,
-    /// Let the graph write to absolute paths and climb out of the output directory with `..`
-    /// (refused by default, so a preset from someone else cannot overwrite your files). Paths
-    /// you give on the command line (-o, --output, --set) are yours and always allowed.
+    /// Accepted as `eval` and `render` take it; pick writes no file, so it changes nothing.
     #[arg(long)]
     pub allow_any_path: bool,
 }

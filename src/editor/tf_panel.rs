@@ -108,9 +108,29 @@ pub fn show(
     ui.heading("Transfer function");
     let mut data = super::panel::data_block::<TfData>(ui, state, id)?;
     let before = data.clone();
-    let mut merge: Option<&str> = None;
+    let mut message = key_bar(ui, &mut data, time);
+    ui.horizontal(|ui| {
+        ui.label("brush");
+        colour_button(ui, &mut panel.brush);
+        ui.toggle_value(&mut panel.arm_3d, "3D constraint")
+            .on_hover_text(
+                "Click in the viewer to add a constraint anchored to that surface point",
+            );
+    });
+    let (merge, refused) = constraint_field(ui, state, &mut data, time, panel);
+    message = message.or(refused);
+    layer_list(ui, &mut data, time, panel);
+    if data != before {
+        if let Err(e) = state.store_node_data(id, &data, merge) {
+            message = Some(e);
+        }
+    }
+    message
+}
+
+/// The key-frame buttons of the stack (key it, add or remove a key at this frame).
+fn key_bar(ui: &mut egui::Ui, data: &mut TfData, time: f64) -> Option<String> {
     let mut message = None;
-    // Key-frames of the stack.
     ui.horizontal(|ui| {
         if data.keys.is_empty() {
             if ui
@@ -145,33 +165,23 @@ pub fn show(
             ui.label(format!("keys at {}", keys.join(", ")));
         }
     });
-    ui.horizontal(|ui| {
-        ui.label("brush");
-        colour_button(ui, &mut panel.brush);
-        ui.toggle_value(&mut panel.arm_3d, "3D constraint")
-            .on_hover_text(
-                "Click in the viewer to add a constraint anchored to that surface point",
-            );
-    });
-    // The TF square.
+    message
+}
+
+/// The TF square: the baked preview with the selected diffusion layer's constraints — a click
+/// adds one at the brush colour, a drag moves one. Returns the undo-merge tag of a drag in
+/// progress and a refusal message.
+fn constraint_field(
+    ui: &mut egui::Ui,
+    state: &mut EditorState,
+    data: &mut TfData,
+    time: f64,
+    panel: &mut TfPanel,
+) -> (Option<&'static str>, Option<String>) {
+    let mut merge: Option<&'static str> = None;
+    let mut message = None;
     let shown = data.stack_at(time).unwrap_or_default();
-    let key = format!("{:?}", shown);
-    if panel.preview.as_ref().is_none_or(|(k, _)| *k != key) {
-        let lut = bake_reference(&shown, PREVIEW, 4, &[]);
-        let pixels: Vec<egui::Color32> = lut
-            .data
-            .chunks(4)
-            .map(|p| {
-                let c = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
-                egui::Color32::from_rgb(c(p[0]), c(p[1]), c(p[2]))
-            })
-            .collect();
-        let image = egui::ColorImage::new([PREVIEW as usize, PREVIEW as usize], pixels);
-        let tex = ui
-            .ctx()
-            .load_texture("tf-square", image, egui::TextureOptions::LINEAR);
-        panel.preview = Some((key, tex));
-    }
+    preview(ui, &shown, panel);
     let (rect, response) =
         ui.allocate_exact_size(egui::vec2(SQUARE, SQUARE), egui::Sense::click_and_drag());
     let response = response.on_hover_text(
@@ -192,26 +202,7 @@ pub fn show(
         let r = (p - rect.min) / rect.size();
         [r.x.clamp(0.0, 1.0), r.y.clamp(0.0, 1.0)]
     };
-    let mut markers = Vec::new();
-    if let Some(LayerEntry {
-        layer: Layer::Diffusion { constraints },
-        ..
-    }) = shown.get(panel.layer)
-    {
-        for (i, c) in constraints.iter().enumerate() {
-            let p = to_screen(c.at);
-            let fill = egui::Color32::from_rgb(
-                (c.colour[0].clamp(0.0, 1.0) * 255.0) as u8,
-                (c.colour[1].clamp(0.0, 1.0) * 255.0) as u8,
-                (c.colour[2].clamp(0.0, 1.0) * 255.0) as u8,
-            );
-            painter.circle(p, 5.0, fill, egui::Stroke::new(1.5, egui::Color32::WHITE));
-            if c.anchor.is_some() {
-                painter.circle_stroke(p, 8.0, egui::Stroke::new(1.0, egui::Color32::WHITE));
-            }
-            markers.push((i, p));
-        }
-    }
+    let markers = draw_constraints(&painter, &shown, panel.layer, to_screen);
     let near = |pos: egui::Pos2| {
         markers
             .iter()
@@ -226,7 +217,7 @@ pub fn show(
     }
     if let (Some(i), Some(pos)) = (panel.dragging, response.interact_pointer_pos()) {
         if response.dragged() {
-            if let Some(stack) = editable(&mut data, time) {
+            if let Some(stack) = editable(data, time) {
                 if let Some(LayerEntry {
                     layer: Layer::Diffusion { constraints },
                     ..
@@ -247,7 +238,7 @@ pub fn show(
     if response.clicked() {
         if let Some(pos) = response.interact_pointer_pos() {
             if near(pos).is_none() {
-                match editable(&mut data, time) {
+                match editable(data, time) {
                     Some(stack) => {
                         let c = Constraint {
                             at: to_tf(pos),
@@ -261,14 +252,19 @@ pub fn show(
             }
         }
     }
-    // The layer list, top of the stack first.
-    let read_only = editable(&mut data, time).is_none();
+    (merge, message)
+}
+
+/// The layer list, top of the stack first: add, select, blend, opacity, reorder, remove, and
+/// each layer's own settings.
+fn layer_list(ui: &mut egui::Ui, data: &mut TfData, time: f64, panel: &mut TfPanel) {
+    let read_only = editable(data, time).is_none();
     ui.horizontal(|ui| {
         ui.label("Layers");
         ui.menu_button("Add layer", |ui| {
             for kind in ["Solid", "Gradient", "Diffusion", "Image"] {
                 if ui.button(kind).clicked() {
-                    if let Some(stack) = editable(&mut data, time) {
+                    if let Some(stack) = editable(data, time) {
                         stack.push(LayerEntry {
                             layer: new_layer(kind, panel.brush),
                             blend: Blend::Alpha,
@@ -283,89 +279,13 @@ pub fn show(
     });
     if read_only {
         ui.label("(between keys: the stack shown is interpolated; add a key to edit it)");
-    } else if let Some(stack) = editable(&mut data, time) {
+    } else if let Some(stack) = editable(data, time) {
         let n = stack.len();
         let mut action: Option<(&str, usize)> = None;
         for i in (0..n).rev() {
-            let e = &mut stack[i];
-            ui.push_id(("tf-layer", i), |ui| {
-                ui.horizontal(|ui| {
-                    if ui
-                        .selectable_label(
-                            panel.layer == i,
-                            format!("{i} {}", layer_name(&e.layer, false)),
-                        )
-                        .clicked()
-                    {
-                        panel.layer = i;
-                    }
-                    egui::ComboBox::from_id_salt("blend")
-                        .selected_text(format!("{:?}", e.blend))
-                        .width(70.0)
-                        .show_ui(ui, |ui| {
-                            for b in [Blend::Alpha, Blend::Multiply, Blend::Add] {
-                                ui.selectable_value(&mut e.blend, b, format!("{b:?}"));
-                            }
-                        });
-                    let label = ui.label("α");
-                    ui.add(
-                        egui::DragValue::new(&mut e.opacity)
-                            .range(0.0..=1.0)
-                            .speed(0.01),
-                    )
-                    .labelled_by(label.id)
-                    .on_hover_text("opacity");
-                    if ui.small_button("▲").on_hover_text("move up").clicked() && i + 1 < n {
-                        action = Some(("up", i));
-                    }
-                    if ui.small_button("▼").on_hover_text("move down").clicked() && i > 0 {
-                        action = Some(("down", i));
-                    }
-                    if ui.small_button("✕").on_hover_text("remove layer").clicked() {
-                        action = Some(("remove", i));
-                    }
-                });
-                ui.horizontal(|ui| match &mut e.layer {
-                    Layer::Solid { colour } => {
-                        colour_button(ui, colour);
-                    }
-                    Layer::Gradient {
-                        from,
-                        to,
-                        from_colour,
-                        to_colour,
-                    } => {
-                        colour_button(ui, from_colour);
-                        for v in from.iter_mut() {
-                            ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
-                        }
-                        ui.label("→");
-                        colour_button(ui, to_colour);
-                        for v in to.iter_mut() {
-                            ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
-                        }
-                    }
-                    Layer::Diffusion { constraints } => {
-                        let mut remove = None;
-                        for (k, c) in constraints.iter_mut().enumerate() {
-                            colour_button(ui, &mut c.colour);
-                            if ui
-                                .small_button("✕")
-                                .on_hover_text("remove constraint")
-                                .clicked()
-                            {
-                                remove = Some(k);
-                            }
-                        }
-                        if let Some(k) = remove {
-                            constraints.remove(k);
-                        }
-                    }
-                    Layer::Image { path } => {
-                        ui.text_edit_singleline(path);
-                    }
-                });
-            });
+            if let Some(a) = layer_row(ui, i, n, &mut stack[i], panel) {
+                action = Some(a);
+            }
         }
         match action {
             Some(("up", i)) => stack.swap(i, i + 1),
@@ -377,10 +297,147 @@ pub fn show(
             None => {}
         }
     }
-    if data != before {
-        if let Err(e) = state.store_node_data(id, &data, merge) {
-            message = Some(e);
+}
+
+/// The baked preview of the stack shown, re-baked when the stack changed.
+fn preview(ui: &egui::Ui, shown: &[LayerEntry], panel: &mut TfPanel) {
+    let key = format!("{:?}", shown);
+    if panel.preview.as_ref().is_none_or(|(k, _)| *k != key) {
+        let lut = bake_reference(shown, PREVIEW, 4, &[]);
+        let pixels: Vec<egui::Color32> = lut
+            .data
+            .chunks(4)
+            .map(|p| {
+                let c = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+                egui::Color32::from_rgb(c(p[0]), c(p[1]), c(p[2]))
+            })
+            .collect();
+        let image = egui::ColorImage::new([PREVIEW as usize, PREVIEW as usize], pixels);
+        let tex = ui
+            .ctx()
+            .load_texture("tf-square", image, egui::TextureOptions::LINEAR);
+        panel.preview = Some((key, tex));
+    }
+}
+
+/// Draw the constraints of diffusion layer `layer` of `shown` on the square; their screen
+/// positions, by index.
+fn draw_constraints(
+    painter: &egui::Painter,
+    shown: &[LayerEntry],
+    layer: usize,
+    to_screen: impl Fn([f32; 2]) -> egui::Pos2,
+) -> Vec<(usize, egui::Pos2)> {
+    let mut markers = Vec::new();
+    if let Some(LayerEntry {
+        layer: Layer::Diffusion { constraints },
+        ..
+    }) = shown.get(layer)
+    {
+        for (i, c) in constraints.iter().enumerate() {
+            let p = to_screen(c.at);
+            let fill = egui::Color32::from_rgb(
+                (c.colour[0].clamp(0.0, 1.0) * 255.0) as u8,
+                (c.colour[1].clamp(0.0, 1.0) * 255.0) as u8,
+                (c.colour[2].clamp(0.0, 1.0) * 255.0) as u8,
+            );
+            painter.circle(p, 5.0, fill, egui::Stroke::new(1.5, egui::Color32::WHITE));
+            if c.anchor.is_some() {
+                painter.circle_stroke(p, 8.0, egui::Stroke::new(1.0, egui::Color32::WHITE));
+            }
+            markers.push((i, p));
         }
     }
-    message
+    markers
+}
+
+/// One layer's rows (select, blend, opacity, reorder, remove; its own settings); the
+/// reordering or removal asked for, if any.
+fn layer_row(
+    ui: &mut egui::Ui,
+    i: usize,
+    n: usize,
+    e: &mut LayerEntry,
+    panel: &mut TfPanel,
+) -> Option<(&'static str, usize)> {
+    let mut action = None;
+    ui.push_id(("tf-layer", i), |ui| {
+        ui.horizontal(|ui| {
+            if ui
+                .selectable_label(
+                    panel.layer == i,
+                    format!("{i} {}", layer_name(&e.layer, false)),
+                )
+                .clicked()
+            {
+                panel.layer = i;
+            }
+            egui::ComboBox::from_id_salt("blend")
+                .selected_text(format!("{:?}", e.blend))
+                .width(70.0)
+                .show_ui(ui, |ui| {
+                    for b in [Blend::Alpha, Blend::Multiply, Blend::Add] {
+                        ui.selectable_value(&mut e.blend, b, format!("{b:?}"));
+                    }
+                });
+            let label = ui.label("α");
+            ui.add(
+                egui::DragValue::new(&mut e.opacity)
+                    .range(0.0..=1.0)
+                    .speed(0.01),
+            )
+            .labelled_by(label.id)
+            .on_hover_text("opacity");
+            if ui.small_button("▲").on_hover_text("move up").clicked() && i + 1 < n {
+                action = Some(("up", i));
+            }
+            if ui.small_button("▼").on_hover_text("move down").clicked() && i > 0 {
+                action = Some(("down", i));
+            }
+            if ui.small_button("✕").on_hover_text("remove layer").clicked() {
+                action = Some(("remove", i));
+            }
+        });
+        ui.horizontal(|ui| match &mut e.layer {
+            Layer::Solid { colour } => {
+                colour_button(ui, colour);
+            }
+            Layer::Gradient {
+                from,
+                to,
+                from_colour,
+                to_colour,
+            } => {
+                colour_button(ui, from_colour);
+                for v in from.iter_mut() {
+                    ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
+                }
+                ui.label("→");
+                colour_button(ui, to_colour);
+                for v in to.iter_mut() {
+                    ui.add(egui::DragValue::new(v).range(0.0..=1.0).speed(0.01));
+                }
+            }
+            Layer::Diffusion { constraints } => {
+                let mut remove = None;
+                for (k, c) in constraints.iter_mut().enumerate() {
+                    colour_button(ui, &mut c.colour);
+                    if ui
+                        .small_button("✕")
+                        .on_hover_text("remove constraint")
+                        .clicked()
+                    {
+                        remove = Some(k);
+                    }
+                }
+                if let Some(k) = remove {
+                    constraints.remove(k);
+                }
+            }
+            Layer::Image { path } => {
+                ui.text_edit_singleline(path);
+            }
+        });
+    });
+    action
 }

@@ -150,20 +150,8 @@ impl TexturePool {
         });
         let stored = self.caps.stored(format.wgpu());
         let tex = recycled.unwrap_or_else(|| {
-            self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("tyndall"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: stored,
-                usage: self.caps.texture_usages(stored),
-                view_formats: &[],
-            })
+            let usage = self.caps.texture_usages(stored);
+            texture_2d(&self.device, "tyndall", (width, height), stored, usage)
         });
         let view = tex.create_view(&Default::default());
         GpuTexture {
@@ -206,4 +194,28 @@ pub(crate) fn narrow(data: Vec<f32>, from: u32, to: u32) -> Vec<f32> {
     data.chunks(from as usize)
         .flat_map(|t| t[..to as usize].iter().copied())
         .collect()
+}
+
+/// A single-level 2D texture (pooled textures, raster attachments).
+pub(crate) fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
 }
