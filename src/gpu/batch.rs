@@ -44,9 +44,16 @@ fn release_retired() {
 }
 
 impl Gpu {
-    /// Record this thread's GPU commands into one encoder until [`Gpu::end_batch`].
+    /// Record this thread's GPU commands into one encoder until [`Gpu::end_batch`]. Already
+    /// batching (an evaluation inside a node's run), it keeps the batch it has: nothing recorded
+    /// is dropped, and the inner `end_batch` submits it early, which keeps the order.
     pub fn begin_batch(&self) {
-        BATCH.with(|b| *b.borrow_mut() = Some(None));
+        BATCH.with(|b| {
+            let mut b = b.borrow_mut();
+            if b.is_none() {
+                *b = Some(None);
+            }
+        });
     }
 
     /// Submit what was recorded since [`Gpu::begin_batch`] (once) and stop batching.
