@@ -37,52 +37,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
     use std::fmt::Write;
     let schemas: Vec<&NodeSchema> = registry.catalog().iter().collect();
     if json {
-        let v: Vec<serde_json::Value> = schemas
-            .iter()
-            .map(|s| {
-                let ports = |dir: &str, ps: &[crate::graph::PortSpec]| -> Vec<serde_json::Value> {
-                    ps.iter()
-                        .map(|p| {
-                            serde_json::json!({
-                                "name": p.name, "direction": dir,
-                                "types": p.types.iter().map(|t| t.name()).collect::<Vec<_>>(),
-                                "required": p.required, "doc": p.doc,
-                            })
-                        })
-                        .collect()
-                };
-                let mut all = ports("input", s.inputs);
-                all.extend(ports("output", s.outputs));
-                serde_json::json!({
-                    "kind": s.kind, "category": s.category, "doc": s.doc,
-                    "ports": all,
-                    "params": s.params.iter().map(|p| {
-                        let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);
-                        let mut v = serde_json::json!({
-                            "name": p.name, "type": p.kind.name(),
-                            "default": match p.default.value() {
-                                ParamValue::Float(v) => serde_json::json!(v),
-                                ParamValue::Int(v) => serde_json::json!(v),
-                                ParamValue::Bool(v) => serde_json::json!(v),
-                                ParamValue::Enum(v) | ParamValue::Text(v) => serde_json::json!(v),
-                                ParamValue::Colour(c) => serde_json::json!(c),
-                                ParamValue::Vec3(c) => serde_json::json!(c),
-                            },
-                            "min": if numeric { serde_json::json!(p.min) } else { serde_json::Value::Null },
-                            "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },
-                            "values": match p.kind { ParamKind::Enum(n) => serde_json::json!(n), _ => serde_json::Value::Null },
-                            "unit": p.unit, "doc": p.doc,
-                        });
-                        // Only parameters that are not always in effect carry the key.
-                        if let (Some((param, values)), Some(o)) = (p.when, v.as_object_mut()) {
-                            o.insert("in_effect".into(), serde_json::json!({ "param": param, "values": values }));
-                        }
-                        v
-                    }).collect::<Vec<_>>(),
-                })
-            })
-            .collect();
-        return serde_json::to_string_pretty(&v).unwrap_or_default() + "\n";
+        return catalog_json(&schemas);
     }
     let mut out = String::new();
     if markdown {
@@ -151,4 +106,54 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
         }
     }
     out
+}
+
+/// The catalog as JSON (`tyndall nodes --json`): kinds with their ports and parameters.
+fn catalog_json(schemas: &[&NodeSchema]) -> String {
+    let v: Vec<serde_json::Value> = schemas
+        .iter()
+        .map(|s| {
+            let ports = |dir: &str, ps: &[crate::graph::PortSpec]| -> Vec<serde_json::Value> {
+                ps.iter()
+                    .map(|p| {
+                        serde_json::json!({
+                            "name": p.name, "direction": dir,
+                            "types": p.types.iter().map(|t| t.name()).collect::<Vec<_>>(),
+                            "required": p.required, "doc": p.doc,
+                        })
+                    })
+                    .collect()
+            };
+            let mut all = ports("input", s.inputs);
+            all.extend(ports("output", s.outputs));
+            serde_json::json!({
+                "kind": s.kind, "category": s.category, "doc": s.doc,
+                "ports": all,
+                "params": s.params.iter().map(|p| {
+                    let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);
+                    let mut v = serde_json::json!({
+                        "name": p.name, "type": p.kind.name(),
+                        "default": match p.default.value() {
+                            ParamValue::Float(v) => serde_json::json!(v),
+                            ParamValue::Int(v) => serde_json::json!(v),
+                            ParamValue::Bool(v) => serde_json::json!(v),
+                            ParamValue::Enum(v) | ParamValue::Text(v) => serde_json::json!(v),
+                            ParamValue::Colour(c) => serde_json::json!(c),
+                            ParamValue::Vec3(c) => serde_json::json!(c),
+                        },
+                        "min": if numeric { serde_json::json!(p.min) } else { serde_json::Value::Null },
+                        "max": if numeric { serde_json::json!(p.max) } else { serde_json::Value::Null },
+                        "values": match p.kind { ParamKind::Enum(n) => serde_json::json!(n), _ => serde_json::Value::Null },
+                        "unit": p.unit, "doc": p.doc,
+                    });
+                    // Only parameters that are not always in effect carry the key.
+                    if let (Some((param, values)), Some(o)) = (p.when, v.as_object_mut()) {
+                        o.insert("in_effect".into(), serde_json::json!({ "param": param, "values": values }));
+                    }
+                    v
+                }).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    serde_json::to_string_pretty(&v).unwrap_or_default() + "\n"
 }
