@@ -108,27 +108,7 @@ pub(super) fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliEr
     if let Some(s) = a.size {
         opts.size = s;
     }
-    for i in &a.inputs {
-        let (port, file) = split_eq(i, "PORT=FILE")?;
-        let spec = schema.input(&port).ok_or_else(|| {
-            bad(format!(
-                "{} has no input port '{port}' (its inputs: {})",
-                a.kind,
-                schema.input_names()
-            ))
-        })?;
-        let path = PathBuf::from(&file);
-        let raster = read_image(&path, true).map_err(bad)?;
-        let ty = type_for_file(spec.types, raster.channels).ok_or_else(|| {
-            bad(format!(
-                "{file}: a {}-channel image cannot feed {}.{port}",
-                raster.channels, a.kind
-            ))
-        })?;
-        let v = upload_raster(&gpu, &raster, ty).map_err(|e| bad(format!("{file}: {e}")))?;
-        opts.inject
-            .insert((id.clone(), port.clone()), (v, file_key(&path)));
-    }
+    inject_inputs(&gpu, schema, &a, &id, &mut opts)?;
     let mut targets = Vec::new();
     let mut files = Vec::new();
     for o in &a.outputs {
@@ -162,6 +142,38 @@ pub(super) fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliEr
     }
     if a.stats {
         print_stats(&result, "");
+    }
+    Ok(())
+}
+
+/// Feed `--input PORT=FILE` images to the node's input ports (uploaded as the port's type).
+fn inject_inputs(
+    gpu: &crate::gpu::Gpu,
+    schema: &NodeSchema,
+    a: &NodeArgs,
+    id: &str,
+    opts: &mut EvalOptions,
+) -> Result<(), CliError> {
+    for i in &a.inputs {
+        let (port, file) = split_eq(i, "PORT=FILE")?;
+        let spec = schema.input(&port).ok_or_else(|| {
+            bad(format!(
+                "{} has no input port '{port}' (its inputs: {})",
+                a.kind,
+                schema.input_names()
+            ))
+        })?;
+        let path = PathBuf::from(&file);
+        let raster = read_image(&path, true).map_err(bad)?;
+        let ty = type_for_file(spec.types, raster.channels).ok_or_else(|| {
+            bad(format!(
+                "{file}: a {}-channel image cannot feed {}.{port}",
+                raster.channels, a.kind
+            ))
+        })?;
+        let v = upload_raster(gpu, &raster, ty).map_err(|e| bad(format!("{file}: {e}")))?;
+        opts.inject
+            .insert((id.to_string(), port.clone()), (v, file_key(&path)));
     }
     Ok(())
 }
