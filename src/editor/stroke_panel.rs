@@ -177,6 +177,23 @@ pub fn show(
         }
         ui.label(format!("{waiting} stroke(s) waiting"));
     });
+    view_list(ui, &mut data, panel);
+    if data != before {
+        if let Err(e) = state.store_node_data(id, &data, None) {
+            return Some(e);
+        }
+    }
+    if solve_now {
+        return Some(match solve(state, id, panel, view_size) {
+            Ok(()) => "solving the light map…".into(),
+            Err(e) => e,
+        });
+    }
+    None
+}
+
+/// The views, one row each: select, undo its last stroke, remove.
+fn view_list(ui: &mut egui::Ui, data: &mut SolveData, panel: &mut StrokePanel) {
     let mut remove = None;
     for (i, v) in data.views.iter_mut().enumerate() {
         ui.horizontal(|ui| {
@@ -211,16 +228,4 @@ pub fn show(
         data.views.remove(i);
         panel.view = panel.view.min(data.views.len().saturating_sub(1));
     }
-    if data != before {
-        if let Err(e) = state.store_node_data(id, &data, None) {
-            return Some(e);
-        }
-    }
-    if solve_now {
-        return Some(match solve(state, id, panel, view_size) {
-            Ok(()) => "solving the light map…".into(),
-            Err(e) => e,
-        });
-    }
-    None
 }
