@@ -48,32 +48,7 @@ pub struct BenchArgs {
 pub(super) fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), CliError> {
     use crate::bench::{self, report};
     let all = a.suite.is_none();
-    let root = Path::new("benches");
-    if a.suite.is_none() && !root.is_dir() {
-        return Err(bad(
-            "no benches/ folder in the working directory: run `tyndall bench` from the \
-             repository root",
-        ));
-    }
-    let list: Vec<(String, PathBuf)> = match &a.suite {
-        None => report::all_suites(root).map_err(bad)?,
-        Some(name) => bench::suite_files(name)
-            .map_err(bad)?
-            .into_iter()
-            .map(|p| {
-                let name = p
-                    .strip_prefix(root)
-                    .unwrap_or(&p)
-                    .with_extension("")
-                    .to_string_lossy()
-                    .into_owned();
-                (name, p)
-            })
-            .collect(),
-    };
-    if list.is_empty() {
-        return Err(bad("no bench suites found under benches/"));
-    }
+    let list = suites(&a)?;
     let out_dir = a
         .out
         .clone()
@@ -200,4 +175,37 @@ pub(super) fn replot(out: &Path, only: Option<&str>) -> Result<(), CliError> {
 /// Write a file atomically, creating its folder.
 pub(super) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     crate::bench::record::write_file(path, bytes).map_err(bad)
+}
+
+/// The suites asked for: `benches/NAME.ron` or the folder `benches/NAME/`, or every suite,
+/// as (name under `benches/`, file).
+fn suites(a: &BenchArgs) -> Result<Vec<(String, PathBuf)>, CliError> {
+    use crate::bench::{self, report};
+    let root = Path::new("benches");
+    if a.suite.is_none() && !root.is_dir() {
+        return Err(bad(
+            "no benches/ folder in the working directory: run `tyndall bench` from the \
+             repository root",
+        ));
+    }
+    let list: Vec<(String, PathBuf)> = match &a.suite {
+        None => report::all_suites(root).map_err(bad)?,
+        Some(name) => bench::suite_files(name)
+            .map_err(bad)?
+            .into_iter()
+            .map(|p| {
+                let name = p
+                    .strip_prefix(root)
+                    .unwrap_or(&p)
+                    .with_extension("")
+                    .to_string_lossy()
+                    .into_owned();
+                (name, p)
+            })
+            .collect(),
+    };
+    if list.is_empty() {
+        return Err(bad("no bench suites found under benches/"));
+    }
+    Ok(list)
 }
