@@ -1126,3 +1126,45 @@ fn info_lists_adapters_and_the_one_used_and_refuses_a_bad_choice() {
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("names no adapter"), "{err}");
 }
+
+/// A parameter set where it is not in effect (Mie's `radius` under the default preset) is kept
+/// but warned about, naming what would make it count; set where it counts, no warning.
+#[test]
+fn setting_a_parameter_that_is_not_in_effect_warns() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("mie.exr");
+    let out = format!("phase={}", out.display());
+    let quick = [
+        "--param",
+        "radii=2",
+        "--param",
+        "samples=900",
+        "--output",
+        &out,
+    ];
+    let mut args = vec!["node", "Mie", "--param", "radius=3"];
+    args.extend(quick);
+    let o = tyndall(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("mie.radius is set but changes nothing: it counts only with preset = custom"),
+        "{err}"
+    );
+    let mut args = vec![
+        "node",
+        "Mie",
+        "--param",
+        "preset=custom",
+        "--param",
+        "radius=3",
+    ];
+    args.extend(quick);
+    let o = tyndall(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("changes nothing"), "{err}");
+}
