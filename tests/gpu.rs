@@ -154,12 +154,13 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     );
 }
 
-/// A node's passes are submitted once: the default preset's multi-pass nodes (the tree's
-/// shadow map, the scattering) report one submission each, and a node that reads back between
-/// passes more.
+/// A node's passes are submitted once: the default preset's multi-pass nodes (the window's
+/// shadow map, the MinMax scattering with its pyramid) report one submission each. Not on
+/// wgpu's GL backend, which submits every pass alone (see `src/gpu/batch.rs`).
 #[test]
 fn a_node_run_is_one_submission_unless_it_reads_back() {
     let gpu = require_gpu!();
+    let batched = gpu.info.backend != wgpu::Backend::Gl;
     let registry = std::sync::Arc::new(tyndall::nodes::registry());
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
     let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
@@ -172,7 +173,7 @@ fn a_node_run_is_one_submission_unless_it_reads_back() {
     let r = ev.evaluate(&graph, &target, &opts).expect("evaluate");
     let ran: Vec<_> = r.stats.nodes.iter().filter(|n| n.status.ran()).collect();
     assert!(!ran.is_empty());
-    for n in &ran {
+    for n in ran.iter().filter(|_| batched) {
         assert!(
             n.submits <= 1,
             "{} ({}) submitted {} times",

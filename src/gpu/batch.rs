@@ -8,7 +8,8 @@
 //! tracing on, every pass is submitted alone (tracing waits for each).
 //!
 //! The batch is per thread, like wgpu's error scopes: the editor evaluates on one thread while
-//! drawing on another, and neither sees the other's batch.
+//! drawing on another, and neither sees the other's batch. On wgpu's GL backend nothing is
+//! batched (see [`Gpu::batching`]'s doc: GL's context lock).
 
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
@@ -81,9 +82,13 @@ impl Gpu {
         self.read_timers()
     }
 
-    /// Whether commands are being batched on this thread now.
+    /// Whether commands are being batched on this thread now. Never on wgpu's GL backend: a
+    /// GL submission runs while holding the adapter's one context lock, and another thread
+    /// waiting for that lock gives up after one second (wgpu-hal panics "Could not lock adapter
+    /// context"), so a whole node's passes in one submission — seconds on llvmpipe — would fail
+    /// any thread evaluating beside it; there every pass is submitted alone, as before.
     fn batching(&self) -> bool {
-        BATCH.with(|b| b.borrow().is_some()) && !tracing()
+        BATCH.with(|b| b.borrow().is_some()) && !tracing() && self.info.backend != wgpu::Backend::Gl
     }
 
     /// A pass's timer, resolved in the encoder that recorded it: read now when that encoder
