@@ -1,8 +1,10 @@
-//! The CPU twins of `shaders/lib/*.wgsl`, function for function, for the nodes' CPU references.
+//! The CPU twins of `shaders/lib/*.wgsl`, for the nodes' CPU references (the camera's are
+//! `crate::eval::screen_ray` / `pixel_ray`, which predate the library; `exp_segment` has no
+//! twin: the scattering reference integrates its pieces inline).
 //! A change to one side is a change to both (`tests/shader_lib.rs` runs the WGSL side on the
 //! GPU and compares).
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 
 use crate::io::Raster;
 
@@ -22,17 +24,6 @@ pub fn decay_integral(len: f32, m: f32) -> f32 {
         return len * series;
     }
     (1.0 - (-x).exp()) / m
-}
-
-/// `∫_a^b e^{−m (t − a)} dt` over `len = b − a` for m of either sign, from the end where the
-/// exponent is largest: `(integral relative to the integrand at that end, which end: 0 = a,
-/// 1 = b)`.
-pub fn exp_segment(len: f32, m: f32) -> (f32, u32) {
-    if m >= 0.0 {
-        (decay_integral(len, m), 0)
-    } else {
-        (decay_integral(len, -m), 1)
-    }
 }
 
 /// The Henyey–Greenstein phase function (1/sr) for asymmetry g ∈ (−1, 1) at cos θ.
@@ -60,31 +51,7 @@ pub fn pixel_jitter(x: u32, y: u32) -> f32 {
     pcg(seed) as f32 / 4_294_967_296.0
 }
 
-// ---- shaders/lib/camera.wgsl -------------------------------------------------------------
-
-/// Unit direction of the view ray through screen point `q` (pixels, continuous, y down) of a
-/// `size` image; (0, 0, −1) for a degenerate camera.
-pub fn camera_ray(inv_view_proj: Mat4, eye: Vec3, q: Vec2, size: (u32, u32)) -> Vec3 {
-    let ndc = Vec4::new(
-        q.x / size.0 as f32 * 2.0 - 1.0,
-        1.0 - q.y / size.1 as f32 * 2.0,
-        1.0,
-        1.0,
-    );
-    let far = inv_view_proj * ndc;
-    let dir = far.truncate() / far.w - eye;
-    if dir.dot(dir) > 0.0 {
-        dir.normalize()
-    } else {
-        Vec3::new(0.0, 0.0, -1.0)
-    }
-}
-
-/// Unit direction of the view ray through the centre of pixel `p`.
-pub fn pixel_ray(inv_view_proj: Mat4, eye: Vec3, p: (u32, u32), size: (u32, u32)) -> Vec3 {
-    let q = Vec2::new(p.0 as f32 + 0.5, p.1 as f32 + 0.5);
-    camera_ray(inv_view_proj, eye, q, size)
-}
+// ---- shaders/lib/camera.wgsl: its twins are `crate::eval::screen_ray` / `pixel_ray` ----------
 
 // ---- shaders/lib/shadow.wgsl -------------------------------------------------------------
 

@@ -2,7 +2,7 @@
 //! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
 
 use super::*;
-use crate::nodes::algorithms::shader_lib::decay_integral;
+use crate::nodes::algorithms::shader_lib::{decay_integral, light_uvz, sun_reaches};
 
 /// Medium and sampling of the solve.
 #[derive(Debug, Clone, Copy)]
@@ -59,17 +59,11 @@ pub(super) fn row(
     }
     for i in 0..s.steps {
         let t = (i as f32 + 0.5) / steps * depth;
-        let c = lvp * (eye + dir * t).extend(1.0);
-        let (u, vv, z) = (c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
-        let inside =
-            (0.0..1.0).contains(&u) && (0.0..1.0).contains(&vv) && (0.0..=1.0).contains(&z);
-        if inside {
-            let tx = ((u * shadow.width as f32) as u32).min(shadow.width - 1);
-            let ty = ((vv * shadow.height as f32) as u32).min(shadow.height - 1);
-            if z > shadow.pixel(tx, ty)[0] + s.bias {
-                continue;
-            }
+        let l = light_uvz(lvp, eye + dir * t);
+        if !sun_reaches(shadow, l, s.bias) {
+            continue;
         }
+        let (u, vv) = (l.x, l.y);
         let a = i as f32 / steps * depth;
         let wi = (-s.sigma_t * a).exp() * decay_integral(depth / steps, s.sigma_t) / total;
         let q = [u * n as f32 - 0.5, vv * n as f32 - 0.5];

@@ -1,6 +1,7 @@
 //! Method `BruteForce`: the CPU reference of one pixel (the oracle of every method).
 
 use super::*;
+use crate::nodes::algorithms::shader_lib::{light_uvz, sun_reaches};
 
 /// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image, with the
 /// built-in Henyey–Greenstein phase function.
@@ -38,16 +39,7 @@ pub fn reference_pixel_phase(
     let n = p.steps as f32;
     for i in 0..p.steps {
         let t = t0 + (i as f32 + 0.5 + offset) / n * len;
-        let c = lvp * (eye + dir * t).extend(1.0);
-        let (u, v, z) = (c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
-        let inside = (0.0..1.0).contains(&u) && (0.0..1.0).contains(&v) && (0.0..=1.0).contains(&z);
-        let visible = if inside {
-            let tx = ((u * shadow.width as f32) as u32).min(shadow.width - 1);
-            let ty = ((v * shadow.height as f32) as u32).min(shadow.height - 1);
-            z <= shadow.pixel(tx, ty)[0] + p.bias
-        } else {
-            true
-        };
+        let visible = sun_reaches(shadow, light_uvz(lvp, eye + dir * t), p.bias);
         lit += visible as u32;
         if p.light_extinction != 0 && visible {
             let a = t0 + i as f32 / n * len;

@@ -1,4 +1,4 @@
-// Camera and view rays (CPU twins: nodes/algorithms/shader_lib.rs, `camera`).
+// Camera and view rays (CPU twins: `screen_ray`, `pixel_ray` in src/eval/value.rs).
 //
 // A camera is given by the inverse of its view-projection matrix and its eye (world units).
 // Screen points are in pixels, continuous, y down, of a `size` image; NDC y is up.
