@@ -1,7 +1,7 @@
 //! Lorenz–Mie scattering by homogeneous spheres (Bohren & Huffman, *Absorption and Scattering
 //! of Light by Small Particles*, 1983, §4.4 and appendix A, `BHMIE`), in f64, and its average
 //! over a log-normal number distribution of radii — the maths of the `Mie` phase node
-//! (`nodes/phase.rs`; seed 002 §3.1).
+//! (`nodes/phase/`; seed 002 §3.1).
 //!
 //! For a size parameter x = 2πr/λ and relative refractive index m = n + iκ the series runs to
 //! n_stop = x + 4x^{1/3} + 2 terms (Wiscombe's criterion); the logarithmic derivative D_n(mx)

@@ -1,4 +1,4 @@
-// LightMapSolve (nodes/light_map_solve.rs): the two matrix-free halves of the normal equations.
+// LightMapSolve (nodes/light_map_solve/): the two matrix-free halves of the normal equations.
 // `forward` is T x for the constraint pixels of one view, `adjoint` adds Tᵀ r into the light
 // map's texels. Row k of T (a constraint pixel's view ray, marched to its first surface in
 // `steps` equal intervals) holds the weights ŵ_i V_i of its samples, ŵ_i = ∫_{interval i}

@@ -1,4 +1,4 @@
-// Phase-function tables (nodes/phase.rs): W×1 RGBA32F, texel i at θ = π (i + 0.5)/W, RGB the
+// Phase-function tables (nodes/phase/): W×1 RGBA32F, texel i at θ = π (i + 0.5)/W, RGB the
 // phase function per channel in 1/sr. Tabulation of the analytic models, the Legendre series of
 // multiple scattering, and the two reductions (normalisation, forward fraction) that run in one
 // workgroup of 64 invocations.

@@ -1,4 +1,4 @@
-// SoftVisibility: iterative-convolution soft shadows (nodes/soft_visibility.rs; seed 004).
+// SoftVisibility: iterative-convolution soft shadows (nodes/soft_visibility/; seed 004).
 // One dispatch per slice: A_k = min(1, (A_{k−1} ∗ κ_k) + o_k), written to the next buffer and
 // to slice k of the volume.
 

@@ -1,4 +1,4 @@
-// TransferFunction (nodes/transfer_function.rs): bake the layer stack into an N×N LUT, solve
+// TransferFunction (nodes/transfer_function/): bake the layer stack into an N×N LUT, solve
 // diffusion layers by multigrid, and look the LUT up per pixel with (V̄, normalised depth).
 // Texel (i, j) of the LUT holds the colour at u = (i + 0.5)/N (V̄), v = (j + 0.5)/N (depth).
 #import lib/sampling

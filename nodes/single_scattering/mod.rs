@@ -5,7 +5,7 @@
 //! visibility of the view ray up to the first surface at distance `s` (sky: the camera's far
 //! distance), found by marching the shadow map, and `f` the Henyey–Greenstein phase function
 //! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun)
-//! — or, with a `phase` table connected, that table per RGB channel (`nodes/phase.rs`).
+//! — or, with a `phase` table connected, that table per RGB channel (`nodes/phase/`).
 //! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
 //! A sample is lit when it lies outside the map or the light box, or when its light-space depth
 //! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the

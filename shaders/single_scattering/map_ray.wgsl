@@ -1,5 +1,5 @@
 // SingleScattering: a view ray in the shadow map's texel units, shared by the MinMax and
-// Epipolar traversals (nodes/single_scattering/min_max.rs, epipolar.rs).
+// Epipolar traversals (nodes/single_scattering/map_ray.rs, epipolar.rs).
 #import single_scattering/common
 
 // Length of [t0, t1] where the depth, linear from z0 to z1, is at most c.
