@@ -8,6 +8,16 @@
 //! the medium for `SingleScattering`'s `bounds = tagged`. `camera = custom` and `light = custom`
 //! replace the scene's own camera and sun with the parameters below (all key-frameable).
 //!
+//! Animation: a glTF file's animation channels on nodes (translation, rotation, scale; `STEP`,
+//! `LINEAR` with slerped rotations, `CUBICSPLINE`) play, so the camera, the sun and meshes move
+//! — in the shadow map and the G-buffer alike. Frame f is `f / fps` seconds, as Blender's glTF
+//! exporter writes frame f (a 1–24 animation at 24 fps has keys from 1/24 s to 1 s), so
+//! `--frames` and the editor's timeline count the DCC's frames; before the first key and after
+//! the last the pose holds (and the node is not re-run: its cache key is the clamped time).
+//! `animation` chooses which plays: empty = the first, else a name or an index; `none` = the
+//! rest pose. Morph-target weights are not played. `tyndall validate` lists the animations and
+//! their frame ranges.
+//!
 //! The node uploads vertex and index buffers; it runs no shader pass (so it has no WGSL file).
 //!
 //! | port | dir | type |
@@ -19,6 +29,8 @@
 //! | `name` | Enum | torus | torus, tree, window, fence, figure | built-in scene |
 //! | `path` | Text | "" | | glTF file (.gltf/.glb); overrides `name` |
 //! | `seed` | Int | 1 | 0…2³¹ | variation of built-in scenes |
+//! | `animation` | Text | "" | | glTF animation that plays: empty = the first, a name, an index, or `none` |
+//! | `fps` | Float | 24 | 0.001…1000 frames/s | frame f is f / fps seconds of the glTF animation |
 //! | `camera` | Enum | scene | scene, custom | use the scene's camera or the parameters |
 //! | `cam_x`, `cam_y`, `cam_z` | Float | 8, 3, 9 | ±1e5 m | camera position |
 //! | `target_x`, `target_y`, `target_z` | Float | 0, 1.5, 0 | ±1e5 m | point looked at |
@@ -34,9 +46,9 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::{builtin, load_gltf, Builtin, GpuScene, Sun};
+use crate::scene::{builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Scene, Sun};
 
 /// The `Scene` node kind.
 pub struct SceneNode;
@@ -53,6 +65,8 @@ crate::params! {
         name: Builtin = ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
         path: String = ParamSpec::text("path", "", "glTF file (.gltf/.glb); overrides `name`."),
         seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation of the built-in scene."),
+        animation: String = ParamSpec::text("animation", "", "glTF animation that plays: empty = the file's first, a name, an index, or `none` for the rest pose."),
+        fps: f64 = ParamSpec::float("fps", 24.0, 0.001, 1000.0, "frames/s", "Frames per second of the glTF animation: frame f is f / fps seconds (as Blender's exporter writes it)."),
         camera: Source = ParamSpec::choice("camera", Source::NAMES, "scene", "Use the scene's camera, or the cam_*/target_*/fov parameters."),
         cam_x: f32 = ParamSpec::float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
         cam_y: f32 = ParamSpec::float("cam_y", 3.0, -1e5, 1e5, "m", "Camera position y (camera = custom)."),
@@ -85,22 +99,45 @@ impl NodeKind for SceneNode {
         &DECL
     }
 
+    fn volatile_key(&self, key: &KeyInput) -> u64 {
+        // An animated file makes the scene depend on the time: the key is the time clamped to
+        // the animation's keys, so frames before the first key or after the last are reused.
+        let Ok(p) = Params::from_params(key.params) else {
+            return 0;
+        };
+        match animated_seconds(&p, key.time) {
+            Ok(Some(seconds)) => (seconds as f64).to_bits() ^ 0x5ce4e,
+            _ => 0,
+        }
+    }
+
+    fn describe_files(
+        &self,
+        params: &std::collections::BTreeMap<String, crate::graph::ParamValue>,
+    ) -> Vec<String> {
+        let Ok(p) = Params::from_params(params) else {
+            return Vec::new();
+        };
+        match chosen_animation(&p) {
+            Ok(None) => Vec::new(),
+            Ok(Some((asset, index))) => {
+                let mut lines = vec![format!(
+                    "{}: {} animation{}; plays {}",
+                    p.path,
+                    asset.animations.len(),
+                    if asset.animations.len() == 1 { "" } else { "s" },
+                    index.map_or("none (rest pose)".to_string(), |i| format!("animation {i}"))
+                )];
+                lines.extend(asset.describe_animations(p.fps));
+                lines
+            }
+            Err(e) => vec![format!("error: {e}")],
+        }
+    }
+
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let path = p.path.as_str();
-        let mut scene = if path.is_empty() {
-            builtin(p.name.name(), p.seed as u64)
-        } else {
-            load_gltf(Path::new(path))
-        }
-        .map_err(|e| NodeError::Param {
-            param: if path.is_empty() {
-                "name".into()
-            } else {
-                "path".into()
-            },
-            message: e.to_string(),
-        })?;
+        let mut scene = load(&p, ctx.time)?;
         if p.camera == Source::Custom {
             scene.camera.position = Vec3::new(p.cam_x, p.cam_y, p.cam_z);
             scene.camera.target = Vec3::new(p.target_x, p.target_y, p.target_z);
@@ -122,4 +159,62 @@ impl NodeKind for SceneNode {
         );
         Ok(())
     }
+}
+
+/// A parsed glTF file and the index of the animation that plays.
+type Chosen = (Arc<crate::scene::GltfAsset>, Option<usize>);
+
+/// The glTF file and the animation `p` chooses (`None` for a built-in scene, an empty path, or
+/// `animation = none`).
+fn chosen_animation(p: &Params) -> Result<Option<Chosen>, NodeError> {
+    if p.path.is_empty() {
+        return Ok(None);
+    }
+    let path_err = |message: String| NodeError::Param {
+        param: "path".into(),
+        message,
+    };
+    let asset = load_gltf_asset(Path::new(&p.path)).map_err(|e| path_err(e.to_string()))?;
+    let which = p.animation.trim();
+    let index = if which.eq_ignore_ascii_case("none") {
+        None
+    } else {
+        find_animation(&asset.animations, which)
+            .map_err(|e| NodeError::Param {
+                param: "animation".into(),
+                message: format!("{}: {e}", p.path),
+            })?
+            .map(|(i, _)| i)
+    };
+    Ok(Some((asset, index)))
+}
+
+/// The animation time (seconds, clamped to its keys) of frame `time`, or `None` when nothing
+/// moves.
+fn animated_seconds(p: &Params, time: f64) -> Result<Option<f32>, NodeError> {
+    let Some((asset, index)) = chosen_animation(p)? else {
+        return Ok(None);
+    };
+    if !asset.moves(index) {
+        return Ok(None);
+    }
+    let (lo, hi) = index
+        .and_then(|i| asset.animations.get(i))
+        .map_or((0.0, 0.0), |a| a.range());
+    Ok(Some(((time / p.fps) as f32).clamp(lo, hi)))
+}
+
+/// The built-in scene, or the glTF file posed at frame `time`.
+fn load(p: &Params, time: f64) -> Result<Scene, NodeError> {
+    let Some((asset, index)) = chosen_animation(p)? else {
+        return builtin(p.name.name(), p.seed as u64).map_err(|e| NodeError::Param {
+            param: "name".into(),
+            message: e.to_string(),
+        });
+    };
+    let seconds = animated_seconds(p, time)?.unwrap_or(0.0);
+    asset.pose(index, seconds).map_err(|e| NodeError::Param {
+        param: "path".into(),
+        message: e.to_string(),
+    })
 }

@@ -239,6 +239,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
                 g.len(),
                 g.edges().len()
             );
+            for line in describe_files(&registry, &g, &graph) {
+                println!("  {line}");
+            }
             Ok(())
         }
         Command::Nodes { markdown, json } => {
@@ -348,6 +351,39 @@ pub(super) fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
         param: param.to_string(),
         values,
     })
+}
+
+/// What each node finds in the files it reads (`NodeKind::describe_files`), paths read from
+/// the graph's folder, as `node 'id': line`.
+fn describe_files(registry: &Registry, g: &Graph, path: &Path) -> Vec<String> {
+    let policy = crate::eval::PathPolicy {
+        graph_dir: path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf(),
+        output_dir: PathBuf::from("."),
+        allow_any: true,
+    };
+    let Ok(g) = crate::eval::resolve_files(registry, g, &policy) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for node in g.nodes() {
+        let Some(kind) = registry.get(&node.kind) else {
+            continue;
+        };
+        let mut params = std::collections::BTreeMap::new();
+        for p in kind.schema().params {
+            if let Ok(v) = g.param_at(registry.catalog(), &node.id, p.name, 0.0) {
+                params.insert(p.name.to_string(), v);
+            }
+        }
+        for line in kind.describe_files(&params) {
+            out.push(format!("node '{}': {line}", node.id));
+        }
+    }
+    out
 }
 
 pub(super) fn load_graph(

@@ -470,6 +470,13 @@ pub trait NodeKind: Send + Sync {
         Vec::new()
     }
 
+    /// What the node finds in the files its parameters name, for `tyndall validate` (a glTF
+    /// file's animations and their frame ranges; a problem reading the file): one line each,
+    /// from the parameters at frame 0. Empty by default.
+    fn describe_files(&self, _params: &BTreeMap<String, crate::graph::ParamValue>) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Compute the wanted outputs (GPU work).
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError>;
 

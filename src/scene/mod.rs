@@ -2,14 +2,17 @@
 //! built-in procedural scenes, glTF 2.0 loading, and mesh upload for rasterisation.
 
 mod builtin;
-mod gltf_load;
+mod gltf;
 mod gpu;
 
 use glam::{Mat4, Vec3};
 use thiserror::Error;
 
 pub use builtin::{builtin, Builtin, BUILTIN_SCENES};
-pub use gltf_load::{load_gltf, LUX_PER_WATT, MEDIUM_TAG};
+pub use gltf::{
+    animation, find_animation, load_gltf, load_gltf_asset, parse_gltf, GltfAsset, LUX_PER_WATT,
+    MEDIUM_TAG,
+};
 pub use gpu::{GpuScene, MeshVertex};
 
 /// Errors building or loading a scene.

@@ -1,0 +1,550 @@
+//! glTF 2.0 (`.gltf` with embedded or external buffers, `.glb`): meshes with node transforms,
+//! base colours, the first camera and the first directional light (`KHR_lights_punctual`), and
+//! animations of node translation, rotation and scale ([`animation`]), so the camera, the sun
+//! and meshes move over time.
+//!
+//! Tags come from a node's `extras`: `{"tags": ["a", "b"]}`, or `{"tyndall_tag": "a, b"}` (a
+//! Blender object's custom property `tyndall_tag`, which Blender's exporter writes as extras);
+//! objects tagged `medium` are not drawn but give the scene's medium bounds. A directional
+//! light's intensity (lux) is read as irradiance in W/m² (÷ 683, [`LUX_PER_WATT`]).
+//!
+//! A file is parsed once into a [`GltfAsset`] (cached by path, size and modification time,
+//! [`load_gltf_asset`]); [`GltfAsset::pose`] places it at a time.
+
+pub mod animation;
+mod checks;
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use base64::Engine;
+use glam::{Mat3, Mat4, Quat, Vec3};
+
+use self::animation::{Animation, Channel, Interpolation, Target, Trs};
+use super::{Camera, Object, Scene, SceneError, Sun};
+
+/// Luminous efficacy used to read a glTF directional light's illuminance (lux) as irradiance
+/// (W/m²), as Blender's glTF importer does in its default ("Standard") lighting mode.
+pub const LUX_PER_WATT: f32 = 683.0;
+
+/// Objects carrying this tag (glTF node `extras: {"tags": ["medium"]}`) bound the participating
+/// medium (`SingleScattering` with `bounds = tagged`) and are not drawn.
+pub const MEDIUM_TAG: &str = "medium";
+
+fn err(path: &Path, reason: impl std::fmt::Display) -> SceneError {
+    SceneError::Gltf {
+        path: path.display().to_string(),
+        reason: reason.to_string(),
+    }
+}
+
+fn buffers(
+    doc: &gltf::Document,
+    blob: Option<Vec<u8>>,
+    path: &Path,
+) -> Result<Vec<Vec<u8>>, SceneError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    let mut blob = blob;
+    for b in doc.buffers() {
+        let data = match b.source() {
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| err(path, "buffer refers to a missing GLB binary chunk"))?,
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let b64 = rest
+                        .split_once(";base64,")
+                        .map(|(_, d)| d)
+                        .ok_or_else(|| err(path, "data URI is not base64"))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(b64)
+                        .map_err(|e| err(path, format!("buffer: {e}")))?
+                } else {
+                    std::fs::read(dir.join(uri))
+                        .map_err(|e| err(path, format!("buffer {uri}: {e}")))?
+                }
+            }
+        };
+        if data.len() < b.length() {
+            return Err(err(
+                path,
+                format!(
+                    "buffer {} is {} bytes, expected {}",
+                    b.index(),
+                    data.len(),
+                    b.length()
+                ),
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// One triangle primitive in its node's local space.
+#[derive(Debug, Clone)]
+struct Primitive {
+    positions: Vec<Vec3>,
+    /// Local normals, `None` when the file gives none (then computed from the posed faces).
+    normals: Option<Vec<Vec3>>,
+    indices: Vec<u32>,
+    colour: [f32; 4],
+}
+
+/// A glTF node as the loader keeps it.
+#[derive(Debug, Clone)]
+struct AssetNode {
+    name: String,
+    rest: Trs,
+    children: Vec<usize>,
+    tags: Vec<String>,
+    /// Vertical field of view (radians), near and far, of a perspective camera on the node.
+    camera: Option<(f32, f32, f32)>,
+    /// Colour and intensity (lux) of a directional light on the node.
+    sun: Option<([f32; 3], f32)>,
+    primitives: Vec<Primitive>,
+}
+
+/// A parsed glTF file: its node tree, meshes in local space and animations, ready to be posed
+/// at any time ([`GltfAsset::pose`]).
+#[derive(Debug, Clone)]
+pub struct GltfAsset {
+    path: String,
+    nodes: Vec<AssetNode>,
+    roots: Vec<usize>,
+    /// The file's animations, in file order.
+    pub animations: Vec<Animation>,
+}
+
+/// Which animation plays: the `animation` parameter of `Scene` — empty (the first, if any), a
+/// name, or an index.
+pub fn find_animation<'a>(
+    animations: &'a [Animation],
+    which: &str,
+) -> Result<Option<(usize, &'a Animation)>, String> {
+    let which = which.trim();
+    if which.is_empty() {
+        return Ok(animations.first().map(|a| (0, a)));
+    }
+    if let Some(found) = animations.iter().enumerate().find(|(_, a)| a.name == which) {
+        return Ok(Some(found));
+    }
+    if let Ok(i) = which.parse::<usize>() {
+        if let Some(a) = animations.get(i) {
+            return Ok(Some((i, a)));
+        }
+    }
+    let names: Vec<String> = animations
+        .iter()
+        .enumerate()
+        .map(|(i, a)| format!("{i} '{}'", a.name))
+        .collect();
+    Err(format!(
+        "no animation '{which}' in the file (animations: {})",
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        }
+    ))
+}
+
+fn tags_of(node: &gltf::Node) -> Vec<String> {
+    let Some(v) = node
+        .extras()
+        .as_ref()
+        .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
+    else {
+        return Vec::new();
+    };
+    let mut tags: Vec<String> = v
+        .get("tags")
+        .and_then(|t| t.as_array())
+        .map(|a| {
+            a.iter()
+                .filter_map(|t| t.as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    if let Some(t) = v.get("tyndall_tag").and_then(|t| t.as_str()) {
+        tags.extend(
+            t.split(',')
+                .map(str::trim)
+                .filter(|s| !s.is_empty())
+                .map(str::to_string),
+        );
+    }
+    tags
+}
+
+fn read_animations(
+    doc: &gltf::Document,
+    bufs: &[Vec<u8>],
+    path: &Path,
+) -> Result<Vec<Animation>, SceneError> {
+    use gltf::animation::util::ReadOutputs;
+    let mut out = Vec::new();
+    for anim in doc.animations() {
+        let name = anim
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("animation {}", anim.index()));
+        let mut channels = Vec::new();
+        for (ci, ch) in anim.channels().enumerate() {
+            let target = match ch.target().property() {
+                gltf::animation::Property::Translation => Target::Translation,
+                gltf::animation::Property::Rotation => Target::Rotation,
+                gltf::animation::Property::Scale => Target::Scale,
+                gltf::animation::Property::MorphTargetWeights => continue,
+            };
+            let interpolation = match ch.sampler().interpolation() {
+                gltf::animation::Interpolation::Step => Interpolation::Step,
+                gltf::animation::Interpolation::Linear => Interpolation::Linear,
+                gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+            };
+            let reader = ch.reader(|b| bufs.get(b.index()).map(|v| v.as_slice()));
+            let bad = |what: &str| err(path, format!("animation '{name}' channel {ci}: {what}"));
+            let times: Vec<f32> = reader
+                .read_inputs()
+                .ok_or_else(|| bad("key times cannot be read"))?
+                .collect();
+            let values: Vec<glam::Vec4> = match reader
+                .read_outputs()
+                .ok_or_else(|| bad("values cannot be read"))?
+            {
+                ReadOutputs::Translations(v) | ReadOutputs::Scales(v) => {
+                    v.map(|p| Vec3::from(p).extend(0.0)).collect()
+                }
+                ReadOutputs::Rotations(r) => r.into_f32().map(glam::Vec4::from).collect(),
+                ReadOutputs::MorphTargetWeights(_) => continue,
+            };
+            if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] <= w[0]) {
+                return Err(bad("key times are not finite and strictly increasing"));
+            }
+            if values.iter().any(|v| !v.is_finite()) {
+                return Err(bad("a value is not finite"));
+            }
+            channels.push(Channel {
+                node: ch.target().node().index(),
+                target,
+                interpolation,
+                times,
+                values,
+            });
+        }
+        out.push(Animation { name, channels });
+    }
+    Ok(out)
+}
+
+fn read_primitives(
+    mesh: &gltf::Mesh,
+    bufs: &[Vec<u8>],
+    name: &str,
+    path: &Path,
+) -> Result<Vec<Primitive>, SceneError> {
+    let mut out = Vec::new();
+    for prim in mesh.primitives() {
+        if prim.mode() != gltf::mesh::Mode::Triangles {
+            continue;
+        }
+        let reader = prim.reader(|b| bufs.get(b.index()).map(|v| v.as_slice()));
+        let Some(positions) = reader.read_positions() else {
+            continue;
+        };
+        let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(ix) => ix.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if indices.iter().any(|i| *i as usize >= positions.len()) {
+            return Err(err(path, format!("mesh '{name}': index out of range")));
+        }
+        let normals = reader
+            .read_normals()
+            .map(|n| n.map(Vec3::from).collect::<Vec<_>>())
+            .filter(|n| n.len() == positions.len());
+        out.push(Primitive {
+            positions,
+            normals,
+            indices,
+            colour: prim.material().pbr_metallic_roughness().base_color_factor(),
+        });
+    }
+    Ok(out)
+}
+
+/// Parse a glTF file (no caching; see [`load_gltf_asset`]).
+pub fn parse_gltf(path: &Path) -> Result<GltfAsset, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| err(path, e))?;
+    // A binary glTF whose header length is shorter than the header itself makes the gltf crate
+    // subtract with overflow (a panic in builds with overflow checks; found by fuzzing).
+    if bytes.starts_with(b"glTF") {
+        let length = bytes
+            .get(8..12)
+            .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        if length < 12 {
+            return Err(err(
+                path,
+                format!("GLB header length {length} is shorter than the header"),
+            ));
+        }
+    }
+    // The gltf crate's validation indexes a primitive's POSITION accessor before checking that
+    // it exists, and its readers assert on accessor shapes (panics found by fuzzing): check
+    // the indices and shapes first.
+    let unchecked = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(path, e))?;
+    checks::accessor_indices_exist(unchecked.document.as_json()).map_err(|m| err(path, m))?;
+    checks::animations_are_readable(unchecked.document.as_json()).map_err(|m| err(path, m))?;
+    let gltf::Gltf {
+        document: doc,
+        blob,
+    } = gltf::Gltf::from_slice(&bytes).map_err(|e| err(path, e))?;
+    let bufs = buffers(&doc, blob, path)?;
+    let mut nodes = Vec::new();
+    for node in doc.nodes() {
+        let name = node.name().unwrap_or("node").to_string();
+        let (t, r, s) = node.transform().decomposed();
+        let camera = node.camera().and_then(|c| match c.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                Some((p.yfov(), p.znear().max(1e-4), p.zfar().unwrap_or(1000.0)))
+            }
+            gltf::camera::Projection::Orthographic(_) => None,
+        });
+        let sun = node.light().and_then(|l| match l.kind() {
+            gltf::khr_lights_punctual::Kind::Directional => Some((l.color(), l.intensity())),
+            _ => None,
+        });
+        let primitives = match node.mesh() {
+            Some(mesh) => read_primitives(&mesh, &bufs, &name, path)?,
+            None => Vec::new(),
+        };
+        nodes.push(AssetNode {
+            rest: Trs {
+                translation: Vec3::from(t),
+                rotation: Quat::from_array(r),
+                scale: Vec3::from(s),
+            },
+            children: node.children().map(|c| c.index()).collect(),
+            tags: tags_of(&node),
+            camera,
+            sun,
+            primitives,
+            name,
+        });
+    }
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err(path, "no scene"))?;
+    let asset = GltfAsset {
+        path: path.display().to_string(),
+        nodes,
+        roots: scene.nodes().map(|n| n.index()).collect(),
+        animations: read_animations(&doc, &bufs, path)?,
+    };
+    // Fail at load, not at some frame: the rest pose must have something to draw.
+    asset.pose(None, 0.0)?;
+    Ok(asset)
+}
+
+/// A parsed file, shared: parsed once per (path, size, modification time) and process, so the
+/// `Scene` node posing an animation at every frame — and its cache key asking whether the file
+/// is animated — reads the file once.
+pub fn load_gltf_asset(path: &Path) -> Result<Arc<GltfAsset>, SceneError> {
+    type Cache =
+        Mutex<HashMap<std::path::PathBuf, (Option<(u64, std::time::SystemTime)>, Arc<GltfAsset>)>>;
+    static CACHE: std::sync::OnceLock<Cache> = std::sync::OnceLock::new();
+    let stamp = std::fs::metadata(path)
+        .ok()
+        .and_then(|m| Some((m.len(), m.modified().ok()?)));
+    let cache = CACHE.get_or_init(Default::default);
+    if let Some((s, a)) = cache.lock().ok().and_then(|c| c.get(path).cloned()) {
+        if s.is_some() && s == stamp {
+            return Ok(a);
+        }
+    }
+    let asset = Arc::new(parse_gltf(path)?);
+    if let Ok(mut c) = cache.lock() {
+        if c.len() > 64 {
+            c.clear();
+        }
+        c.insert(path.to_path_buf(), (stamp, asset.clone()));
+    }
+    Ok(asset)
+}
+
+impl GltfAsset {
+    /// The scene at `seconds` of `animation` (`None`: the rest pose): node transforms with the
+    /// animation's channels applied, meshes in world space, the first camera and first
+    /// directional light in the scene's node order. Camera and sun default to a view of the
+    /// bounds and a high sun when the file has none.
+    pub fn pose(&self, animation: Option<usize>, seconds: f32) -> Result<Scene, SceneError> {
+        let path = Path::new(&self.path);
+        let anim = animation.and_then(|i| self.animations.get(i));
+        let mut objects = Vec::new();
+        let mut camera = None;
+        let mut sun = None;
+        let mut stack: Vec<(usize, Mat4)> =
+            self.roots.iter().map(|n| (*n, Mat4::IDENTITY)).collect();
+        // A node listed twice (a cycle or shared child, invalid glTF) is visited once.
+        let mut seen = vec![false; self.nodes.len()];
+        while let Some((index, parent)) = stack.pop() {
+            let Some(node) = self.nodes.get(index) else {
+                continue;
+            };
+            if std::mem::replace(&mut seen[index], true) {
+                continue;
+            }
+            let world = parent * node.rest.animated(index, anim, seconds).matrix();
+            for child in &node.children {
+                stack.push((*child, world));
+            }
+            let (_, rot, pos) = world.to_scale_rotation_translation();
+            let forward = (rot * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
+            if let (Some((yfov, near, far)), None) = (node.camera, camera) {
+                camera = Some(Camera {
+                    position: pos,
+                    target: pos + forward * 10.0,
+                    fov_y: yfov.to_degrees(),
+                    near,
+                    far,
+                });
+            }
+            if let (Some((colour, lux)), None) = (node.sun, sun) {
+                let (azimuth, elevation) = Sun::angles_of(-forward);
+                sun = Some(Sun {
+                    azimuth,
+                    elevation,
+                    colour,
+                    intensity: lux / LUX_PER_WATT,
+                });
+            }
+            let normal_m = Mat3::from_mat4(world).inverse().transpose();
+            for (pi, prim) in node.primitives.iter().enumerate() {
+                objects.push(posed(node, pi, prim, world, normal_m));
+            }
+        }
+        let (media, objects): (Vec<Object>, Vec<Object>) = objects
+            .into_iter()
+            .partition(|o| o.tags.iter().any(|t| t == MEDIUM_TAG));
+        if objects.is_empty() {
+            return Err(err(
+                path,
+                "no triangle meshes (other than the medium's bounds)",
+            ));
+        }
+        let medium = media.iter().flat_map(|o| o.positions.iter()).fold(
+            None,
+            |b: Option<(Vec3, Vec3)>, p| {
+                Some(b.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))))
+            },
+        );
+        let mut s = Scene {
+            objects,
+            medium,
+            camera: Camera {
+                position: Vec3::ZERO,
+                target: Vec3::NEG_Z,
+                fov_y: 45.0,
+                near: 0.1,
+                far: 100.0,
+            },
+            sun: sun.unwrap_or(Sun {
+                azimuth: 30.0,
+                elevation: 60.0,
+                colour: [1.0; 3],
+                intensity: 3.0,
+            }),
+        };
+        s.camera = camera.unwrap_or_else(|| {
+            let (lo, hi) = s.bounds();
+            let c = (lo + hi) * 0.5;
+            let r = ((hi - lo).length() * 0.5).max(1e-3);
+            Camera {
+                position: c + Vec3::new(1.0, 0.6, 1.0).normalize() * r * 2.5,
+                target: c,
+                fov_y: 45.0,
+                near: r * 0.01,
+                far: r * 10.0,
+            }
+        });
+        Ok(s)
+    }
+
+    /// Whether anything moves: some channel of `animation` has two or more keys.
+    pub fn moves(&self, animation: Option<usize>) -> bool {
+        animation
+            .and_then(|i| self.animations.get(i))
+            .is_some_and(|a| a.channels.iter().any(|c| c.times.len() > 1))
+    }
+
+    /// One line per animation: name, channels, and the frame range at `fps` (frame = seconds ×
+    /// fps, as Blender's exporter writes frame f at f / fps seconds).
+    pub fn describe_animations(&self, fps: f64) -> Vec<String> {
+        self.animations
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let (lo, hi) = a.range();
+                format!(
+                    "animation {i} '{}': {} channel{}, {:.3}–{:.3} s = frames {}–{} at {fps} fps",
+                    a.name,
+                    a.channels.len(),
+                    if a.channels.len() == 1 { "" } else { "s" },
+                    lo,
+                    hi,
+                    (lo as f64 * fps).round(),
+                    (hi as f64 * fps).round()
+                )
+            })
+            .collect()
+    }
+}
+
+/// One primitive of `node` placed by `world` (normals by its inverse transpose; computed from
+/// the faces when the file gives none).
+fn posed(node: &AssetNode, pi: usize, prim: &Primitive, world: Mat4, normal_m: Mat3) -> Object {
+    let positions: Vec<Vec3> = prim
+        .positions
+        .iter()
+        .map(|p| world.transform_point3(*p))
+        .collect();
+    let normals = match &prim.normals {
+        Some(n) => n
+            .iter()
+            .map(|n| (normal_m * *n).normalize_or(Vec3::Y))
+            .collect(),
+        None => {
+            let mut acc = vec![Vec3::ZERO; positions.len()];
+            for t in prim.indices.chunks_exact(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize]);
+                let n = (b - a).cross(c - a);
+                for i in t {
+                    acc[*i as usize] += n;
+                }
+            }
+            acc.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect()
+        }
+    };
+    Object {
+        name: if pi == 0 {
+            node.name.clone()
+        } else {
+            format!("{}.{pi}", node.name)
+        },
+        positions,
+        normals,
+        indices: prim.indices.clone(),
+        colour: prim.colour,
+        tags: node.tags.clone(),
+    }
+}
+
+/// Load a glTF scene in its rest pose (no animation applied). Camera and sun default to a
+/// view of the bounds and a high sun when the file has none.
+pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
+    parse_gltf(path)?.pose(None, 0.0)
+}
