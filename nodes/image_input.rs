@@ -17,6 +17,15 @@
 //! | `path` | Text | "" | file to read (`.exr`, `.png`) |
 //! | `channel` | Enum | luminance | luminance, r, g, b, a: Scalar of an RGBA file |
 //! | `srgb` | Bool | true | decode PNG colour from sRGB |
+//! | `layer` | Text | "" | layer of a multi-layer EXR: `ViewLayer.Combined` (its R, G, B, A), `ViewLayer.Depth` (its one channel) or a full channel name `ViewLayer.Depth.Z`; empty: the main image |
+//!
+//! Multi-layer EXR (Blender/Cycles, Nuke, Tyndall's `AovOutput`): `layer` picks one layer, so
+//! one file gives the beauty (`ViewLayer.Combined`) on one `ImageInput` and its depth
+//! (`ViewLayer.Depth`) on another — the inputs of plate mode (`PlateDepth`, `PlateOver`). A
+//! layer that is not in the file is an error listing those that are. When the header carries
+//! `worldToCamera` and `worldToNDC` (as Tyndall and Nuke write them), the `depth` output carries
+//! that camera (projection = worldToNDC · worldToCamera⁻¹, far = the largest finite depth)
+//! instead of identity matrices.
 //!
 //! The cache key includes the file's size and modification time, so editing the file on disk
 //! re-runs the node.
@@ -47,6 +56,7 @@ crate::params! {
         path: String = ParamSpec::text("path", "", "File to read (.exr or .png)."),
         channel: Channel = ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
         srgb: bool = ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
+        layer: String = ParamSpec::text("layer", "", "Layer of a multi-layer EXR: `ViewLayer.Combined` (R, G, B, A), `ViewLayer.Depth` (one channel) or a full channel name; empty: the main image."),
     }
 }
 
@@ -113,6 +123,30 @@ pub fn reference(file: &Raster, channel: Channel) -> (Raster, Raster) {
     (image, scalar)
 }
 
+/// The camera of an EXR header (`worldToCamera`, `worldToNDC`: Imath's row-vector layout, which
+/// is glam's column-major array), far = the largest finite depth of a one-channel `file`.
+fn header_camera(h: &crate::io::ExrHeader, file: &Raster) -> Option<Matrices> {
+    let view = glam::Mat4::from_cols_array(&h.world_to_camera?);
+    let ndc = glam::Mat4::from_cols_array(&h.world_to_ndc?);
+    if view.determinant().abs() < 1e-12 {
+        return None;
+    }
+    let far = if file.channels == 1 {
+        file.data
+            .iter()
+            .filter(|v| v.is_finite() && **v < 1e9)
+            .fold(0.0f32, |a, b| a.max(*b))
+    } else {
+        0.0
+    };
+    Some(Matrices {
+        view: view.to_cols_array_2d(),
+        proj: (ndc * view.inverse()).to_cols_array_2d(),
+        far: if far > 0.0 { far } else { 1000.0 },
+        radiance: [0.0; 3],
+    })
+}
+
 impl NodeKind for ImageInput {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -127,7 +161,21 @@ impl NodeKind for ImageInput {
                 message: "is empty: set the file to read".into(),
             });
         }
-        let file = crate::io::read_image(Path::new(path), prm.srgb)?;
+        let (file, header) = if prm.layer.trim().is_empty() {
+            (crate::io::read_image(Path::new(path), prm.srgb)?, None)
+        } else {
+            if crate::io::file_kind(Path::new(path))? != crate::io::FileKind::Exr {
+                return Err(NodeError::Param {
+                    param: "layer".into(),
+                    message: format!(
+                        "is '{}', but {path} is not an EXR (only EXR files have layers)",
+                        prm.layer
+                    ),
+                });
+            }
+            crate::io::read_exr_layer(Path::new(path), prm.layer.trim())?
+        };
+        let camera = header.and_then(|h| header_camera(&h, &file));
         let channel = prm.channel;
         let src = ctx
             .gpu
@@ -173,7 +221,7 @@ impl NodeKind for ImageInput {
                 "shadow",
                 PortValue::ShadowMap(out.clone(), Matrices::default()),
             );
-            ctx.set("depth", PortValue::Depth(out, Matrices::default()));
+            ctx.set("depth", PortValue::Depth(out, camera.unwrap_or_default()));
         }
         Ok(())
     }

@@ -32,6 +32,7 @@ pub mod morphology2d;
 pub mod noise_volume;
 pub mod perlin_noise2d;
 pub mod phase;
+pub mod plate;
 pub mod radial_blur;
 pub mod remap;
 pub mod scene;
@@ -81,6 +82,8 @@ pub fn registry() -> Registry {
     r.add(Arc::new(phase::PhaseNode(phase::Model::Rayleigh)));
     r.add(Arc::new(phase::PhaseNode(phase::Model::Mie)));
     r.add(Arc::new(phase::PhaseNode(phase::Model::MultipleScattering)));
+    r.add(Arc::new(plate::PlateDepth));
+    r.add(Arc::new(plate::PlateOver));
     r.add(Arc::new(radial_blur::RadialBlur));
     r.add(Arc::new(remap::Remap));
     r.add(Arc::new(scene::SceneNode));

@@ -60,10 +60,17 @@ fn unavailable_on(backend: &str) -> Vec<String> {
         .unwrap_or_default()
 }
 
-fn render(backend: &str, graph: &Path, out: &Path) -> Result<(), String> {
-    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
-        .args(["render", &graph.display().to_string(), "-o"])
-        .arg(out)
+/// Render `graph` into the folder `dir`: its one output as `dir/out.exr` (float, for a tight
+/// comparison), or with several outputs each where the graph puts it under `dir`.
+fn render(backend: &str, graph: &Path, dir: &Path, sinks: usize) -> Result<(), String> {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tyndall"));
+    cmd.args(["render", &graph.display().to_string()]);
+    if sinks == 1 {
+        cmd.arg("-o").arg(dir.join("out.exr"));
+    } else {
+        cmd.arg("--output-dir").arg(dir);
+    }
+    let o = cmd
         .args(["--size", "160x90"])
         .env("WGPU_BACKEND", backend)
         .env_remove("TYNDALL_ADAPTER")
@@ -74,6 +81,24 @@ fn render(backend: &str, graph: &Path, out: &Path) -> Result<(), String> {
     } else {
         Err(String::from_utf8_lossy(&o.stderr).into_owned())
     }
+}
+
+/// Every file under `dir`, in sub-folders too, sorted.
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read_dir") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
 }
 
 /// PSNR of `b` against `a` (peak: the largest |value| of `a`, at least 1) and the largest
@@ -130,10 +155,11 @@ fn every_preset_renders_on_gl_and_matches_vulkan() {
     let mut failures = Vec::new();
     for f in common::presets() {
         let g = tyndall::graph::load_file(&f, registry.catalog()).expect("load");
-        if !g
+        let sinks = g
             .nodes()
-            .any(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()))
-        {
+            .filter(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()))
+            .count();
+        if sinks == 0 {
             continue; // bench inputs: no outputs to render
         }
         let name = f.file_stem().and_then(|s| s.to_str()).unwrap_or("g");
@@ -143,8 +169,8 @@ fn every_preset_renders_on_gl_and_matches_vulkan() {
         );
         std::fs::create_dir_all(&a_dir).expect("mkdir");
         std::fs::create_dir_all(&b_dir).expect("mkdir");
-        render("vulkan", &f, &a_dir.join("out.exr")).expect("the Vulkan render");
-        if let Err(e) = render("gl", &f, &b_dir.join("out.exr")) {
+        render("vulkan", &f, &a_dir, sinks).expect("the Vulkan render");
+        if let Err(e) = render("gl", &f, &b_dir, sinks) {
             let uses: Vec<&String> = unavailable
                 .iter()
                 .filter(|k| g.nodes().any(|n| &n.kind == *k))
@@ -161,14 +187,10 @@ fn every_preset_renders_on_gl_and_matches_vulkan() {
             }
             continue;
         }
-        let mut files: Vec<PathBuf> = std::fs::read_dir(&a_dir)
-            .expect("read_dir")
-            .map(|e| e.expect("entry").path())
-            .collect();
-        files.sort();
+        let files = files_under(&a_dir);
         assert!(!files.is_empty(), "{}: nothing written", f.display());
         for a in files {
-            let b = b_dir.join(a.file_name().expect("name"));
+            let b = b_dir.join(a.strip_prefix(&a_dir).expect("under a_dir"));
             let ra = tyndall::io::read_image(&a, false).expect("read the Vulkan EXR");
             let rb = match tyndall::io::read_image(&b, false) {
                 Ok(r) => r,

@@ -262,19 +262,21 @@ fn every_graph_in_graphs_validates_and_renders() {
         );
         let registry = tyndall::nodes::registry();
         let g = tyndall::graph::load_file(&f, registry.catalog()).expect("load");
-        let has_output = g
+        let sinks = g
             .nodes()
-            .any(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()));
-        if gpu_available() && has_output {
+            .filter(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()))
+            .count();
+        if gpu_available() && sinks > 0 {
+            // One output: written as -o names it; several: each under --output-dir.
             let out = dir.path().join("r.png");
-            let o = tyndall(&[
-                "render",
-                &f.display().to_string(),
-                "-o",
-                &out.display().to_string(),
-                "--size",
-                "32x16",
-            ]);
+            let sub = dir.path().join(f.file_stem().expect("stem"));
+            let graph = f.display().to_string();
+            let (flag, target) = if sinks == 1 {
+                ("-o", out.display().to_string())
+            } else {
+                ("--output-dir", sub.display().to_string())
+            };
+            let o = tyndall(&["render", &graph, flag, &target, "--size", "32x16"]);
             let err = String::from_utf8_lossy(&o.stderr);
             // A node this adapter cannot run (volume writers on wgpu's GL backend): a clean
             // exit 1 naming it instead of a picture.
@@ -294,7 +296,11 @@ fn every_graph_in_graphs_validates_and_renders() {
                 continue;
             }
             assert!(o.status.success(), "{}: {err}", f.display());
-            assert!(out.exists());
+            assert!(
+                if sinks == 1 { out.exists() } else { sub.exists() },
+                "{}",
+                f.display()
+            );
         }
     }
 }

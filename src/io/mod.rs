@@ -141,6 +141,32 @@ pub fn read_image(path: &Path, srgb: bool) -> Result<Raster, IoError> {
 pub const MAX_READ_TEXELS: u64 = 16384 * 16384;
 
 fn read_exr(path: &Path) -> Result<Raster, IoError> {
+    read_exr_layer(path, "").map(|(r, _)| r)
+}
+
+/// The layers of a multi-layer EXR's channel names: `ViewLayer.Combined.R` → `ViewLayer.Combined`
+/// (channels without a dot form the unnamed layer, listed as `(main)`), in first-seen order.
+fn layer_names(channels: &[String]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for c in channels {
+        let layer = c
+            .rsplit_once('.')
+            .map_or("(main)".to_string(), |(l, _)| l.to_string());
+        if !out.contains(&layer) {
+            out.push(layer);
+        }
+    }
+    out
+}
+
+/// Read one layer of an EXR, and the camera matrices of its header (`worldToCamera`,
+/// `worldToNDC`, when both are present). `layer` empty: the main image as [`read_image`] reads
+/// it. Otherwise `layer` names a layer of a multi-layer file as Blender, Cycles and Nuke write
+/// them — `ViewLayer.Combined` gives its `R`,`G`,`B`(,`A`) as RGBA, a layer with one channel
+/// (`ViewLayer.Depth` with its `Z`) gives that channel — or one full channel name
+/// (`ViewLayer.Depth.Z`). Names compare case-insensitively. A layer that is not in the file is
+/// an error listing the layers that are.
+pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHeader>), IoError> {
     let err = |reason: String| IoError::Read {
         path: path.to_path_buf(),
         reason,
@@ -169,9 +195,18 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
         .all_attributes()
         .from_file(path)
         .map_err(|e| err(e.to_string()))?;
-    let layer = img.layer_data;
-    let (w, h) = (layer.size.width(), layer.size.height());
-    let chans = &layer.channel_data.list;
+    let attrs = &img.layer_data.attributes;
+    let header = match (attrs.world_to_camera, attrs.world_to_normalized_device) {
+        (Some(c), Some(n)) => Some(ExrHeader {
+            world_to_camera: Some(c),
+            world_to_ndc: Some(n),
+            frame: None,
+        }),
+        _ => None,
+    };
+    let layer_data = img.layer_data;
+    let (w, h) = (layer_data.size.width(), layer_data.size.height());
+    let chans = &layer_data.channel_data.list;
     let samples = |c: &exrp::AnyChannel<exrp::FlatSamples>| -> Vec<f32> {
         match &c.sample_data {
             exrp::FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
@@ -179,12 +214,18 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
             exrp::FlatSamples::U32(v) => v.iter().map(|x| *x as f32).collect(),
         }
     };
+    let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
+    let prefix = if layer.is_empty() {
+        String::new()
+    } else {
+        format!("{layer}.")
+    };
     let find = |name: &str| {
+        let full = format!("{prefix}{name}");
         chans
             .iter()
-            .find(|c| c.name.to_string().eq_ignore_ascii_case(name))
+            .find(|c| c.name.to_string().eq_ignore_ascii_case(&full))
     };
-    let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
     let (width, height) = (w as u32, h as u32);
     if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
         let (r, g, b) = (samples(r), samples(g), samples(b));
@@ -193,30 +234,70 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
         for i in 0..w * h {
             data.extend_from_slice(&[r[i], g[i], b[i], a.as_ref().map_or(1.0, |a| a[i])]);
         }
-        return Ok(Raster {
+        let raster = Raster {
             width,
             height,
             channels: 4,
             data,
-        });
+        };
+        return Ok((raster, header));
     }
-    let one = find("Y").or_else(|| find("R")).or_else(|| {
-        if chans.len() == 1 {
-            chans.first()
-        } else {
-            None
+    let one = if layer.is_empty() {
+        find("Y").or_else(|| find("R")).or_else(|| {
+            if chans.len() == 1 {
+                chans.first()
+            } else {
+                None
+            }
+        })
+    } else {
+        let lower = prefix.to_ascii_lowercase();
+        let in_layer: Vec<_> = chans
+            .iter()
+            .filter(|c| {
+                let n = c.name.to_string().to_ascii_lowercase();
+                n.strip_prefix(&lower)
+                    .is_some_and(|rest| !rest.contains('.'))
+            })
+            .collect();
+        let exact = chans
+            .iter()
+            .find(|c| c.name.to_string().eq_ignore_ascii_case(layer));
+        match (exact, in_layer.as_slice()) {
+            (Some(c), _) => Some(c),
+            (None, [c]) => Some(*c),
+            (None, []) => {
+                return Err(err(format!(
+                    "no layer or channel '{layer}' (layers: {})",
+                    layer_names(&names).join(", ")
+                )))
+            }
+            (None, several) => {
+                return Err(err(format!(
+                    "layer '{layer}' has channels {} but no R, G, B: name one of them",
+                    several
+                        .iter()
+                        .map(|c| c.name.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )))
+            }
         }
-    });
+    };
     match one {
-        Some(c) => Ok(Raster {
-            width,
-            height,
-            channels: 1,
-            data: samples(c),
-        }),
+        Some(c) => Ok((
+            Raster {
+                width,
+                height,
+                channels: 1,
+                data: samples(c),
+            },
+            header,
+        )),
         None => Err(err(format!(
-            "expected one channel (Y or R) or R,G,B(,A); found channels {}",
-            names.join(", ")
+            "expected one channel (Y or R) or R,G,B(,A); found channels {} (a multi-layer file: set the layer, one of {})",
+            names.join(", "),
+            layer_names(&names).join(", ")
         ))),
     }
 }
