@@ -297,7 +297,11 @@ fn every_graph_in_graphs_validates_and_renders() {
             }
             assert!(o.status.success(), "{}: {err}", f.display());
             assert!(
-                if sinks == 1 { out.exists() } else { sub.exists() },
+                if sinks == 1 {
+                    out.exists()
+                } else {
+                    sub.exists()
+                },
                 "{}",
                 f.display()
             );
