@@ -29,6 +29,10 @@
 //!
 //! The cache key includes the file's size and modification time, so editing the file on disk
 //! re-runs the node.
+//!
+//! Image sequences: a `####` run (as many digits as `#`) or a `%04d` in `path` is replaced by
+//! the frame being rendered (`render --frames`; the editor's current frame), zero-padded, as
+//! sinks name their files — `plate_####.exr` reads `plate_0012.exr` at frame 12.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -147,14 +151,33 @@ fn header_camera(h: &crate::io::ExrHeader, file: &Raster) -> Option<Matrices> {
     })
 }
 
+/// `path` with its frame pattern replaced by the frame (the rendered frame, else the time
+/// rounded); as written when it has none.
+fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
+    let f = frame.unwrap_or(time.round() as i64);
+    crate::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
+}
+
 impl NodeKind for ImageInput {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
     }
 
+    fn volatile_key(&self, key: &crate::eval::KeyInput) -> u64 {
+        // An image sequence: each frame is another file (and that file's stamp).
+        match Params::from_params(key.params) {
+            Ok(p) if crate::eval::with_frame(&p.path, 0).is_some() => {
+                let path = frame_path(&p.path, None, key.time);
+                key.time.round().to_bits() ^ crate::eval::file_stamp(Path::new(&path))
+            }
+            _ => 0,
+        }
+    }
+
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
-        let path = prm.path.as_str();
+        let path = frame_path(&prm.path, ctx.frame, ctx.time);
+        let path = path.as_str();
         if path.is_empty() {
             return Err(NodeError::Param {
                 param: "path".into(),

@@ -63,10 +63,15 @@ pub enum Command {
     /// What one pixel's view ray sees: V̄, linear depth, transfer-function coordinates and the
     /// surface point under it (for 3D constraints anchored to the scene).
     Pick(PickArgs),
-    /// Check a graph file and report the first problem with its line:column.
+    /// Check a graph file and report the first problem with its line:column; then what its
+    /// nodes find in the files they read (a glTF's animations and their frame ranges).
     Validate {
         /// The graph file.
         graph: PathBuf,
+        /// Print JSON instead: `{"graph", "nodes": [{"id", "kind"}], "notes": [...]}` — what a
+        /// pipeline tool (the Blender add-on) reads to find the nodes it sets.
+        #[arg(long)]
+        json: bool,
     },
     /// Measure speed against accuracy of node quality settings (suites in benches/). With no
     /// suite: every suite, then bench/results.csv, the plots in bench/plots/ and the tables of
@@ -231,8 +236,21 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             print!("{}", info::report(&registry, json));
             Ok(())
         }
-        Command::Validate { graph } => {
+        Command::Validate { graph, json } => {
             let g = load_file(&graph, registry.catalog()).map_err(bad)?;
+            if json {
+                let nodes: Vec<serde_json::Value> = g
+                    .nodes()
+                    .map(|n| serde_json::json!({"id": n.id, "kind": n.kind}))
+                    .collect();
+                let v = serde_json::json!({
+                    "graph": graph.display().to_string(),
+                    "nodes": nodes,
+                    "notes": describe_files(&registry, &g, &graph),
+                });
+                println!("{}", serde_json::to_string_pretty(&v).map_err(bad)?);
+                return Ok(());
+            }
             println!(
                 "{}: ok ({} nodes, {} edges)",
                 graph.display(),
