@@ -25,3 +25,10 @@ done
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180
 ./target/release/tyndall render graphs/basics/grade.ron -o docs/basics/grade.png --size 320x180
+# Plate presets write a PNG and the AOV EXR (two outputs): render into a folder, keep the PNG.
+plate_out="$(mktemp -d)"
+for preset in colonnade haze; do
+  ./target/release/tyndall render "graphs/plate/$preset.ron" --output-dir "$plate_out"
+  cp "$plate_out/out/$preset.png" "docs/plate/$preset.png"
+done
+rm -rf "$plate_out"

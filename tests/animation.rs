@@ -373,3 +373,21 @@ fn animation_on_a_missing_node_or_a_missing_name_is_a_clear_error() {
     assert_eq!(lines.len(), 1);
     assert!(lines[0].contains("frames 1–24 at 24 fps"), "{}", lines[0]);
 }
+
+/// `tests/fixtures/animated_shot.gltf` (the README's `tyndall validate` example) is this
+/// file's LINEAR scene; `TYNDALL_BLESS=1` rewrites it.
+#[test]
+fn committed_animated_fixture_is_the_linear_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let made = std::fs::read_to_string(write_scene(dir.path(), "LINEAR", 2)).unwrap();
+    let fixture =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/animated_shot.gltf");
+    if std::env::var("TYNDALL_BLESS").is_ok_and(|v| v == "1") {
+        std::fs::write(&fixture, &made).unwrap();
+    }
+    let committed = std::fs::read_to_string(&fixture).expect("the fixture");
+    assert_eq!(
+        made, committed,
+        "TYNDALL_BLESS=1 cargo test --test animation rewrites it"
+    );
+}
