@@ -287,3 +287,85 @@ fn a_missing_layer_names_the_layers_there_are() {
         "{e}"
     );
 }
+
+#[test]
+fn image_input_depth_carries_the_exr_headers_camera() {
+    let Some(gpu) = common::gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plate.exr");
+    let (w, h) = (8u32, 6u32);
+    let cam = tyndall::scene::Camera {
+        position: glam::Vec3::new(2.0, 1.5, 7.0),
+        target: glam::Vec3::new(0.0, 1.0, 0.0),
+        fov_y: 40.0,
+        near: 0.1,
+        far: 200.0,
+    }
+    .matrices(w, h);
+    let z: Vec<f32> = (0..w * h).map(|i| 3.0 + i as f32 * 0.1).collect();
+    tyndall::io::write_exr_layers(
+        &path,
+        (w, h),
+        &[tyndall::io::ExrLayer {
+            name: "ViewLayer.Depth".into(),
+            channels: vec![("Z".into(), z.clone())],
+            half: false,
+        }],
+        &tyndall::io::ExrHeader {
+            world_to_camera: Some(glam::Mat4::from_cols_array_2d(&cam.view).to_cols_array()),
+            world_to_ndc: Some(cam.view_proj().to_cols_array()),
+            frame: None,
+        },
+    )
+    .unwrap();
+    let out = common::run_node(
+        &gpu,
+        "ImageInput",
+        &[
+            ("path", ParamValue::Text(path.display().to_string())),
+            ("layer", ParamValue::Text("ViewLayer.Depth".into())),
+        ],
+        vec![],
+        &["depth"],
+        (w, h),
+    )
+    .unwrap();
+    assert_eq!(out["depth"].data, z);
+    let registry = Arc::new(tyndall::nodes::registry());
+    let mut g = Graph::new();
+    let id = g.add_node(registry.catalog(), "ImageInput").unwrap();
+    g.set_param(
+        registry.catalog(),
+        &id,
+        "path",
+        ParamValue::Text(path.display().to_string()),
+    )
+    .unwrap();
+    g.set_param(
+        registry.catalog(),
+        &id,
+        "layer",
+        ParamValue::Text("ViewLayer.Depth.Z".into()),
+    )
+    .unwrap();
+    let r = Evaluator::new(registry, gpu.clone())
+        .evaluate(
+            &g,
+            &[Target::Port(id.clone(), "depth".into())],
+            &EvalOptions::default(),
+        )
+        .unwrap();
+    let tyndall::eval::PortValue::Depth(_, m) = &r.outputs[&(id.clone(), "depth".to_string())]
+    else {
+        panic!("not a depth")
+    };
+    // The header's view and projection come back (f32 inverse: ~1e-6 relative).
+    let (a, b) = (m.view_proj(), cam.view_proj());
+    let err = (a - b)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f32, |e, v| e.max(v.abs()));
+    assert!(err < 1e-4, "view-projection differs by {err}");
+    assert!((m.eye() - glam::Vec3::new(2.0, 1.5, 7.0)).length() < 1e-4);
+    assert_eq!(m.far, *z.last().unwrap(), "far = the largest depth");
+}
