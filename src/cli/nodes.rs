@@ -32,12 +32,42 @@ fn doc_text(p: &crate::graph::ParamSpec) -> String {
     }
 }
 
-/// The catalog as plain text, Markdown or JSON.
+/// The library groups `tyndall nodes` lists: `graphs/lib/` under the working directory, then
+/// the user's (`$TYNDALL_PRESETS/lib`, else `~/.config/tyndall/presets/lib`); a group that does
+/// not load is reported on stderr and left out.
+pub fn library_groups(registry: &Registry) -> Vec<std::sync::Arc<crate::graph::GroupDef>> {
+    let mut folders = Vec::new();
+    let local = PathBuf::from("graphs/lib");
+    if local.is_dir() {
+        folders.push(local);
+    }
+    folders.extend(crate::graph::user_library());
+    let mut out = Vec::new();
+    for (folder, reference) in crate::graph::list_library(&folders) {
+        match crate::graph::load_library_group(&folder, &reference, registry.catalog()) {
+            Ok(def) => out.push(def),
+            Err(e) => eprintln!("warning: library group {reference}: {e}"),
+        }
+    }
+    out
+}
+
+/// The catalog as plain text, Markdown or JSON: the built-in kinds, then the library groups
+/// (their kind is the group's name; category `Groups`; parameters are the exposed knobs).
 pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
     use std::fmt::Write;
-    let schemas: Vec<&NodeSchema> = registry.catalog().iter().collect();
+    let groups = library_groups(registry);
+    let mut schemas: Vec<&NodeSchema> = registry.catalog().iter().collect();
+    schemas.extend(groups.iter().map(|g| g.schema()));
+    let reference = |kind: &str| {
+        groups.iter().find(|g| g.name == kind).and_then(|g| {
+            g.library
+                .as_ref()
+                .map(|l| format!("library group `{}` version {}", l.name, g.version))
+        })
+    };
     if json {
-        return catalog_json(&schemas);
+        return catalog_json(&schemas, &reference);
     }
     let mut out = String::new();
     if markdown {
@@ -46,6 +76,9 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
     for s in schemas {
         if markdown {
             let _ = writeln!(out, "## {}\n\n*{}* — {}\n", s.kind, s.category, s.doc);
+            if let Some(r) = reference(s.kind) {
+                let _ = writeln!(out, "A {r} (`graphs/lib/`).\n");
+            }
             let _ = writeln!(out, "| port | direction | type | doc |\n|---|---|---|---|");
             for (dir, ps) in [("in", s.inputs), ("out", s.outputs)] {
                 for p in ps {
@@ -78,6 +111,9 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
             out.push('\n');
         } else {
             let _ = writeln!(out, "{} ({}): {}", s.kind, s.category, s.doc);
+            if let Some(r) = reference(s.kind) {
+                let _ = writeln!(out, "  a {r}");
+            }
             for (dir, ps) in [("in ", s.inputs), ("out", s.outputs)] {
                 for p in ps {
                     let types: Vec<&str> = p.types.iter().map(|t| t.name()).collect();
@@ -109,7 +145,7 @@ pub fn catalog_text(registry: &Registry, markdown: bool, json: bool) -> String {
 }
 
 /// The catalog as JSON (`tyndall nodes --json`): kinds with their ports and parameters.
-fn catalog_json(schemas: &[&NodeSchema]) -> String {
+fn catalog_json(schemas: &[&NodeSchema], reference: &dyn Fn(&str) -> Option<String>) -> String {
     let v: Vec<serde_json::Value> = schemas
         .iter()
         .map(|s| {
@@ -128,6 +164,7 @@ fn catalog_json(schemas: &[&NodeSchema]) -> String {
             all.extend(ports("output", s.outputs));
             serde_json::json!({
                 "kind": s.kind, "category": s.category, "doc": s.doc,
+                "library": reference(s.kind),
                 "ports": all,
                 "params": s.params.iter().map(|p| {
                     let numeric = matches!(p.kind, ParamKind::Float | ParamKind::Int | ParamKind::Colour | ParamKind::Vec3);

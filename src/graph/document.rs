@@ -66,6 +66,8 @@ pub struct Graph {
     pub(super) g: StableDiGraph<Node, Wire>,
     pub(super) index: BTreeMap<String, NodeIndex>,
     pub(super) retired: BTreeSet<String>,
+    /// Group definitions nodes may instantiate (their kind is the group's name).
+    pub(super) groups: BTreeMap<String, std::sync::Arc<super::group::GroupDef>>,
 }
 
 impl PartialEq for Graph {
@@ -73,6 +75,7 @@ impl PartialEq for Graph {
         self.index.len() == other.index.len()
             && self.nodes().zip(other.nodes()).all(|(a, b)| a == b)
             && self.edges() == other.edges()
+            && self.groups == other.groups
     }
 }
 
@@ -139,13 +142,29 @@ impl Graph {
         let node = self.node(id).ok_or_else(|| GraphError::UnknownNode {
             node: id.to_string(),
         })?;
-        catalog
-            .get(&node.kind)
+        self.kind_schema(catalog, &node.kind)
             .ok_or_else(|| GraphError::UnknownKind {
                 node: id.to_string(),
                 kind: node.kind.clone(),
-                known: catalog.kind_names(),
+                known: self.kind_names(catalog),
             })
+    }
+
+    /// The schema of `kind`: one of this document's groups, else the catalog's.
+    pub fn kind_schema(&self, catalog: &Catalog, kind: &str) -> Option<&'static NodeSchema> {
+        match self.groups.get(kind) {
+            Some(def) => Some(def.schema()),
+            None => catalog.get(kind),
+        }
+    }
+
+    /// The catalog's kind names and this document's groups, for messages.
+    pub fn kind_names(&self, catalog: &Catalog) -> String {
+        if self.groups.is_empty() {
+            return catalog.kind_names();
+        }
+        let groups: Vec<&str> = self.groups.keys().map(String::as_str).collect();
+        format!("{}; groups: {}", catalog.kind_names(), groups.join(", "))
     }
 
     /// Add a node of `kind` with a fresh id derived from the kind (`math1`, `math2`, ...); ids of
@@ -185,13 +204,13 @@ impl Graph {
         if self.index.contains_key(&node.id) {
             return Err(GraphError::DuplicateNode { node: node.id });
         }
-        let schema = catalog
-            .get(&node.kind)
-            .ok_or_else(|| GraphError::UnknownKind {
-                node: node.id.clone(),
-                kind: node.kind.clone(),
-                known: catalog.kind_names(),
-            })?;
+        let schema =
+            self.kind_schema(catalog, &node.kind)
+                .ok_or_else(|| GraphError::UnknownKind {
+                    node: node.id.clone(),
+                    kind: node.kind.clone(),
+                    known: self.kind_names(catalog),
+                })?;
         let mut checked = node.clone();
         checked.params.clear();
         checked.keys.clear();

@@ -164,6 +164,33 @@ pub enum GraphError {
     /// Reading or writing the file failed.
     #[error("{0}")]
     Io(String),
+    /// A group definition is inconsistent (a port or knob naming a missing inner endpoint, a
+    /// knob range wider than its target's, …).
+    #[error("group '{group}': {message}")]
+    Group {
+        /// The group's name.
+        group: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A group contains itself, directly or through other groups.
+    #[error("group '{group}' contains itself: {chain}")]
+    GroupCycle {
+        /// The group.
+        group: String,
+        /// The chain of groups, `A → B → A`.
+        chain: String,
+    },
+    /// A node names a library group that cannot be found or does not match.
+    #[error("node '{node}': library group '{group}' {reason}")]
+    LibraryGroup {
+        /// The node (or the group that references it).
+        node: String,
+        /// The group's name (and version).
+        group: String,
+        /// Why: not found in the folders searched, or another version.
+        reason: String,
+    },
 }
 
 /// A 1-based line and column in a graph file.

@@ -30,8 +30,9 @@ use super::error::{GraphError, LoadError, Location};
 use super::schema::Catalog;
 use super::types::{Interp, Key, ParamValue};
 
-/// The format version this build writes and the newest it reads.
-pub const FORMAT_VERSION: u32 = 2;
+/// The format version this build writes and the newest it reads. Version 3 added `groups`
+/// (node groups, embedded or referenced from a library: [`super::library`]).
+pub const FORMAT_VERSION: u32 = 3;
 
 /// A key-frame track as written: `(time, value, interpolation)` triples.
 type FileTrack = Vec<(f64, f64, Interp)>;
@@ -41,8 +42,8 @@ type FileTrack = Vec<(f64, f64, Interp)>;
 pub type Migration = fn(&str) -> Result<FileGraph, ron::error::SpannedError>;
 
 /// Readers of older versions; entry `i` reads version `i + 1`. Each chains the per-version
-/// steps (`migrate_v1_to_v2`, and later `migrate_v2_to_v3`, ...).
-pub const MIGRATIONS: &[Migration] = &[read_v1];
+/// steps (`migrate_v1_to_v2`, `migrate_v2_to_v3`).
+pub const MIGRATIONS: &[Migration] = &[read_v1, read_v2];
 
 /// Version 1 of the format: the key-frame table was called `keyframes` and node positions
 /// `position`.
@@ -71,9 +72,40 @@ struct FileNodeV1 {
     data: Option<super::NodeData>,
 }
 
-/// Version 1 → 2: `keyframes` → `keys`, `position` → `pos`.
-fn migrate_v1_to_v2(v: FileGraphV1) -> FileGraph {
+/// Version 2: version 3 without `groups`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileGraphV2 {
+    #[allow(dead_code)]
+    version: u32,
+    #[serde(default, with = "pairs")]
+    nodes: Vec<(String, FileNode)>,
+    #[serde(default)]
+    edges: Vec<(String, String)>,
+    #[serde(default, with = "pairs")]
+    keys: Vec<(String, FileTrack)>,
+}
+
+/// Version 2 → 3: nothing changes but the version (a graph without groups).
+fn migrate_v2_to_v3(v: FileGraphV2) -> FileGraph {
     FileGraph {
+        version: 3,
+        nodes: v.nodes,
+        edges: v.edges,
+        keys: v.keys,
+        groups: Vec::new(),
+    }
+}
+
+fn read_v2(text: &str) -> Result<FileGraph, ron::error::SpannedError> {
+    ron_options()
+        .from_str::<FileGraphV2>(text)
+        .map(migrate_v2_to_v3)
+}
+
+/// Version 1 → 2: `keyframes` → `keys`, `position` → `pos`.
+fn migrate_v1_to_v2(v: FileGraphV1) -> FileGraphV2 {
+    FileGraphV2 {
         version: 2,
         nodes: v
             .nodes
@@ -99,25 +131,30 @@ fn read_v1(text: &str) -> Result<FileGraph, ron::error::SpannedError> {
     ron_options()
         .from_str::<FileGraphV1>(text)
         .map(migrate_v1_to_v2)
+        .map(migrate_v2_to_v3)
 }
 
 /// The current file shape (version [`FORMAT_VERSION`]).
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FileGraph {
-    version: u32,
+    pub(super) version: u32,
     #[serde(default, with = "pairs")]
-    nodes: Vec<(String, FileNode)>,
+    pub(super) nodes: Vec<(String, FileNode)>,
     #[serde(default)]
-    edges: Vec<(String, String)>,
+    pub(super) edges: Vec<(String, String)>,
     #[serde(default, with = "pairs")]
-    keys: Vec<(String, FileTrack)>,
+    pub(super) keys: Vec<(String, FileTrack)>,
+    /// Group definitions (embedded or library references), written by hand after the rest
+    /// (see [`save_string`]).
+    #[serde(default, with = "pairs", skip_serializing)]
+    pub(super) groups: Vec<(String, super::library::FileGroup)>,
 }
 
-#[derive(Serialize, Deserialize)]
+#[derive(Serialize, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
-struct FileNode {
-    kind: String,
+pub(super) struct FileNode {
+    pub(super) kind: String,
     #[serde(default, with = "pairs", skip_serializing_if = "Vec::is_empty")]
     params: Vec<(String, Value)>,
     #[serde(
@@ -142,7 +179,7 @@ fn ser_inner<S: Serializer, T: Serialize>(v: &Option<T>, s: S) -> Result<S::Ok, 
 }
 
 /// A map read as a list of pairs, so that repeated keys are seen instead of silently merged.
-mod pairs {
+pub(super) mod pairs {
     use super::*;
 
     pub fn serialize<S: Serializer, K: Serialize, V: Serialize>(
@@ -179,17 +216,17 @@ mod pairs {
     }
 }
 
-fn ron_options() -> ron::Options {
+pub(super) fn ron_options() -> ron::Options {
     ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
 }
 
 /// Finds where things are named in the file's text, for error locations.
-struct Locator<'a> {
-    text: &'a str,
+pub(super) struct Locator<'a> {
+    pub(super) text: &'a str,
 }
 
 impl Locator<'_> {
-    fn at(&self, byte: usize) -> Location {
+    pub(super) fn at(&self, byte: usize) -> Location {
         let before = &self.text[..byte.min(self.text.len())];
         let line = before.matches('\n').count() + 1;
         let col = before
@@ -246,7 +283,7 @@ impl Locator<'_> {
     }
 }
 
-fn value_to_param(v: &Value) -> Result<ParamValue, String> {
+pub(super) fn value_to_param(v: &Value) -> Result<ParamValue, String> {
     match v {
         Value::Number(n) => match n {
             Number::F32(_) | Number::F64(_) => Ok(ParamValue::Float(n.into_f64())),
@@ -278,7 +315,7 @@ fn value_to_param(v: &Value) -> Result<ParamValue, String> {
     }
 }
 
-fn param_to_value(p: &ParamValue) -> Value {
+pub(super) fn param_to_value(p: &ParamValue) -> Value {
     match p {
         ParamValue::Float(v) => Value::Number(Number::F64((*v).into())),
         ParamValue::Int(v) => Value::Number(Number::I64(*v)),
@@ -379,15 +416,28 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
         };
         err(Some(syntax_location(&e)), GraphError::Syntax { message })
     })?;
-    build(parsed, &loc, catalog).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
+    let mut resolver = super::library::Resolver::for_graph(file);
+    let groups = resolver
+        .resolve_table(&parsed.groups, catalog)
+        .map_err(|e| err(None, e))?;
+    build(parsed, &loc, catalog, &groups, false).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
 }
 
-fn build(
+/// Build a graph from its parsed file, with `groups` (resolved definitions) available to its
+/// nodes; the graph keeps those its nodes use.
+pub(super) fn build(
     f: FileGraph,
     loc: &Locator,
     catalog: &Catalog,
+    groups: &BTreeMap<String, std::sync::Arc<super::GroupDef>>,
+    inner: bool,
 ) -> Result<Graph, (Option<usize>, GraphError)> {
     let mut g = Graph::new();
+    for (_, fnode) in &f.nodes {
+        if let Some(def) = groups.get(&fnode.kind) {
+            g.add_group(def.clone());
+        }
+    }
     let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
     let mut key_tracks: BTreeMap<String, BTreeMap<String, Vec<Key>>> = BTreeMap::new();
     for (target, keys) in &f.keys {
@@ -482,7 +532,16 @@ fn build(
             (at, e)
         })?;
     }
+    if inner {
+        // A group's inner types depend on what reaches its inputs: they are checked in the
+        // flattened graph of the document that instantiates it (below).
+        return Ok(g);
+    }
     // Types last: polymorphic outputs take their type from edges that may come later.
+    if g.has_group_nodes() {
+        let flat = g.flatten(catalog).map_err(|e| (None, e))?;
+        flat.check_all_types(catalog).map_err(|e| (None, e))?;
+    }
     g.check_all_types(catalog).map_err(|e| {
         let at = match &e {
             GraphError::TypeMismatch { from, .. } => loc.edge(from),
@@ -493,8 +552,8 @@ fn build(
     Ok(g)
 }
 
-/// Serialise a graph deterministically (ids, parameters and edges ordered).
-pub fn save_string(g: &Graph) -> String {
+/// A graph as its file's parts (without groups): nodes by id, edges by destination, key tracks.
+pub(super) fn file_graph(g: &Graph) -> FileGraph {
     let mut keys = Vec::new();
     let nodes = g
         .nodes()
@@ -523,8 +582,9 @@ pub fn save_string(g: &Graph) -> String {
             )
         })
         .collect();
-    let file = FileGraph {
+    FileGraph {
         version: FORMAT_VERSION,
+        groups: Vec::new(),
         nodes,
         edges: g
             .edges()
@@ -537,7 +597,12 @@ pub fn save_string(g: &Graph) -> String {
             })
             .collect(),
         keys,
-    };
+    }
+}
+
+/// Serialise a graph deterministically (ids, parameters and edges ordered; then its groups).
+pub fn save_string(g: &Graph) -> String {
+    let file = file_graph(g);
     let cfg = ron::ser::PrettyConfig::new()
         .depth_limit(2)
         .indentor("    ")
@@ -545,8 +610,26 @@ pub fn save_string(g: &Graph) -> String {
         .struct_names(false)
         .separate_tuple_members(false);
     let mut s = ron::ser::to_string_pretty(&file, cfg).unwrap_or_else(|e| format!("// {e}"));
+    let groups = super::library::groups_text(g);
+    if !groups.is_empty() {
+        // Before the closing `)`: the `groups` table, each definition in the file's own layout.
+        if let Some(end) = s.rfind(')') {
+            s.insert_str(end, &groups);
+        }
+    }
     s.push('\n');
     s
+}
+
+/// The pretty-printer settings of graph files: maps and lists one entry per line down to
+/// `depth`, each entry on one line.
+pub(super) fn pretty(depth: usize) -> ron::ser::PrettyConfig {
+    ron::ser::PrettyConfig::new()
+        .depth_limit(depth)
+        .indentor("    ")
+        .new_line("\n")
+        .struct_names(false)
+        .separate_tuple_members(false)
 }
 
 /// Read and parse a graph file.

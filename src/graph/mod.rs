@@ -9,6 +9,8 @@ mod document;
 mod edges;
 mod error;
 mod format;
+mod group;
+mod library;
 mod schema;
 mod types;
 mod value;
@@ -19,6 +21,10 @@ pub use error::{GraphError, LoadError, Location};
 pub use format::{
     load_file, load_str, save_file, save_string, write_atomic, Migration, FORMAT_VERSION,
     MIGRATIONS,
+};
+pub use group::{GroupDef, GroupPort, Knob, LibraryRef};
+pub use library::{
+    library_folders, library_text, list_library, load_library_group, reference_entry, user_library,
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{

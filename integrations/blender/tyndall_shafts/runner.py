@@ -50,7 +50,8 @@ def default_graphs_folder(binary):
 
 
 def list_presets(folders):
-    """(absolute path, label) of every .ron graph under the folders, sorted by label."""
+    """(absolute path, label) of every .ron graph under the folders: the plate presets first
+    (`plate/haze`, which fits any shot, at the top: the default), then by label."""
     out = []
     for folder in folders:
         if not folder or not os.path.isdir(folder):
@@ -61,7 +62,7 @@ def list_presets(folders):
                     path = os.path.join(root, f)
                     label = os.path.relpath(path, folder)[: -len(".ron")]
                     out.append((path, label))
-    return sorted(out, key=lambda p: p[1])
+    return sorted(out, key=lambda p: (p[1] != "plate/haze", not p[1].startswith("plate/"), p[1]))
 
 
 def graph_nodes(binary, graph):
