@@ -233,7 +233,7 @@ fn migration_from_version_1() {
     );
     let saved = save_string(&g);
     assert!(
-        saved.contains("version: 2")
+        saved.contains("version: 3")
             && saved.contains("pos: (10.0, 20.0)")
             && saved.contains("keys:"),
         "{saved}"

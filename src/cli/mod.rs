@@ -5,6 +5,7 @@
 
 mod bench;
 mod eval;
+mod group;
 mod info;
 mod node;
 mod nodes;
@@ -63,6 +64,9 @@ pub enum Command {
     /// What one pixel's view ray sees: V̄, linear depth, transfer-function coordinates and the
     /// surface point under it (for 3D constraints anchored to the scene).
     Pick(PickArgs),
+    /// Make a library group from nodes of a graph: the cut edges become its ports, `--expose`
+    /// makes knobs; writes the library file (`graphs/lib/…`).
+    Group(group::GroupArgs),
     /// Check a graph file and report the first problem with its line:column; then what its
     /// nodes find in the files they read (a glTF's animations and their frame ranges).
     Validate {
@@ -281,6 +285,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Bench(a) => bench::run_bench(registry, a),
         Command::Eval(a) => eval::run_eval(registry, a),
         Command::Pick(a) => pick::run_pick(registry, a),
+        Command::Group(a) => group::run_group(registry, a),
         Command::Render(a) => render::run_render(registry, a),
     }
 }

@@ -424,7 +424,8 @@ pub fn preset_thumbnail(path: &Path) -> Option<PathBuf> {
     })
 }
 
-/// The presets under `folders` (recursively), ordered by name.
+/// The presets under `folders` (recursively), ordered by name; a folder's `lib/` holds library
+/// groups, not presets, and is left out.
 pub fn list_presets(folders: &[PathBuf]) -> Vec<PresetEntry> {
     let mut out = Vec::new();
     for root in folders {
@@ -436,7 +437,9 @@ pub fn list_presets(folders: &[PathBuf]) -> Vec<PresetEntry> {
             for e in entries.flatten() {
                 let p = e.path();
                 if p.is_dir() {
-                    stack.push(p);
+                    if !(dir == *root && p.file_name().is_some_and(|n| n == "lib")) {
+                        stack.push(p);
+                    }
                 } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
                     let rel = p.strip_prefix(root).unwrap_or(&p).with_extension("");
                     out.push(PresetEntry {

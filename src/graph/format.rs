@@ -171,7 +171,10 @@ pub(super) struct FileNode {
     data: Option<super::NodeData>,
 }
 
-fn ser_inner<S: Serializer, T: Serialize>(v: &Option<T>, s: S) -> Result<S::Ok, S::Error> {
+pub(super) fn ser_inner<S: Serializer, T: Serialize>(
+    v: &Option<T>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
     match v {
         Some(x) => x.serialize(s),
         None => s.serialize_none(),
@@ -537,11 +540,9 @@ pub(super) fn build(
         // flattened graph of the document that instantiates it (below).
         return Ok(g);
     }
-    // Types last: polymorphic outputs take their type from edges that may come later.
-    if g.has_group_nodes() {
-        let flat = g.flatten(catalog).map_err(|e| (None, e))?;
-        flat.check_all_types(catalog).map_err(|e| (None, e))?;
-    }
+    // Types last: polymorphic outputs take their type from edges that may come later. Edges to
+    // and from groups first against the groups' ports, then the flattened graph (what the
+    // groups' insides make of what reaches them).
     g.check_all_types(catalog).map_err(|e| {
         let at = match &e {
             GraphError::TypeMismatch { from, .. } => loc.edge(from),
@@ -549,6 +550,10 @@ pub(super) fn build(
         };
         (at, e)
     })?;
+    if g.has_group_nodes() {
+        let flat = g.flatten(catalog).map_err(|e| (None, e))?;
+        flat.check_all_types(catalog).map_err(|e| (None, e))?;
+    }
     Ok(g)
 }
 

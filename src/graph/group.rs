@@ -328,7 +328,7 @@ fn knob_spec(
             .and_then(|node| node.params.get(p).cloned())
             .unwrap_or_else(|| spec.default.value());
         match &first {
-            None => first = Some((spec.clone(), current)),
+            None => first = Some((*spec, current)),
             Some((f, _))
                 if std::mem::discriminant(&f.kind) != std::mem::discriminant(&spec.kind) =>
             {
@@ -437,6 +437,19 @@ impl Graph {
     /// Add (or replace) a group definition, so nodes may instantiate it.
     pub fn add_group(&mut self, def: Arc<GroupDef>) {
         self.groups.insert(def.name.clone(), def);
+    }
+
+    /// Replace the library group `name` by an embedded copy of it (Nuke's "copy to group"):
+    /// the graph no longer follows the library file; saving writes the whole definition.
+    pub fn embed_group(&mut self, name: &str) -> Result<(), GraphError> {
+        let def = self.groups.get(name).ok_or_else(|| GraphError::Group {
+            group: name.to_string(),
+            message: "is not used by this graph".into(),
+        })?;
+        let mut copy = (**def).clone();
+        copy.library = None;
+        self.groups.insert(name.to_string(), Arc::new(copy));
+        Ok(())
     }
 
     /// Whether any node instantiates a group.

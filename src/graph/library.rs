@@ -37,8 +37,8 @@ use serde::{Deserialize, Serialize};
 use super::document::{split_endpoint, Graph};
 use super::error::GraphError;
 use super::format::{
-    build, file_graph, pairs, param_to_value, pretty, ron_options, value_to_param, FileGraph,
-    FileNode, Locator, FORMAT_VERSION,
+    build, file_graph, pairs, param_to_value, pretty, ron_options, ser_inner, value_to_param,
+    FileGraph, FileNode, Locator, FORMAT_VERSION,
 };
 use super::group::{GroupDef, GroupPort, Knob, LibraryRef};
 use super::schema::Catalog;
@@ -69,11 +69,23 @@ pub(super) struct FileOutput {
 #[serde(deny_unknown_fields)]
 pub(super) struct FileKnob {
     to: Vec<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     default: Option<Value>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     min: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     max: Option<f64>,
     #[serde(default, skip_serializing_if = "String::is_empty")]
     doc: String,
@@ -84,9 +96,17 @@ pub(super) struct FileKnob {
 #[derive(Serialize, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct FileGroup {
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     name: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
     library: Option<String>,
     version: u32,
     #[serde(default, skip_serializing_if = "String::is_empty")]

@@ -69,15 +69,19 @@ macro_rules! require_gpu {
     };
 }
 
-/// Every graph file under `graphs/` (the preset library), sorted.
+/// Every graph file under `graphs/` (the preset library), sorted; not the library groups of
+/// `graphs/lib/`.
 pub fn presets() -> Vec<std::path::PathBuf> {
     let mut files = Vec::new();
+    let lib = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/lib");
     let mut stack = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs")];
     while let Some(d) = stack.pop() {
         for e in std::fs::read_dir(&d).expect("read_dir") {
             let p = e.expect("entry").path();
             if p.is_dir() {
-                stack.push(p);
+                if p != lib {
+                    stack.push(p);
+                }
             } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
                 files.push(p);
             }

@@ -56,7 +56,9 @@ def list_presets(folders):
     for folder in folders:
         if not folder or not os.path.isdir(folder):
             continue
-        for root, _dirs, files in os.walk(folder):
+        for root, dirs, files in os.walk(folder):
+            if root == folder and "lib" in dirs:
+                dirs.remove("lib")  # library groups, not presets
             for f in files:
                 if f.endswith(".ron"):
                     path = os.path.join(root, f)
