@@ -31,7 +31,7 @@ use super::schema::Catalog;
 use super::types::{Interp, Key, ParamValue};
 
 /// The format version this build writes and the newest it reads. Version 3 added `groups`
-/// (node groups, embedded or referenced from a library: [`super::library`]).
+/// (node groups, embedded or referenced from a library file: [`crate::graph::GroupDef`]).
 pub const FORMAT_VERSION: u32 = 3;
 
 /// A key-frame track as written: `(time, value, interpolation)` triples.
