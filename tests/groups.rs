@@ -99,6 +99,45 @@ fn grouped_preset_renders_like_its_flat_original_and_its_flattened_graph() {
     assert_eq!(eval(&again, &[("side", "image")])[0].data, a[0].data);
 }
 
+/// The port feeding sink `out`'s `image` in `g`.
+fn out_source(g: &Graph) -> (String, String) {
+    let e = g
+        .edges()
+        .into_iter()
+        .find(|e| e.to_node == "out" && e.to_port == "image")
+        .expect("an out.image edge");
+    (e.from_node, e.from_port)
+}
+
+/// Every preset rebuilt on library groups renders bit-identically to its flat original
+/// (`tests/fixtures/flat/NAME.ron`, the preset before it used groups).
+#[test]
+fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reg = registry();
+    let mut compared = 0;
+    for e in std::fs::read_dir(root().join("tests/fixtures/flat")).unwrap() {
+        let flat_path = e.unwrap().path();
+        let name = flat_path.file_name().unwrap().to_owned();
+        let preset = common::presets()
+            .into_iter()
+            .find(|p| p.file_name() == Some(&name))
+            .expect("the preset of a flat original");
+        let grouped = load_file(&preset, reg.catalog()).unwrap();
+        assert!(grouped.has_group_nodes(), "{}", preset.display());
+        let flat = load_file(&flat_path, reg.catalog()).unwrap();
+        let (gn, gp) = out_source(&grouped);
+        let (fnode, fport) = out_source(&flat);
+        let a = eval(&grouped, &[(&gn, &gp)]);
+        let b = eval(&flat, &[(&fnode, &fport)]);
+        assert_eq!(a[0].data, b[0].data, "{}", preset.display());
+        compared += 1;
+    }
+    assert!(compared >= 3, "{compared} presets compared");
+}
+
 #[test]
 fn a_knob_reruns_only_what_it_reaches() {
     let Some(gpu) = common::gpu() else { return };

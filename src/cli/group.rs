@@ -31,22 +31,29 @@ pub struct GroupArgs {
     /// The group's version (a graph references a group by name and version).
     #[arg(long, default_value_t = 1)]
     pub version: u32,
+    /// Also rewrite GRAPH: the nodes replaced by one instance with this id of the new library
+    /// group (the output must lie under a `lib/` folder the graph finds).
+    #[arg(long, value_name = "ID")]
+    pub rewrite: Option<String>,
 }
 
-fn unique_name(wanted: &str, fallback: String, taken: &[String]) -> String {
-    if !taken.iter().any(|t| t == wanted) {
-        wanted.to_string()
-    } else {
-        fallback
-    }
+/// The reference graphs use for the library file `path`: its path under the nearest `lib/`
+/// folder, without `.ron` (`graphs/lib/stylize/hole_filling.ron` → `stylize/hole_filling`).
+fn reference_of(path: &Path) -> Option<String> {
+    let comps: Vec<String> = path
+        .with_extension("")
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    let i = comps.iter().rposition(|c| c == "lib")?;
+    (i + 1 < comps.len()).then(|| comps[i + 1..].join("/"))
 }
 
 pub(super) fn run_group(registry: Arc<Registry>, a: GroupArgs) -> Result<(), CliError> {
-    use crate::graph::{GroupDef, GroupPort, Knob};
+    use crate::graph::{Knob, LibraryRef};
     let cat = registry.catalog();
     let g = load_file(&a.graph, cat).map_err(bad)?;
-    let chosen: std::collections::BTreeSet<String> = a.nodes.iter().cloned().collect();
-    for id in &chosen {
+    for id in &a.nodes {
         if g.node(id).is_none() {
             return Err(bad(format!(
                 "{}: no node '{id}' (its nodes: {})",
@@ -58,69 +65,6 @@ pub(super) fn run_group(registry: Arc<Registry>, a: GroupArgs) -> Result<(), Cli
             )));
         }
     }
-    let mut inner = Graph::new();
-    for n in g.nodes().filter(|n| chosen.contains(&n.id)) {
-        if let Some(def) = g.groups().get(&n.kind) {
-            inner.add_group(def.clone());
-        }
-        inner.insert_node(cat, n.clone()).map_err(bad)?;
-    }
-    let mut inputs: Vec<GroupPort> = Vec::new();
-    let mut outputs: Vec<GroupPort> = Vec::new();
-    let mut sources: Vec<(String, String)> = Vec::new();
-    let mut inner_sources: Vec<(String, String)> = Vec::new();
-    for e in g.edges() {
-        match (chosen.contains(&e.from_node), chosen.contains(&e.to_node)) {
-            (true, true) => inner
-                .connect_deferred(
-                    cat,
-                    &format!("{}.{}", e.from_node, e.from_port),
-                    &format!("{}.{}", e.to_node, e.to_port),
-                )
-                .map_err(bad)?,
-            (false, true) => {
-                let src = (e.from_node.clone(), e.from_port.clone());
-                let target = (e.to_node.clone(), e.to_port.clone());
-                match sources.iter().position(|s| *s == src) {
-                    Some(i) => inputs[i].targets.push(target),
-                    None => {
-                        let taken: Vec<String> = inputs.iter().map(|p| p.name.clone()).collect();
-                        let name =
-                            unique_name(&e.to_port, format!("{}_{}", e.to_node, e.to_port), &taken);
-                        sources.push(src);
-                        inputs.push(GroupPort {
-                            name,
-                            doc: format!(
-                                "From {}.{} in {}.",
-                                e.from_node,
-                                e.from_port,
-                                a.graph.display()
-                            ),
-                            targets: vec![target],
-                        });
-                    }
-                }
-            }
-            (true, false) => {
-                let src = (e.from_node.clone(), e.from_port.clone());
-                if !inner_sources.contains(&src) {
-                    let taken: Vec<String> = outputs.iter().map(|p| p.name.clone()).collect();
-                    let name = unique_name(
-                        &e.from_port,
-                        format!("{}_{}", e.from_node, e.from_port),
-                        &taken,
-                    );
-                    inner_sources.push(src.clone());
-                    outputs.push(GroupPort {
-                        name,
-                        doc: format!("{}.{} of the grouped nodes.", e.from_node, e.from_port),
-                        targets: vec![src],
-                    });
-                }
-            }
-            (false, false) => {}
-        }
-    }
     let mut knobs: Vec<Knob> = Vec::new();
     for x in &a.expose {
         let (target, name) = match x.split_once('=') {
@@ -128,7 +72,7 @@ pub(super) fn run_group(registry: Arc<Registry>, a: GroupArgs) -> Result<(), Cli
             None => (x.as_str(), split_endpoint(x).map_err(bad)?.1.to_string()),
         };
         let (n, p) = split_endpoint(target).map_err(bad)?;
-        if !chosen.contains(n) {
+        if !a.nodes.iter().any(|id| id == n) {
             return Err(bad(format!(
                 "--expose {x}: node '{n}' is not one of --nodes"
             )));
@@ -146,10 +90,23 @@ pub(super) fn run_group(registry: Arc<Registry>, a: GroupArgs) -> Result<(), Cli
             }),
         }
     }
-    let def = GroupDef::new(
-        cat, &a.name, a.version, &a.doc, inputs, outputs, knobs, inner, None,
-    )
-    .map_err(bad)?;
+    let reference = reference_of(&a.output);
+    if a.rewrite.is_some() && reference.is_none() {
+        return Err(bad(format!(
+            "--rewrite: {} is not under a lib/ folder, so a graph cannot reference it",
+            a.output.display()
+        )));
+    }
+    let library = reference.clone().map(|name| LibraryRef {
+        name,
+        path: a.output.clone(),
+    });
+    let instance = a.rewrite.clone().unwrap_or_else(|| "group".into());
+    let (def, outer) = g
+        .group_nodes(
+            cat, &a.nodes, &a.name, a.version, &a.doc, knobs, &instance, library,
+        )
+        .map_err(bad)?;
     if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| bad(format!("cannot create {}: {e}", dir.display())))?;
@@ -166,5 +123,14 @@ pub(super) fn run_group(registry: Arc<Registry>, a: GroupArgs) -> Result<(), Cli
         s.outputs.len(),
         s.params.len()
     );
+    if a.rewrite.is_some() {
+        crate::graph::save_file(&a.graph, &outer).map_err(bad)?;
+        println!(
+            "{}: the nodes are now '{instance}' ({}, library \"{}\")",
+            a.graph.display(),
+            a.name,
+            reference.unwrap_or_default()
+        );
+    }
     Ok(())
 }

@@ -266,11 +266,11 @@ impl EditorApp {
             };
             let out_ix = g
                 .node(&e.from_node)
-                .and_then(|n| cat.get(&n.kind))
+                .and_then(|n| g.kind_schema(cat, &n.kind))
                 .and_then(|s| s.outputs.iter().position(|p| p.name == e.from_port));
             let in_ix = g
                 .node(&e.to_node)
-                .and_then(|n| cat.get(&n.kind))
+                .and_then(|n| g.kind_schema(cat, &n.kind))
                 .and_then(|s| s.inputs.iter().position(|p| p.name == e.to_port));
             if let (Some(o), Some(i)) = (out_ix, in_ix) {
                 snarl.connect(

@@ -43,7 +43,7 @@ pub(super) struct CanvasView<'a> {
 impl CanvasView<'_> {
     fn port(&self, node: &str, input: bool, index: usize) -> Option<(String, PortType)> {
         let kind = &self.state.graph().node(node)?.kind;
-        let schema = self.state.catalog().get(kind)?;
+        let schema = self.state.graph().kind_schema(self.state.catalog(), kind)?;
         let p = if input {
             schema.inputs.get(index)?
         } else {
@@ -82,7 +82,7 @@ impl CanvasView<'_> {
     fn counts(&self, node: &str) -> (usize, usize) {
         let g: &Graph = self.state.graph();
         g.node(node)
-            .and_then(|n| self.state.catalog().get(&n.kind))
+            .and_then(|n| g.kind_schema(self.state.catalog(), &n.kind))
             .map_or((0, 0), |s| (s.inputs.len(), s.outputs.len()))
     }
 }

@@ -179,14 +179,20 @@ impl Drop for Worker {
 /// A node's outputs that are pictures (not a scene or a phase function), in schema order;
 /// none for sinks (evaluating them writes files).
 pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String> {
-    let Some(kind) = graph.node(id).and_then(|n| registry.get(&n.kind)) else {
+    let cat = registry.catalog();
+    let Some(node) = graph.node(id) else {
         return Vec::new();
     };
-    if kind.is_sink() {
-        return Vec::new();
-    }
-    let cat = registry.catalog();
-    kind.schema()
+    // A group's outputs are pictures like its inner ports; a built-in sink has none.
+    let schema = match registry.get(&node.kind) {
+        Some(kind) if kind.is_sink() => return Vec::new(),
+        Some(kind) => kind.schema(),
+        None => match graph.kind_schema(cat, &node.kind) {
+            Some(s) => s,
+            None => return Vec::new(),
+        },
+    };
+    schema
         .outputs
         .iter()
         .filter(|p| {

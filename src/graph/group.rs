@@ -420,6 +420,178 @@ fn to_default(kind: &ParamKind, v: &ParamValue) -> Option<DefaultValue> {
     })
 }
 
+/// The edges cut by grouping `chosen`: inputs (one per outside source, with every inner port it
+/// feeds) and outputs (one per inner source that feeds outside), named after the inner port
+/// (`node_port` when taken), in edge order; and the outside endpoints of each.
+#[allow(clippy::type_complexity)]
+fn cut_ports(
+    g: &Graph,
+    chosen: &std::collections::BTreeSet<String>,
+) -> (Vec<GroupPort>, Vec<(String, String)>, Vec<GroupPort>) {
+    let mut inputs: Vec<GroupPort> = Vec::new();
+    let mut sources: Vec<(String, String)> = Vec::new();
+    let mut outputs: Vec<GroupPort> = Vec::new();
+    let unique = |wanted: &str, fallback: String, taken: &[GroupPort]| {
+        if taken.iter().any(|t| t.name == wanted) {
+            fallback
+        } else {
+            wanted.to_string()
+        }
+    };
+    for e in g.edges() {
+        match (chosen.contains(&e.from_node), chosen.contains(&e.to_node)) {
+            (false, true) => {
+                let src = (e.from_node.clone(), e.from_port.clone());
+                let target = (e.to_node.clone(), e.to_port.clone());
+                match sources.iter().position(|s| *s == src) {
+                    Some(i) => inputs[i].targets.push(target),
+                    None => {
+                        let name =
+                            unique(&e.to_port, format!("{}_{}", e.to_node, e.to_port), &inputs);
+                        sources.push(src);
+                        inputs.push(GroupPort {
+                            name,
+                            doc: format!("What {}.{} read.", e.to_node, e.to_port),
+                            targets: vec![target],
+                        });
+                    }
+                }
+            }
+            (true, false) => {
+                let src = (e.from_node.clone(), e.from_port.clone());
+                if !outputs.iter().any(|o| o.targets[0] == src) {
+                    let name = unique(
+                        &e.from_port,
+                        format!("{}_{}", e.from_node, e.from_port),
+                        &outputs,
+                    );
+                    outputs.push(GroupPort {
+                        name,
+                        doc: format!("{}.{}.", e.from_node, e.from_port),
+                        targets: vec![src],
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    (inputs, sources, outputs)
+}
+
+impl Graph {
+    /// Collapse the nodes `ids` into a group `name` (the editor's Group, `tyndall group`): the
+    /// group's inner graph is those nodes and the edges between them, its inputs and outputs
+    /// are the cut edges, its knobs `knobs`. Returns the definition and this graph with the
+    /// nodes replaced by one instance `instance` of it, wired where they were (its knobs left
+    /// at their defaults: the inner values).
+    #[allow(clippy::too_many_arguments)]
+    pub fn group_nodes(
+        &self,
+        catalog: &Catalog,
+        ids: &[String],
+        name: &str,
+        version: u32,
+        doc: &str,
+        knobs: Vec<Knob>,
+        instance: &str,
+        library: Option<LibraryRef>,
+    ) -> Result<(GroupDef, Graph), GraphError> {
+        let chosen: std::collections::BTreeSet<String> = ids.iter().cloned().collect();
+        for id in &chosen {
+            self.ix(id)?;
+        }
+        let mut inner = Graph::new();
+        for n in self.nodes().filter(|n| chosen.contains(&n.id)) {
+            if let Some(def) = self.groups.get(&n.kind) {
+                inner.add_group(def.clone());
+            }
+            inner.insert_node(catalog, n.clone())?;
+        }
+        for e in self.edges() {
+            if chosen.contains(&e.from_node) && chosen.contains(&e.to_node) {
+                inner.connect_deferred(
+                    catalog,
+                    &format!("{}.{}", e.from_node, e.from_port),
+                    &format!("{}.{}", e.to_node, e.to_port),
+                )?;
+            }
+        }
+        let (inputs, sources, outputs) = cut_ports(self, &chosen);
+        let def = GroupDef::new(
+            catalog,
+            name,
+            version,
+            doc,
+            inputs.clone(),
+            outputs.clone(),
+            knobs,
+            inner,
+            library,
+        )?;
+        let mut outer = Graph::new();
+        outer.groups = self.groups.clone();
+        outer.retired = self.retired.clone();
+        let def_arc = Arc::new(def.clone());
+        outer.add_group(def_arc);
+        for n in self.nodes().filter(|n| !chosen.contains(&n.id)) {
+            outer.insert_node(catalog, n.clone())?;
+        }
+        let pos = self
+            .nodes()
+            .filter(|n| chosen.contains(&n.id))
+            .find_map(|n| n.pos);
+        outer.insert_node(
+            catalog,
+            Node {
+                id: instance.to_string(),
+                kind: name.to_string(),
+                params: BTreeMap::new(),
+                keys: BTreeMap::new(),
+                pos,
+                data: None,
+            },
+        )?;
+        for e in self.edges() {
+            let (fi, ti) = (chosen.contains(&e.from_node), chosen.contains(&e.to_node));
+            let from = if fi {
+                match outputs
+                    .iter()
+                    .find(|o| o.targets[0] == (e.from_node.clone(), e.from_port.clone()))
+                {
+                    Some(o) => format!("{instance}.{}", o.name),
+                    None => continue,
+                }
+            } else {
+                format!("{}.{}", e.from_node, e.from_port)
+            };
+            let to = if ti {
+                if fi {
+                    continue; // inside the group
+                }
+                let src = (e.from_node.clone(), e.from_port.clone());
+                let Some(i) = sources.iter().position(|s| *s == src) else {
+                    continue;
+                };
+                if outer
+                    .edges()
+                    .iter()
+                    .any(|x| x.to_node == instance && x.to_port == inputs[i].name)
+                {
+                    continue; // one edge per group input
+                }
+                format!("{instance}.{}", inputs[i].name)
+            } else {
+                format!("{}.{}", e.to_node, e.to_port)
+            };
+            outer.connect_deferred(catalog, &from, &to)?;
+        }
+        let used: std::collections::BTreeSet<String> =
+            outer.nodes().map(|n| n.kind.clone()).collect();
+        outer.groups.retain(|k, _| used.contains(k));
+        Ok((def, outer))
+    }
+}
+
 /// Where the inner endpoints of one flattened group instance are: its inputs' and outputs'
 /// flattened `node.port`s.
 #[derive(Default)]

@@ -29,7 +29,11 @@ impl EditorApp {
         let Some(node) = self.state.graph().node(&id).cloned() else {
             return;
         };
-        let Some(schema) = self.state.catalog().get(&node.kind) else {
+        let Some(schema) = self
+            .state
+            .graph()
+            .kind_schema(self.state.catalog(), &node.kind)
+        else {
             return;
         };
         ui.heading(format!("{id} - {}", node.kind));
