@@ -241,6 +241,23 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Validate { graph, json } => {
+            let text = std::fs::read_to_string(&graph).unwrap_or_default();
+            if crate::graph::is_library_text(&text) {
+                let def = crate::graph::load_library_file(&graph, registry.catalog())
+                    .map_err(|e| bad(format!("{}: {e}", graph.display())))?;
+                let s = def.schema();
+                println!(
+                    "{}: ok (library group {} version {}: {} inputs, {} outputs, {} knobs, {} inner nodes)",
+                    graph.display(),
+                    def.name,
+                    def.version,
+                    s.inputs.len(),
+                    s.outputs.len(),
+                    s.params.len(),
+                    def.graph.len()
+                );
+                return Ok(());
+            }
             let g = load_file(&graph, registry.catalog()).map_err(bad)?;
             if json {
                 let nodes: Vec<serde_json::Value> = g

@@ -25,7 +25,7 @@ use super::schema::{Catalog, NodeSchema};
 use super::types::{DefaultValue, ParamKind, ParamSpec, PortSpec, PortType};
 use super::value::ParamValue;
 
-/// A group port: its name, doc, and the inner endpoints (`node`, `port`) it stands for — every
+/// A group port: its name, doc (empty: the first inner port's), and the inner endpoints (`node`, `port`) it stands for — every
 /// inner input it feeds (inputs), or the one inner output it gives (outputs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroupPort {
@@ -160,6 +160,7 @@ impl GroupDef {
             }
             let mut types: Option<Vec<PortType>> = None;
             let mut required = false;
+            let mut first_doc = "";
             for (n, port) in &p.targets {
                 let schema = graph.schema_of(catalog, n).map_err(|_| {
                     group_err(name, format!("input '{}': no inner node '{n}'", p.name))
@@ -188,6 +189,9 @@ impl GroupDef {
                     ));
                 }
                 required |= spec.required;
+                if first_doc.is_empty() {
+                    first_doc = spec.doc;
+                }
                 types = Some(match types {
                     None => spec.types.to_vec(),
                     Some(t) => t.into_iter().filter(|x| spec.types.contains(x)).collect(),
@@ -204,7 +208,11 @@ impl GroupDef {
                 name: leak(&p.name),
                 types: Vec::leak(types),
                 required,
-                doc: leak(&p.doc),
+                doc: if p.doc.is_empty() {
+                    first_doc
+                } else {
+                    leak(&p.doc)
+                },
             });
         }
         let mut out_specs = Vec::new();
@@ -235,7 +243,11 @@ impl GroupDef {
                 name: leak(&p.name),
                 types: Vec::leak(types),
                 required: false,
-                doc: leak(&p.doc),
+                doc: if p.doc.is_empty() {
+                    spec.doc
+                } else {
+                    leak(&p.doc)
+                },
             });
         }
         let mut params = Vec::new();
@@ -451,7 +463,7 @@ fn cut_ports(
                         sources.push(src);
                         inputs.push(GroupPort {
                             name,
-                            doc: format!("What {}.{} read.", e.to_node, e.to_port),
+                            doc: String::new(),
                             targets: vec![target],
                         });
                     }
@@ -467,7 +479,7 @@ fn cut_ports(
                     );
                     outputs.push(GroupPort {
                         name,
-                        doc: format!("{}.{}.", e.from_node, e.from_port),
+                        doc: String::new(),
                         targets: vec![src],
                     });
                 }

@@ -626,3 +626,26 @@ pub fn reference_entry(def: &GroupDef) -> Option<String> {
         .as_ref()
         .map(|l| format!("(library: {}, version: {})", quote(&l.name), def.version))
 }
+
+/// Whether `text` is a library group file (`(version: …, group: (…))`) rather than a graph.
+pub fn is_library_text(text: &str) -> bool {
+    ron_options().from_str::<FileLibrary>(text).is_ok()
+}
+
+/// A library group file read on its own (`tyndall validate` on a file under a `lib/` folder):
+/// its groups are resolved from the `lib/` folder it lies in.
+pub fn load_library_file(path: &Path, catalog: &Catalog) -> Result<Arc<GroupDef>, GraphError> {
+    let comps: Vec<String> = path
+        .with_extension("")
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    let Some(i) = comps.iter().rposition(|c| c == "lib") else {
+        return Err(GraphError::Io(format!(
+            "{}: a library group file lies under a lib/ folder",
+            path.display()
+        )));
+    };
+    let folder: PathBuf = comps[..=i].iter().collect();
+    load_library_group(&folder, &comps[i + 1..].join("/"), catalog)
+}

@@ -24,7 +24,8 @@ pub use format::{
 };
 pub use group::{GroupDef, GroupPort, Knob, LibraryRef};
 pub use library::{
-    library_folders, library_text, list_library, load_library_group, reference_entry, user_library,
+    is_library_text, library_folders, library_text, list_library, load_library_file,
+    load_library_group, reference_entry, user_library,
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
