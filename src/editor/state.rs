@@ -318,6 +318,75 @@ impl EditorState {
         self.paste(&text, [40.0, 40.0])
     }
 
+    /// Collapse the nodes `ids` into a new embedded group (Ctrl+G): the cut edges become its
+    /// ports; it is named `Group1`, `Group2`, … and its instance `group1`, …; one undo step.
+    /// Returns the instance's id.
+    pub fn group(&mut self, ids: &[String]) -> Result<String, EditorError> {
+        let mut n = 1;
+        let name = loop {
+            let name = format!("Group{n}");
+            if self.catalog.get(&name).is_none() && !self.graph.groups().contains_key(&name) {
+                break name;
+            }
+            n += 1;
+        };
+        let instance = self.graph.fresh_id("group");
+        self.apply(|g, cat| {
+            let (_, outer) = g.group_nodes(cat, ids, &name, 1, "", Vec::new(), &instance, None)?;
+            *g = outer;
+            Ok(())
+        })?;
+        Ok(instance)
+    }
+
+    /// Replace group instance `id` by its nodes (Ungroup); one undo step.
+    pub fn ungroup(&mut self, id: &str) -> Result<(), EditorError> {
+        self.apply(|g, cat| g.ungroup(cat, id).map(|_| ()))
+    }
+
+    /// Expose inner `node.param` of group instance `instance`'s group as knob `knob`; one
+    /// undo step.
+    pub fn expose(
+        &mut self,
+        instance: &str,
+        node: &str,
+        param: &str,
+        knob: &str,
+    ) -> Result<(), EditorError> {
+        let kind = self
+            .graph
+            .node(instance)
+            .map(|n| n.kind.clone())
+            .unwrap_or_default();
+        self.apply(|g, cat| g.expose_knob(cat, &kind, node, param, knob))
+    }
+
+    /// Publish group instance `instance`'s group to the library folder `lib` (a `lib/` folder:
+    /// `graphs/lib`, the user's): writes `lib/<reference>.ron` and makes the graph reference it;
+    /// one undo step (the file stays). Returns the file.
+    pub fn publish(
+        &mut self,
+        instance: &str,
+        lib: &Path,
+        reference: &str,
+    ) -> Result<PathBuf, EditorError> {
+        let kind = self
+            .graph
+            .node(instance)
+            .map(|n| n.kind.clone())
+            .unwrap_or_default();
+        let path = lib.join(format!("{reference}.ron"));
+        self.apply(|g, _| {
+            let def = g.publish_group(&kind, reference, path.clone())?;
+            if let Some(dir) = path.parent() {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| GraphError::Io(format!("cannot create {}: {e}", dir.display())))?;
+            }
+            crate::graph::write_atomic(&path, crate::graph::library_text(&def).as_bytes())
+        })?;
+        Ok(path)
+    }
+
     /// Save to the document's file (atomically: temporary file, then rename).
     pub fn save(&mut self) -> Result<(), EditorError> {
         let path = self.path.clone().ok_or(EditorError::NoPath)?;

@@ -604,6 +604,173 @@ impl Graph {
     }
 }
 
+impl Graph {
+    /// Replace group instance `id` by its inner nodes (the editor's Ungroup): knob values and
+    /// key-frames written into the parameters they drive, edges rewired to the inner ports. An
+    /// inner node keeps its id when this graph has no node (present or removed) of that id, else
+    /// gets `{id}_{inner}`. Returns the new ids, inner id → id here.
+    pub fn ungroup(
+        &mut self,
+        catalog: &Catalog,
+        id: &str,
+    ) -> Result<BTreeMap<String, String>, GraphError> {
+        let node = self
+            .node(id)
+            .cloned()
+            .ok_or_else(|| GraphError::UnknownNode {
+                node: id.to_string(),
+            })?;
+        let def = self
+            .groups
+            .get(&node.kind)
+            .cloned()
+            .ok_or_else(|| GraphError::Group {
+                group: node.kind.clone(),
+                message: format!("node '{id}' is not a group instance"),
+            })?;
+        let inner = with_knobs(&def, &node, catalog)?;
+        let before = self.edges();
+        let mut out = self.clone();
+        out.remove_node(id)?;
+        for (name, d) in inner.groups() {
+            out.groups.insert(name.clone(), d.clone());
+        }
+        let mut ids = BTreeMap::new();
+        for n in inner.nodes() {
+            let mut new_id = n.id.clone();
+            if out.index.contains_key(&new_id) || out.retired.contains(&new_id) {
+                new_id = format!("{id}_{}", n.id);
+                let mut k = 2;
+                while out.index.contains_key(&new_id) || out.retired.contains(&new_id) {
+                    new_id = format!("{id}_{}{k}", n.id);
+                    k += 1;
+                }
+            }
+            let mut copy = n.clone();
+            copy.id = new_id.clone();
+            if let (Some([x, y]), Some([ox, oy])) = (copy.pos, node.pos) {
+                copy.pos = Some([x + ox, y + oy]);
+            }
+            out.insert_node(catalog, copy)?;
+            ids.insert(n.id.clone(), new_id);
+        }
+        let map = |n: &str| ids.get(n).cloned().unwrap_or_else(|| n.to_string());
+        for e in inner.edges() {
+            out.connect_deferred(
+                catalog,
+                &format!("{}.{}", map(&e.from_node), e.from_port),
+                &format!("{}.{}", map(&e.to_node), e.to_port),
+            )?;
+        }
+        for e in before {
+            if e.to_node == id {
+                if let Some(port) = def.inputs.iter().find(|p| p.name == e.to_port) {
+                    for (n, p) in &port.targets {
+                        out.connect_deferred(
+                            catalog,
+                            &format!("{}.{}", e.from_node, e.from_port),
+                            &format!("{}.{p}", map(n)),
+                        )?;
+                    }
+                }
+            } else if e.from_node == id {
+                if let Some((n, p)) = def
+                    .outputs
+                    .iter()
+                    .find(|o| o.name == e.from_port)
+                    .and_then(|o| o.targets.first())
+                {
+                    out.connect_deferred(
+                        catalog,
+                        &format!("{}.{p}", map(n)),
+                        &format!("{}.{}", e.to_node, e.to_port),
+                    )?;
+                }
+            }
+        }
+        let used: std::collections::BTreeSet<String> =
+            out.nodes().map(|n| n.kind.clone()).collect();
+        out.groups.retain(|k, _| used.contains(k));
+        out.check_all_types(catalog)?;
+        *self = out;
+        Ok(ids)
+    }
+
+    /// Add a knob `knob` to group `group` driving inner `node.param` (the editor's Expose), or
+    /// add that target to the knob when it exists. The group becomes an embedded copy (a
+    /// library group is changed by publishing it again).
+    pub fn expose_knob(
+        &mut self,
+        catalog: &Catalog,
+        group: &str,
+        node: &str,
+        param: &str,
+        knob: &str,
+    ) -> Result<(), GraphError> {
+        let def = self
+            .groups
+            .get(group)
+            .cloned()
+            .ok_or_else(|| GraphError::Group {
+                group: group.to_string(),
+                message: "is not used by this graph".into(),
+            })?;
+        let mut knobs = def.knobs.clone();
+        let target = (node.to_string(), param.to_string());
+        match knobs.iter_mut().find(|k| k.name == knob) {
+            Some(k) if k.targets.contains(&target) => return Ok(()),
+            Some(k) => k.targets.push(target),
+            None => knobs.push(Knob {
+                name: knob.to_string(),
+                doc: String::new(),
+                targets: vec![target],
+                default: None,
+                min: None,
+                max: None,
+            }),
+        }
+        let new = GroupDef::new(
+            catalog,
+            &def.name,
+            def.version,
+            &def.doc,
+            def.inputs.clone(),
+            def.outputs.clone(),
+            knobs,
+            def.graph.clone(),
+            None,
+        )?;
+        self.groups.insert(group.to_string(), Arc::new(new));
+        Ok(())
+    }
+
+    /// Make group `group` the library group `reference` (its file written by the caller with
+    /// [`crate::graph::library_text`]): the graph references it from now on.
+    pub fn publish_group(
+        &mut self,
+        group: &str,
+        reference: &str,
+        path: PathBuf,
+    ) -> Result<Arc<GroupDef>, GraphError> {
+        let def = self
+            .groups
+            .get(group)
+            .cloned()
+            .ok_or_else(|| GraphError::Group {
+                group: group.to_string(),
+                message: "is not used by this graph".into(),
+            })?;
+        let mut copy = (*def).clone();
+        copy.library = Some(LibraryRef {
+            name: reference.to_string(),
+            path,
+        });
+        let copy = Arc::new(copy);
+        self.groups.insert(group.to_string(), copy.clone());
+        Ok(copy)
+    }
+}
+
 /// Where the inner endpoints of one flattened group instance are: its inputs' and outputs'
 /// flattened `node.port`s.
 #[derive(Default)]

@@ -524,9 +524,17 @@ pub(super) fn groups_text(g: &Graph) -> String {
     }
     let mut s = String::from("    groups: {\n");
     for (name, def) in &all {
-        let entry = file_group(def, true);
-        let text = ron::ser::to_string_pretty(&entry, pretty(2)).unwrap_or_default();
-        s.push_str(&format!("        {}: {},\n", quote(name), indent(&text, 8)));
+        let text = match reference_entry(def) {
+            Some(r) => r,
+            None => {
+                let entry = file_group(def, false);
+                indent(
+                    &ron::ser::to_string_pretty(&entry, pretty(2)).unwrap_or_default(),
+                    8,
+                )
+            }
+        };
+        s.push_str(&format!("        {}: {text},\n", quote(name)));
     }
     s.push_str("    },\n");
     s

@@ -98,6 +98,25 @@ impl EditorApp {
             if i.key_pressed(egui::Key::D) && i.modifiers.command && !selection.is_empty() {
                 let _ = self.state.duplicate(&selection);
             }
+            // Ctrl+G groups the selection; Ctrl+Shift+G ungroups the selected group node.
+            if i.key_pressed(egui::Key::G) && i.modifiers.command {
+                if i.modifiers.shift {
+                    if let Some(id) = self.selected.clone() {
+                        self.status = match self.state.ungroup(&id) {
+                            Ok(()) => format!("{id}: ungrouped"),
+                            Err(e) => e.to_string(),
+                        };
+                    }
+                } else if !selection.is_empty() {
+                    self.status = match self.state.group(&selection) {
+                        Ok(g) => {
+                            self.selected = Some(g.clone());
+                            format!("grouped {} node(s) into {g}", selection.len())
+                        }
+                        Err(e) => e.to_string(),
+                    };
+                }
+            }
             if (i.key_pressed(egui::Key::Delete) || i.key_pressed(egui::Key::Backspace))
                 && !selection.is_empty()
             {

@@ -45,7 +45,77 @@ impl EditorApp {
         for p in schema.params {
             self.parameter(ui, &node, p);
         }
+        if let Some(def) = self.state.graph().groups().get(&node.kind).cloned() {
+            self.group_panel(ui, &id, &def);
+        }
         self.measured_and_tools(ui, &node, schema);
+    }
+
+    /// A group instance's actions: Ungroup, Publish to library, and every inner parameter with
+    /// an Expose button (it becomes a knob of the group).
+    fn group_panel(&mut self, ui: &mut egui::Ui, id: &str, def: &crate::graph::GroupDef) {
+        ui.separator();
+        match &def.library {
+            Some(l) => ui.label(format!(
+                "Library group {} version {} ({})",
+                l.name,
+                def.version,
+                l.path.display()
+            )),
+            None => ui.label(format!("Group {} (embedded in this graph)", def.name)),
+        };
+        ui.horizontal(|ui| {
+            if ui.button("Ungroup").clicked() {
+                self.status = match self.state.ungroup(id) {
+                    Ok(()) => format!("{id}: ungrouped"),
+                    Err(e) => e.to_string(),
+                };
+            }
+            if ui
+                .button("Publish to library")
+                .on_hover_text(
+                    "Write the group to graphs/lib/ (or $TYNDALL_PRESETS/lib) and reference it",
+                )
+                .clicked()
+            {
+                let lib = crate::graph::user_library()
+                    .filter(|_| !std::path::Path::new("graphs/lib").is_dir())
+                    .unwrap_or_else(|| std::path::PathBuf::from("graphs/lib"));
+                let reference = snake(&def.name);
+                self.status = match self.state.publish(id, &lib, &reference) {
+                    Ok(path) => format!("published {} to {}", def.name, path.display()),
+                    Err(e) => e.to_string(),
+                };
+            }
+        });
+        egui::CollapsingHeader::new(format!("Inside {} ({} nodes)", def.name, def.graph.len()))
+            .id_salt(("group-inside", id))
+            .show(ui, |ui| {
+                let cat = self.state.catalog().clone();
+                for n in def.graph.nodes() {
+                    let Some(schema) = def.graph.kind_schema(&cat, &n.kind) else {
+                        continue;
+                    };
+                    ui.label(egui::RichText::new(format!("{} - {}", n.id, n.kind)).strong());
+                    for p in schema.params {
+                        let exposed = def
+                            .knobs
+                            .iter()
+                            .any(|k| k.targets.contains(&(n.id.clone(), p.name.to_string())));
+                        ui.horizontal(|ui| {
+                            ui.label(format!("  {}", p.name));
+                            if exposed {
+                                ui.weak("exposed");
+                            } else if ui.small_button("Expose").clicked() {
+                                self.status = match self.state.expose(id, &n.id, p.name, p.name) {
+                                    Ok(()) => format!("{}: {}.{} exposed", def.name, n.id, p.name),
+                                    Err(e) => e.to_string(),
+                                };
+                            }
+                        });
+                    }
+                }
+            });
     }
 
     /// The measured settings of the node's kind, then the tools its declaration names.
@@ -266,4 +336,16 @@ fn param_widget(ui: &mut egui::Ui, p: &ParamSpec, current: &ParamValue) -> Optio
         }
     }
     changed
+}
+
+/// `HoleFilling` → `hole_filling`: a group's name as a library file name.
+fn snake(name: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in name.chars().enumerate() {
+        if c.is_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.extend(c.to_lowercase());
+    }
+    out
 }
