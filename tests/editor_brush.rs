@@ -33,14 +33,6 @@ fn open_fence(dir: &Path) -> Harness<'static, EditorApp> {
     .expect("preset");
     let path = dir.join("g.ron");
     std::fs::write(&path, text).expect("write graph");
-    // The preset's look is a library group: the copy takes its library beside it.
-    let lib = dir.join("lib/medium");
-    std::fs::create_dir_all(&lib).expect("lib");
-    std::fs::copy(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/lib/medium/painted.ron"),
-        lib.join("painted.ron"),
-    )
-    .expect("copy the library group");
     common::editor::open(&path, (1400.0, 1000.0))
 }
 
