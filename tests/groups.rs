@@ -456,3 +456,33 @@ fn editor_groups_exposes_publishes_and_ungroups_with_undo() {
     assert!(s.undo());
     assert_eq!(save_string(s.graph()), original);
 }
+
+/// Merging a grouped preset into another document, and copy → paste of a group node, bring
+/// the group definitions along.
+#[test]
+fn merge_and_paste_carry_the_groups() {
+    let reg = registry();
+    let preset = root().join("graphs/stylize/tree_hole_filling.ron");
+    let clip = load_file(&preset, reg.catalog()).unwrap();
+    let mut s = tyndall::editor::EditorState::new(reg.catalog().clone());
+    let ids = s.paste_graph(&clip, [0.0, 0.0]).unwrap();
+    assert_eq!(ids.len(), clip.len());
+    assert!(s.graph().has_group_nodes());
+    assert!(s.graph().flatten(reg.catalog()).is_ok());
+    let hole = s
+        .graph()
+        .nodes()
+        .find(|n| n.kind == "HoleFilling")
+        .unwrap()
+        .id
+        .clone();
+    let text = s.copy(std::slice::from_ref(&hole));
+    assert!(
+        text.contains("\"HoleFilling\": (library: \"stylize/hole_filling\", version: 1)"),
+        "{text}"
+    );
+    let mut t = tyndall::editor::EditorState::open(reg.catalog().clone(), &preset).unwrap();
+    let pasted = t.paste(&text, [10.0, 10.0]).unwrap();
+    assert_eq!(pasted.len(), 1);
+    assert_eq!(t.graph().node(&pasted[0]).unwrap().kind, "HoleFilling");
+}

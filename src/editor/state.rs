@@ -268,6 +268,9 @@ impl EditorState {
         let keep: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
         let mut sub = Graph::new();
         for n in self.graph.nodes().filter(|n| keep.contains(n.id.as_str())) {
+            if let Some(def) = self.graph.groups().get(&n.kind) {
+                sub.add_group(def.clone());
+            }
             // The node came from this document, so it passes the same checks again.
             let _ = sub.insert_node(&self.catalog, n.clone());
         }
@@ -286,8 +289,26 @@ impl EditorState {
     /// Paste clipboard text (or merge a preset): every node gets a fresh id, positions move by
     /// `offset`; returns the new ids. One undo step.
     pub fn paste(&mut self, text: &str, offset: [f32; 2]) -> Result<Vec<String>, EditorError> {
-        let clip = load_str(text, Path::new("<clipboard>"), &self.catalog)?;
+        // Library groups in the text are looked up from the document's folder.
+        let here = self
+            .path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("<clipboard>"));
+        let clip = load_str(text, &here, &self.catalog)?;
+        self.paste_graph(&clip, offset)
+    }
+
+    /// Add the nodes and edges of `clip` (with the groups they use) with fresh ids, offset by
+    /// `offset`; one undo step. Returns the new ids.
+    pub fn paste_graph(
+        &mut self,
+        clip: &Graph,
+        offset: [f32; 2],
+    ) -> Result<Vec<String>, EditorError> {
         self.apply(|g, c| {
+            for def in clip.groups().values() {
+                g.add_group(def.clone());
+            }
             let mut ids: BTreeMap<String, String> = BTreeMap::new();
             for n in clip.nodes() {
                 let id = g.fresh_id(&n.kind);

@@ -552,7 +552,7 @@ pub(super) fn build(
     })?;
     if g.has_group_nodes() {
         let flat = g.flatten(catalog).map_err(|e| (None, e))?;
-        flat.check_all_types(catalog).map_err(|e| (None, e))?;
+        flat.check_known_types(catalog).map_err(|e| (None, e))?;
     }
     Ok(g)
 }

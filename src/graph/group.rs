@@ -691,7 +691,7 @@ impl Graph {
         let used: std::collections::BTreeSet<String> =
             out.nodes().map(|n| n.kind.clone()).collect();
         out.groups.retain(|k, _| used.contains(k));
-        out.check_all_types(catalog)?;
+        out.check_known_types(catalog)?;
         *self = out;
         Ok(ids)
     }

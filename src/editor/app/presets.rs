@@ -187,11 +187,15 @@ impl EditorApp {
 
     /// Add a preset's nodes to the document with fresh ids (one undo step).
     pub fn merge_preset(&mut self, path: &Path) {
+        // Read from the preset's own folder, so its library groups are found.
         let res = std::fs::read_to_string(path)
             .map_err(|e| e.to_string())
             .and_then(|t| {
+                crate::graph::load_str(&t, path, self.state.catalog()).map_err(|e| e.to_string())
+            })
+            .and_then(|clip| {
                 self.state
-                    .paste(&t, [60.0, 60.0])
+                    .paste_graph(&clip, [60.0, 60.0])
                     .map_err(|e| e.to_string())
             });
         self.status = match res {
