@@ -563,7 +563,7 @@ fn group_nodes_show_knobs_expose_ungroup_and_undo() {
     settle(&mut h);
     assert_eq!(h.query_all_by_label("holes - HoleFilling").count(), 2);
     let _ = h.get_by_label("radius");
-    let _ = h.get_by_label("Inside HoleFilling (2 nodes)").click();
+    h.get_by_label("Inside HoleFilling (2 nodes)").click();
     h.run_steps(3);
     let before = save_string(h.state().state.graph());
     // Expose the closure's shape … (the first Expose button is close.method or the like: take
