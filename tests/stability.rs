@@ -70,6 +70,8 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "MultipleScatteringPhase", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "NoiseVolume", connect: &[], fixed: &[], caps: &[("resolution", 64.0)] },
     Entry { kind: "PerlinNoise2D", connect: &[], fixed: &[], caps: &[("width", 64.0), ("height", 64.0)] },
+    Entry { kind: "PlateDepth", connect: &[], fixed: &[], caps: &[] },
+    Entry { kind: "PlateOver", connect: &["inscatter", "transmittance"], fixed: &[], caps: &[] },
     Entry { kind: "RadialBlur", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Rayleigh", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Remap", connect: &[], fixed: &[], caps: &[] },
