@@ -150,142 +150,39 @@ impl GroupDef {
                 "has the name of a built-in node kind: choose another",
             ));
         }
-        let mut in_specs = Vec::new();
-        for p in &inputs {
-            if p.targets.is_empty() {
-                return Err(group_err(
-                    name,
-                    format!("input '{}' feeds no inner port", p.name),
-                ));
-            }
-            let mut types: Option<Vec<PortType>> = None;
-            let mut required = false;
-            let mut first_doc = "";
-            for (n, port) in &p.targets {
-                let schema = graph.schema_of(catalog, n).map_err(|_| {
-                    group_err(name, format!("input '{}': no inner node '{n}'", p.name))
-                })?;
-                let spec = schema.input(port).ok_or_else(|| {
-                    group_err(
-                        name,
-                        format!(
-                            "input '{}': inner node '{n}' has no input '{port}' (its inputs: {})",
-                            p.name,
-                            schema.input_names()
-                        ),
-                    )
-                })?;
-                if graph
-                    .edges()
-                    .iter()
-                    .any(|e| e.to_node == *n && e.to_port == *port)
-                {
-                    return Err(group_err(
-                        name,
-                        format!(
-                            "input '{}': inner {n}.{port} is already connected inside",
-                            p.name
-                        ),
-                    ));
-                }
-                required |= spec.required;
-                if first_doc.is_empty() {
-                    first_doc = spec.doc;
-                }
-                types = Some(match types {
-                    None => spec.types.to_vec(),
-                    Some(t) => t.into_iter().filter(|x| spec.types.contains(x)).collect(),
-                });
-            }
-            let types = types.unwrap_or_default();
-            if types.is_empty() {
-                return Err(group_err(
-                    name,
-                    format!("input '{}': its inner ports accept no common type", p.name),
-                ));
-            }
-            in_specs.push(PortSpec {
-                name: leak(&p.name),
-                types: Vec::leak(types),
-                required,
-                doc: if p.doc.is_empty() {
-                    first_doc
-                } else {
-                    leak(&p.doc)
-                },
-            });
-        }
-        let mut out_specs = Vec::new();
-        for p in &outputs {
-            let [(n, port)] = p.targets.as_slice() else {
-                return Err(group_err(
-                    name,
-                    format!("output '{}' must come from exactly one inner port", p.name),
-                ));
-            };
-            let schema = graph.schema_of(catalog, n).map_err(|_| {
-                group_err(name, format!("output '{}': no inner node '{n}'", p.name))
-            })?;
-            let spec = schema.output(port).ok_or_else(|| {
-                group_err(
-                    name,
-                    format!(
-                        "output '{}': inner node '{n}' has no output '{port}' (its outputs: {})",
-                        p.name,
-                        schema.output_names()
-                    ),
-                )
-            })?;
-            // A polymorphic inner output stays polymorphic: its type follows what reaches the
-            // group's inputs (the flattened graph's types are checked on load).
-            let types = spec.types.to_vec();
-            out_specs.push(PortSpec {
-                name: leak(&p.name),
-                types: Vec::leak(types),
-                required: false,
-                doc: if p.doc.is_empty() {
-                    spec.doc
-                } else {
-                    leak(&p.doc)
-                },
-            });
-        }
+        let ins = input_descs(catalog, name, &graph, &inputs)?;
+        let outs = output_descs(catalog, name, &graph, &outputs)?;
         let mut params = Vec::new();
         for k in &knobs {
             params.push(knob_spec(catalog, name, &graph, k)?);
         }
-        for (i, a) in in_specs.iter().enumerate() {
-            if in_specs[..i].iter().any(|b| b.name == a.name) {
-                return Err(group_err(
-                    name,
-                    format!("two inputs are named '{}'", a.name),
-                ));
+        unique(name, "inputs", ins.iter().map(|d| d.name.as_str()))?;
+        unique(name, "outputs", outs.iter().map(|d| d.name.as_str()))?;
+        unique(name, "knobs", params.iter().map(|d| d.1.as_str()))?;
+        let fingerprint = format!("{name}@{version}\n{doc}\n{ins:?}\n{outs:?}\n{params:?}");
+        let (doc_s, name_s) = (doc.to_string(), name.to_string());
+        // Strings are leaked only when the schema is new (an unchanged group reloaded reuses it).
+        let schema = intern(fingerprint, move || {
+            let ports = |ds: Vec<PortDesc>| -> &'static [PortSpec] {
+                Vec::leak(ds.into_iter().map(PortDesc::leak).collect())
+            };
+            NodeSchema {
+                kind: leak(&name_s),
+                category: "Groups",
+                doc: leak(&doc_s),
+                inputs: ports(ins),
+                outputs: ports(outs),
+                params: Vec::leak(
+                    params
+                        .into_iter()
+                        .map(|(spec, name, doc)| ParamSpec {
+                            name: leak(&name),
+                            doc: doc.as_deref().map_or(spec.doc, leak),
+                            ..spec
+                        })
+                        .collect(),
+                ),
             }
-        }
-        for (i, a) in out_specs.iter().enumerate() {
-            if out_specs[..i].iter().any(|b| b.name == a.name) {
-                return Err(group_err(
-                    name,
-                    format!("two outputs are named '{}'", a.name),
-                ));
-            }
-        }
-        for (i, a) in params.iter().enumerate() {
-            if params[..i].iter().any(|b: &ParamSpec| b.name == a.name) {
-                return Err(group_err(name, format!("two knobs are named '{}'", a.name)));
-            }
-        }
-        let fingerprint =
-            format!("{name}@{version}\n{doc}\n{in_specs:?}\n{out_specs:?}\n{params:?}");
-        let doc_s = doc.to_string();
-        let name_s = name.to_string();
-        let schema = intern(fingerprint, move || NodeSchema {
-            kind: leak(&name_s),
-            category: "Groups",
-            doc: leak(&doc_s),
-            inputs: Vec::leak(in_specs),
-            outputs: Vec::leak(out_specs),
-            params: Vec::leak(params),
         });
         Ok(Self {
             name: name.to_string(),
@@ -306,6 +203,190 @@ impl GroupDef {
     }
 }
 
+/// A knob's range `[min, max]` lies inside every target's.
+fn check_range(
+    catalog: &Catalog,
+    group: &str,
+    graph: &Graph,
+    k: &Knob,
+    min: f64,
+    max: f64,
+) -> Result<(), GraphError> {
+    for (n, p) in &k.targets {
+        if let Ok(schema) = graph.schema_of(catalog, n) {
+            if let Some(spec) = schema.param(p) {
+                if spec.kind.is_numeric() && (min < spec.min || max > spec.max) {
+                    return Err(group_err(
+                        group,
+                        format!(
+                            "knob '{}': range [{min}, {max}] is wider than {n}.{p}'s [{}, {}]",
+                            k.name, spec.min, spec.max
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A group port before its schema is built (owned strings; leaked once, by [`intern`]).
+#[derive(Debug)]
+struct PortDesc {
+    name: String,
+    types: Vec<PortType>,
+    required: bool,
+    /// The port's own doc, else the inner port's.
+    doc: Result<String, &'static str>,
+}
+
+impl PortDesc {
+    fn leak(self) -> PortSpec {
+        PortSpec {
+            name: leak(&self.name),
+            types: Vec::leak(self.types),
+            required: self.required,
+            doc: match self.doc {
+                Ok(d) => leak(&d),
+                Err(inner) => inner,
+            },
+        }
+    }
+}
+
+fn unique<'a>(
+    group: &str,
+    what: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<(), GraphError> {
+    let mut seen = std::collections::BTreeSet::new();
+    for n in names {
+        if !seen.insert(n) {
+            return Err(group_err(group, format!("two {what} are named '{n}'")));
+        }
+    }
+    Ok(())
+}
+
+/// The group's input ports: each feeds inner inputs that exist and are not wired inside; its
+/// types are those all of them accept, required when one of them is.
+fn input_descs(
+    catalog: &Catalog,
+    name: &str,
+    graph: &Graph,
+    inputs: &[GroupPort],
+) -> Result<Vec<PortDesc>, GraphError> {
+    let mut out = Vec::new();
+    for p in inputs {
+        if p.targets.is_empty() {
+            return Err(group_err(
+                name,
+                format!("input '{}' feeds no inner port", p.name),
+            ));
+        }
+        let mut types: Option<Vec<PortType>> = None;
+        let (mut required, mut first_doc) = (false, "");
+        for (n, port) in &p.targets {
+            let schema = graph
+                .schema_of(catalog, n)
+                .map_err(|_| group_err(name, format!("input '{}': no inner node '{n}'", p.name)))?;
+            let spec = schema.input(port).ok_or_else(|| {
+                group_err(
+                    name,
+                    format!(
+                        "input '{}': inner node '{n}' has no input '{port}' (its inputs: {})",
+                        p.name,
+                        schema.input_names()
+                    ),
+                )
+            })?;
+            if graph
+                .edges()
+                .iter()
+                .any(|e| e.to_node == *n && e.to_port == *port)
+            {
+                return Err(group_err(
+                    name,
+                    format!(
+                        "input '{}': inner {n}.{port} is already connected inside",
+                        p.name
+                    ),
+                ));
+            }
+            required |= spec.required;
+            if first_doc.is_empty() {
+                first_doc = spec.doc;
+            }
+            types = Some(match types {
+                None => spec.types.to_vec(),
+                Some(t) => t.into_iter().filter(|x| spec.types.contains(x)).collect(),
+            });
+        }
+        let types = types.unwrap_or_default();
+        if types.is_empty() {
+            return Err(group_err(
+                name,
+                format!("input '{}': its inner ports accept no common type", p.name),
+            ));
+        }
+        out.push(PortDesc {
+            name: p.name.clone(),
+            types,
+            required,
+            doc: if p.doc.is_empty() {
+                Err(first_doc)
+            } else {
+                Ok(p.doc.clone())
+            },
+        });
+    }
+    Ok(out)
+}
+
+/// The group's output ports: each one inner output that exists. A polymorphic inner output
+/// stays polymorphic: its type follows what reaches the group's inputs (the flattened graph's
+/// types are checked on load).
+fn output_descs(
+    catalog: &Catalog,
+    name: &str,
+    graph: &Graph,
+    outputs: &[GroupPort],
+) -> Result<Vec<PortDesc>, GraphError> {
+    let mut out = Vec::new();
+    for p in outputs {
+        let [(n, port)] = p.targets.as_slice() else {
+            return Err(group_err(
+                name,
+                format!("output '{}' must come from exactly one inner port", p.name),
+            ));
+        };
+        let schema = graph
+            .schema_of(catalog, n)
+            .map_err(|_| group_err(name, format!("output '{}': no inner node '{n}'", p.name)))?;
+        let spec = schema.output(port).ok_or_else(|| {
+            group_err(
+                name,
+                format!(
+                    "output '{}': inner node '{n}' has no output '{port}' (its outputs: {})",
+                    p.name,
+                    schema.output_names()
+                ),
+            )
+        })?;
+        out.push(PortDesc {
+            name: p.name.clone(),
+            types: spec.types.to_vec(),
+            required: false,
+            doc: if p.doc.is_empty() {
+                Err(spec.doc)
+            } else {
+                Ok(p.doc.clone())
+            },
+        });
+    }
+    Ok(out)
+}
+
 /// The parameter spec of knob `k`: the first target's, renamed, with the knob's default, range
 /// and doc; every target must be of the same kind and contain the range.
 fn knob_spec(
@@ -313,7 +394,7 @@ fn knob_spec(
     group: &str,
     graph: &Graph,
     k: &Knob,
-) -> Result<ParamSpec, GraphError> {
+) -> Result<(ParamSpec, String, Option<String>), GraphError> {
     let mut first: Option<(ParamSpec, ParamValue)> = None;
     if k.targets.is_empty() {
         return Err(group_err(
@@ -365,31 +446,12 @@ fn knob_spec(
     };
     let min = k.min.unwrap_or(base.min);
     let max = k.max.unwrap_or(base.max);
-    for (n, p) in &k.targets {
-        if let Ok(schema) = graph.schema_of(catalog, n) {
-            if let Some(spec) = schema.param(p) {
-                if spec.kind.is_numeric() && (min < spec.min || max > spec.max) {
-                    return Err(group_err(
-                        group,
-                        format!(
-                            "knob '{}': range [{min}, {max}] is wider than {n}.{p}'s [{}, {}]",
-                            k.name, spec.min, spec.max
-                        ),
-                    ));
-                }
-            }
-        }
-    }
+    check_range(catalog, group, graph, k, min, max)?;
     let default_value = k.default.clone().unwrap_or(current);
     let mut spec = ParamSpec {
-        name: leak(&k.name),
+        name: "",
         min,
         max,
-        doc: if k.doc.is_empty() {
-            base.doc
-        } else {
-            leak(&k.doc)
-        },
         when: None,
         ..base
     };
@@ -412,7 +474,8 @@ fn knob_spec(
             ),
         )
     })?;
-    Ok(spec)
+    let doc = (!k.doc.is_empty()).then(|| k.doc.clone());
+    Ok((spec, k.name.clone(), doc))
 }
 
 fn to_default(kind: &ParamKind, v: &ParamValue) -> Option<DefaultValue> {
@@ -491,6 +554,31 @@ fn cut_ports(
 }
 
 impl Graph {
+    /// The nodes `chosen` and the edges between them (with the groups they use).
+    fn subgraph(
+        &self,
+        catalog: &Catalog,
+        chosen: &std::collections::BTreeSet<String>,
+    ) -> Result<Graph, GraphError> {
+        let mut inner = Graph::new();
+        for n in self.nodes().filter(|n| chosen.contains(&n.id)) {
+            if let Some(def) = self.groups.get(&n.kind) {
+                inner.add_group(def.clone());
+            }
+            inner.insert_node(catalog, n.clone())?;
+        }
+        for e in self.edges() {
+            if chosen.contains(&e.from_node) && chosen.contains(&e.to_node) {
+                inner.connect_deferred(
+                    catalog,
+                    &format!("{}.{}", e.from_node, e.from_port),
+                    &format!("{}.{}", e.to_node, e.to_port),
+                )?;
+            }
+        }
+        Ok(inner)
+    }
+
     /// Collapse the nodes `ids` into a group `name` (the editor's Group, `tyndall group`): the
     /// group's inner graph is those nodes and the edges between them, its inputs and outputs
     /// are the cut edges, its knobs `knobs`. Returns the definition and this graph with the
@@ -512,22 +600,7 @@ impl Graph {
         for id in &chosen {
             self.ix(id)?;
         }
-        let mut inner = Graph::new();
-        for n in self.nodes().filter(|n| chosen.contains(&n.id)) {
-            if let Some(def) = self.groups.get(&n.kind) {
-                inner.add_group(def.clone());
-            }
-            inner.insert_node(catalog, n.clone())?;
-        }
-        for e in self.edges() {
-            if chosen.contains(&e.from_node) && chosen.contains(&e.to_node) {
-                inner.connect_deferred(
-                    catalog,
-                    &format!("{}.{}", e.from_node, e.from_port),
-                    &format!("{}.{}", e.to_node, e.to_port),
-                )?;
-            }
-        }
+        let inner = self.subgraph(catalog, &chosen)?;
         let (inputs, sources, outputs) = cut_ports(self, &chosen);
         let def = GroupDef::new(
             catalog,

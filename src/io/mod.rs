@@ -144,6 +144,70 @@ fn read_exr(path: &Path) -> Result<Raster, IoError> {
     read_exr_layer(path, "").map(|(r, _)| r)
 }
 
+/// The one channel `layer` names: a full channel name, or a layer with a single channel.
+fn layer_channel<'a>(
+    chans: &'a [exrp::AnyChannel<exrp::FlatSamples>],
+    layer: &str,
+    names: &[String],
+) -> Result<&'a exrp::AnyChannel<exrp::FlatSamples>, String> {
+    let lower = format!("{layer}.").to_ascii_lowercase();
+    if let Some(c) = chans
+        .iter()
+        .find(|c| c.name.to_string().eq_ignore_ascii_case(layer))
+    {
+        return Ok(c);
+    }
+    let in_layer: Vec<_> = chans
+        .iter()
+        .filter(|c| {
+            let n = c.name.to_string().to_ascii_lowercase();
+            n.strip_prefix(&lower)
+                .is_some_and(|rest| !rest.contains('.'))
+        })
+        .collect();
+    match in_layer.as_slice() {
+        [c] => Ok(*c),
+        [] => Err(format!(
+            "no layer or channel '{layer}' (layers: {})",
+            layer_names(names).join(", ")
+        )),
+        several => Err(format!(
+            "layer '{layer}' has channels {} but no R, G, B: name one of them",
+            several
+                .iter()
+                .map(|c| c.name.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
+/// Refuse an EXR whose header claims more texels than Tyndall reads, before anything is
+/// allocated (a forged size made the reader ask for 42 GB; found by fuzzing).
+fn check_exr_size(path: &Path) -> Result<(), IoError> {
+    let err = |reason: String| IoError::Read {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        let texels = size.width() as u64 * size.height() as u64;
+        let channels = header.channels.list.len().max(1) as u64;
+        if texels > MAX_READ_TEXELS || texels.saturating_mul(channels) > 4 * MAX_READ_TEXELS {
+            return Err(err(format!(
+                "the header claims {}×{} texels × {channels} channels, beyond the {}×{} \
+                 Tyndall reads",
+                size.width(),
+                size.height(),
+                16384,
+                16384
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// The layers of a multi-layer EXR's channel names: `ViewLayer.Combined.R` → `ViewLayer.Combined`
 /// (channels without a dot form the unnamed layer, listed as `(main)`), in first-seen order.
 fn layer_names(channels: &[String]) -> Vec<String> {
@@ -171,22 +235,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
         path: path.to_path_buf(),
         reason,
     };
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
-    for header in &meta.headers {
-        let size = header.layer_size;
-        let texels = size.width() as u64 * size.height() as u64;
-        let channels = header.channels.list.len().max(1) as u64;
-        if texels > MAX_READ_TEXELS || texels.saturating_mul(channels) > 4 * MAX_READ_TEXELS {
-            return Err(err(format!(
-                "the header claims {}×{} texels × {channels} channels, beyond the {}×{} \
-                 Tyndall reads",
-                size.width(),
-                size.height(),
-                16384,
-                16384
-            )));
-        }
-    }
+    check_exr_size(path)?;
     let img = exrp::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -251,38 +300,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
             }
         })
     } else {
-        let lower = prefix.to_ascii_lowercase();
-        let in_layer: Vec<_> = chans
-            .iter()
-            .filter(|c| {
-                let n = c.name.to_string().to_ascii_lowercase();
-                n.strip_prefix(&lower)
-                    .is_some_and(|rest| !rest.contains('.'))
-            })
-            .collect();
-        let exact = chans
-            .iter()
-            .find(|c| c.name.to_string().eq_ignore_ascii_case(layer));
-        match (exact, in_layer.as_slice()) {
-            (Some(c), _) => Some(c),
-            (None, [c]) => Some(*c),
-            (None, []) => {
-                return Err(err(format!(
-                    "no layer or channel '{layer}' (layers: {})",
-                    layer_names(&names).join(", ")
-                )))
-            }
-            (None, several) => {
-                return Err(err(format!(
-                    "layer '{layer}' has channels {} but no R, G, B: name one of them",
-                    several
-                        .iter()
-                        .map(|c| c.name.to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )))
-            }
-        }
+        Some(layer_channel(chans, layer, &names).map_err(err)?)
     };
     match one {
         Some(c) => Ok((

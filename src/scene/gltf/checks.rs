@@ -64,6 +64,32 @@ pub(super) fn accessor_indices_exist(root: &gltf::json::Root) -> Result<(), Stri
     Ok(())
 }
 
+/// Whether values of accessor type `ty` and component `comp` can drive `property`: rotations
+/// VEC4 of floats or normalised integers, translations and scales float VEC3.
+fn values_fit(
+    property: gltf::json::animation::Property,
+    ty: Option<Type>,
+    comp: Option<ComponentType>,
+) -> bool {
+    use gltf::json::animation::Property;
+    match property {
+        Property::Rotation => {
+            ty == Some(Type::Vec4)
+                && matches!(
+                    comp,
+                    Some(
+                        ComponentType::F32
+                            | ComponentType::I8
+                            | ComponentType::U8
+                            | ComponentType::I16
+                            | ComponentType::U16
+                    )
+                )
+        }
+        _ => (ty, comp) == (Some(Type::Vec3), Some(ComponentType::F32)),
+    }
+}
+
 /// Every animation channel targets a node that exists, and its sampler's accessors exist and
 /// have the shape the loader reads: times float SCALAR, translations and scales float VEC3,
 /// rotations VEC4 (float or normalised integers), as many outputs as times (three per time for
@@ -134,22 +160,7 @@ pub(super) fn animations_are_readable(root: &gltf::json::Root) -> Result<(), Str
                 ));
             }
             let (ty, comp, values) = shape(output);
-            let ok = match property {
-                Property::Rotation => {
-                    ty == Some(Type::Vec4)
-                        && matches!(
-                            comp,
-                            Some(
-                                ComponentType::F32
-                                    | ComponentType::I8
-                                    | ComponentType::U8
-                                    | ComponentType::I16
-                                    | ComponentType::U16
-                            )
-                        )
-                }
-                _ => (ty, comp) == (Some(Type::Vec3), Some(ComponentType::F32)),
-            };
+            let ok = values_fit(property, ty, comp);
             if !ok {
                 return Err(format!(
                     "{label} channel {c}: values (accessor {output}) are not {}",
