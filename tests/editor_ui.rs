@@ -607,3 +607,29 @@ fn group_nodes_show_knobs_expose_ungroup_and_undo() {
         .collect();
     assert!(errors.is_empty(), "{errors:?}");
 }
+
+/// The viewer's A/B wipe: W takes the node viewed now as B; viewing another node shows it (A)
+/// with B over the right of the split; W again ends it.
+#[test]
+fn ab_wipe_compares_two_nodes_in_the_viewer() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    h.state_mut().selected = Some("scatter".into());
+    settle(&mut h);
+    h.key_press(egui::Key::W);
+    h.run_steps(2);
+    assert_eq!(h.state().wipe.as_deref(), Some("scatter"));
+    h.state_mut().selected = Some("tonemap".into());
+    settle(&mut h);
+    let a = h.state().pictures.as_ref().map(|(n, _)| n.clone());
+    let b = h.state().compare.as_ref().map(|(n, p)| (n.clone(), p.len()));
+    assert_eq!(a.as_deref(), Some("tonemap"));
+    assert!(matches!(&b, Some((n, k)) if n == "scatter" && *k >= 3), "{b:?}");
+    let _ = h.get_by_label("B = scatter");
+    h.key_press(egui::Key::W);
+    h.run_steps(2);
+    assert!(h.state().wipe.is_none());
+    assert!(h.query_all_by_label("B = scatter").next().is_none());
+}

@@ -63,6 +63,14 @@ pub struct EditorApp {
     thumbs: BTreeMap<String, egui::TextureHandle>,
     /// The viewed node's picture outputs, by port.
     pub pictures: Option<(String, Vec<(String, Raster)>)>,
+    /// The A/B wipe (Nuke's): the node shown right of the split, over the viewed one (`W`
+    /// toggles it with the node being viewed as B); `None`: off.
+    pub wipe: Option<String>,
+    /// Where the wipe splits the picture, 0 (all B) to 1 (all A).
+    pub wipe_split: f32,
+    /// The wipe node's picture outputs, by port.
+    pub compare: Option<(String, Vec<(String, Raster)>)>,
+    wipe_tex: Option<(String, egui::TextureHandle)>,
     view_port: Option<String>,
     view_tex: Option<(String, egui::TextureHandle)>,
     /// Viewer channel.
@@ -158,6 +166,10 @@ impl EditorApp {
             reports: BTreeMap::new(),
             thumbs: BTreeMap::new(),
             pictures: None,
+            wipe: None,
+            wipe_split: 0.5,
+            compare: None,
+            wipe_tex: None,
             view_port: None,
             view_tex: None,
             channel: Channel::Rgb,
@@ -297,8 +309,9 @@ impl EditorApp {
             return;
         };
         let key = format!(
-            "{:?}@{}:{}",
+            "{:?}|{:?}@{}:{}",
             view,
+            self.wipe,
             self.time,
             self.synced.as_deref().unwrap_or("")
         );
@@ -310,6 +323,7 @@ impl EditorApp {
                 time: self.time,
                 size: VIEW_SIZE,
                 view,
+                compare: self.wipe.clone(),
             });
         }
         if let Some(p) = worker.poll_progress() {
@@ -335,6 +349,10 @@ impl EditorApp {
             if out.view.is_some() {
                 self.pictures = out.view;
                 self.view_tex = None;
+            }
+            if out.compare.is_some() || self.wipe.is_none() {
+                self.compare = out.compare;
+                self.wipe_tex = None;
             }
             let ran = self.reports.values().filter(|r| r.status.ran()).count();
             let errors = self.reports.values().filter(|r| r.error.is_some()).count();

@@ -33,6 +33,8 @@ pub struct Request {
     pub size: (u32, u32),
     /// The node shown in the viewer: all its picture outputs are read back at full size.
     pub view: Option<String>,
+    /// The viewer's A/B wipe: the node compared with `view`, read back at full size too.
+    pub compare: Option<String>,
 }
 
 /// One node's part of a result.
@@ -57,6 +59,8 @@ pub struct Outcome {
     pub nodes: BTreeMap<String, NodeReport>,
     /// The viewed node and its picture outputs by port name.
     pub view: Option<(String, Vec<(String, Raster)>)>,
+    /// The wipe's compared node and its picture outputs, when asked for.
+    pub compare: Option<(String, Vec<(String, Raster)>)>,
     /// Wall-clock time of the whole evaluation.
     pub elapsed: Duration,
     /// The GPU device was lost during this evaluation (the reason): nothing more runs on this
@@ -237,16 +241,20 @@ fn evaluate(
         .collect();
     // The viewed node first (what the artist waits for), then every node's thumbnail; the
     // cache makes the later calls cheap.
-    let mut jobs: Vec<(String, Vec<String>, bool)> = Vec::new();
+    // (node, ports, read back in full: 1 the view, 2 the wipe's comparison, 0 a thumbnail)
+    let mut jobs: Vec<(String, Vec<String>, u8)> = Vec::new();
     if let Some(id) = &req.view {
-        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), true));
+        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), 1));
+    }
+    if let Some(id) = &req.compare {
+        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), 2));
     }
     for id in req.graph.topo_order() {
         if let Some(port) = picture_ports(&req.graph, &registry, &id).into_iter().next() {
-            jobs.push((id, vec![port], false));
+            jobs.push((id, vec![port], 0));
         }
     }
-    let mut view = None;
+    let (mut view, mut compare) = (None, None);
     let mut device_lost = None;
     for (id, ports, full) in jobs {
         if ports.is_empty() || nodes.get(&id).is_some_and(|r| r.error.is_some()) {
@@ -270,7 +278,7 @@ fn evaluate(
                         rep.status = Status::Reused;
                     }
                 }
-                if full {
+                if full > 0 {
                     let pictures = ports
                         .iter()
                         .filter_map(|p| {
@@ -278,7 +286,11 @@ fn evaluate(
                             Some((p.clone(), download(ev.gpu(), v).ok()?))
                         })
                         .collect();
-                    view = Some((id.clone(), pictures));
+                    if full == 1 {
+                        view = Some((id.clone(), pictures));
+                    } else {
+                        compare = Some((id.clone(), pictures));
+                    }
                 } else if !thumbed.contains(&id) {
                     if let (Some(v), Some(rep)) = (
                         r.outputs.get(&(id.clone(), ports[0].clone())),
@@ -316,6 +328,7 @@ fn evaluate(
         generation: req.generation,
         nodes,
         view,
+        compare,
         elapsed: start.elapsed(),
         device_lost,
     }

@@ -92,6 +92,9 @@ impl EditorApp {
             if i.key_pressed(egui::Key::F) && !i.modifiers.command {
                 self.frame_all = true;
             }
+            if i.key_pressed(egui::Key::W) && !i.modifiers.command {
+                self.toggle_wipe();
+            }
             if i.key_pressed(egui::Key::Space) {
                 self.playing = !self.playing;
             }

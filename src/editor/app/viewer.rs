@@ -80,6 +80,18 @@ impl EditorApp {
             }
             ui.selectable_value(&mut self.zoom, Zoom::Fit, "Fit");
             ui.selectable_value(&mut self.zoom, Zoom::One, "1:1");
+            let on = self.wipe.is_some();
+            if ui
+                .add(egui::Button::selectable(on, "A/B wipe"))
+                .on_hover_text("W: compare with the node viewed now (B, right of the split); then view another (A)")
+                .clicked()
+            {
+                self.toggle_wipe();
+            }
+            if let Some(b) = &self.wipe {
+                ui.label(format!("B = {b}"));
+                ui.add(egui::Slider::new(&mut self.wipe_split, 0.0..=1.0).text("split"));
+            }
         });
         // Borrow the pictures out for the frame instead of copying them.
         let Some((node, pictures)) = self.pictures.take() else {
@@ -88,6 +100,67 @@ impl EditorApp {
         };
         self.show_picture(ui, &node, &pictures);
         self.pictures = Some((node, pictures));
+    }
+
+    /// `W` and the A/B wipe button: compare with the node viewed now (B), or stop comparing.
+    pub fn toggle_wipe(&mut self) {
+        self.wipe = match self.wipe {
+            Some(_) => None,
+            None => self.viewed(),
+        };
+        self.compare = None;
+        self.wipe_tex = None;
+    }
+
+    /// The wipe's B picture (the same port when it has one, else its first) over the right of
+    /// `rect`, from the split on, with the split line and the two names.
+    fn paint_wipe(&mut self, ui: &mut egui::Ui, rect: egui::Rect, a: &str, port: &str) {
+        let Some((b, pictures)) = self.compare.as_ref() else {
+            return;
+        };
+        let Some((bport, raster)) = pictures
+            .iter()
+            .find(|(n, _)| n == port)
+            .or_else(|| pictures.first())
+        else {
+            return;
+        };
+        let key = format!("{b}.{bport}:{:?}:{}", self.channel, self.exposure);
+        if self.wipe_tex.as_ref().is_none_or(|(k, _)| *k != key) {
+            let image = colour_image(raster, self.channel, self.exposure);
+            let tex = ui
+                .ctx()
+                .load_texture("viewer-wipe", image, egui::TextureOptions::NEAREST);
+            self.wipe_tex = Some((key, tex));
+        }
+        let Some((_, tex)) = &self.wipe_tex else {
+            return;
+        };
+        let s = self.wipe_split.clamp(0.0, 1.0);
+        let x = rect.left() + rect.width() * s;
+        let right = egui::Rect::from_min_max(egui::pos2(x, rect.top()), rect.max);
+        let uv = egui::Rect::from_min_max(egui::pos2(s, 0.0), egui::pos2(1.0, 1.0));
+        let painter = ui.painter_at(rect);
+        painter.image(tex.id(), right, uv, egui::Color32::WHITE);
+        painter.line_segment(
+            [egui::pos2(x, rect.top()), egui::pos2(x, rect.bottom())],
+            egui::Stroke::new(1.5, egui::Color32::YELLOW),
+        );
+        let font = egui::FontId::proportional(12.0);
+        painter.text(
+            rect.left_top() + egui::vec2(4.0, 4.0),
+            egui::Align2::LEFT_TOP,
+            format!("A {a}"),
+            font.clone(),
+            egui::Color32::YELLOW,
+        );
+        painter.text(
+            rect.right_top() + egui::vec2(-4.0, 4.0),
+            egui::Align2::RIGHT_TOP,
+            format!("B {b}.{bport}"),
+            font,
+            egui::Color32::YELLOW,
+        );
     }
 
     pub(super) fn show_picture(
@@ -134,6 +207,7 @@ impl EditorApp {
             }
         };
         let response = response.on_hover_cursor(egui::CursorIcon::Crosshair);
+        self.paint_wipe(ui, response.rect, node, &port);
         response.widget_info(|| {
             egui::WidgetInfo::labeled(egui::WidgetType::Other, true, "viewer picture")
         });
