@@ -624,9 +624,16 @@ fn ab_wipe_compares_two_nodes_in_the_viewer() {
     h.state_mut().selected = Some("tonemap".into());
     settle(&mut h);
     let a = h.state().pictures.as_ref().map(|(n, _)| n.clone());
-    let b = h.state().compare.as_ref().map(|(n, p)| (n.clone(), p.len()));
+    let b = h
+        .state()
+        .compare
+        .as_ref()
+        .map(|(n, p)| (n.clone(), p.len()));
     assert_eq!(a.as_deref(), Some("tonemap"));
-    assert!(matches!(&b, Some((n, k)) if n == "scatter" && *k >= 3), "{b:?}");
+    assert!(
+        matches!(&b, Some((n, k)) if n == "scatter" && *k >= 3),
+        "{b:?}"
+    );
     let _ = h.get_by_label("B = scatter");
     h.key_press(egui::Key::W);
     h.run_steps(2);

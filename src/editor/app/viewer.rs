@@ -207,7 +207,7 @@ impl EditorApp {
             }
         };
         let response = response.on_hover_cursor(egui::CursorIcon::Crosshair);
-        self.paint_wipe(ui, response.rect, node, &port);
+        self.paint_wipe(ui, response.rect, node, port);
         response.widget_info(|| {
             egui::WidgetInfo::labeled(egui::WidgetType::Other, true, "viewer picture")
         });
