@@ -175,6 +175,15 @@ pub fn pick(
     pixel: (u32, u32),
     opts: &EvalOptions,
 ) -> Result<Pick, EvalError> {
+    // Inside groups too: the flattened graph (a transfer function in a group is
+    // `group/inner`).
+    let flat;
+    let g = if g.has_group_nodes() {
+        flat = g.flatten(ev.registry().catalog())?;
+        &flat
+    } else {
+        g
+    };
     let (id, how) = choose(ev, g, node)?;
     let port = |name: &str| match how {
         Reads::Inputs => {
