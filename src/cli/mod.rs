@@ -393,18 +393,23 @@ pub(super) fn parse_wedge(s: &str) -> Result<Wedge, CliError> {
     })
 }
 
-/// What each node finds in the files it reads (`NodeKind::describe_files`), paths read from
-/// the graph's folder, as `node 'id': line`.
-fn describe_files(registry: &Registry, g: &Graph, path: &Path) -> Vec<String> {
-    let policy = crate::eval::PathPolicy {
+/// Paths of the graph file `path`: inputs read from its folder, outputs under `output_dir`.
+fn path_policy(path: &Path, output_dir: PathBuf, allow_any: bool) -> crate::eval::PathPolicy {
+    crate::eval::PathPolicy {
         graph_dir: path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .unwrap_or(Path::new("."))
             .to_path_buf(),
-        output_dir: PathBuf::from("."),
-        allow_any: true,
-    };
+        output_dir,
+        allow_any,
+    }
+}
+
+/// What each node finds in the files it reads (`NodeKind::describe_files`), paths read from
+/// the graph's folder, as `node 'id': line`.
+fn describe_files(registry: &Registry, g: &Graph, path: &Path) -> Vec<String> {
+    let policy = path_policy(path, PathBuf::from("."), true);
     let Ok(g) = crate::eval::resolve_files(registry, g, &policy) else {
         return Vec::new();
     };
@@ -433,18 +438,14 @@ pub(super) fn load_graph(
 ) -> Result<Graph, CliError> {
     let g = load_file(path, registry.catalog()).map_err(bad)?;
     // The graph's own file paths first (the policy); what the command line sets is the user's.
-    let policy = crate::eval::PathPolicy {
-        graph_dir: path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."))
-            .to_path_buf(),
-        output_dir: common
+    let policy = path_policy(
+        path,
+        common
             .output_dir
             .clone()
             .unwrap_or_else(|| PathBuf::from(".")),
-        allow_any: common.allow_any_path,
-    };
+        common.allow_any_path,
+    );
     let mut g = crate::eval::resolve_files(registry, &g, &policy).map_err(bad)?;
     let mut set = Vec::new();
     for s in &common.set {

@@ -319,7 +319,7 @@ impl EditorApp {
             self.requested = key;
             worker.request(Request {
                 generation: 0,
-                graph: graph_for_evaluation(&self.registry, &self.state),
+                graph: crate::editor::worker::graph_for_evaluation(&self.registry, &self.state),
                 time: self.time,
                 size: VIEW_SIZE,
                 view,
@@ -393,23 +393,6 @@ impl EditorApp {
             }
         }
     }
-}
-
-/// The document with its input files (file parameters, files inside data blocks) resolved
-/// against the graph file's folder, as the CLI reads them. The editor evaluates no sinks,
-/// so output paths are left as written.
-fn graph_for_evaluation(registry: &Registry, state: &EditorState) -> crate::graph::Graph {
-    let graph = state.graph();
-    let Some(dir) = state.path().and_then(Path::parent) else {
-        return graph.clone();
-    };
-    let policy = crate::eval::PathPolicy {
-        graph_dir: dir.to_path_buf(),
-        output_dir: dir.to_path_buf(),
-        allow_any: true,
-    };
-    // With `allow_any` nothing is refused; the fall-back keeps the document as it is.
-    crate::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
 }
 
 impl eframe::App for EditorApp {

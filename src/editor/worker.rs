@@ -386,6 +386,26 @@ pub fn shrink(r: &Raster, side: u32) -> Raster {
     }
 }
 
+/// The document with its input files (file parameters, files inside data blocks) resolved
+/// against the graph file's folder, as the CLI reads them. The editor evaluates no sinks,
+/// so output paths are left as written.
+pub(super) fn graph_for_evaluation(
+    registry: &Registry,
+    state: &crate::editor::EditorState,
+) -> crate::graph::Graph {
+    let graph = state.graph();
+    let Some(dir) = state.path().and_then(std::path::Path::parent) else {
+        return graph.clone();
+    };
+    let policy = crate::eval::PathPolicy {
+        graph_dir: dir.to_path_buf(),
+        output_dir: dir.to_path_buf(),
+        allow_any: true,
+    };
+    // With `allow_any` nothing is refused; the fall-back keeps the document as it is.
+    crate::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

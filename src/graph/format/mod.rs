@@ -35,7 +35,7 @@ use super::types::{Interp, Key, ParamValue};
 pub const FORMAT_VERSION: u32 = 3;
 
 /// A key-frame track as written: `(time, value, interpolation)` triples.
-type FileTrack = Vec<(f64, f64, Interp)>;
+pub(super) type FileTrack = Vec<(f64, f64, Interp)>;
 
 /// A reader for one older format version: parses text of that version (with located errors)
 /// and applies every migration step up to the current version.
@@ -43,96 +43,9 @@ pub type Migration = fn(&str) -> Result<FileGraph, ron::error::SpannedError>;
 
 /// Readers of older versions; entry `i` reads version `i + 1`. Each chains the per-version
 /// steps (`migrate_v1_to_v2`, `migrate_v2_to_v3`).
-pub const MIGRATIONS: &[Migration] = &[read_v1, read_v2];
+pub const MIGRATIONS: &[Migration] = &[migrate::read_v1, migrate::read_v2];
 
-/// Version 1 of the format: the key-frame table was called `keyframes` and node positions
-/// `position`.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileGraphV1 {
-    #[allow(dead_code)]
-    version: u32,
-    #[serde(default, with = "pairs")]
-    nodes: Vec<(String, FileNodeV1)>,
-    #[serde(default)]
-    edges: Vec<(String, String)>,
-    #[serde(default, with = "pairs")]
-    keyframes: Vec<(String, FileTrack)>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileNodeV1 {
-    kind: String,
-    #[serde(default, with = "pairs")]
-    params: Vec<(String, Value)>,
-    #[serde(default)]
-    position: Option<(f32, f32)>,
-    #[serde(default)]
-    data: Option<super::NodeData>,
-}
-
-/// Version 2: version 3 without `groups`.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileGraphV2 {
-    #[allow(dead_code)]
-    version: u32,
-    #[serde(default, with = "pairs")]
-    nodes: Vec<(String, FileNode)>,
-    #[serde(default)]
-    edges: Vec<(String, String)>,
-    #[serde(default, with = "pairs")]
-    keys: Vec<(String, FileTrack)>,
-}
-
-/// Version 2 → 3: nothing changes but the version (a graph without groups).
-fn migrate_v2_to_v3(v: FileGraphV2) -> FileGraph {
-    FileGraph {
-        version: 3,
-        nodes: v.nodes,
-        edges: v.edges,
-        keys: v.keys,
-        groups: Vec::new(),
-    }
-}
-
-fn read_v2(text: &str) -> Result<FileGraph, ron::error::SpannedError> {
-    ron_options()
-        .from_str::<FileGraphV2>(text)
-        .map(migrate_v2_to_v3)
-}
-
-/// Version 1 → 2: `keyframes` → `keys`, `position` → `pos`.
-fn migrate_v1_to_v2(v: FileGraphV1) -> FileGraphV2 {
-    FileGraphV2 {
-        version: 2,
-        nodes: v
-            .nodes
-            .into_iter()
-            .map(|(id, n)| {
-                (
-                    id,
-                    FileNode {
-                        kind: n.kind,
-                        params: n.params,
-                        pos: n.position,
-                        data: n.data,
-                    },
-                )
-            })
-            .collect(),
-        edges: v.edges,
-        keys: v.keyframes,
-    }
-}
-
-fn read_v1(text: &str) -> Result<FileGraph, ron::error::SpannedError> {
-    ron_options()
-        .from_str::<FileGraphV1>(text)
-        .map(migrate_v1_to_v2)
-        .map(migrate_v2_to_v3)
-}
+mod migrate;
 
 /// The current file shape (version [`FORMAT_VERSION`]).
 #[derive(Serialize, Deserialize)]
