@@ -391,3 +391,54 @@ fn committed_animated_fixture_is_the_linear_scene() {
         "TYNDALL_BLESS=1 cargo test --test animation rewrites it"
     );
 }
+
+/// A mesh's animation moves it in the posed scene, and so in the G-buffer and the shadow map:
+/// the same file with the dolly channel on the marker instead of the camera.
+#[test]
+fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
+    let Some(gpu) = common::gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_scene(dir.path(), "LINEAR", 1); // node 1: the marker
+    let asset = tyndall::scene::parse_gltf(&path).unwrap();
+    let marker = |frame: f32| {
+        let s = asset.pose(Some(0), frame / FPS).unwrap();
+        let o = s.objects.iter().find(|o| o.name == "Marker").unwrap();
+        o.positions.iter().copied().sum::<Vec3>() / o.positions.len() as f32
+    };
+    // The channel's translation replaces the node's rest translation (none): the marker's
+    // centre is its mesh centre plus the keyed translation.
+    let (k1, k24) = (
+        Vec3::from_slice(&camera_translation().values[0][..3]),
+        Vec3::from_slice(&camera_translation().values[2][..3]),
+    );
+    assert!((marker(1.0) - (MARKER + k1)).length() < 1e-4);
+    assert!((marker(24.0) - (MARKER + k24)).length() < 1e-4);
+    let registry = Arc::new(tyndall::nodes::registry());
+    let text = graph(&path).replace(
+        r#""gbuffer": (kind: "GBuffer"),"#,
+        r#""gbuffer": (kind: "GBuffer"), "shadow": (kind: "ShadowMap", params: {"resolution": 256}),"#,
+    ).replace(r#"edges: [("scene.scene", "gbuffer.scene")]"#, r#"edges: [("scene.scene", "gbuffer.scene"), ("scene.scene", "shadow.scene")]"#);
+    let g =
+        tyndall::graph::load_str(&text, std::path::Path::new("g.ron"), registry.catalog()).unwrap();
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let mut at = |frame: f64| {
+        let opts = EvalOptions {
+            size: (W, H),
+            time: frame,
+            ..Default::default()
+        };
+        let targets = [
+            Target::Port("gbuffer".into(), "depth".into()),
+            Target::Port("shadow".into(), "map".into()),
+        ];
+        let r = ev.evaluate(&g, &targets, &opts).unwrap();
+        let read = |n: &str, p: &str| {
+            tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())]).unwrap()
+        };
+        (read("gbuffer", "depth"), read("shadow", "map"))
+    };
+    let (d1, s1) = at(1.0);
+    let (d24, s24) = at(24.0);
+    assert_ne!(d1.data, d24.data, "the G-buffer sees the marker move");
+    assert_ne!(s1.data, s24.data, "the shadow map sees the marker move");
+}

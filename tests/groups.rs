@@ -151,6 +151,11 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
         let a = eval(&grouped, &[(&gn, &gp)]);
         let b = eval(&flat, &[(&fnode, &fport)]);
         assert_eq!(a[0].data, b[0].data, "{}", preset.display());
+        assert!(
+            a[0].data.iter().any(|v| *v > 0.0),
+            "{}: a black picture compares equal to anything black",
+            preset.display()
+        );
         compared += 1;
     }
     assert!(compared >= 3, "{compared} presets compared");
