@@ -264,3 +264,86 @@ fn preset_thumbnails_beside_under_docs_or_first_frame() {
     assert_eq!(at("b.ron"), Some(dir.path().join("b.0001.png")));
     assert_eq!(at("c.ron"), None);
 }
+
+/// Editing inside groups: entering nested groups, a change there rewritten into every
+/// definition up the path (library groups become embedded copies, other uses of the library
+/// group keep following it), a change that breaks a port refused, undo across scopes.
+#[test]
+fn edits_inside_nested_groups_and_undo_across_scopes() {
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/stylize/tree_hole_filling.ron");
+    let mut s = EditorState::open(cat.clone(), &path).expect("open");
+    let original = save_string(s.root());
+    assert!(
+        s.enter("scene").is_err(),
+        "a built-in node cannot be entered"
+    );
+    s.enter("holes").expect("enter HoleFilling");
+    assert!(s.graph().node("close").is_some());
+    s.enter("shafts").expect("enter the Shafts inside it");
+    assert_eq!(s.scope(), ["holes".to_string(), "shafts".to_string()]);
+    assert_eq!(s.full_id("scatter"), "holes/shafts/scatter");
+    assert_eq!(
+        s.driving_knob("scatter", "sigma_t").as_deref(),
+        Some("sigma_t")
+    );
+    assert_eq!(s.driving_knob("scatter", "steps"), None);
+    s.set_param("scatter", "steps", ParamValue::Int(40))
+        .expect("inner edit");
+    // Rewritten up the path: HoleFilling and its Shafts are embedded copies now; the
+    // document's own Shafts instance still follows the library file.
+    let root = s.root();
+    let holes = &root.groups()["HoleFilling"];
+    assert!(holes.library.is_none());
+    assert!(holes.graph.groups()["Shafts"].library.is_none());
+    assert!(root.groups()["Shafts"].library.is_some());
+    let flat = root.flatten(&cat).expect("flatten");
+    let steps = |id: &str| flat.param_at(&cat, id, "steps", 0.0).expect("steps");
+    assert_eq!(steps("holes/shafts/scatter"), ParamValue::Int(40));
+    assert_ne!(steps("physical/scatter"), ParamValue::Int(40));
+    // Deleting the inner node a port feeds is refused, naming the group; nothing changes.
+    let text = save_string(s.root());
+    let err = s.delete(&["scatter".into()]).expect_err("port target");
+    assert!(err.to_string().contains("Shafts"), "{err}");
+    assert_eq!(save_string(s.root()), text);
+    // Expose from inside: a knob on the enclosing group, named after the parameter.
+    assert_eq!(s.expose_here("scatter", "steps").expect("expose"), "steps");
+    assert!(s
+        .enclosing()
+        .expect("inside")
+        .knobs
+        .iter()
+        .any(|k| k.name == "steps"));
+    // Undo goes back through both edits whatever the scope.
+    s.leave_to(0);
+    assert!(s.undo() && s.undo());
+    assert_eq!(save_string(s.root()), original);
+    // Undoing the grouping while inside the group leaves it for the document.
+    let g = s.group(&["scene".into(), "shadow".into()]).expect("group");
+    s.enter(&g).expect("enter");
+    assert!(s.undo());
+    assert!(s.scope().is_empty());
+    assert_eq!(save_string(s.root()), original);
+}
+
+/// Pasting a group whose name the document uses for a different definition brings it in
+/// renamed, so the document's own instances keep their definition.
+#[test]
+fn pasting_a_changed_group_renames_it() {
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/stylize/tree_hole_filling.ron");
+    let mut s = EditorState::open(cat, &path).expect("open");
+    let clip = s.copy(&["holes".into()]);
+    s.expose("holes", "close", "method", "method")
+        .expect("expose");
+    let mine = s.root().groups()["HoleFilling"].clone();
+    let ids = s.paste(&clip, [40.0, 40.0]).expect("paste");
+    let pasted = s.root().node(&ids[0]).expect("pasted").kind.clone();
+    assert_eq!(pasted, "HoleFilling2");
+    assert_eq!(*s.root().groups()["HoleFilling"], *mine);
+    assert_ne!(*s.root().groups()["HoleFilling2"], *mine);
+    // The same definition pasted again is shared, not renamed.
+    let again = s.copy(&["holes".into()]);
+    let ids = s.paste(&again, [80.0, 80.0]).expect("paste");
+    assert_eq!(s.root().node(&ids[0]).expect("pasted").kind, "HoleFilling");
+}

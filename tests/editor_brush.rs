@@ -26,9 +26,11 @@ fn splats(h: &Harness<'static, EditorApp>, id: &str) -> BlendData {
         .unwrap_or_default()
 }
 
+/// The painted-heterogeneity preset as a flat graph (the preset before it used groups): the
+/// brush is aimed from the Heterogeneity node, which the preset now keeps inside its group.
 fn open_fence(dir: &Path) -> Harness<'static, EditorApp> {
     let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/medium/fence_painted.ron"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/flat/fence_painted.ron"),
     )
     .expect("preset");
     let path = dir.join("g.ron");

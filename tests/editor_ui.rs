@@ -640,3 +640,142 @@ fn ab_wipe_compares_two_nodes_in_the_viewer() {
     assert!(h.state().wipe.is_none());
     assert!(h.query_all_by_label("B = scatter").next().is_none());
 }
+
+/// The whole group workflow through the window: Shift+click two nodes, Ctrl+G groups them, Tab
+/// enters the group (the breadcrumb shows the path), Expose on an inner parameter makes it a
+/// knob, Tab leaves, changing the knob re-runs only the inner nodes it reaches and what is
+/// below, Publish writes the library file beside the graph; Ctrl+Z undoes each step.
+#[test]
+fn group_enter_expose_knob_publish_and_undo_in_the_window() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tmp");
+    std::fs::create_dir(dir.path().join("lib")).expect("lib");
+    let file = dir.path().join("window.ron");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron"),
+        &file,
+    )
+    .expect("copy");
+    let mut h = common::editor::open(&file, (1400.0, 800.0));
+    settle(&mut h);
+    let original = save_string(h.state().state.root());
+    // Shift+click selects on the canvas; Ctrl+G groups the selection.
+    // (Node widgets lie in the canvas's transformed layer: their rectangles are in graph space.)
+    for label in ["scatter - SingleScattering", "composite - Composite"] {
+        let at = h
+            .state()
+            .canvas_to_screen(h.get_by_label(label).rect().center());
+        h.event(egui::Event::PointerMoved(at));
+        h.event(egui::Event::ModifiersChanged(egui::Modifiers::SHIFT));
+        h.run_steps(1);
+        for pressed in [true, false] {
+            h.event(egui::Event::PointerButton {
+                pos: at,
+                button: egui::PointerButton::Primary,
+                pressed,
+                modifiers: egui::Modifiers::SHIFT,
+            });
+            h.run_steps(1);
+        }
+        h.event(egui::Event::ModifiersChanged(egui::Modifiers::default()));
+        h.run_steps(2);
+    }
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::G);
+    h.run_steps(3);
+    let root = h.state().state.root().clone();
+    assert_eq!(root.node("group1").map(|n| n.kind.as_str()), Some("Group1"));
+    assert!(root.node("scatter").is_none() && root.node("composite").is_none());
+    let grouped = save_string(&root);
+    // Tab enters the selected group: the canvas shows its inside, the breadcrumb its path.
+    h.state_mut().selected = Some("group1".into());
+    h.run_steps(2);
+    h.key_press(egui::Key::Tab);
+    h.run_steps(3);
+    assert_eq!(h.state().state.scope(), ["group1".to_string()]);
+    let _ = h.get_by_label("Document");
+    let _ = h.get_by_label("group1 (Group1)");
+    assert!(h.state().state.graph().node("scatter").is_some());
+    // Expose scatter.steps: the Expose button on its row of the parameter panel.
+    h.state_mut().selected = Some("scatter".into());
+    h.run_steps(3);
+    let params: Vec<&str> = h
+        .state()
+        .state
+        .catalog()
+        .get("SingleScattering")
+        .expect("kind")
+        .params
+        .iter()
+        .map(|p| p.name)
+        .collect();
+    let row = params.iter().position(|p| *p == "steps").expect("steps");
+    h.query_all_by_label("Expose")
+        .nth(row)
+        .expect("an Expose button per parameter")
+        .click();
+    h.run_steps(3);
+    let def = h.state().state.enclosing().expect("inside a group");
+    assert!(
+        def.knobs
+            .iter()
+            .any(|k| k.name == "steps"
+                && k.targets == [("scatter".to_string(), "steps".to_string())]),
+        "{:?}",
+        def.knobs
+    );
+    let _ = h.get_by_label("knob steps");
+    // Tab again (the selection is not a group) leaves; the group node is selected.
+    h.key_press(egui::Key::Tab);
+    h.run_steps(3);
+    assert!(h.state().state.scope().is_empty());
+    assert_eq!(h.state().selected.as_deref(), Some("group1"));
+    let _ = h.get_by_label("steps");
+    settle(&mut h);
+    // The knob re-runs the inner nodes it reaches and what is below: not the scene, shadow
+    // map or G-buffer.
+    h.state_mut()
+        .state
+        .set_param("group1", "steps", ParamValue::Int(48))
+        .expect("knob");
+    settle(&mut h);
+    let mut ran: Vec<String> = h
+        .state()
+        .reports
+        .iter()
+        .filter(|(_, r)| r.status.ran())
+        .map(|(id, _)| id.clone())
+        .collect();
+    ran.sort();
+    assert_eq!(ran, ["group1/composite", "group1/scatter", "tonemap"]);
+    for up in ["scene", "shadow", "gbuffer"] {
+        assert_eq!(h.state().reports[up].status, tyndall::eval::Status::Reused);
+    }
+    // The group node shows its inner nodes' report (their thumbnail too).
+    assert!(h.state().report("group1").is_some_and(|r| r.status.ran()));
+    // Publish: the library file beside the graph, and the graph references it.
+    h.get_by_label("Publish to library").click();
+    h.run_steps(3);
+    let published = dir.path().join("lib/group1.ron");
+    assert!(published.is_file(), "{}", h.state().status);
+    assert!(h.state().state.root().groups()["Group1"].library.is_some());
+    // Undo each step: publish, the knob value, Expose, Group.
+    let undo = |h: &mut Harness<'static, EditorApp>| {
+        h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+        h.run_steps(2);
+    };
+    undo(&mut h);
+    assert!(h.state().state.root().groups()["Group1"].library.is_none());
+    undo(&mut h);
+    assert!(h
+        .state()
+        .state
+        .root()
+        .node("group1")
+        .is_some_and(|n| n.params.is_empty()));
+    undo(&mut h);
+    assert_eq!(save_string(h.state().state.root()), grouped);
+    undo(&mut h);
+    assert_eq!(save_string(h.state().state.root()), original);
+}

@@ -6,6 +6,8 @@
 mod commands;
 mod parameters;
 mod presets;
+mod pump;
+mod scope;
 mod timeline;
 mod viewer;
 
@@ -61,6 +63,8 @@ pub struct EditorApp {
     /// The worker's last report per node: ran / cached, time, error.
     pub reports: BTreeMap<String, NodeReport>,
     thumbs: BTreeMap<String, egui::TextureHandle>,
+    /// Group instance → the flattened node its thumbnail comes from (the worker's).
+    aliases: BTreeMap<String, String>,
     /// The viewed node's picture outputs, by port.
     pub pictures: Option<(String, Vec<(String, Raster)>)>,
     /// The A/B wipe (Nuke's): the node shown right of the split, over the viewed one (`W`
@@ -95,6 +99,17 @@ pub struct EditorApp {
     pub playing: bool,
     /// Folders the preset browser lists.
     pub preset_folders: Vec<PathBuf>,
+    /// The canvas's graph-to-screen transform, as last drawn.
+    canvas_transform: egui::emath::TSTransform,
+    /// Bumped when the canvas shows a new set of nodes: the canvas widget's id (its selection
+    /// starts empty).
+    canvas_gen: u64,
+    /// The view to put back on the next frame (after `canvas_gen` changed).
+    restore_transform: Option<egui::emath::TSTransform>,
+    /// The scope the canvas was last built for.
+    synced_scope: Vec<String>,
+    /// Library groups listed in the Add-node menu (folder, reference); read again on refresh.
+    library: Option<Vec<(PathBuf, String)>>,
     presets: Vec<PresetEntry>,
     preset_thumbs: BTreeMap<PathBuf, Option<egui::TextureHandle>>,
     preset_name: String,
@@ -165,6 +180,7 @@ impl EditorApp {
             requested: String::new(),
             reports: BTreeMap::new(),
             thumbs: BTreeMap::new(),
+            aliases: BTreeMap::new(),
             pictures: None,
             wipe: None,
             wipe_split: 0.5,
@@ -183,6 +199,11 @@ impl EditorApp {
             fps: 24.0,
             playing: false,
             preset_folders,
+            library: None,
+            canvas_transform: Default::default(),
+            canvas_gen: 0,
+            restore_transform: None,
+            synced_scope: Vec::new(),
             presets: Vec::new(),
             preset_thumbs: BTreeMap::new(),
             preset_name: String::new(),
@@ -213,19 +234,31 @@ impl EditorApp {
     /// The node the viewer shows: the active pin's, else the selected one — or, when the
     /// selected node has no picture output (a volume, a scene), the nearest node downstream
     /// of it that has one (so painting a `BlendVolume` shows what it does).
+    /// Ids are flattened (`look/fill` inside group `look`); pins keep the path they were made
+    /// at, so a pin inside a group still shows after leaving it.
     pub fn viewed(&self) -> Option<String> {
         let g = self.state.graph();
         self.active_pin
             .and_then(|i| self.pins[i].clone())
-            .filter(|id| g.node(id).is_some())
+            .filter(|id| self.state.node_at(id).is_some())
             .or_else(|| {
                 let s = self.selected.clone()?;
-                if super::worker::picture_ports(g, &self.registry, &s).is_empty() {
-                    super::brush_panel::nearest_picture(g, &self.registry, &s).or(Some(s))
+                let local = if super::worker::picture_ports(g, &self.registry, &s).is_empty() {
+                    super::brush_panel::nearest_picture(g, &self.registry, &s).unwrap_or(s)
                 } else {
-                    Some(s)
-                }
+                    s
+                };
+                Some(self.state.full_id(&local))
             })
+    }
+
+    /// The worker's report on node `id` of the graph shown (a group node: its inner nodes').
+    pub fn report(&self, id: &str) -> Option<NodeReport> {
+        let full = self.state.full_id(id);
+        self.reports
+            .get(&full)
+            .cloned()
+            .or_else(|| super::worker::group_report(&self.reports, &full))
     }
 
     /// Connect output `from` (`node.port`) to input `to`, replacing the input's edge as other
@@ -245,7 +278,18 @@ impl EditorApp {
         self.frame_all = true;
     }
 
-    /// Whether node `id` has a thumbnail on the canvas.
+    /// Where a point of the canvas's graph space (where nodes and their widgets lie, what
+    /// accessibility rectangles report) is on the screen.
+    pub fn canvas_to_screen(&self, p: egui::Pos2) -> egui::Pos2 {
+        self.canvas_transform * p
+    }
+
+    /// The canvas widget's id (it holds the canvas's selection).
+    pub(super) fn canvas_id(&self) -> egui::Id {
+        egui::Id::new(("tyndall-canvas", self.canvas_gen))
+    }
+
+    /// Whether node `id` (a flattened id) has a thumbnail on the canvas.
     pub fn has_thumbnail(&self, id: &str) -> bool {
         self.thumbs.contains_key(id)
     }
@@ -257,11 +301,25 @@ impl EditorApp {
 
     /// Rebuild the canvas from the document when the document changed.
     fn sync(&mut self) {
-        let text = save_string(self.state.graph());
+        let text = format!(
+            "{}\n{}",
+            self.state.scope().join("/"),
+            save_string(self.state.graph())
+        );
         if self.synced.as_deref() == Some(text.as_str()) {
             return;
         }
         let g = self.state.graph();
+        // A different set of nodes (or another group entered) is a new canvas: the canvas's
+        // selection is by position in the node list, which now means other nodes. The view
+        // (pan and zoom) carries over.
+        let order: Vec<String> = g.nodes().map(|n| n.id.clone()).collect();
+        let before: Vec<String> = self.snarl.nodes().cloned().collect();
+        if order != before || self.synced_scope != self.state.scope() {
+            self.canvas_gen += 1;
+            self.restore_transform = (!before.is_empty()).then_some(self.canvas_transform);
+            self.synced_scope = self.state.scope().to_vec();
+        }
         let mut snarl = Snarl::new();
         let mut ids = BTreeMap::new();
         for (i, n) in g.nodes().enumerate() {
@@ -296,102 +354,6 @@ impl EditorApp {
         }
         self.snarl = snarl;
         self.synced = Some(text);
-        let g = self.state.graph();
-        self.thumbs.retain(|id, _| g.node(id).is_some());
-        self.reports.retain(|id, _| g.node(id).is_some());
-    }
-
-    /// Send the worker a request when the document, the time or the viewed node changed, and
-    /// take in what it finished.
-    fn pump(&mut self, ctx: &egui::Context) {
-        let view = self.viewed();
-        let Some(worker) = self.worker.as_mut() else {
-            return;
-        };
-        let key = format!(
-            "{:?}|{:?}@{}:{}",
-            view,
-            self.wipe,
-            self.time,
-            self.synced.as_deref().unwrap_or("")
-        );
-        if key != self.requested {
-            self.requested = key;
-            worker.request(Request {
-                generation: 0,
-                graph: crate::editor::worker::graph_for_evaluation(&self.registry, &self.state),
-                time: self.time,
-                size: VIEW_SIZE,
-                view,
-                compare: self.wipe.clone(),
-            });
-        }
-        if let Some(p) = worker.poll_progress() {
-            self.progress = Some(p);
-        }
-        let mut lost = None;
-        for out in worker.poll() {
-            lost = lost.or(out.device_lost);
-            for (id, rep) in out.nodes {
-                if let Some(t) = &rep.thumb {
-                    let image = colour_image(t, Channel::Rgb, 0.0);
-                    self.thumbs.insert(
-                        id.clone(),
-                        ctx.load_texture(
-                            format!("thumb-{id}"),
-                            image,
-                            egui::TextureOptions::LINEAR,
-                        ),
-                    );
-                }
-                self.reports.insert(id, NodeReport { thumb: None, ..rep });
-            }
-            if out.view.is_some() {
-                self.pictures = out.view;
-                self.view_tex = None;
-            }
-            if out.compare.is_some() || self.wipe.is_none() {
-                self.compare = out.compare;
-                self.wipe_tex = None;
-            }
-            let ran = self.reports.values().filter(|r| r.status.ran()).count();
-            let errors = self.reports.values().filter(|r| r.error.is_some()).count();
-            self.status = match errors {
-                0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),
-                n => format!("{n} node(s) failed; see the canvas"),
-            };
-            if self.device_restarts > 0 {
-                // Kept in view: the restart message itself is replaced by the first summary.
-                self.status +=
-                    &format!(" (GPU device lost and replaced {}×)", self.device_restarts);
-            }
-        }
-        if let Some(reason) = lost {
-            self.restart_after_loss(&reason);
-            ctx.request_repaint();
-        } else if !worker.idle() {
-            ctx.request_repaint_after(Duration::from_millis(30));
-        }
-    }
-
-    /// The worker's device was lost: drop the worker (and its cache, which lived on that
-    /// device), start a new one on a new device and ask for the whole evaluation again.
-    fn restart_after_loss(&mut self, reason: &str) {
-        if let Some(old) = self.worker.take() {
-            old.abandon();
-        }
-        self.requested.clear();
-        self.progress = None;
-        match Gpu::shared() {
-            Ok(gpu) => {
-                self.worker = Some(Worker::start(self.registry.clone(), gpu));
-                self.device_restarts += 1;
-                self.status = format!("{reason}: restarted on a new device");
-            }
-            Err(e) => {
-                self.status = format!("{reason}; no new device ({e}): pictures are off");
-            }
-        }
     }
 }
 
@@ -477,7 +439,8 @@ impl eframe::App for EditorApp {
                     .show(ui, |ui| self.parameters(ui));
             });
         egui::CentralPanel::default().show(root, |ui| {
-            let canvas = egui::Id::new("tyndall-canvas");
+            self.breadcrumb(ui);
+            let canvas = self.canvas_id();
             // Frame from the document's positions with a nominal node size, so the framing does
             // not depend on when thumbnails (which change node sizes) arrive.
             let frame = if self.frame_all && self.snarl.nodes_pos_ids().next().is_some() {
@@ -497,8 +460,14 @@ impl eframe::App for EditorApp {
                 reports: &self.reports,
                 show_timings: self.show_timings,
                 thumbs: &self.thumbs,
+                aliases: &self.aliases,
                 frame,
+                transform: &mut self.canvas_transform,
+                restore: self.restore_transform.take(),
             };
+            // Titles and port names are not selectable text, so a click on them reaches the
+            // node (Shift+click selects it).
+            ui.style_mut().interaction.selectable_labels = false;
             SnarlWidget::new()
                 .id(canvas)
                 .show(&mut self.snarl, &mut view, ui);

@@ -36,8 +36,14 @@ pub(super) struct CanvasView<'a> {
     pub reports: &'a BTreeMap<String, NodeReport>,
     pub show_timings: bool,
     pub thumbs: &'a BTreeMap<String, egui::TextureHandle>,
+    /// Group instance (flattened path) → the flattened node whose thumbnail it shows.
+    pub aliases: &'a BTreeMap<String, String>,
     /// When set, the view is moved so this graph-space rectangle fills the canvas.
     pub frame: Option<(egui::Rect, egui::Rect)>,
+    /// The canvas's graph-to-screen transform, as last drawn.
+    pub transform: &'a mut emath::TSTransform,
+    /// A transform to put back (the view, carried over to a rebuilt canvas).
+    pub restore: Option<emath::TSTransform>,
 }
 
 impl CanvasView<'_> {
@@ -161,14 +167,24 @@ impl SnarlViewer<String> for CanvasView<'_> {
         ui: &mut egui::Ui,
         snarl: &mut Snarl<String>,
     ) {
-        let id = &snarl[node];
+        // Reports and thumbnails are by flattened id; a group node shows its inner nodes'.
+        let id = self.state.full_id(&snarl[node]);
+        let thumb = self
+            .thumbs
+            .get(&id)
+            .or_else(|| self.aliases.get(&id).and_then(|f| self.thumbs.get(f)));
+        let report = self
+            .reports
+            .get(&id)
+            .cloned()
+            .or_else(|| super::worker::group_report(self.reports, &id));
         ui.vertical(|ui| {
-            if let Some(t) = self.thumbs.get(id) {
+            if let Some(t) = thumb {
                 let size = t.size_vec2();
                 let scale = (96.0 / size.x.max(size.y)).min(1.0);
                 ui.add(egui::Image::new(t).fit_to_exact_size(size * scale));
             }
-            match self.reports.get(id) {
+            match &report {
                 Some(r) if r.error.is_some() => {
                     let msg = r.error.clone().unwrap_or_default();
                     ui.add(
@@ -201,6 +217,9 @@ impl SnarlViewer<String> for CanvasView<'_> {
         to_global: &mut emath::TSTransform,
         _snarl: &mut Snarl<String>,
     ) {
+        if let Some(t) = self.restore.take() {
+            *to_global = t;
+        }
         if let Some((bb, canvas)) = self.frame.take() {
             let bb = bb.expand(40.0);
             let scale = (canvas.width() / bb.width())
@@ -211,6 +230,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
                 scale,
             );
         }
+        *self.transform = *to_global;
     }
 
     fn has_graph_menu(&mut self, _pos: egui::Pos2, _snarl: &mut Snarl<String>) -> bool {

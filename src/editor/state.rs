@@ -6,6 +6,8 @@ use std::time::{Duration, Instant};
 
 use thiserror::Error;
 
+mod groups;
+
 use crate::graph::{
     load_file, load_str, save_string, write_atomic, Catalog, Graph, GraphError, Key, LoadError,
     Node, ParamValue,
@@ -59,6 +61,9 @@ pub struct EditorState {
     /// The tag of the last `set_data` call that may merge with the next (a drag or a stroke in
     /// progress): `node:tag`.
     merge: Option<String>,
+    /// The group instances entered (Tab), from the document down: the canvas shows and edits
+    /// the graph inside the last one.
+    scope: Vec<String>,
 }
 
 impl EditorState {
@@ -74,6 +79,7 @@ impl EditorState {
             last_autosave: Instant::now(),
             autosave_every: Duration::from_secs(60),
             merge: None,
+            scope: Vec::new(),
         }
     }
 
@@ -87,8 +93,13 @@ impl EditorState {
         Ok(s)
     }
 
-    /// The document.
+    /// The graph shown and edited: the document, or the inside of the group entered.
     pub fn graph(&self) -> &Graph {
+        self.graph.inside(&self.scope).unwrap_or(&self.graph)
+    }
+
+    /// The whole document (what is saved and evaluated), whatever group is entered.
+    pub fn root(&self) -> &Graph {
         &self.graph
     }
 
@@ -131,7 +142,8 @@ impl EditorState {
     ) -> Result<T, EditorError> {
         self.merge = None;
         let before = self.graph.clone();
-        match change(&mut self.graph, &self.catalog) {
+        let scope = self.scope.clone();
+        match self.graph.edit_inside(&self.catalog, &scope, change) {
             Ok(v) => {
                 if self.graph != before {
                     self.undo.push(before);
@@ -160,7 +172,9 @@ impl EditorState {
     ) -> Result<(), EditorError> {
         let tag = merge.map(|m| format!("{node}:{m}"));
         if tag.is_some() && tag == self.merge && !self.undo.is_empty() {
-            self.graph.set_data(node, data)?;
+            let scope = self.scope.clone();
+            self.graph
+                .edit_inside(&self.catalog, &scope, |g, _| g.set_data(node, data))?;
             self.redo.clear();
             return Ok(());
         }
@@ -175,7 +189,7 @@ impl EditorState {
         &self,
         node: &str,
     ) -> Result<T, String> {
-        match self.graph.node(node).and_then(|n| n.data.as_ref()) {
+        match self.graph().node(node).and_then(|n| n.data.as_ref()) {
             Some(d) => d.parse(),
             None => Ok(T::default()),
         }
@@ -205,6 +219,7 @@ impl EditorState {
         match self.undo.pop() {
             Some(g) => {
                 self.redo.push(std::mem::replace(&mut self.graph, g));
+                self.fix_scope();
                 true
             }
             None => false,
@@ -217,6 +232,7 @@ impl EditorState {
         match self.redo.pop() {
             Some(g) => {
                 self.undo.push(std::mem::replace(&mut self.graph, g));
+                self.fix_scope();
                 true
             }
             None => false,
@@ -267,14 +283,15 @@ impl EditorState {
     pub fn copy(&self, ids: &[String]) -> String {
         let keep: BTreeSet<&str> = ids.iter().map(String::as_str).collect();
         let mut sub = Graph::new();
-        for n in self.graph.nodes().filter(|n| keep.contains(n.id.as_str())) {
-            if let Some(def) = self.graph.groups().get(&n.kind) {
+        let here = self.graph();
+        for n in here.nodes().filter(|n| keep.contains(n.id.as_str())) {
+            if let Some(def) = here.groups().get(&n.kind) {
                 sub.add_group(def.clone());
             }
             // The node came from this document, so it passes the same checks again.
             let _ = sub.insert_node(&self.catalog, n.clone());
         }
-        for e in self.graph.edges() {
+        for e in here.edges() {
             if keep.contains(e.from_node.as_str()) && keep.contains(e.to_node.as_str()) {
                 let _ = sub.connect_deferred(
                     &self.catalog,
@@ -306,14 +323,35 @@ impl EditorState {
         offset: [f32; 2],
     ) -> Result<Vec<String>, EditorError> {
         self.apply(|g, c| {
-            for def in clip.groups().values() {
-                g.add_group(def.clone());
+            // A group whose name the document uses for another definition comes in renamed
+            // (`Look2`), so the document's own instances keep theirs.
+            let mut kinds: BTreeMap<String, String> = BTreeMap::new();
+            for (name, def) in clip.groups() {
+                match g.groups().get(name) {
+                    Some(have) if **have != **def => {
+                        let mut n = 2;
+                        while g.groups().contains_key(&format!("{name}{n}"))
+                            || c.get(&format!("{name}{n}")).is_some()
+                        {
+                            n += 1;
+                        }
+                        let new = format!("{name}{n}");
+                        g.add_group(std::sync::Arc::new(def.renamed(c, &new)?));
+                        kinds.insert(name.clone(), new);
+                    }
+                    Some(_) => {}
+                    None => g.add_group(def.clone()),
+                }
             }
             let mut ids: BTreeMap<String, String> = BTreeMap::new();
             for n in clip.nodes() {
                 let id = g.fresh_id(&n.kind);
                 let node = Node {
                     id: id.clone(),
+                    kind: kinds
+                        .get(&n.kind)
+                        .cloned()
+                        .unwrap_or_else(|| n.kind.clone()),
                     pos: n.pos.map(|[x, y]| [x + offset[0], y + offset[1]]),
                     ..n.clone()
                 };
@@ -337,75 +375,6 @@ impl EditorState {
     pub fn duplicate(&mut self, ids: &[String]) -> Result<Vec<String>, EditorError> {
         let text = self.copy(ids);
         self.paste(&text, [40.0, 40.0])
-    }
-
-    /// Collapse the nodes `ids` into a new embedded group (Ctrl+G): the cut edges become its
-    /// ports; it is named `Group1`, `Group2`, … and its instance `group1`, …; one undo step.
-    /// Returns the instance's id.
-    pub fn group(&mut self, ids: &[String]) -> Result<String, EditorError> {
-        let mut n = 1;
-        let name = loop {
-            let name = format!("Group{n}");
-            if self.catalog.get(&name).is_none() && !self.graph.groups().contains_key(&name) {
-                break name;
-            }
-            n += 1;
-        };
-        let instance = self.graph.fresh_id("group");
-        self.apply(|g, cat| {
-            let (_, outer) = g.group_nodes(cat, ids, &name, 1, "", Vec::new(), &instance, None)?;
-            *g = outer;
-            Ok(())
-        })?;
-        Ok(instance)
-    }
-
-    /// Replace group instance `id` by its nodes (Ungroup); one undo step.
-    pub fn ungroup(&mut self, id: &str) -> Result<(), EditorError> {
-        self.apply(|g, cat| g.ungroup(cat, id).map(|_| ()))
-    }
-
-    /// Expose inner `node.param` of group instance `instance`'s group as knob `knob`; one
-    /// undo step.
-    pub fn expose(
-        &mut self,
-        instance: &str,
-        node: &str,
-        param: &str,
-        knob: &str,
-    ) -> Result<(), EditorError> {
-        let kind = self
-            .graph
-            .node(instance)
-            .map(|n| n.kind.clone())
-            .unwrap_or_default();
-        self.apply(|g, cat| g.expose_knob(cat, &kind, node, param, knob))
-    }
-
-    /// Publish group instance `instance`'s group to the library folder `lib` (a `lib/` folder:
-    /// `graphs/lib`, the user's): writes `lib/<reference>.ron` and makes the graph reference it;
-    /// one undo step (the file stays). Returns the file.
-    pub fn publish(
-        &mut self,
-        instance: &str,
-        lib: &Path,
-        reference: &str,
-    ) -> Result<PathBuf, EditorError> {
-        let kind = self
-            .graph
-            .node(instance)
-            .map(|n| n.kind.clone())
-            .unwrap_or_default();
-        let path = lib.join(format!("{reference}.ron"));
-        self.apply(|g, _| {
-            let def = g.publish_group(&kind, reference, path.clone())?;
-            if let Some(dir) = path.parent() {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| GraphError::Io(format!("cannot create {}: {e}", dir.display())))?;
-            }
-            crate::graph::write_atomic(&path, crate::graph::library_text(&def).as_bytes())
-        })?;
-        Ok(path)
     }
 
     /// Save to the document's file (atomically: temporary file, then rename).
@@ -463,6 +432,7 @@ impl EditorState {
     /// the original.
     pub fn recover(&mut self, side: &Path) -> Result<(), EditorError> {
         let g = load_file(side, &self.catalog)?;
+        self.scope.clear();
         self.apply(|doc, _| {
             *doc = g;
             Ok(())

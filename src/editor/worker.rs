@@ -31,7 +31,8 @@ pub struct Request {
     pub time: f64,
     /// Image size for nodes that make images from nothing.
     pub size: (u32, u32),
-    /// The node shown in the viewer: all its picture outputs are read back at full size.
+    /// The node shown in the viewer, by flattened id (`look/fill` inside a group; a group
+    /// instance shows its output ports): all its picture outputs are read back at full size.
     pub view: Option<String>,
     /// The viewer's A/B wipe: the node compared with `view`, read back at full size too.
     pub compare: Option<String>,
@@ -51,12 +52,27 @@ pub struct NodeReport {
     pub thumb: Option<Raster>,
 }
 
+impl Default for NodeReport {
+    /// Not needed, no time, no error, no thumbnail.
+    fn default() -> Self {
+        Self {
+            status: Status::NotNeeded,
+            time: Duration::ZERO,
+            error: None,
+            thumb: None,
+        }
+    }
+}
+
 /// A finished evaluation.
 pub struct Outcome {
     /// The request's generation.
     pub generation: u64,
-    /// Per node id.
+    /// Per node of the flattened graph (`group/inner` ids).
     pub nodes: BTreeMap<String, NodeReport>,
+    /// Each group instance (flattened path) → the flattened node its first output comes from
+    /// (whose thumbnail the group node shows).
+    pub aliases: BTreeMap<String, String>,
     /// The viewed node and its picture outputs by port name.
     pub view: Option<(String, Vec<(String, Raster)>)>,
     /// The wipe's compared node and its picture outputs, when asked for.
@@ -210,6 +226,9 @@ pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String
         .collect()
 }
 
+/// A picture a shown id reads: (the port name shown, the flattened node, its port).
+type Shown = (String, String, String);
+
 fn evaluate(
     ev: &mut Evaluator,
     req: &Request,
@@ -224,34 +243,49 @@ fn evaluate(
         ..Default::default()
     };
     let registry = ev.registry().clone();
-    let mut nodes: BTreeMap<String, NodeReport> = req
-        .graph
+    // Flattened once: every id below is a flattened one (`group/inner`).
+    let (graph, ports) = match req.graph.flatten_ports(registry.catalog()) {
+        Ok(f) => f,
+        Err(e) => return failed(req, &e.to_string(), start),
+    };
+    let mut nodes: BTreeMap<String, NodeReport> = graph
         .nodes()
-        .map(|n| {
-            (
-                n.id.clone(),
-                NodeReport {
-                    status: Status::NotNeeded,
-                    time: Duration::ZERO,
-                    error: None,
-                    thumb: None,
-                },
-            )
-        })
+        .map(|n| (n.id.clone(), NodeReport::default()))
         .collect();
+    let mut aliases = BTreeMap::new();
+    for ((inst, _), (n, _)) in &ports {
+        aliases.entry(inst.clone()).or_insert_with(|| n.clone());
+    }
+    // What a shown id reads: (port shown, flattened node, its port) — a node's picture
+    // outputs, or a group instance's outputs that are pictures.
+    let shown = |id: &str| -> Vec<Shown> {
+        if graph.node(id).is_some() {
+            return picture_ports(&graph, &registry, id)
+                .into_iter()
+                .map(|p| (p.clone(), id.to_string(), p))
+                .collect();
+        }
+        ports
+            .iter()
+            .filter(|((inst, _), (n, p))| {
+                inst == id && picture_ports(&graph, &registry, n).contains(p)
+            })
+            .map(|((_, port), (n, p))| (port.clone(), n.clone(), p.clone()))
+            .collect()
+    };
     // The viewed node first (what the artist waits for), then every node's thumbnail; the
     // cache makes the later calls cheap.
     // (node, ports, read back in full: 1 the view, 2 the wipe's comparison, 0 a thumbnail)
-    let mut jobs: Vec<(String, Vec<String>, u8)> = Vec::new();
+    let mut jobs: Vec<(String, Vec<Shown>, u8)> = Vec::new();
     if let Some(id) = &req.view {
-        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), 1));
+        jobs.push((id.clone(), shown(id), 1));
     }
     if let Some(id) = &req.compare {
-        jobs.push((id.clone(), picture_ports(&req.graph, &registry, id), 2));
+        jobs.push((id.clone(), shown(id), 2));
     }
-    for id in req.graph.topo_order() {
-        if let Some(port) = picture_ports(&req.graph, &registry, &id).into_iter().next() {
-            jobs.push((id, vec![port], 0));
+    for id in graph.topo_order() {
+        if let Some(first) = shown(&id).into_iter().next() {
+            jobs.push((id, vec![first], 0));
         }
     }
     let (mut view, mut compare) = (None, None);
@@ -262,9 +296,9 @@ fn evaluate(
         }
         let targets: Vec<Target> = ports
             .iter()
-            .map(|p| Target::Port(id.clone(), p.clone()))
+            .map(|(_, n, p)| Target::Port(n.clone(), p.clone()))
             .collect();
-        match ev.evaluate(&req.graph, &targets, &opts) {
+        match ev.evaluate(&graph, &targets, &opts) {
             Ok(r) => {
                 for s in &r.stats.nodes {
                     let Some(rep) = nodes.get_mut(&s.id) else {
@@ -281,9 +315,9 @@ fn evaluate(
                 if full > 0 {
                     let pictures = ports
                         .iter()
-                        .filter_map(|p| {
-                            let v = r.outputs.get(&(id.clone(), p.clone()))?;
-                            Some((p.clone(), download(ev.gpu(), v).ok()?))
+                        .filter_map(|(shown, n, p)| {
+                            let v = r.outputs.get(&(n.clone(), p.clone()))?;
+                            Some((shown.clone(), download(ev.gpu(), v).ok()?))
                         })
                         .collect();
                     if full == 1 {
@@ -293,7 +327,7 @@ fn evaluate(
                     }
                 } else if !thumbed.contains(&id) {
                     if let (Some(v), Some(rep)) = (
-                        r.outputs.get(&(id.clone(), ports[0].clone())),
+                        r.outputs.get(&(ports[0].1.clone(), ports[0].2.clone())),
                         nodes.get_mut(&id),
                     ) {
                         rep.thumb = thumbnail(ev.gpu(), v);
@@ -327,11 +361,65 @@ fn evaluate(
     Outcome {
         generation: req.generation,
         nodes,
+        aliases,
         view,
         compare,
         elapsed: start.elapsed(),
         device_lost,
     }
+}
+
+/// The outcome of a request whose graph cannot be flattened: every node carries the reason.
+fn failed(req: &Request, reason: &str, start: std::time::Instant) -> Outcome {
+    let nodes = req
+        .graph
+        .nodes()
+        .map(|n| {
+            let error = Some(reason.to_string());
+            (
+                n.id.clone(),
+                NodeReport {
+                    error,
+                    ..NodeReport::default()
+                },
+            )
+        })
+        .collect();
+    Outcome {
+        generation: req.generation,
+        nodes,
+        aliases: BTreeMap::new(),
+        view: None,
+        compare: None,
+        elapsed: start.elapsed(),
+        device_lost: None,
+    }
+}
+
+/// The report a group instance `path` (flattened) shows: its inner nodes' together — ran when
+/// one ran (their times added), reused when all that were needed were, their first error.
+pub fn group_report(reports: &BTreeMap<String, NodeReport>, path: &str) -> Option<NodeReport> {
+    let prefix = format!("{path}/");
+    let inner: Vec<&NodeReport> = reports
+        .range(prefix.clone()..)
+        .take_while(|(k, _)| k.starts_with(&prefix))
+        .map(|(_, r)| r)
+        .collect();
+    if inner.is_empty() {
+        return None;
+    }
+    let ran: Vec<&&NodeReport> = inner.iter().filter(|r| r.status.ran()).collect();
+    let status = match ran.first() {
+        Some(r) => r.status,
+        None if inner.iter().any(|r| r.status == Status::Reused) => Status::Reused,
+        None => Status::NotNeeded,
+    };
+    Some(NodeReport {
+        status,
+        time: ran.iter().map(|r| r.time).sum(),
+        error: inner.iter().find_map(|r| r.error.clone()),
+        thumb: None,
+    })
 }
 
 /// A picture-like value read back and shrunk (box filter) to at most [`THUMB`] pixels wide or
@@ -393,7 +481,7 @@ pub(super) fn graph_for_evaluation(
     registry: &Registry,
     state: &crate::editor::EditorState,
 ) -> crate::graph::Graph {
-    let graph = state.graph();
+    let graph = state.root();
     let Some(dir) = state.path().and_then(std::path::Path::parent) else {
         return graph.clone();
     };

@@ -5,7 +5,7 @@ use super::*;
 impl EditorApp {
     /// Ids of the nodes selected on the canvas.
     pub(super) fn selection(&self, ctx: &egui::Context) -> Vec<String> {
-        get_selected_nodes(egui::Id::new("tyndall-canvas"), ctx)
+        get_selected_nodes(self.canvas_id(), ctx)
             .into_iter()
             .filter_map(|n| self.snarl.get_node(n).cloned())
             .collect()
@@ -13,7 +13,8 @@ impl EditorApp {
 
     /// Keyboard shortcuts (when no text field has the keyboard) and clipboard events.
     pub(super) fn shortcuts(&mut self, ctx: &egui::Context) {
-        let typing = ctx.egui_wants_keyboard_input();
+        // Only a text field takes the keys (a focused button or node frame does not).
+        let typing = ctx.text_edit_focused();
         let events = ctx.input(|i| i.events.clone());
         let selection = self.selection(ctx);
         for e in &events {
@@ -72,12 +73,13 @@ impl EditorApp {
             egui::Key::Num8,
             egui::Key::Num9,
         ];
+        let mut enter_or_leave = false;
         ctx.input(|i| {
             for (slot, k) in keys.iter().enumerate() {
                 if i.key_pressed(*k) && !i.modifiers.command {
                     if i.modifiers.shift {
                         if let Some(id) = self.selected.clone() {
-                            self.pins[slot] = Some(id);
+                            self.pins[slot] = Some(self.state.full_id(&id));
                             self.active_pin = Some(slot);
                         }
                     } else if self.pins[slot].is_some() {
@@ -94,6 +96,9 @@ impl EditorApp {
             }
             if i.key_pressed(egui::Key::W) && !i.modifiers.command {
                 self.toggle_wipe();
+            }
+            if i.key_pressed(egui::Key::Tab) && !i.modifiers.any() {
+                enter_or_leave = true;
             }
             if i.key_pressed(egui::Key::Space) {
                 self.playing = !self.playing;
@@ -126,6 +131,11 @@ impl EditorApp {
                 let _ = self.state.delete(&selection);
             }
         });
+        if enter_or_leave {
+            // Tab is ours here, not egui's move to the next widget.
+            ctx.memory_mut(|m| m.move_focus(egui::FocusDirection::None));
+            self.enter_or_leave();
+        }
     }
 
     /// Save to the document's file, or ask for one.

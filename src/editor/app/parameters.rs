@@ -38,7 +38,7 @@ impl EditorApp {
         };
         ui.heading(format!("{id} - {}", node.kind));
         ui.label(schema.doc);
-        if let Some(err) = self.reports.get(&id).and_then(|r| r.error.clone()) {
+        if let Some(err) = self.report(&id).and_then(|r| r.error) {
             ui.colored_label(crate::editor::panel::ERROR, err);
         }
         ui.separator();
@@ -65,6 +65,13 @@ impl EditorApp {
             None => ui.label(format!("Group {} (embedded in this graph)", def.name)),
         };
         ui.horizontal(|ui| {
+            if ui
+                .button("Enter")
+                .on_hover_text("Tab: show and edit the group's inside")
+                .clicked()
+            {
+                self.enter_or_leave();
+            }
             if ui.button("Ungroup").clicked() {
                 self.status = match self.state.ungroup(id) {
                     Ok(()) => format!("{id}: ungrouped"),
@@ -73,14 +80,13 @@ impl EditorApp {
             }
             if ui
                 .button("Publish to library")
-                .on_hover_text(
-                    "Write the group to graphs/lib/ (or $TYNDALL_PRESETS/lib) and reference it",
-                )
+                .on_hover_text(format!(
+                    "Write the group to {} and reference it from this graph",
+                    self.publish_folder().display()
+                ))
                 .clicked()
             {
-                let lib = crate::graph::user_library()
-                    .filter(|_| !std::path::Path::new("graphs/lib").is_dir())
-                    .unwrap_or_else(|| std::path::PathBuf::from("graphs/lib"));
+                let lib = self.publish_folder();
                 let reference = snake(&def.name);
                 self.status = match self.state.publish(id, &lib, &reference) {
                     Ok(path) => format!("published {} to {}", def.name, path.display()),
@@ -116,6 +122,17 @@ impl EditorApp {
                     }
                 }
             });
+    }
+
+    /// Where Publish writes: the `lib/` folder the document's graphs find (beside it or one
+    /// folder up), else the user's (`$TYNDALL_PRESETS/lib`), else `graphs/lib`.
+    fn publish_folder(&self) -> std::path::PathBuf {
+        self.state
+            .path()
+            .map(crate::graph::library_folders)
+            .and_then(|f| f.into_iter().next())
+            .or_else(crate::graph::user_library)
+            .unwrap_or_else(|| std::path::PathBuf::from("graphs/lib"))
     }
 
     /// The measured settings of the node's kind, then the tools its declaration names.
@@ -187,8 +204,12 @@ impl EditorApp {
             self.state
                 .graph()
                 .param_in_effect(self.state.catalog(), id, p.name, self.time);
+        // Inside a group, a parameter a knob drives is set on the group node instead.
+        let driven = self.state.driving_knob(id, p.name);
+        let inside = !self.state.scope().is_empty();
         let mut changed: Option<ParamValue> = None;
         let mut toggle_key = false;
+        let mut expose = false;
         ui.horizontal(|ui| {
             let label = ui.add_enabled(in_effect.is_ok(), egui::Label::new(p.name));
             match &in_effect {
@@ -197,9 +218,23 @@ impl EditorApp {
                     label.on_disabled_hover_text(format!("{} — not in effect: counts {why}", p.doc))
                 }
             };
-            ui.add_enabled_ui(in_effect.is_ok(), |ui| {
+            ui.add_enabled_ui(in_effect.is_ok() && driven.is_none(), |ui| {
                 changed = param_widget(ui, p, &current);
             });
+            match &driven {
+                Some(k) => {
+                    ui.weak(format!("knob {k}")).on_hover_text(
+                        "the group node's knob sets this parameter: change it there (Tab leaves)",
+                    );
+                }
+                None if inside => {
+                    expose = ui
+                        .small_button("Expose")
+                        .on_hover_text("make this parameter a knob of the group entered")
+                        .clicked();
+                }
+                None => {}
+            }
             if matches!(p.kind, ParamKind::Float | ParamKind::Int) {
                 let keys = node.keys.get(p.name);
                 let here = keys.is_some_and(|k| k.iter().any(|k| k.t == self.time));
@@ -217,6 +252,13 @@ impl EditorApp {
                 }
             }
         });
+        if expose {
+            self.status = match self.state.expose_here(id, p.name) {
+                Ok(k) => format!("{id}.{} exposed as knob '{k}'", p.name),
+                Err(e) => e.to_string(),
+            };
+            return;
+        }
         let keys = node.keys.get(p.name).cloned();
         let numeric = |v: &ParamValue| match v {
             ParamValue::Float(x) => Some(*x),

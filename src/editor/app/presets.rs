@@ -43,6 +43,52 @@ impl EditorApp {
                     }
                 });
         }
+        self.library_menu(ui, &needle);
+    }
+
+    /// The library groups (`lib/` folders beside the document and the user's) in the Add-node
+    /// list: a click adds an instance referencing the group's file.
+    fn library_menu(&mut self, ui: &mut egui::Ui, needle: &str) {
+        let library = self.library.get_or_insert_with(|| {
+            let here = self
+                .state
+                .path()
+                .map(std::path::Path::to_path_buf)
+                .unwrap_or_else(|| PathBuf::from("graphs/untitled.ron"));
+            crate::graph::list_library(&crate::graph::library_folders(&here))
+        });
+        let shown: Vec<(PathBuf, String)> = library
+            .iter()
+            .filter(|(_, r)| needle.is_empty() || r.to_lowercase().contains(needle))
+            .cloned()
+            .collect();
+        if shown.is_empty() {
+            return;
+        }
+        egui::CollapsingHeader::new("Library groups")
+            .open((!needle.is_empty()).then_some(true))
+            .show(ui, |ui| {
+                for (folder, reference) in shown {
+                    let tip = format!("{reference}.ron in {}", folder.display());
+                    if !ui.button(&reference).on_hover_text(tip).clicked() {
+                        continue;
+                    }
+                    let cat = self.state.catalog().clone();
+                    let n = self.state.graph().nodes().count() as f32;
+                    let pos = [40.0 + 20.0 * n, 40.0 + 10.0 * n];
+                    let added = crate::graph::load_library_group(&folder, &reference, &cat)
+                        .map_err(|e| e.to_string())
+                        .and_then(|def| {
+                            self.state
+                                .add_group_node(def, pos)
+                                .map_err(|e| e.to_string())
+                        });
+                    match added {
+                        Ok(id) => self.selected = Some(id),
+                        Err(e) => self.status = e,
+                    }
+                }
+            });
     }
 
     /// The preset browser: `graphs/` and the user folder, with thumbnails (the preset's
@@ -51,6 +97,7 @@ impl EditorApp {
         ui.heading("Presets");
         if self.presets.is_empty() || ui.small_button("refresh").clicked() {
             self.presets = list_presets(&self.preset_folders);
+            self.library = None;
         }
         ui.horizontal(|ui| {
             ui.add(

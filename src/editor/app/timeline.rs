@@ -90,7 +90,7 @@ impl EditorApp {
 /// The first and last key-frame times of the document, when it has keys.
 pub(super) fn key_range(state: &EditorState) -> Option<(f64, f64)> {
     let ts: Vec<f64> = state
-        .graph()
+        .root()
         .nodes()
         .flat_map(|n| n.keys.values().flatten().map(|k| k.t))
         .collect();

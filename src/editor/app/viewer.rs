@@ -10,7 +10,8 @@ impl EditorApp {
         ui.horizontal(|ui| {
             ui.heading("Viewer");
             ui.label(viewed.as_deref().unwrap_or("(nothing selected)"));
-            if self.active_pin.is_none() && viewed.is_some() && viewed != self.selected {
+            let selected = self.selected.as_deref().map(|s| self.state.full_id(s));
+            if self.active_pin.is_none() && viewed.is_some() && viewed != selected {
                 if let Some(s) = &self.selected {
                     ui.weak(format!("(the nearest picture downstream of {s})"));
                 }
@@ -308,10 +309,17 @@ impl EditorApp {
         else {
             return;
         };
-        let view = match self
-            .brush
-            .view_for(&self.registry, self.state.graph(), &target, size)
-        {
+        // The view is rendered from the whole document, so a scene wired in from outside the
+        // group entered is found; the painting goes to the node of the graph shown.
+        let flat = match self.state.root().flatten(self.registry.catalog()) {
+            Ok(f) => f,
+            Err(e) => {
+                self.status = e.to_string();
+                return;
+            }
+        };
+        let full = self.state.full_id(&target);
+        let view = match self.brush.view_for(&self.registry, &flat, &full, size) {
             Ok(v) => v.clone(),
             Err(e) => {
                 self.status = e;
@@ -393,8 +401,14 @@ impl EditorApp {
                 size,
                 ..Default::default()
             };
-            let p = pick(&mut ev, self.state.graph(), Some(id), pixel, &opts)
-                .map_err(|e| e.to_string())?;
+            let p = pick(
+                &mut ev,
+                self.state.root(),
+                Some(&self.state.full_id(id)),
+                pixel,
+                &opts,
+            )
+            .map_err(|e| e.to_string())?;
             let s = p
                 .surface
                 .ok_or("no surface under this pixel (sky): nothing to anchor to")?;

@@ -285,6 +285,50 @@ impl Graph {
         Ok(ids)
     }
 
+    /// The graph inside the group instance at `scope` (instance ids from this graph down:
+    /// `["look", "fill"]`; empty: this graph); `None` when a step is not a group instance.
+    pub fn inside(&self, scope: &[String]) -> Option<&Graph> {
+        let mut g = self;
+        for id in scope {
+            let kind = &g.node(id)?.kind;
+            g = &g.groups.get(kind)?.graph;
+        }
+        Some(g)
+    }
+
+    /// Apply `change` to the graph inside the group instance at `scope` (the editor's edits
+    /// while inside a group), then check each definition up the path again and write it back:
+    /// every instance of that group changes, a library group becomes an embedded copy (as
+    /// Expose does), and a change that breaks a port, a knob or an outer edge is refused with
+    /// the group named. An empty scope changes this graph itself.
+    pub fn edit_inside<T>(
+        &mut self,
+        catalog: &Catalog,
+        scope: &[String],
+        change: impl FnOnce(&mut Graph, &Catalog) -> Result<T, GraphError>,
+    ) -> Result<T, GraphError> {
+        let Some((id, rest)) = scope.split_first() else {
+            return change(self, catalog);
+        };
+        let kind = self.g[self.ix(id)?].kind.clone();
+        let def = self
+            .groups
+            .get(&kind)
+            .cloned()
+            .ok_or_else(|| GraphError::Group {
+                group: kind.clone(),
+                message: format!("node '{id}' is not a group instance"),
+            })?;
+        let mut inner = def.graph.clone();
+        let value = inner.edit_inside(catalog, rest, change)?;
+        if inner != def.graph {
+            let new = def.rebuilt(catalog, inner, def.knobs.clone())?;
+            self.groups.insert(kind, Arc::new(new));
+            self.check_known_types(catalog)?;
+        }
+        Ok(value)
+    }
+
     /// Add a knob `knob` to group `group` driving inner `node.param` (the editor's Expose), or
     /// add that target to the knob when it exists. The group becomes an embedded copy (a
     /// library group is changed by publishing it again).
@@ -318,17 +362,7 @@ impl Graph {
                 max: None,
             }),
         }
-        let new = GroupDef::new(
-            catalog,
-            &def.name,
-            def.version,
-            &def.doc,
-            def.inputs.clone(),
-            def.outputs.clone(),
-            knobs,
-            def.graph.clone(),
-            None,
-        )?;
+        let new = def.rebuilt(catalog, def.graph.clone(), knobs)?;
         self.groups.insert(group.to_string(), Arc::new(new));
         Ok(())
     }

@@ -53,8 +53,9 @@ impl Graph {
         self.flatten_ports(catalog).map(|(g, _)| g)
     }
 
-    /// [`Graph::flatten`], and where each output port of a top-level group instance went:
-    /// (`instance`, `port`) → (flattened node, port).
+    /// [`Graph::flatten`], and where each output port of every group instance went, nested
+    /// ones included: (`instance` as a flattened path, `a` or `a/b`, `port`) → (flattened node,
+    /// port).
     #[allow(clippy::type_complexity)]
     pub fn flatten_ports(
         &self,
@@ -66,18 +67,21 @@ impl Graph {
             return Ok((g, BTreeMap::new()));
         }
         let mut out = Graph::new();
-        let map = expand(self, catalog, "", &mut out)?;
-        Ok((out, map.outputs))
+        let mut all = BTreeMap::new();
+        expand(self, catalog, "", &mut out, &mut all)?;
+        Ok((out, all))
     }
 }
 
 /// Add `graph`'s nodes under `prefix` to `out`, expanding group instances; the port map of
-/// `graph`'s own group instances (by local id).
+/// `graph`'s own group instances (by local id). `all` gathers every instance's output ports by
+/// flattened path.
 fn expand(
     graph: &Graph,
     catalog: &Catalog,
     prefix: &str,
     out: &mut Graph,
+    all: &mut BTreeMap<(String, String), (String, String)>,
 ) -> Result<PortMap, GraphError> {
     let mut map = PortMap::default();
     for node in graph.nodes() {
@@ -90,7 +94,7 @@ fn expand(
         };
         let inner = with_knobs(def, node, catalog)?;
         let sub_prefix = format!("{id}/");
-        let sub = expand(&inner, catalog, &sub_prefix, out)?;
+        let sub = expand(&inner, catalog, &sub_prefix, out, all)?;
         let resolve_in = |n: &str, p: &str| -> Vec<(String, String)> {
             sub.inputs
                 .get(&(n.to_string(), p.to_string()))
@@ -113,6 +117,7 @@ fn expand(
                     .get(&(n.clone(), p.clone()))
                     .cloned()
                     .unwrap_or_else(|| (format!("{sub_prefix}{n}"), p.clone()));
+                all.insert((id.clone(), port.name.clone()), end.clone());
                 map.outputs
                     .insert((node.id.clone(), port.name.clone()), end);
             }

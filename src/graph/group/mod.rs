@@ -204,6 +204,44 @@ impl GroupDef {
     pub fn schema(&self) -> &'static NodeSchema {
         self.schema
     }
+
+    /// This definition under another name (an embedded copy): what a paste makes of a group
+    /// whose name the document already uses for a different definition.
+    pub fn renamed(&self, catalog: &Catalog, name: &str) -> Result<Self, GraphError> {
+        Self::new(
+            catalog,
+            name,
+            self.version,
+            &self.doc,
+            self.inputs.clone(),
+            self.outputs.clone(),
+            self.knobs.clone(),
+            self.graph.clone(),
+            None,
+        )
+    }
+
+    /// This definition with inner graph `graph` (an edit made inside the group) and knobs
+    /// `knobs`, checked again as [`GroupDef::new`] checks; the result is an embedded copy (it
+    /// no longer follows a library file).
+    pub fn rebuilt(
+        &self,
+        catalog: &Catalog,
+        graph: Graph,
+        knobs: Vec<Knob>,
+    ) -> Result<Self, GraphError> {
+        Self::new(
+            catalog,
+            &self.name,
+            self.version,
+            &self.doc,
+            self.inputs.clone(),
+            self.outputs.clone(),
+            knobs,
+            graph,
+            None,
+        )
+    }
 }
 
 /// A knob's range `[min, max]` lies inside every target's.

@@ -1,0 +1,103 @@
+//! The link to the evaluation worker: a request when what is shown changed, the results taken
+//! in (thumbnails, reports, the viewer's pictures), and a new worker when the device is lost.
+
+use super::*;
+
+impl EditorApp {
+    /// Send the worker a request when the document, the time or the viewed node changed, and
+    /// take in what it finished.
+    pub(super) fn pump(&mut self, ctx: &egui::Context) {
+        let view = self.viewed();
+        let Some(worker) = self.worker.as_mut() else {
+            return;
+        };
+        let key = format!(
+            "{:?}|{:?}@{}:{}",
+            view,
+            self.wipe,
+            self.time,
+            self.synced.as_deref().unwrap_or("")
+        );
+        if key != self.requested {
+            self.requested = key;
+            worker.request(Request {
+                generation: 0,
+                graph: crate::editor::worker::graph_for_evaluation(&self.registry, &self.state),
+                time: self.time,
+                size: VIEW_SIZE,
+                view,
+                compare: self.wipe.clone(),
+            });
+        }
+        if let Some(p) = worker.poll_progress() {
+            self.progress = Some(p);
+        }
+        let mut lost = None;
+        for out in worker.poll() {
+            lost = lost.or(out.device_lost);
+            // Nodes no longer in the (flattened) document lose their pictures and reports.
+            self.thumbs.retain(|id, _| out.nodes.contains_key(id));
+            self.reports.retain(|id, _| out.nodes.contains_key(id));
+            self.aliases = out.aliases;
+            for (id, rep) in out.nodes {
+                if let Some(t) = &rep.thumb {
+                    let image = colour_image(t, Channel::Rgb, 0.0);
+                    self.thumbs.insert(
+                        id.clone(),
+                        ctx.load_texture(
+                            format!("thumb-{id}"),
+                            image,
+                            egui::TextureOptions::LINEAR,
+                        ),
+                    );
+                }
+                self.reports.insert(id, NodeReport { thumb: None, ..rep });
+            }
+            if out.view.is_some() {
+                self.pictures = out.view;
+                self.view_tex = None;
+            }
+            if out.compare.is_some() || self.wipe.is_none() {
+                self.compare = out.compare;
+                self.wipe_tex = None;
+            }
+            let ran = self.reports.values().filter(|r| r.status.ran()).count();
+            let errors = self.reports.values().filter(|r| r.error.is_some()).count();
+            self.status = match errors {
+                0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),
+                n => format!("{n} node(s) failed; see the canvas"),
+            };
+            if self.device_restarts > 0 {
+                // Kept in view: the restart message itself is replaced by the first summary.
+                self.status +=
+                    &format!(" (GPU device lost and replaced {}×)", self.device_restarts);
+            }
+        }
+        if let Some(reason) = lost {
+            self.restart_after_loss(&reason);
+            ctx.request_repaint();
+        } else if !worker.idle() {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
+    /// The worker's device was lost: drop the worker (and its cache, which lived on that
+    /// device), start a new one on a new device and ask for the whole evaluation again.
+    fn restart_after_loss(&mut self, reason: &str) {
+        if let Some(old) = self.worker.take() {
+            old.abandon();
+        }
+        self.requested.clear();
+        self.progress = None;
+        match Gpu::shared() {
+            Ok(gpu) => {
+                self.worker = Some(Worker::start(self.registry.clone(), gpu));
+                self.device_restarts += 1;
+                self.status = format!("{reason}: restarted on a new device");
+            }
+            Err(e) => {
+                self.status = format!("{reason}; no new device ({e}): pictures are off");
+            }
+        }
+    }
+}
