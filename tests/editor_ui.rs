@@ -779,3 +779,38 @@ fn group_enter_expose_knob_publish_and_undo_in_the_window() {
     undo(&mut h);
     assert_eq!(save_string(h.state().state.root()), original);
 }
+
+/// The Add-node list offers the library groups: a click adds an instance that references the
+/// group's file, one undo step.
+#[test]
+fn library_groups_are_in_the_add_node_list() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    h.get_by_label("Find").click();
+    h.run_steps(1);
+    h.get_by_label("Find").type_text("hole_filling");
+    h.run_steps(3);
+    h.get_by_label("stylize/hole_filling").click();
+    h.run_steps(3);
+    let g = h.state().state.root();
+    let node = g
+        .nodes()
+        .find(|n| n.kind == "HoleFilling")
+        .expect("a HoleFilling node");
+    assert_eq!(h.state().selected.as_deref(), Some(node.id.as_str()));
+    let lib = g.groups()["HoleFilling"]
+        .library
+        .as_ref()
+        .expect("a reference");
+    assert_eq!(lib.name, "stylize/hole_filling");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert!(h
+        .state()
+        .state
+        .root()
+        .nodes()
+        .all(|n| n.kind != "HoleFilling"));
+}
