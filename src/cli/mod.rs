@@ -14,7 +14,7 @@ mod render;
 
 pub use bench::BenchArgs;
 pub use eval::EvalArgs;
-pub use node::NodeArgs;
+pub use node::{type_for_file, NodeArgs};
 pub use nodes::catalog_text;
 pub use pick::PickArgs;
 pub use render::{chunk_of, parse_frame_spec, FrameList, ProgressMode, RenderArgs};

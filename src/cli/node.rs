@@ -41,7 +41,7 @@ pub(super) fn file_key(path: &Path) -> u64 {
 }
 
 /// The port type a file with `channels` channels should become on a port accepting `accepts`.
-pub(super) fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
+pub fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
     if channels == 4 {
         return [PortType::Image, PortType::Lut2D]
             .into_iter()
