@@ -322,33 +322,16 @@ impl Evaluator {
     }
 }
 
-/// Native half of `tyndall.node`: one node of `kind` on in-memory arrays.
-#[pyfunction]
-#[pyo3(signature = (kind, params=None, inputs=None, outputs=None, time=0.0, size=None, data=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn node<'py>(
-    py: Python<'py>,
-    kind: &str,
-    params: Option<&Bound<'py, PyDict>>,
-    inputs: Option<&Bound<'py, PyDict>>,
-    outputs: Option<Vec<String>>,
-    time: f64,
-    size: Option<(u32, u32)>,
+/// A graph of one node `id` of `schema`'s kind with `params` and the data block `data`.
+fn one_node_graph(
+    py: Python<'_>,
+    schema: &'static tyndall::graph::NodeSchema,
+    id: &str,
+    params: Option<&Bound<'_, PyDict>>,
     data: Option<String>,
-) -> PyResult<Bound<'py, PyList>> {
-    let reg = registry();
-    let cat = reg.catalog().clone();
-    let schema = cat.get(kind).ok_or_else(|| {
-        graph_err(
-            py,
-            &tyndall::graph::GraphError::UnknownKind {
-                node: kind.to_lowercase(),
-                kind: kind.to_string(),
-                known: cat.kind_names(),
-            },
-        )
-    })?;
-    let id = kind.to_lowercase();
+) -> PyResult<tyndall::graph::Graph> {
+    let cat = registry().catalog().clone();
+    let (kind, id) = (schema.kind, id.to_string());
     let data = match data {
         Some(text) => Some(tyndall::graph::NodeData::from_text(&text).map_err(|e| {
             raise::<GraphError>(
@@ -400,7 +383,19 @@ pub(crate) fn node<'py>(
         g.set_param(&cat, &id, &k, value)
             .map_err(|e| graph_err(py, &e))?;
     }
-    // Inputs: each array becomes the port's type as `tyndall node` makes it of a file.
+    Ok(g)
+}
+
+/// Each input array as the port's type, as `tyndall node` makes it of a file.
+type Feed = (String, Raster, tyndall::graph::PortType);
+
+fn array_feeds<'py>(
+    py: Python<'py>,
+    schema: &'static tyndall::graph::NodeSchema,
+    id: &str,
+    inputs: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Vec<Feed>> {
+    let (kind, id) = (schema.kind, id.to_string());
     let mut feeds = Vec::new();
     for (k, v) in inputs
         .map(|p| p.iter().collect::<Vec<_>>())
@@ -442,6 +437,38 @@ pub(crate) fn node<'py>(
         })?;
         feeds.push((port, r, ty));
     }
+    Ok(feeds)
+}
+
+/// Native half of `tyndall.node`: one node of `kind` on in-memory arrays.
+#[pyfunction]
+#[pyo3(signature = (kind, params=None, inputs=None, outputs=None, time=0.0, size=None, data=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn node<'py>(
+    py: Python<'py>,
+    kind: &str,
+    params: Option<&Bound<'py, PyDict>>,
+    inputs: Option<&Bound<'py, PyDict>>,
+    outputs: Option<Vec<String>>,
+    time: f64,
+    size: Option<(u32, u32)>,
+    data: Option<String>,
+) -> PyResult<Bound<'py, PyList>> {
+    let reg = registry();
+    let cat = reg.catalog().clone();
+    let schema = cat.get(kind).ok_or_else(|| {
+        graph_err(
+            py,
+            &tyndall::graph::GraphError::UnknownKind {
+                node: kind.to_lowercase(),
+                kind: kind.to_string(),
+                known: cat.kind_names(),
+            },
+        )
+    })?;
+    let id = kind.to_lowercase();
+    let g = one_node_graph(py, schema, &id, params, data)?;
+    let feeds = array_feeds(py, schema, &id, inputs)?;
     let wanted: Vec<Wanted> = match outputs {
         Some(o) => o
             .into_iter()
