@@ -1,7 +1,7 @@
 //! Edges of a graph: connecting ports (type-checked against the catalog, one source per input,
 //! no cycles) and disconnecting them.
 
-use petgraph::visit::EdgeRef;
+use petgraph::visit::{EdgeRef, IntoEdgeReferences};
 use petgraph::Direction as PgDir;
 
 use super::document::*;
@@ -13,7 +13,7 @@ impl Graph {
     /// Refused (document unchanged) when a node or port is missing, the types are incompatible,
     /// the input already has an edge, or the edge would close a cycle; the error names both ends.
     pub fn connect(&mut self, catalog: &Catalog, from: &str, to: &str) -> Result<(), GraphError> {
-        self.connect_impl(catalog, from, to, true)
+        self.connect_impl(catalog, from, to, true, true)
     }
 
     /// Like [`Graph::connect`] but without the type checks, for loading a whole file: a
@@ -25,7 +25,46 @@ impl Graph {
         from: &str,
         to: &str,
     ) -> Result<(), GraphError> {
-        self.connect_impl(catalog, from, to, false)
+        self.connect_impl(catalog, from, to, false, true)
+    }
+
+    /// Like [`Graph::connect_deferred`], and without the cycle search: the loader adds a whole
+    /// file's edges so, then checks for a cycle once ([`Graph::check_acyclic`]) — one search per
+    /// edge made loading quadratic in the graph's size.
+    pub(super) fn connect_loading(
+        &mut self,
+        catalog: &Catalog,
+        from: &str,
+        to: &str,
+    ) -> Result<(), GraphError> {
+        self.connect_impl(catalog, from, to, false, false)
+    }
+
+    /// A cycle anywhere, named by one of its edges (a linear-time topological sort).
+    pub(super) fn check_acyclic(&self) -> Result<(), GraphError> {
+        let Err(cycle) = petgraph::algo::toposort(&self.g, None) else {
+            return Ok(());
+        };
+        let n = cycle.node_id();
+        // An edge into `n` from a node that `n` reaches closes the cycle.
+        for e in self.g.edges_directed(n, PgDir::Incoming) {
+            if e.source() == n || petgraph::algo::has_path_connecting(&self.g, n, e.source(), None)
+            {
+                let (a, b) = (&self.g[e.source()].id, &self.g[n].id);
+                return Err(GraphError::Cycle {
+                    from: format!("{a}.{}", e.weight().from_port),
+                    to: format!("{b}.{}", e.weight().to_port),
+                    from_node: a.clone(),
+                    to_node: b.clone(),
+                });
+            }
+        }
+        Err(GraphError::Cycle {
+            from: self.g[n].id.clone(),
+            to: self.g[n].id.clone(),
+            from_node: self.g[n].id.clone(),
+            to_node: self.g[n].id.clone(),
+        })
     }
 
     pub(super) fn connect_impl(
@@ -34,6 +73,7 @@ impl Graph {
         from: &str,
         to: &str,
         check_types: bool,
+        check_cycle: bool,
     ) -> Result<(), GraphError> {
         let (fnode, fport) = split_endpoint(from)?;
         let (tnode, tport) = split_endpoint(to)?;
@@ -75,7 +115,9 @@ impl Graph {
                 existing: format!("{sn}.{sp}"),
             });
         }
-        if fix == tix || petgraph::algo::has_path_connecting(&self.g, tix, fix, None) {
+        if fix == tix
+            || (check_cycle && petgraph::algo::has_path_connecting(&self.g, tix, fix, None))
+        {
             return Err(GraphError::Cycle {
                 from: from.into(),
                 to: to.into(),
@@ -154,26 +196,78 @@ impl Graph {
     /// whose node's inputs is connected takes its type from what will reach it, so its edges
     /// are left for later (a group instance whose inputs are not wired yet).
     pub fn check_known_types(&self, catalog: &Catalog) -> Result<(), GraphError> {
-        for e in self.edges() {
-            let polymorphic = self
-                .schema_of(catalog, &e.from_node)
+        self.check_types_where(catalog, |g, e| {
+            let from = e.source();
+            let polymorphic = g
+                .schema_of(catalog, &g.g[from].id)
                 .ok()
-                .and_then(|s| s.output(&e.from_port))
+                .and_then(|s| s.output(&e.weight().from_port))
                 .is_some_and(|p| p.types.len() > 1);
-            let fed = self.edges().iter().any(|x| x.to_node == e.from_node);
-            if polymorphic && !fed {
-                continue;
-            }
-            self.check_edge_type(catalog, &e.from_node, &e.from_port, &e.to_node, &e.to_port)?;
-        }
-        Ok(())
+            let fed = g.g.edges_directed(from, PgDir::Incoming).next().is_some();
+            !polymorphic || fed
+        })
     }
 
     /// Check the type of every edge.
     pub fn check_all_types(&self, catalog: &Catalog) -> Result<(), GraphError> {
-        for e in self.edges() {
-            self.check_edge_type(catalog, &e.from_node, &e.from_port, &e.to_node, &e.to_port)?;
+        self.check_types_where(catalog, |_, _| true)
+    }
+
+    /// Check the edges `which` keeps against the output types resolved in one pass
+    /// ([`Graph::resolve_types`]), in [`Graph::edges`] order so the first mismatch reported is
+    /// the same whatever the graph's size.
+    fn check_types_where(
+        &self,
+        catalog: &Catalog,
+        which: impl Fn(&Graph, petgraph::stable_graph::EdgeReference<'_, Wire>) -> bool,
+    ) -> Result<(), GraphError> {
+        let types = self.resolve_types(catalog, &self.source_order());
+        let mut edges: Vec<_> = (&self.g)
+            .edge_references()
+            .filter(|e| which(self, *e))
+            .collect();
+        type Edge<'e> = petgraph::stable_graph::EdgeReference<'e, Wire>;
+        let key = |e: &Edge<'_>| {
+            (
+                self.g[e.target()].id.clone(),
+                e.weight().to_port.clone(),
+                self.g[e.source()].id.clone(),
+                e.weight().from_port.clone(),
+            )
+        };
+        edges.sort_by_cached_key(key);
+        for e in edges {
+            let Some(ft) = types.get(&(e.source(), e.weight().from_port.as_str())) else {
+                continue;
+            };
+            self.check_edge_against(catalog, *ft, e)?;
         }
         Ok(())
+    }
+
+    /// Edge `e`, whose source gives type `ft`, type-checked against its input port.
+    fn check_edge_against(
+        &self,
+        catalog: &Catalog,
+        ft: PortType,
+        e: petgraph::stable_graph::EdgeReference<'_, Wire>,
+    ) -> Result<(), GraphError> {
+        let (fnode, tnode) = (&self.g[e.source()].id, &self.g[e.target()].id);
+        let (fport, tport) = (&e.weight().from_port, &e.weight().to_port);
+        let tschema = self.schema_of(catalog, tnode)?;
+        let accepts = tschema.input(tport).map(|p| p.types).unwrap_or(&[]);
+        if accepts.iter().any(|t| ft.can_feed(*t)) {
+            return Ok(());
+        }
+        Err(GraphError::TypeMismatch {
+            from: format!("{fnode}.{fport}"),
+            to: format!("{tnode}.{tport}"),
+            from_type: ft,
+            to_types: accepts
+                .iter()
+                .map(|t| t.name())
+                .collect::<Vec<_>>()
+                .join(" | "),
+        })
     }
 }

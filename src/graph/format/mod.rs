@@ -435,7 +435,7 @@ pub(super) fn build(
         ));
     }
     for (from, to) in &f.edges {
-        g.connect_deferred(catalog, from, to).map_err(|e| {
+        g.connect_loading(catalog, from, to).map_err(|e| {
             let at = match &e {
                 GraphError::EdgeMissingNode { node, .. }
                 | GraphError::EdgeMissingPort { node, .. }
@@ -447,6 +447,22 @@ pub(super) fn build(
             };
             (at, e)
         })?;
+    }
+    if let Err(e) = g.check_acyclic() {
+        // Name the edge that closes the cycle in file order, as adding the edges one by one
+        // does (only a file with a cycle pays for that search).
+        let mut probe = Graph::new();
+        for n in g.nodes() {
+            probe
+                .insert_node(catalog, n.clone())
+                .map_err(|e| (None, e))?;
+        }
+        for (from, to) in &f.edges {
+            if let Err(e @ GraphError::Cycle { .. }) = probe.connect_deferred(catalog, from, to) {
+                return Err((loc.edge(from), e));
+            }
+        }
+        return Err((None, e));
     }
     if inner {
         // A group's inner types depend on what reaches its inputs: they are checked in the
