@@ -124,7 +124,9 @@ fn small_shadow_maps(g: &mut Graph) {
 }
 
 /// Every preset rebuilt on library groups renders bit-identically to its flat original
-/// (`tests/fixtures/flat/NAME.ron`, the preset before it used groups).
+/// (`tests/fixtures/flat/NAME.ron`, the preset before it used groups), and together they use
+/// every library group of `graphs/lib`, so each library group is checked against its
+/// hand-wired nodes.
 #[test]
 fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
     if common::gpu().is_none() {
@@ -132,6 +134,7 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
     }
     let reg = registry();
     let mut compared = 0;
+    let mut used = std::collections::BTreeSet::new();
     for e in std::fs::read_dir(root().join("tests/fixtures/flat")).unwrap() {
         let flat_path = e.unwrap().path();
         let name = flat_path.file_name().unwrap().to_owned();
@@ -141,6 +144,13 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
             .expect("the preset of a flat original");
         let mut grouped = load_file(&preset, reg.catalog()).unwrap();
         assert!(grouped.has_group_nodes(), "{}", preset.display());
+        let mut defs: Vec<_> = grouped.groups().values().cloned().collect();
+        while let Some(d) = defs.pop() {
+            if let Some(l) = &d.library {
+                used.insert(l.name.clone());
+            }
+            defs.extend(d.graph.groups().values().cloned());
+        }
         let mut flat = load_file(&flat_path, reg.catalog()).unwrap();
         // The same smaller shadow maps on both sides (a 2048² closure takes seconds in a debug
         // build); the comparison is of the same graph either way.
@@ -159,6 +169,12 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
         compared += 1;
     }
     assert!(compared >= 3, "{compared} presets compared");
+    for (_, reference) in tyndall::graph::list_library(&[root().join("graphs/lib")]) {
+        assert!(
+            used.contains(&reference),
+            "library group {reference} is used by no preset with a flat original"
+        );
+    }
 }
 
 #[test]
