@@ -11,12 +11,13 @@ impl EditorApp {
         let Some(worker) = self.worker.as_mut() else {
             return;
         };
+        // The whole document: an undo while inside a group may change what lies outside it.
         let key = format!(
             "{:?}|{:?}@{}:{}",
             view,
             self.wipe,
             self.time,
-            self.synced.as_deref().unwrap_or("")
+            crate::graph::save_string(self.state.root())
         );
         if key != self.requested {
             self.requested = key;
