@@ -363,22 +363,7 @@ fn one_node_graph(
         .unwrap_or_default()
     {
         let k: String = k.extract()?;
-        let spec = schema.param(&k).ok_or_else(|| {
-            graph_err(
-                py,
-                &tyndall::graph::GraphError::UnknownParam {
-                    node: id.clone(),
-                    kind: kind.to_string(),
-                    param: k.clone(),
-                    known: schema
-                        .params
-                        .iter()
-                        .map(|p| p.name)
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                },
-            )
-        })?;
+        let spec = crate::graph::param_spec(py, &id, schema, &k)?;
         let value = to_param(&id, spec, &v)?;
         g.set_param(&cat, &id, &k, value)
             .map_err(|e| graph_err(py, &e))?;

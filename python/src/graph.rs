@@ -50,22 +50,7 @@ impl Graph {
         param: &str,
     ) -> PyResult<&'static tyndall::graph::ParamSpec> {
         let schema = self.schema(py, node)?;
-        schema.param(param).ok_or_else(|| {
-            graph_err(
-                py,
-                &tyndall::graph::GraphError::UnknownParam {
-                    node: node.to_string(),
-                    kind: schema.kind.to_string(),
-                    param: param.to_string(),
-                    known: schema
-                        .params
-                        .iter()
-                        .map(|p| p.name)
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                },
-            )
-        })
+        param_spec(py, node, schema, param)
     }
 }
 
@@ -321,6 +306,32 @@ impl Graph {
                 .unwrap_or_default()
         )
     }
+}
+
+/// Parameter `param` of node `node` (of `schema`'s kind), or GraphError naming both and the
+/// parameters there are.
+pub(crate) fn param_spec(
+    py: Python<'_>,
+    node: &str,
+    schema: &'static NodeSchema,
+    param: &str,
+) -> PyResult<&'static tyndall::graph::ParamSpec> {
+    schema.param(param).ok_or_else(|| {
+        graph_err(
+            py,
+            &tyndall::graph::GraphError::UnknownParam {
+                node: node.to_string(),
+                kind: schema.kind.to_string(),
+                param: param.to_string(),
+                known: schema
+                    .params
+                    .iter()
+                    .map(|p| p.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            },
+        )
+    })
 }
 
 /// catalog() -> list of dict: every built-in node kind, then the library groups found for the

@@ -171,25 +171,10 @@ impl Graph {
         tnode: &str,
         tport: &str,
     ) -> Result<(), GraphError> {
-        let tschema = self.schema_of(catalog, tnode)?;
         let Some(ft) = self.output_type(catalog, fnode, fport) else {
             return Ok(());
         };
-        let accepts = tschema.input(tport).map(|p| p.types).unwrap_or(&[]);
-        if accepts.iter().any(|t| ft.can_feed(*t)) {
-            Ok(())
-        } else {
-            Err(GraphError::TypeMismatch {
-                from: format!("{fnode}.{fport}"),
-                to: format!("{tnode}.{tport}"),
-                from_type: ft,
-                to_types: accepts
-                    .iter()
-                    .map(|t| t.name())
-                    .collect::<Vec<_>>()
-                    .join(" | "),
-            })
-        }
+        self.check_type_into(catalog, ft, (fnode, fport), (tnode, tport))
     }
 
     /// Check the type of every edge whose source type is known: a polymorphic output none of
@@ -252,8 +237,22 @@ impl Graph {
         ft: PortType,
         e: petgraph::stable_graph::EdgeReference<'_, Wire>,
     ) -> Result<(), GraphError> {
-        let (fnode, tnode) = (&self.g[e.source()].id, &self.g[e.target()].id);
-        let (fport, tport) = (&e.weight().from_port, &e.weight().to_port);
+        let from = (
+            self.g[e.source()].id.as_str(),
+            e.weight().from_port.as_str(),
+        );
+        let to = (self.g[e.target()].id.as_str(), e.weight().to_port.as_str());
+        self.check_type_into(catalog, ft, from, to)
+    }
+
+    /// A value of type `ft` from `from` (node, port) accepted by input `to`, or the mismatch.
+    fn check_type_into(
+        &self,
+        catalog: &Catalog,
+        ft: PortType,
+        (fnode, fport): (&str, &str),
+        (tnode, tport): (&str, &str),
+    ) -> Result<(), GraphError> {
         let tschema = self.schema_of(catalog, tnode)?;
         let accepts = tschema.input(tport).map(|p| p.types).unwrap_or(&[]);
         if accepts.iter().any(|t| ft.can_feed(*t)) {
@@ -268,6 +267,26 @@ impl Graph {
                 .map(|t| t.name())
                 .collect::<Vec<_>>()
                 .join(" | "),
+        })
+    }
+
+    /// The first of `edges` (file order) that closes a cycle, as adding them one by one finds
+    /// it — for naming the edge after [`Graph::check_acyclic`] found that there is one. Its
+    /// index in `edges` and the error.
+    pub(super) fn first_cycle_edge(
+        &self,
+        catalog: &Catalog,
+        edges: &[(String, String)],
+    ) -> Option<(usize, GraphError)> {
+        let mut probe = Graph::new();
+        for n in self.nodes() {
+            probe.insert_node(catalog, n.clone()).ok()?;
+        }
+        edges.iter().enumerate().find_map(|(i, (from, to))| {
+            match probe.connect_deferred(catalog, from, to) {
+                Err(e @ GraphError::Cycle { .. }) => Some((i, e)),
+                _ => None,
+            }
         })
     }
 }

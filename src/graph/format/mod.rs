@@ -449,20 +449,11 @@ pub(super) fn build(
         })?;
     }
     if let Err(e) = g.check_acyclic() {
-        // Name the edge that closes the cycle in file order, as adding the edges one by one
-        // does (only a file with a cycle pays for that search).
-        let mut probe = Graph::new();
-        for n in g.nodes() {
-            probe
-                .insert_node(catalog, n.clone())
-                .map_err(|e| (None, e))?;
-        }
-        for (from, to) in &f.edges {
-            if let Err(e @ GraphError::Cycle { .. }) = probe.connect_deferred(catalog, from, to) {
-                return Err((loc.edge(from), e));
-            }
-        }
-        return Err((None, e));
+        // Named by the edge that closes it in file order (only a file with a cycle pays).
+        return Err(match g.first_cycle_edge(catalog, &f.edges) {
+            Some((i, e)) => (loc.edge(&f.edges[i].0), e),
+            None => (None, e),
+        });
     }
     if inner {
         // A group's inner types depend on what reaches its inputs: they are checked in the

@@ -285,6 +285,17 @@ impl Graph {
         Ok(ids)
     }
 
+    /// The definition of group `group` this graph uses, or an error naming it.
+    pub(in crate::graph) fn used_group(&self, group: &str) -> Result<Arc<GroupDef>, GraphError> {
+        self.groups
+            .get(group)
+            .cloned()
+            .ok_or_else(|| GraphError::Group {
+                group: group.to_string(),
+                message: "is not used by this graph".into(),
+            })
+    }
+
     /// The graph inside the group instance at `scope` (instance ids from this graph down:
     /// `["look", "fill"]`; empty: this graph); `None` when a step is not a group instance.
     pub fn inside(&self, scope: &[String]) -> Option<&Graph> {
@@ -340,14 +351,7 @@ impl Graph {
         param: &str,
         knob: &str,
     ) -> Result<(), GraphError> {
-        let def = self
-            .groups
-            .get(group)
-            .cloned()
-            .ok_or_else(|| GraphError::Group {
-                group: group.to_string(),
-                message: "is not used by this graph".into(),
-            })?;
+        let def = self.used_group(group)?;
         let mut knobs = def.knobs.clone();
         let target = (node.to_string(), param.to_string());
         match knobs.iter_mut().find(|k| k.name == knob) {
@@ -375,14 +379,7 @@ impl Graph {
         reference: &str,
         path: PathBuf,
     ) -> Result<Arc<GroupDef>, GraphError> {
-        let def = self
-            .groups
-            .get(group)
-            .cloned()
-            .ok_or_else(|| GraphError::Group {
-                group: group.to_string(),
-                message: "is not used by this graph".into(),
-            })?;
+        let def = self.used_group(group)?;
         let mut copy = (*def).clone();
         copy.library = Some(LibraryRef {
             name: reference.to_string(),

@@ -31,11 +31,7 @@ impl Graph {
     /// Replace the library group `name` by an embedded copy of it (Nuke's "copy to group"):
     /// the graph no longer follows the library file; saving writes the whole definition.
     pub fn embed_group(&mut self, name: &str) -> Result<(), GraphError> {
-        let def = self.groups.get(name).ok_or_else(|| GraphError::Group {
-            group: name.to_string(),
-            message: "is not used by this graph".into(),
-        })?;
-        let mut copy = (**def).clone();
+        let mut copy = (*self.used_group(name)?).clone();
         copy.library = None;
         self.groups.insert(name.to_string(), Arc::new(copy));
         Ok(())
