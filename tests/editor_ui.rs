@@ -5,6 +5,7 @@ mod common;
 use std::path::Path;
 use std::sync::Arc;
 
+use eframe::egui;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::Harness;
 use tyndall::editor::{EditorApp, EditorState};
@@ -813,4 +814,191 @@ fn library_groups_are_in_the_add_node_list() {
         .root()
         .nodes()
         .all(|n| n.kind != "HoleFilling"));
+}
+
+/// The worker's outcomes until every request sent has one.
+fn outcomes(w: &mut tyndall::editor::worker::Worker) -> Vec<tyndall::editor::worker::Outcome> {
+    let mut all = Vec::new();
+    for _ in 0..6000 {
+        all.extend(w.poll());
+        if w.idle() {
+            return all;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    panic!("the worker did not finish");
+}
+
+/// The tonemap's picture of `g` evaluated directly at `size` (the oracle of the worker's).
+fn direct(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    g: &tyndall::graph::Graph,
+    size: (u32, u32),
+) -> tyndall::io::Raster {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let flat = g.flatten(registry.catalog()).expect("flatten");
+    let target = tyndall::eval::Target::Port("tonemap".into(), "out".into());
+    let opts = tyndall::eval::EvalOptions {
+        size,
+        ..Default::default()
+    };
+    let r = tyndall::eval::Evaluator::new(registry, gpu.clone())
+        .evaluate(&flat, &[target], &opts)
+        .expect("evaluate");
+    tyndall::eval::download(gpu, &r.outputs[&("tonemap".into(), "out".into())]).expect("download")
+}
+
+#[test]
+fn worker_proxy_then_full_ends_on_the_full_picture_and_stale_requests_never_win() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    use tyndall::editor::worker::{Request, Worker};
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let mut g = tyndall::graph::load_file(&path, &cat).expect("load");
+    let mut w = Worker::start(registry.clone(), gpu.clone());
+    let size = (96, 54);
+    let request = |g: &tyndall::graph::Graph, proxy| Request {
+        generation: 0,
+        graph: g.clone(),
+        time: 0.0,
+        size,
+        view: Some("tonemap".into()),
+        compare: None,
+        proxy,
+    };
+    let picture =
+        |o: &tyndall::editor::worker::Outcome| o.view.as_ref().expect("view").1[0].1.clone();
+    // A proxy: the viewer's picture only, at half the size, no thumbnails.
+    w.request(request(&g, 2));
+    let outs = outcomes(&mut w);
+    let last = outs.last().expect("an outcome");
+    assert_eq!((last.proxy, last.size), (2, (48, 27)));
+    let p = picture(last);
+    assert_eq!((p.width, p.height), (48, 27));
+    assert!(
+        last.nodes.values().all(|r| r.thumb.is_none()),
+        "no thumbnails at the proxy size"
+    );
+    // Then the full request: exactly the picture a direct evaluation gives.
+    w.request(request(&g, 1));
+    let outs = outcomes(&mut w);
+    let last = outs.last().expect("an outcome");
+    assert_eq!((last.proxy, last.size), (1, size));
+    assert_eq!(
+        picture(last).data,
+        direct(&gpu, &g, size).data,
+        "full picture after the proxy"
+    );
+    // Requests sent faster than they finish: the older ones are dropped or stopped between
+    // nodes; the outcomes arrive in order and the last is the newest request's.
+    for e in [0.25, 0.5, 0.75, 1.0] {
+        g.set_param(&cat, "tonemap", "exposure", ParamValue::Float(e))
+            .expect("param");
+        w.request(request(&g, 1));
+    }
+    let outs = outcomes(&mut w);
+    let gens: Vec<u64> = outs.iter().map(|o| o.generation).collect();
+    assert!(gens.windows(2).all(|p| p[0] < p[1]), "in order: {gens:?}");
+    assert_eq!(
+        gens.last(),
+        Some(&w.sent),
+        "the newest request's outcome is the last"
+    );
+    assert_eq!(
+        picture(outs.last().expect("last")).data,
+        direct(&gpu, &g, size).data
+    );
+}
+
+#[test]
+fn dragging_a_knob_shows_a_proxy_then_the_full_picture() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut h = harness("graphs/physical/window.ron");
+    h.state_mut().selected = Some("tonemap".into());
+    settle(&mut h);
+    assert_eq!(h.state().proxy.shown.0, 1, "the first picture is full size");
+    // The parameters panel lies below the viewer: its `exposure` is the lower label, and its
+    // field the spin button on that row.
+    let label = h
+        .query_all_by_label("exposure")
+        .map(|n| n.rect())
+        .max_by(|a, b| a.top().total_cmp(&b.top()))
+        .expect("label");
+    let field = h
+        .get_all_by_role(egui::accesskit::Role::SpinButton)
+        .map(|n| n.rect())
+        .filter(|r| (r.center().y - label.center().y).abs() < label.height())
+        .min_by(|a, b| {
+            (a.left() - label.right())
+                .abs()
+                .total_cmp(&(b.left() - label.right()).abs())
+        })
+        .expect("the exposure field");
+    let before = h
+        .state()
+        .state
+        .root()
+        .node("tonemap")
+        .expect("tonemap")
+        .params
+        .get("exposure")
+        .cloned();
+    let from = field.center();
+    h.event(egui::Event::PointerMoved(from));
+    h.run_steps(1);
+    common::editor::press(&mut h, from, true);
+    h.run_steps(1);
+    for k in 1..=6 {
+        h.event(egui::Event::PointerMoved(
+            from + egui::vec2(8.0 * k as f32, 0.0),
+        ));
+        h.run_steps(1);
+    }
+    // Still held: what the viewer shows is a proxy, at 1/f of the size, said in the status.
+    settle(&mut h);
+    let after = h
+        .state()
+        .state
+        .root()
+        .node("tonemap")
+        .expect("tonemap")
+        .params
+        .get("exposure")
+        .cloned();
+    assert_ne!(before, after, "the drag changed the exposure");
+    let (f, size) = h.state().proxy.shown;
+    assert!(f > 1, "a proxy is shown while dragging");
+    let shown = &h.state().pictures.as_ref().expect("picture").1[0].1;
+    assert_eq!((shown.width, shown.height), size);
+    assert_eq!(
+        size,
+        (
+            tyndall::editor::VIEW_SIZE.0 / f,
+            tyndall::editor::VIEW_SIZE.1 / f
+        )
+    );
+    assert!(
+        h.state().status.starts_with("proxy"),
+        "{}",
+        h.state().status
+    );
+    // Released: the full picture of the same document replaces it.
+    common::editor::press(&mut h, from + egui::vec2(48.0, 0.0), false);
+    h.run_steps(2);
+    settle(&mut h);
+    assert_eq!(h.state().proxy.shown, (1, tyndall::editor::VIEW_SIZE));
+    assert!(h.state().status.starts_with("full"), "{}", h.state().status);
+    let shown = h.state().pictures.as_ref().expect("picture").1[0].1.clone();
+    let gpu = common::gpu().expect("gpu");
+    // (The editor resolves relative paths against the graph's folder; this graph has none.)
+    let doc = h.state().state.root().clone();
+    assert_eq!(
+        shown.data,
+        direct(&gpu, &doc, tyndall::editor::VIEW_SIZE).data
+    );
 }

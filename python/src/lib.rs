@@ -150,6 +150,14 @@ pub(crate) fn eval_err(py: Python<'_>, e: &tyndall::eval::EvalError) -> PyErr {
             }
             raise::<EvalError>(py, e.to_string(), about)
         }
+        E::Cancelled { before } => raise::<EvalError>(
+            py,
+            e.to_string(),
+            About {
+                node: Some(before.clone()),
+                ..About::default()
+            },
+        ),
     }
 }
 

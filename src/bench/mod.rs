@@ -92,6 +92,16 @@ pub struct Suite {
     /// times its own.
     #[serde(default)]
     pub edges: Option<(String, f32)>,
+    /// `(when, put)` pairs: a setting that contains every pair of `when` (and names no
+    /// `reference`) is compared with itself with `put`'s values put in — e.g.
+    /// `({"shape": "Circle"}, {"method": "Exact"})`: each circle row against the exact method
+    /// at the same radius and size. The first matching pair counts; each distinct reference
+    /// is computed once.
+    #[serde(default)]
+    pub reference_as: Vec<(BTreeMap<String, String>, BTreeMap<String, String>)>,
+    /// Also report the share of texels that differ from the reference at all (`differ %`).
+    #[serde(default)]
+    pub differ: bool,
     /// A whole-graph suite: the settings are steps (see [`chain`]).
     #[serde(default)]
     pub chain: bool,
@@ -188,6 +198,9 @@ pub struct Row {
     pub psnr: f64,
     /// RMSE at depth discontinuities (when `edges` is set).
     pub edge_rmse: f64,
+    /// Share of texels (all channels) that differ from the reference (when `differ` is set;
+    /// NaN otherwise).
+    pub differ: f64,
     /// The measured node's id (empty for a chain step).
     pub node: String,
     /// Its kind (empty for a chain step).
@@ -211,6 +224,7 @@ impl Row {
             convergence: None,
             psnr: f64::NAN,
             edge_rmse: f64::NAN,
+            differ: f64::NAN,
             node: String::new(),
             kind: String::new(),
             chain: None,
@@ -407,11 +421,26 @@ pub fn run(
         }
         times.sort_by(f64::total_cmp);
         let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
-        if let Some(name) = setting.get("reference") {
-            if !named.contains_key(name) {
-                let spec = suite.references.get(name).ok_or_else(|| {
+        // The row's own reference: a named one, or the setting with `reference_as` put in.
+        let own = match setting.get("reference") {
+            Some(name) => Some((
+                name.clone(),
+                suite.references.get(name).cloned().ok_or_else(|| {
                     BenchError::Input(format!("no reference named '{name}' in the suite"))
-                })?;
+                })?,
+            )),
+            None => suite
+                .reference_as
+                .iter()
+                .find(|(when, _)| when.iter().all(|(k, v)| setting.get(k) == Some(v)))
+                .map(|(_, put)| {
+                    let mut spec = setting.clone();
+                    spec.extend(put.clone());
+                    (describe(&spec), spec)
+                }),
+        };
+        if let Some((name, spec)) = &own {
+            if !named.contains_key(name) {
                 let mut g = base.clone();
                 let node = apply(&registry, &mut g, &suite.node, spec)?;
                 progress(&format!("reference {name}: {}", describe(spec)));
@@ -419,9 +448,16 @@ pub fn run(
                 named.insert(name.clone(), r);
             }
         }
-        let reference = match setting.get("reference") {
-            Some(name) => named.get(name),
+        let reference = match &own {
+            Some((name, _)) => named.get(name),
             None => reference.as_ref(),
+        };
+        let differ = match reference {
+            Some(r) if suite.differ && r.data.len() == out.data.len() => {
+                let n = out.data.iter().zip(&r.data).filter(|(a, b)| a != b).count();
+                n as f64 / out.data.len().max(1) as f64
+            }
+            _ => f64::NAN,
         };
         let (rmse, max_err) = reference.map_or((f64::NAN, f64::NAN), |r| errors(&out, r));
         let holes = match &suite.holes {
@@ -479,6 +515,7 @@ pub fn run(
             convergence,
             psnr,
             edge_rmse,
+            differ,
             node,
             kind,
             ..Row::timed(setting, median, times[0])
@@ -539,56 +576,4 @@ pub fn cell(v: f64, digits: usize) -> String {
     } else {
         format!("{v:.digits$}")
     }
-}
-
-/// The table as text (the iteration columns only when a row has them).
-pub fn table(rows: &[Row]) -> String {
-    let w = rows
-        .iter()
-        .map(|r| r.setting.len())
-        .max()
-        .unwrap_or(7)
-        .max(7);
-    let conv = rows.iter().any(|r| r.convergence.is_some());
-    let psnr = rows.iter().any(|r| !r.psnr.is_nan());
-    let edges = rows.iter().any(|r| !r.edge_rmse.is_nan());
-    let mut s = format!(
-        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
-        "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
-    );
-    if conv {
-        s.push_str(&format!("  {:>10}  {:>12}", "iterations", "residual/r0"));
-    }
-    if psnr {
-        s.push_str(&format!("  {:>8}", "PSNR dB"));
-    }
-    if edges {
-        s.push_str(&format!("  {:>10}", "edge RMSE"));
-    }
-    s.push('\n');
-    for r in rows {
-        let holes = r.holes.map_or("-".to_string(), |(a, b)| format!("{a}>{b}"));
-        s.push_str(&format!(
-            "{:<w$}  {:>10.3}  {:>10.3}  {:>10}  {:>10}  {:>8}  {:>13}",
-            r.setting,
-            r.median_ms,
-            r.min_ms,
-            cell(r.rmse, 6),
-            cell(r.max_err, 6),
-            cell(r.growth, 2),
-            holes
-        ));
-        if conv {
-            let (it, res) = r.convergence.unwrap_or((0, f64::NAN));
-            s.push_str(&format!("  {:>10}  {:>12}", it, cell(res, 6)));
-        }
-        if psnr {
-            s.push_str(&format!("  {:>8}", cell(r.psnr, 2)));
-        }
-        if edges {
-            s.push_str(&format!("  {:>10}", cell(r.edge_rmse, 6)));
-        }
-        s.push('\n');
-    }
-    s
 }

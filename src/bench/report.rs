@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{chain, speedup, table, BenchError, Row, Suite};
+use super::{cell, chain, speedup, BenchError, Row, Suite};
 
 /// Every suite under `benches/`: its files and folders of files, in name order; each with its
 /// name (path under `benches/` without `.ron`).
@@ -75,7 +75,7 @@ pub fn suite_text(
 
 /// Columns of `bench/results.csv`, one row per measured setting (and, for chain suites, one
 /// row per step and one per node and step).
-pub const RESULT_COLUMNS: [&str; 21] = [
+pub const RESULT_COLUMNS: [&str; 22] = [
     "suite",
     "adapter",
     "node",
@@ -93,6 +93,7 @@ pub const RESULT_COLUMNS: [&str; 21] = [
     "residual_ratio",
     "psnr_db",
     "edge_rmse",
+    "differ",
     "ran",
     "reused",
     "not_needed",
@@ -151,6 +152,7 @@ pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, Be
                 &res,
                 &num(r.psnr),
                 &num(r.edge_rmse),
+                &num(r.differ),
                 &ran,
                 &reused,
                 &nn,
@@ -341,4 +343,63 @@ mod tests {
         assert!(appended.starts_with(&new.trim_end().to_string()));
         assert!(appended.ends_with("## Suite C\n\n<!-- bench:b/c -->\nbody\n<!-- /bench:b/c -->\n"));
     }
+}
+
+/// The table as text (the iteration columns only when a row has them).
+pub fn table(rows: &[Row]) -> String {
+    let w = rows
+        .iter()
+        .map(|r| r.setting.len())
+        .max()
+        .unwrap_or(7)
+        .max(7);
+    let conv = rows.iter().any(|r| r.convergence.is_some());
+    let psnr = rows.iter().any(|r| !r.psnr.is_nan());
+    let edges = rows.iter().any(|r| !r.edge_rmse.is_nan());
+    let differ = rows.iter().any(|r| !r.differ.is_nan());
+    let mut s = format!(
+        "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
+        "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
+    );
+    if conv {
+        s.push_str(&format!("  {:>10}  {:>12}", "iterations", "residual/r0"));
+    }
+    if psnr {
+        s.push_str(&format!("  {:>8}", "PSNR dB"));
+    }
+    if edges {
+        s.push_str(&format!("  {:>10}", "edge RMSE"));
+    }
+    if differ {
+        s.push_str(&format!("  {:>9}", "differ %"));
+    }
+    s.push('\n');
+    for r in rows {
+        let holes = r.holes.map_or("-".to_string(), |(a, b)| format!("{a}>{b}"));
+        s.push_str(&format!(
+            "{:<w$}  {:>10.3}  {:>10.3}  {:>10}  {:>10}  {:>8}  {:>13}",
+            r.setting,
+            r.median_ms,
+            r.min_ms,
+            cell(r.rmse, 6),
+            cell(r.max_err, 6),
+            cell(r.growth, 2),
+            holes
+        ));
+        if conv {
+            let (it, res) = r.convergence.unwrap_or((0, f64::NAN));
+            s.push_str(&format!("  {:>10}  {:>12}", it, cell(res, 6)));
+        }
+        if psnr {
+            s.push_str(&format!("  {:>8}", cell(r.psnr, 2)));
+        }
+        if edges {
+            s.push_str(&format!("  {:>10}", cell(r.edge_rmse, 6)));
+        }
+        if differ {
+            s.push_str(&format!("  {:>9}", cell(r.differ * 100.0, 3)));
+        }
+        s.push('\n');
+    }
+    s
 }

@@ -67,7 +67,10 @@ pub(super) fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), Cli
     let started = std::time::Instant::now();
     let mut record = Recorder::new(out_dir, docs, all, command);
     let mut failed: Vec<String> = Vec::new();
+    // Each suite's own wall-clock time, for the summary (the default run has a budget).
+    let mut times: Vec<(String, f64)> = Vec::new();
     for (i, (name, path)) in list.iter().enumerate() {
+        let suite_started = std::time::Instant::now();
         eprintln!(
             "bench [{}/{}] {name} ({:.0} s so far)",
             i + 1,
@@ -84,7 +87,7 @@ pub(super) fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), Cli
         let size = a.size.unwrap_or(spec.size);
         let runs = a.runs.unwrap_or(spec.runs);
         let progress = |l: &str| eprintln!("bench {name}: {l}");
-        let rows = match bench::run(
+        let result = bench::run(
             registry.clone(),
             gpu.clone(),
             path,
@@ -92,7 +95,9 @@ pub(super) fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), Cli
             runs,
             size,
             progress,
-        ) {
+        );
+        times.push((name.clone(), suite_started.elapsed().as_secs_f64()));
+        let rows = match result {
             Ok(rows) => rows,
             Err(e) if all => {
                 eprintln!("bench {name}: failed: {e}");
@@ -128,6 +133,10 @@ pub(super) fn run_bench(registry: Arc<Registry>, a: BenchArgs) -> Result<(), Cli
         started.elapsed().as_secs_f64(),
         record.summary()
     );
+    if times.len() > 1 {
+        let each: Vec<String> = times.iter().map(|(n, t)| format!("{n} {t:.0} s")).collect();
+        println!("suite times: {}", each.join(", "));
+    }
     if failed.is_empty() {
         Ok(())
     } else {

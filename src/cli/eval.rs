@@ -69,6 +69,7 @@ pub(super) fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliEr
             gpu_timings: a.common.stats,
             inject: BTreeMap::new(),
             progress: Some(node_progress()),
+            ..Default::default()
         };
         let result = ev.evaluate(&v.graph, &targets, &opts)?;
         for (key, file) in &files {

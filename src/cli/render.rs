@@ -188,6 +188,7 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
                         gpu_timings: a.common.stats,
                         inject: BTreeMap::new(),
                         progress: Some(node_progress()),
+                        ..Default::default()
                     };
                     match ev.evaluate(&v.graph, &targets, &opts) {
                         Ok(result) => {

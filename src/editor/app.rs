@@ -6,7 +6,7 @@
 mod commands;
 mod parameters;
 mod presets;
-mod pump;
+pub mod pump;
 mod scope;
 mod timeline;
 mod viewer;
@@ -60,6 +60,8 @@ pub struct EditorApp {
     pub gpu_problem: Option<String>,
     worker: Option<Worker>,
     requested: String,
+    /// Proxy evaluation while a knob is dragged: the factor and what the viewer shows.
+    pub proxy: pump::ProxyState,
     /// The worker's last report per node: ran / cached, time, error.
     pub reports: BTreeMap<String, NodeReport>,
     thumbs: BTreeMap<String, egui::TextureHandle>,
@@ -178,6 +180,7 @@ impl EditorApp {
             gpu_problem: None,
             worker,
             requested: String::new(),
+            proxy: Default::default(),
             reports: BTreeMap::new(),
             thumbs: BTreeMap::new(),
             aliases: BTreeMap::new(),

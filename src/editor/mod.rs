@@ -15,6 +15,7 @@ pub mod tf_panel;
 pub mod view;
 pub mod worker;
 
+pub use app::pump::ProxyState;
 pub use app::{run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
 pub use canvas::port_colour;
 pub use state::{

@@ -5,6 +5,7 @@
 //! re-runs the chain below it while the window keeps drawing.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -36,6 +37,10 @@ pub struct Request {
     pub view: Option<String>,
     /// The viewer's A/B wipe: the node compared with `view`, read back at full size too.
     pub compare: Option<String>,
+    /// Proxy factor: 1 evaluates at `size`; f > 1 (while a knob is dragged) evaluates the
+    /// viewed pictures only, at `size` / f with the screen-pixel knobs scaled
+    /// ([`crate::eval::proxy`]), no thumbnails.
+    pub proxy: u32,
 }
 
 /// One node's part of a result.
@@ -82,6 +87,12 @@ pub struct Outcome {
     /// The GPU device was lost during this evaluation (the reason): nothing more runs on this
     /// worker's device, so the editor starts a new worker on a new one.
     pub device_lost: Option<String>,
+    /// The request's proxy factor (1: full resolution).
+    pub proxy: u32,
+    /// The evaluation size used (the request's size divided by the proxy factor).
+    pub size: (u32, u32),
+    /// Stopped because a newer request arrived (never sent to the window).
+    pub cancelled: bool,
 }
 
 /// The evaluation thread and its channels.
@@ -92,6 +103,9 @@ pub struct Worker {
     thread: Option<JoinHandle<()>>,
     /// Generation of the newest request sent.
     pub sent: u64,
+    /// The same, shared with the thread: an evaluation older than it stops before its next
+    /// node (a stale request never delays or overwrites a newer one).
+    newest: Arc<AtomicU64>,
     /// Generation of the newest outcome received.
     pub done: u64,
 }
@@ -102,6 +116,8 @@ impl Worker {
         let (tx, requests) = channel::<Request>();
         let (results, rx) = channel::<Outcome>();
         let (progress_tx, progress) = channel::<crate::eval::Progress>();
+        let newest = Arc::new(AtomicU64::new(0));
+        let newest_seen = newest.clone();
         let thread = std::thread::Builder::new()
             .name("tyndall-eval".into())
             .spawn(move || {
@@ -122,10 +138,23 @@ impl Worker {
                             Err(TryRecvError::Disconnected) => return,
                         }
                     }
-                    if results
-                        .send(evaluate(&mut ev, &req, &mut thumbed, &sink))
-                        .is_err()
-                    {
+                    let generation = req.generation;
+                    let seen = newest_seen.clone();
+                    let cancel = crate::eval::CancelCheck(Arc::new(move || {
+                        seen.load(Ordering::Acquire) > generation
+                    }));
+                    let out = evaluate(&mut ev, &req, &mut thumbed, &sink, cancel);
+                    if out.cancelled {
+                        // Superseded: its thumbnails were never delivered, so they are sent
+                        // with a later outcome; the newer request is already waiting.
+                        for (id, rep) in &out.nodes {
+                            if rep.thumb.is_some() {
+                                thumbed.remove(id);
+                            }
+                        }
+                        continue;
+                    }
+                    if results.send(out).is_err() {
                         return;
                     }
                 }
@@ -138,6 +167,7 @@ impl Worker {
             thread,
             sent: 0,
             done: 0,
+            newest,
         }
     }
 
@@ -145,6 +175,7 @@ impl Worker {
     pub fn request(&mut self, mut req: Request) -> u64 {
         self.sent += 1;
         req.generation = self.sent;
+        self.newest.store(self.sent, Ordering::Release);
         if let Some(tx) = &self.tx {
             if tx.send(req).is_err() {
                 self.tx = None;
@@ -181,7 +212,8 @@ impl Worker {
         drop(self.thread.take());
     }
 
-    /// Every request sent has its outcome (or the worker is gone).
+    /// Every request sent has its outcome (or the worker is gone). A superseded request has
+    /// none: the newest one's outcome counts for it.
     pub fn idle(&self) -> bool {
         self.tx.is_none() || self.done >= self.sent
     }
@@ -234,12 +266,15 @@ fn evaluate(
     req: &Request,
     thumbed: &mut BTreeSet<String>,
     sink: &crate::eval::ProgressSink,
+    cancel: crate::eval::CancelCheck,
 ) -> Outcome {
     let start = std::time::Instant::now();
+    let proxy = req.proxy.max(1);
     let opts = EvalOptions {
         time: req.time,
-        size: req.size,
+        size: crate::eval::proxy::proxy_size(req.size, proxy),
         progress: Some(sink.clone()),
+        cancel: Some(cancel),
         ..Default::default()
     };
     let registry = ev.registry().clone();
@@ -248,6 +283,7 @@ fn evaluate(
         Ok(f) => f,
         Err(e) => return failed(req, &e.to_string(), start),
     };
+    let graph = crate::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy);
     let mut nodes: BTreeMap<String, NodeReport> = graph
         .nodes()
         .map(|n| (n.id.clone(), NodeReport::default()))
@@ -283,13 +319,15 @@ fn evaluate(
     if let Some(id) = &req.compare {
         jobs.push((id.clone(), shown(id), 2));
     }
-    for id in graph.topo_order() {
+    // A proxy shows the viewer only: thumbnails wait for the full-resolution request.
+    for id in graph.topo_order().into_iter().filter(|_| proxy == 1) {
         if let Some(first) = shown(&id).into_iter().next() {
             jobs.push((id, vec![first], 0));
         }
     }
     let (mut view, mut compare) = (None, None);
     let mut device_lost = None;
+    let mut cancelled = false;
     for (id, ports, full) in jobs {
         if ports.is_empty() || nodes.get(&id).is_some_and(|r| r.error.is_some()) {
             continue;
@@ -335,6 +373,10 @@ fn evaluate(
                     }
                 }
             }
+            Err(EvalError::Cancelled { .. }) => {
+                cancelled = true;
+                break;
+            }
             Err(e) => {
                 let lost = e.device_lost();
                 let culprit = match &e {
@@ -366,6 +408,9 @@ fn evaluate(
         compare,
         elapsed: start.elapsed(),
         device_lost,
+        proxy,
+        size: opts.size,
+        cancelled,
     }
 }
 
@@ -393,6 +438,9 @@ fn failed(req: &Request, reason: &str, start: std::time::Instant) -> Outcome {
         compare: None,
         elapsed: start.elapsed(),
         device_lost: None,
+        proxy: req.proxy.max(1),
+        size: req.size,
+        cancelled: false,
     }
 }
 

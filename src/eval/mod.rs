@@ -10,6 +10,7 @@ mod node;
 mod params;
 mod paths;
 pub mod pick;
+pub mod proxy;
 mod stats;
 mod value;
 
@@ -27,7 +28,8 @@ pub use node::{
 };
 pub use params::{FromParam, ParamReader};
 pub use paths::{file_stamp, resolve_files, PathPolicy, PathRefused};
-pub use stats::{NodeStat, Progress, ProgressSink, Stats, Status};
+use stats::{report, NodeRun};
+pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
 use crate::gpu::{Gpu, GpuError};
@@ -58,6 +60,13 @@ pub enum EvalError {
         port: String,
         /// Its output ports.
         known: String,
+    },
+    /// The evaluation was stopped between two nodes because its [`EvalOptions::cancel`] said
+    /// so (a newer request superseded it); the nodes that ran keep their cached results.
+    #[error("evaluation cancelled before node '{before}' (superseded by a newer request)")]
+    Cancelled {
+        /// The node that would have run next.
+        before: String,
     },
     /// The document is inconsistent with the registry.
     #[error(transparent)]
@@ -109,6 +118,9 @@ pub struct EvalOptions {
     /// Where long-running nodes report their progress (the CLI draws a progress bar, the editor
     /// shows it in its top bar); `None`: nowhere.
     pub progress: Option<ProgressSink>,
+    /// Asked before each node runs; `true` stops the evaluation with
+    /// [`EvalError::Cancelled`] (the editor's worker: a newer request arrived). `None`: never.
+    pub cancel: Option<CancelCheck>,
 }
 
 impl Default for EvalOptions {
@@ -121,6 +133,7 @@ impl Default for EvalOptions {
             gpu_timings: false,
             inject: BTreeMap::new(),
             progress: None,
+            cancel: None,
         }
     }
 }
@@ -252,6 +265,10 @@ impl Evaluator {
         let empty = BTreeSet::new();
         let gpu = self.gpu.clone();
         for id in order.iter().filter(|id| plan.needed.contains(*id)) {
+            if opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
+                self.evict();
+                return Err(EvalError::Cancelled { before: id.clone() });
+            }
             let (k, kind) = self.kind_of(graph, id)?;
             let node_err = |source: NodeError| EvalError::Node {
                 node: id.clone(),
@@ -544,48 +561,4 @@ fn key_and_inputs(
         }
     }
     Ok((h.finish(), inputs))
-}
-
-/// How one node's run went: status, wall time, GPU time, submissions.
-type NodeRun = (Status, Duration, Option<Duration>, u64);
-
-/// Step 5, report: the requested ports' values and one statistic per node in topological order.
-fn report(
-    graph: &Graph,
-    targets: &[Target],
-    order: &[String],
-    results: &BTreeMap<String, BTreeMap<String, PortValue>>,
-    stats: &BTreeMap<String, NodeRun>,
-) -> Evaluation {
-    let mut outputs = BTreeMap::new();
-    for t in targets {
-        if let Target::Port(id, port) = t {
-            if let Some(v) = results.get(id).and_then(|r| r.get(port)) {
-                outputs.insert((id.clone(), port.clone()), v.clone());
-            }
-        }
-    }
-    let nodes = order
-        .iter()
-        .filter_map(|id| {
-            let node = graph.node(id)?;
-            let (status, time, gpu_time, submits) =
-                stats
-                    .get(id)
-                    .copied()
-                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None, 0));
-            Some(NodeStat {
-                id: id.clone(),
-                kind: node.kind.clone(),
-                status,
-                time,
-                gpu_time,
-                submits,
-            })
-        })
-        .collect();
-    Evaluation {
-        outputs,
-        stats: Stats { nodes },
-    }
 }

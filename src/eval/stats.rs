@@ -1,8 +1,13 @@
 //! What an evaluation reports: per node, ran, reused or not needed, its times and its GPU
-//! submissions (`tyndall eval --stats`); and the progress of long-running nodes.
+//! submissions (`tyndall eval --stats`); the progress of long-running nodes; and the check
+//! that stops a superseded evaluation.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Duration;
+
+use super::{Evaluation, PortValue, Target};
+use crate::graph::Graph;
 
 /// What happened to one node in one evaluation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -134,6 +139,16 @@ pub struct Progress {
     pub message: String,
 }
 
+/// Whether an evaluation should stop before its next node (see `EvalOptions::cancel`).
+#[derive(Clone)]
+pub struct CancelCheck(pub std::sync::Arc<dyn Fn() -> bool + Send + Sync>);
+
+impl fmt::Debug for CancelCheck {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("CancelCheck")
+    }
+}
+
 /// A receiver of [`Progress`] reports, shared with the nodes of an evaluation.
 #[derive(Clone)]
 pub struct ProgressSink(pub std::sync::Arc<dyn Fn(&Progress) + Send + Sync>);
@@ -141,5 +156,49 @@ pub struct ProgressSink(pub std::sync::Arc<dyn Fn(&Progress) + Send + Sync>);
 impl std::fmt::Debug for ProgressSink {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("ProgressSink")
+    }
+}
+
+/// How one node's run went: status, wall time, GPU time, submissions.
+pub(super) type NodeRun = (Status, Duration, Option<Duration>, u64);
+
+/// Step 5, report: the requested ports' values and one statistic per node in topological order.
+pub(super) fn report(
+    graph: &Graph,
+    targets: &[Target],
+    order: &[String],
+    results: &BTreeMap<String, BTreeMap<String, PortValue>>,
+    stats: &BTreeMap<String, NodeRun>,
+) -> Evaluation {
+    let mut outputs = BTreeMap::new();
+    for t in targets {
+        if let Target::Port(id, port) = t {
+            if let Some(v) = results.get(id).and_then(|r| r.get(port)) {
+                outputs.insert((id.clone(), port.clone()), v.clone());
+            }
+        }
+    }
+    let nodes = order
+        .iter()
+        .filter_map(|id| {
+            let node = graph.node(id)?;
+            let (status, time, gpu_time, submits) =
+                stats
+                    .get(id)
+                    .copied()
+                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None, 0));
+            Some(NodeStat {
+                id: id.clone(),
+                kind: node.kind.clone(),
+                status,
+                time,
+                gpu_time,
+                submits,
+            })
+        })
+        .collect();
+    Evaluation {
+        outputs,
+        stats: Stats { nodes },
     }
 }

@@ -8,6 +8,8 @@ impl EditorApp {
     /// take in what it finished.
     pub(super) fn pump(&mut self, ctx: &egui::Context) {
         let view = self.viewed();
+        // A knob dragged, the timeline scrubbed or playing: evaluate at the proxy factor.
+        let interacting = ctx.dragged_id().is_some() || self.playing;
         let Some(worker) = self.worker.as_mut() else {
             return;
         };
@@ -19,8 +21,17 @@ impl EditorApp {
             self.time,
             crate::graph::save_string(self.state.root())
         );
-        if key != self.requested {
+        let changed = key != self.requested;
+        // A change while interacting is shown at the proxy size; the interaction's end asks
+        // for the full picture of the same document.
+        let ended = !interacting && self.proxy.requested > 1;
+        if changed || ended {
             self.requested = key;
+            self.proxy.requested = if changed && interacting {
+                self.proxy.factor
+            } else {
+                1
+            };
             worker.request(Request {
                 generation: 0,
                 graph: crate::editor::worker::graph_for_evaluation(&self.registry, &self.state),
@@ -28,6 +39,7 @@ impl EditorApp {
                 size: VIEW_SIZE,
                 view,
                 compare: self.wipe.clone(),
+                proxy: self.proxy.requested,
             });
         }
         if let Some(p) = worker.poll_progress() {
@@ -62,10 +74,15 @@ impl EditorApp {
                 self.compare = out.compare;
                 self.wipe_tex = None;
             }
+            self.proxy.took(out.proxy, out.size, out.elapsed);
             let ran = self.reports.values().filter(|r| r.status.ran()).count();
             let errors = self.reports.values().filter(|r| r.error.is_some()).count();
             self.status = match errors {
-                0 => format!("{ran} ran in {:.0} ms", out.elapsed.as_secs_f64() * 1e3),
+                0 => format!(
+                    "{}: {ran} ran in {:.0} ms",
+                    self.proxy.shown_text(),
+                    out.elapsed.as_secs_f64() * 1e3
+                ),
                 n => format!("{n} node(s) failed; see the canvas"),
             };
             if self.device_restarts > 0 {
@@ -100,5 +117,62 @@ impl EditorApp {
                 self.status = format!("{reason}; no new device ({e}): pictures are off");
             }
         }
+    }
+}
+
+/// Proxy evaluation in the window: the factor used while a knob is dragged, kept so that a
+/// proxy update lands within [`ProxyState::BUDGET`] (halving or doubling the resolution
+/// after each proxy result), and what the viewer shows now.
+#[derive(Debug, Clone)]
+pub struct ProxyState {
+    /// The factor of the next proxy request: 2 (½), 4 (¼) or 8 (⅛).
+    pub factor: u32,
+    /// The factor of the last request sent (1: full resolution).
+    pub requested: u32,
+    /// The factor and size of the pictures shown.
+    pub shown: (u32, (u32, u32)),
+}
+
+impl Default for ProxyState {
+    fn default() -> Self {
+        Self {
+            factor: 2,
+            requested: 1,
+            shown: (1, VIEW_SIZE),
+        }
+    }
+}
+
+impl ProxyState {
+    /// The time a proxy update should take at most (a few frames at 60 Hz).
+    pub const BUDGET: Duration = Duration::from_millis(100);
+
+    /// A result came in: note what is shown, and adapt the proxy factor to the budget.
+    pub fn took(&mut self, proxy: u32, size: (u32, u32), elapsed: Duration) {
+        self.shown = (proxy, size);
+        if proxy > 1 {
+            if elapsed > Self::BUDGET && self.factor < 8 {
+                self.factor *= 2;
+            } else if elapsed < Self::BUDGET / 4 && self.factor > 2 {
+                self.factor /= 2;
+            }
+        }
+    }
+
+    /// Which resolution the viewer shows, for the status bar: `full 480×270` or
+    /// `proxy ½ 240×135`.
+    pub fn shown_text(&self) -> String {
+        let (f, (w, h)) = self.shown;
+        match f {
+            1 => format!("full {w}×{h}"),
+            2 => format!("proxy ½ {w}×{h}"),
+            4 => format!("proxy ¼ {w}×{h}"),
+            f => format!("proxy 1/{f} {w}×{h}"),
+        }
+    }
+
+    /// The shown pictures' scale on screen: a proxy picture is drawn at the full size.
+    pub fn display_scale(&self) -> f32 {
+        self.shown.0 as f32
     }
 }

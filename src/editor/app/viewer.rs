@@ -190,7 +190,9 @@ impl EditorApp {
         let Some((_, tex)) = &self.view_tex else {
             return;
         };
-        let size = egui::vec2(raster.width as f32, raster.height as f32);
+        // A proxy picture is drawn at the size of the full one.
+        let size =
+            egui::vec2(raster.width as f32, raster.height as f32) * self.proxy.display_scale();
         let shown = match self.zoom {
             Zoom::Fit => size * (ui.available_width() / size.x).min(300.0 / size.y),
             Zoom::One => size,

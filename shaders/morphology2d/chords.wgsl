@@ -1,5 +1,6 @@
-// Dilate2D / Erode2D / Closure2D: min (dilation) or max (erosion) over a square or circular
-// footprint (nodes/morphology2d.rs; SPEC §4 hole filling).
+// Dilate2D / Erode2D / Closure2D, the square and the exact circle: min (dilation) or max
+// (erosion) over a square or circular footprint (nodes/morphology2d/mod.rs; SPEC §4 hole
+// filling). The polygon close to the circle is lines.wgsl.
 //
 // Fast path: van Herk / Gil–Werman 1D filtering. A line is cut into blocks of k = 2r + 1
 // texels aligned at 0; `blocks` writes each texel's running min/max from its block's start

@@ -5,12 +5,17 @@
 //! **maximum**, closure a dilation then an erosion with the same footprint, so holes smaller
 //! than the kernel close. Footprint: `Circle` (dx² + dy² ≤ r²) or `Square` (|dx|, |dy| ≤ r),
 //! kernel size 2r + 1; texels outside the map are not part of it. The three kinds share one
-//! implementation and one shader (`shaders/morphology2d.wgsl`), so they live in one file.
+//! implementation and its shaders (`shaders/morphology2d/`).
 //!
-//! Cost (`method = Fast`): Square is two van Herk / Gil–Werman passes, constant per texel
-//! whatever r; Circle folds one horizontal van Herk pass per distinct chord width, linear in r.
-//! `method = BruteForce` visits the whole footprint (O(r²)), for benchmarks. Both equal the CPU
-//! reference exactly (min and max involve no rounding).
+//! Methods. Square: two van Herk / Gil–Werman passes, constant per texel whatever r (`Fast` and
+//! `Exact` are the same). Circle, `Exact`: one horizontal van Herk pass per distinct chord
+//! width, folded row by row (`chords.wgsl`), linear in r. Circle, `Fast`: a 16-gon close to the
+//! disk, the Minkowski sum of segments in eight directions, one van Herk pass each
+//! (`polygon.rs`, `lines.wgsl`), flat in r; at radii where the chords need no more passes
+//! (r ≤ 7) it is the exact disk. `BruteForce` visits the whole footprint (O(r²)), for
+//! benchmarks. Each equals its CPU reference exactly (min and max involve no rounding); how far
+//! the polygon is from the disk is measured in `benches/morphology.ron` and bounded in
+//! `tests/morphology.rs`.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -22,9 +27,16 @@
 //! | `shape` | Enum | Circle | Circle, Square | footprint |
 //! | `radius` | Float | 4 | 0…4096 | r, rounded to whole texels (kernel 2r + 1); 0 is the identity |
 //! | `unit` | Enum | texels | texels, metres | metres: r is a world size, converted with the map's light matrices, so a preset keeps its look at any map resolution |
-//! | `method` | Enum | Fast | Fast, BruteForce | algorithm (same result) |
+//! | `method` | Enum | Fast | Fast, Exact, BruteForce | algorithm: Fast = the polygon for a circle of r ≥ 8 (cost flat in r), Exact = the exact disk (chords, linear in r), BruteForce = whole footprint |
+
+mod polygon;
 
 use std::sync::Arc;
+
+pub use polygon::{
+    footprint_difference, polygon, polygon_pays, polygon_span, reference_lines, segments,
+    LineParams, DIRECTIONS,
+};
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
@@ -54,8 +66,8 @@ crate::choice_enum! {
     pub enum Unit { Texels = "texels", Metres = "metres" }
 }
 crate::choice_enum! {
-    /// Algorithms (same result).
-    pub enum Method { Fast = "Fast", BruteForce = "BruteForce" }
+    /// Algorithms.
+    pub enum Method { Fast = "Fast", Exact = "Exact", BruteForce = "BruteForce" }
 }
 
 const MAPS: &[PortType] = &[PortType::Scalar, PortType::ShadowMap];
@@ -67,7 +79,7 @@ crate::params! {
         shape: Shape = ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
         radius: f64 = ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity."),
         unit: Unit = ParamSpec::choice("unit", Unit::NAMES, "texels", "texels, or metres (converted with the shadow map's light matrices)."),
-        method: Method = ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (van Herk / Gil–Werman, chords) or BruteForce (whole footprint); same result."),
+        method: Method = ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (square: van Herk / Gil–Werman; circle of r ≥ 8: a 16-gon of line passes, cost flat in r), Exact (circle: the exact disk, chords, linear in r) or BruteForce (whole footprint)."),
     }
 }
 
@@ -76,7 +88,16 @@ const IN: &[PortSpec] = &[PortSpec::required("map", MAPS, "Shadow map (or any on
 #[rustfmt::skip]
 const OUT: &[PortSpec] = &[PortSpec::output("map", MAPS, "The filtered map, same type as the input.")];
 
-const SHADER: Shader = Shader::new("morphology2d", include_str!("../shaders/morphology2d.wgsl"));
+/// The square and the exact circle (chords), and brute force.
+const SHADER: Shader = Shader::new(
+    "morphology2d/chords",
+    include_str!("../../shaders/morphology2d/chords.wgsl"),
+);
+/// The polygon's line passes.
+const SHADER_LINES: Shader = Shader::new(
+    "morphology2d/lines",
+    include_str!("../../shaders/morphology2d/lines.wgsl"),
+);
 
 const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
     let schema = NodeSchema {
@@ -87,9 +108,11 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
         outputs: OUT,
         params: Params::SPECS,
     };
-    NodeDecl::new(schema).shaders(&[SHADER]).uniforms(UNIFORMS)
+    NodeDecl::new(schema)
+        .shaders(&[SHADER, SHADER_LINES])
+        .uniforms(UNIFORMS)
 }
-const UNIFORMS: &[UniformLayout] = &[MorphParams::LAYOUT];
+const UNIFORMS: &[UniformLayout] = &[MorphParams::LAYOUT, LineParams::LAYOUT];
 
 static DILATE: NodeDecl = decl(
     "Dilate2D",
@@ -154,6 +177,28 @@ pub fn reference(map: &Raster, r: i32, circle: bool, max: bool) -> Raster {
 /// CPU reference of the closure.
 pub fn reference_closure(map: &Raster, r: i32, circle: bool) -> Raster {
     reference(&reference(map, r, circle, false), r, circle, true)
+}
+
+/// The radius filtered: beyond the map's extent (square) or diagonal (circle) a larger kernel
+/// covers nothing more; capping keeps block sizes and loops bounded.
+pub fn capped(r: i32, w: u32, h: u32, circle: bool) -> i32 {
+    let extent = if circle {
+        ((w as f64).hypot(h as f64)).ceil() as i32
+    } else {
+        w.max(h) as i32
+    };
+    r.min(extent)
+}
+
+/// CPU reference of `method = Fast`: the polygon's line passes where [`polygon_pays`], else
+/// [`reference`].
+pub fn reference_fast(map: &Raster, r: i32, circle: bool, max: bool) -> Raster {
+    let r = capped(r, map.width, map.height, circle);
+    if circle && polygon_pays(r) {
+        reference_lines(map, &segments(polygon(r)), max)
+    } else {
+        reference(map, r, circle, max)
+    }
 }
 
 /// Half-width of the circle's chord at row offset `dy`: the largest w with w² + dy² ≤ r².
@@ -239,28 +284,21 @@ fn pass(gpu: &Gpu, src: &GpuTexture, r: i32, max: bool, axis: u32) -> Result<Gpu
     Ok(out)
 }
 
-/// Min (or max) filter of `src` on the GPU.
+/// Min (or max) filter of `src` on the GPU by `method`.
 pub fn filter(
     gpu: &Gpu,
     src: &Arc<GpuTexture>,
     r: i32,
     circle: bool,
     max: bool,
-    brute: bool,
+    method: Method,
 ) -> Result<Arc<GpuTexture>, GpuError> {
     if r == 0 {
         return Ok(src.clone());
     }
     let (w, h) = (src.width, src.height);
-    // Beyond the map's extent (square) or diagonal (circle) a larger kernel covers nothing
-    // more; capping keeps block sizes and loops bounded.
-    let extent = if circle {
-        ((w as f64).hypot(h as f64)).ceil() as i32
-    } else {
-        w.max(h) as i32
-    };
-    let r = r.min(extent);
-    if brute {
+    let r = capped(r, w, h, circle);
+    if method == Method::BruteForce {
         let u = MorphParams {
             r,
             op: max as u32,
@@ -288,6 +326,9 @@ pub fn filter(
     if !circle {
         let rows = pass(gpu, src, r, max, 0)?;
         return Ok(Arc::new(pass(gpu, &rows, r, max, 1)?));
+    }
+    if method == Method::Fast && polygon_pays(r) {
+        return polygon::filter(gpu, src, r, max);
     }
     // Circle: group row offsets |dy| by chord half-width (w decreases as |dy| grows).
     let mut acc: Option<GpuTexture> = None;
@@ -361,13 +402,13 @@ impl NodeKind for Morphology2D {
         let p = Params::from_ctx(ctx)?;
         let r = radius_texels(p.radius, p.unit, m.as_ref(), tex.width)?;
         let circle = p.shape == Shape::Circle;
-        let brute = p.method == Method::BruteForce;
+        let method = p.method;
         let out = match self.0 {
-            Op::Dilate => filter(ctx.gpu, &tex, r, circle, false, brute)?,
-            Op::Erode => filter(ctx.gpu, &tex, r, circle, true, brute)?,
+            Op::Dilate => filter(ctx.gpu, &tex, r, circle, false, method)?,
+            Op::Erode => filter(ctx.gpu, &tex, r, circle, true, method)?,
             Op::Closure => {
-                let d = filter(ctx.gpu, &tex, r, circle, false, brute)?;
-                filter(ctx.gpu, &d, r, circle, true, brute)?
+                let d = filter(ctx.gpu, &tex, r, circle, false, method)?;
+                filter(ctx.gpu, &d, r, circle, true, method)?
             }
         };
         ctx.set(
