@@ -169,19 +169,18 @@ fn polygon_footprint_is_the_lattice_points_of_its_zonotope_and_close_to_the_disk
 fn canopy(size: u32, seed: u64) -> Raster {
     let mut map = Raster::new(size, size, 1, 1.0);
     let mut rng = common::Rng(seed);
-    let mut disc =
-        |map: &mut Raster, rng: &mut common::Rng, rmin: f32, rmax: f32, v: Option<f32>| {
-            let (cx, cy) = (rng.next_f32() * size as f32, rng.next_f32() * size as f32);
-            let rad = rmin + rng.next_f32() * (rmax - rmin);
-            let depth = v.unwrap_or(0.3 + 0.3 * rng.next_f32());
-            for y in 0..size {
-                for x in 0..size {
-                    if (x as f32 - cx).hypot(y as f32 - cy) <= rad {
-                        map.data[(y * size + x) as usize] = depth;
-                    }
+    let disc = |map: &mut Raster, rng: &mut common::Rng, rmin: f32, rmax: f32, v: Option<f32>| {
+        let (cx, cy) = (rng.next_f32() * size as f32, rng.next_f32() * size as f32);
+        let rad = rmin + rng.next_f32() * (rmax - rmin);
+        let depth = v.unwrap_or(0.3 + 0.3 * rng.next_f32());
+        for y in 0..size {
+            for x in 0..size {
+                if (x as f32 - cx).hypot(y as f32 - cy) <= rad {
+                    map.data[(y * size + x) as usize] = depth;
                 }
             }
-        };
+        }
+    };
     for _ in 0..40 {
         disc(&mut map, &mut rng, 12.0, 40.0, None);
     }

@@ -21,156 +21,24 @@
 //! BENCHMARKS.md between their markers ([`report::update_doc`]).
 
 pub mod chain;
+pub mod interactive;
 mod metrics;
 use metrics::errors;
 pub use metrics::{count_components, discontinuities, masked_rmse};
+pub use suite::Suite;
 pub mod plot;
 pub mod record;
 pub mod report;
+mod suite;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use serde::Deserialize;
-
 use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
 use crate::gpu::Gpu;
 use crate::graph::{load_file, split_endpoint, Graph};
 use crate::io::Raster;
-
-/// A benchmark suite file.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Suite {
-    /// One line saying what is measured.
-    pub title: String,
-    /// The graph, relative to the suite file.
-    pub graph: String,
-    /// Node measured (a setting's `node` key overrides it; unused by chain suites).
-    #[serde(default)]
-    pub node: String,
-    /// Output port of the measured node (unused by chain suites).
-    #[serde(default)]
-    pub output: String,
-    /// Evaluation size.
-    pub size: (u32, u32),
-    /// Runs per setting (the median is reported).
-    pub runs: usize,
-    /// Setting of the reference output (none: no error columns).
-    #[serde(default)]
-    pub reference: Option<BTreeMap<String, String>>,
-    /// Further named references; a setting's `reference` key picks one (for suites that measure
-    /// several nodes, each against its own high-quality setting).
-    #[serde(default)]
-    pub references: BTreeMap<String, BTreeMap<String, String>>,
-    /// The measured settings.
-    pub configs: Vec<BTreeMap<String, String>>,
-    /// Error bounds of the speed-up comparison (one speed-up line per bound).
-    #[serde(default)]
-    pub target_rmse: Vec<f64>,
-    /// `(parameter, baseline value, accelerated values)`: for each accelerated value and each
-    /// bound, the speed-up reported is the time of the fastest baseline setting within the bound
-    /// over that of the fastest setting with the accelerated value within it.
-    #[serde(default)]
-    pub compare: Option<(String, String, Vec<String>)>,
-    /// Kernel-size parameters: rows equal in every other key form a group, and each row's time
-    /// is also given relative to its group's first row (cost growth with kernel size).
-    #[serde(default)]
-    pub kernel: Vec<String>,
-    /// Count connected holes (4-connected texels ≥ `threshold`) in `before` (`node.port`) and in
-    /// the measured output: `(before, threshold)`.
-    #[serde(default)]
-    pub holes: Option<(String, f32)>,
-    /// The measured output is a per-iteration residual (one texel per iteration, the first the
-    /// start, as `LightMapSolve.residual`): the table adds the iterations run and the final
-    /// residual over the start.
-    #[serde(default)]
-    pub convergence: bool,
-    /// Also report the RMSE over the texels at depth discontinuities only: `(depth port,
-    /// threshold)` — a texel whose depth differs from a 4-neighbour's by more than `threshold`
-    /// times its own.
-    #[serde(default)]
-    pub edges: Option<(String, f32)>,
-    /// `(when, put)` pairs: a setting that contains every pair of `when` (and names no
-    /// `reference`) is compared with itself with `put`'s values put in — e.g.
-    /// `({"shape": "Circle"}, {"method": "Exact"})`: each circle row against the exact method
-    /// at the same radius and size. The first matching pair counts; each distinct reference
-    /// is computed once.
-    #[serde(default)]
-    pub reference_as: Vec<(BTreeMap<String, String>, BTreeMap<String, String>)>,
-    /// Also report the share of texels that differ from the reference at all (`differ %`).
-    #[serde(default)]
-    pub differ: bool,
-    /// A whole-graph suite: the settings are steps (see [`chain`]).
-    #[serde(default)]
-    pub chain: bool,
-    /// Indices of settings too slow for the default run (it must stay under 15 minutes on two
-    /// CPU cores for every suite together): they run only with `--full`.
-    #[serde(default)]
-    pub slow: Vec<usize>,
-    /// `--quick`: the indices of the settings to keep (empty: all).
-    #[serde(default)]
-    pub quick: Vec<usize>,
-    /// `--quick`: the evaluation size (default: the suite's).
-    #[serde(default)]
-    pub quick_size: Option<(u32, u32)>,
-    /// The parameter whose value names a point's series in the plots (default: the `compare`
-    /// parameter, else `node`, else `method`, else one series).
-    #[serde(default)]
-    pub series: Option<String>,
-}
-
-impl Suite {
-    /// The suite without its `slow` settings (the default run).
-    pub fn without_slow(mut self) -> Self {
-        let slow = std::mem::take(&mut self.slow);
-        let configs = std::mem::take(&mut self.configs);
-        // `quick` indices refer to the full list: renumber them.
-        let mut renumber = Vec::new();
-        for (i, c) in configs.into_iter().enumerate() {
-            if slow.contains(&i) {
-                continue;
-            }
-            if self.quick.contains(&i) {
-                renumber.push(self.configs.len());
-            }
-            self.configs.push(c);
-        }
-        self.quick = renumber;
-        self
-    }
-
-    /// The suite reduced for `--quick`: the `quick` settings at `quick_size`, one run each.
-    pub fn reduced(mut self) -> Self {
-        if !self.quick.is_empty() {
-            let keep = self.quick.clone();
-            self.configs = keep
-                .iter()
-                .filter_map(|i| self.configs.get(*i).cloned())
-                .collect();
-        }
-        if let Some(size) = self.quick_size {
-            self.size = size;
-        }
-        self.runs = 1;
-        self
-    }
-
-    /// The series key of the plots.
-    pub fn series_key(&self) -> Option<String> {
-        if let Some(s) = &self.series {
-            return Some(s.clone());
-        }
-        if let Some((p, _, _)) = &self.compare {
-            return Some(p.clone());
-        }
-        ["node", "method"]
-            .iter()
-            .find(|k| self.configs.iter().any(|c| c.contains_key(**k)))
-            .map(|k| k.to_string())
-    }
-}
 
 /// One measured row.
 #[derive(Debug, Clone)]
@@ -270,6 +138,13 @@ pub(crate) fn apply(
             continue;
         }
         match split_endpoint(key) {
+            // `NODE.@data`: the node's data block, as RON text (a TF's layers, strokes…).
+            Ok((n, "@data")) => {
+                let data = crate::graph::NodeData::from_text(value)
+                    .map_err(|e| BenchError::Input(format!("{key}: {e}")))?;
+                g.set_data(n, Some(data))
+                    .map_err(|e| BenchError::Input(e.to_string()))?;
+            }
             Ok((n, p)) => set_one(registry, g, n, p, value)?,
             Err(_) => set_one(registry, g, &node, key, value)?,
         }
@@ -316,6 +191,9 @@ pub fn run(
         .join(&suite.graph);
     let base =
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
+    if !suite.proxies.is_empty() {
+        return interactive::run(registry, gpu, &base, suite, runs, size, progress);
+    }
     if suite.chain {
         return chain::run(
             registry,
@@ -388,6 +266,13 @@ pub fn run(
         }
         None => None,
     };
+    // References that are measured settings too: kept from their row instead of computed again.
+    let mut wanted = std::collections::BTreeSet::new();
+    for c in &suite.configs {
+        if let Some((name, _)) = own_reference(suite, c)? {
+            wanted.insert(name);
+        }
+    }
     let mut rows: Vec<Row> = Vec::new();
     for (i, setting) in suite.configs.iter().enumerate() {
         progress(&format!(
@@ -421,24 +306,11 @@ pub fn run(
         }
         times.sort_by(f64::total_cmp);
         let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
-        // The row's own reference: a named one, or the setting with `reference_as` put in.
-        let own = match setting.get("reference") {
-            Some(name) => Some((
-                name.clone(),
-                suite.references.get(name).cloned().ok_or_else(|| {
-                    BenchError::Input(format!("no reference named '{name}' in the suite"))
-                })?,
-            )),
-            None => suite
-                .reference_as
-                .iter()
-                .find(|(when, _)| when.iter().all(|(k, v)| setting.get(k) == Some(v)))
-                .map(|(_, put)| {
-                    let mut spec = setting.clone();
-                    spec.extend(put.clone());
-                    (describe(&spec), spec)
-                }),
-        };
+        let this = describe(setting);
+        if wanted.contains(&this) && !named.contains_key(&this) {
+            named.insert(this, out.clone());
+        }
+        let own = own_reference(suite, setting)?;
         if let Some((name, spec)) = &own {
             if !named.contains_key(name) {
                 let mut g = base.clone();
@@ -522,6 +394,33 @@ pub fn run(
         });
     }
     Ok(rows)
+}
+
+/// One setting of a suite: `key = value` pairs.
+type Setting = BTreeMap<String, String>;
+
+/// A setting's own reference, `(name, setting)`: a named one, or the setting with the first
+/// matching `reference_as` pair's values put in (named by its description); `None`: the
+/// suite's reference, if any.
+fn own_reference(
+    suite: &Suite,
+    setting: &BTreeMap<String, String>,
+) -> Result<Option<(String, Setting)>, BenchError> {
+    if let Some(name) = setting.get("reference") {
+        let spec = suite.references.get(name).cloned().ok_or_else(|| {
+            BenchError::Input(format!("no reference named '{name}' in the suite"))
+        })?;
+        return Ok(Some((name.clone(), spec)));
+    }
+    Ok(suite
+        .reference_as
+        .iter()
+        .find(|(when, _)| when.iter().all(|(k, v)| setting.get(k) == Some(v)))
+        .map(|(_, put)| {
+            let mut spec = setting.clone();
+            spec.extend(put.clone());
+            (describe(&spec), spec)
+        }))
 }
 
 /// A setting as `key=value` pairs separated by spaces (the CSV's `setting` column).

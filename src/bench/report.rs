@@ -240,14 +240,25 @@ pub fn merge_results(old: &[u8], new: &[u8]) -> Result<Vec<u8>, BenchError> {
         .iter()
         .filter_map(|r| r.get(0).map(str::to_string))
         .collect();
-    // An old file with other columns is replaced rather than merged.
-    let header_ok = csv::Reader::from_reader(old)
+    // An old file written with other columns (before a column was added) is read by column
+    // name: a column it lacks is empty, one no longer written is dropped.
+    let header: Vec<String> = csv::Reader::from_reader(old)
         .headers()
-        .is_ok_and(|h| h.iter().eq(RESULT_COLUMNS.iter().copied()));
-    let mut all: Vec<csv::StringRecord> = if header_ok {
+        .map(|h| h.iter().map(str::to_string).collect())
+        .unwrap_or_default();
+    let from: Vec<Option<usize>> = RESULT_COLUMNS
+        .iter()
+        .map(|c| header.iter().position(|h| h == c))
+        .collect();
+    let mut all: Vec<csv::StringRecord> = if from.first().is_some_and(Option::is_some) {
         read(old)?
             .into_iter()
             .filter(|r| r.get(0).is_some_and(|s| !ran.contains(s)))
+            .map(|r| {
+                from.iter()
+                    .map(|i| i.and_then(|i| r.get(i)).unwrap_or(""))
+                    .collect()
+            })
             .collect()
     } else {
         Vec::new()
@@ -291,58 +302,6 @@ pub fn doc_body(command: &str, text: &str, plots: &[(String, String)]) -> String
         s.push_str(&format!("\n![{alt}]({link})\n"));
     }
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{merge_results, update_doc, RESULT_COLUMNS};
-
-    #[test]
-    fn merged_results_keep_other_suites_and_replace_those_run() {
-        let header = RESULT_COLUMNS.join(",");
-        let row = |suite: &str, ms: &str| {
-            let mut cells = vec![""; RESULT_COLUMNS.len()];
-            cells[0] = suite;
-            cells[5] = "setting";
-            cells[6] = ms;
-            cells.join(",")
-        };
-        let old = format!(
-            "{header}\n{}\n{}\n{}\n",
-            row("a", "1"),
-            row("b", "2"),
-            row("c", "3")
-        );
-        let new = format!("{header}\n{}\n", row("b", "20"));
-        let merged =
-            String::from_utf8(merge_results(old.as_bytes(), new.as_bytes()).unwrap()).unwrap();
-        assert_eq!(
-            merged,
-            format!(
-                "{header}\n{}\n{}\n{}\n",
-                row("a", "1"),
-                row("b", "20"),
-                row("c", "3")
-            )
-        );
-        // An unreadable or foreign old file is replaced.
-        let merged =
-            String::from_utf8(merge_results(b"x,y\n1,2\n", new.as_bytes()).unwrap()).unwrap();
-        assert_eq!(merged, new);
-    }
-
-    #[test]
-    fn blocks_are_replaced_between_markers_and_missing_ones_appended() {
-        let doc = "# B\n\nprose\n<!-- bench:a -->\nold\n<!-- /bench:a -->\nmore prose\n";
-        let new = update_doc(doc, "a", "A", "new");
-        assert_eq!(
-            new,
-            "# B\n\nprose\n<!-- bench:a -->\nnew\n<!-- /bench:a -->\nmore prose\n"
-        );
-        let appended = update_doc(&new, "b/c", "Suite C", "body");
-        assert!(appended.starts_with(&new.trim_end().to_string()));
-        assert!(appended.ends_with("## Suite C\n\n<!-- bench:b/c -->\nbody\n<!-- /bench:b/c -->\n"));
-    }
 }
 
 /// The table as text (the iteration columns only when a row has them).
@@ -402,4 +361,65 @@ pub fn table(rows: &[Row]) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{merge_results, update_doc, RESULT_COLUMNS};
+
+    #[test]
+    fn merged_results_keep_other_suites_and_replace_those_run() {
+        let header = RESULT_COLUMNS.join(",");
+        let row = |suite: &str, ms: &str| {
+            let mut cells = vec![""; RESULT_COLUMNS.len()];
+            cells[0] = suite;
+            cells[5] = "setting";
+            cells[6] = ms;
+            cells.join(",")
+        };
+        let old = format!(
+            "{header}\n{}\n{}\n{}\n",
+            row("a", "1"),
+            row("b", "2"),
+            row("c", "3")
+        );
+        let new = format!("{header}\n{}\n", row("b", "20"));
+        let merged =
+            String::from_utf8(merge_results(old.as_bytes(), new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(
+            merged,
+            format!(
+                "{header}\n{}\n{}\n{}\n",
+                row("a", "1"),
+                row("b", "20"),
+                row("c", "3")
+            )
+        );
+        // An unreadable or foreign old file is replaced.
+        let merged =
+            String::from_utf8(merge_results(b"x,y\n1,2\n", new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(merged, new);
+        // An old file from before a column was added keeps its rows, read by column name
+        // (the missing column empty, an old column no longer written dropped).
+        let older = "suite,row,median_ms,gone\na,setting,1,x\n";
+        let merged =
+            String::from_utf8(merge_results(older.as_bytes(), new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(
+            merged,
+            format!("{header}\n{}\n{}\n", row("a", "1"), row("b", "20"))
+        );
+    }
+
+    #[test]
+    fn blocks_are_replaced_between_markers_and_missing_ones_appended() {
+        let doc = "# B\n\nprose\n<!-- bench:a -->\nold\n<!-- /bench:a -->\nmore prose\n";
+        let new = update_doc(doc, "a", "A", "new");
+        assert_eq!(
+            new,
+            "# B\n\nprose\n<!-- bench:a -->\nnew\n<!-- /bench:a -->\nmore prose\n"
+        );
+        let appended = update_doc(&new, "b/c", "Suite C", "body");
+        assert!(appended.starts_with(&new.trim_end().to_string()));
+        assert!(appended.ends_with("## Suite C\n\n<!-- bench:b/c -->\nbody\n<!-- /bench:b/c -->\n"));
+    }
 }

@@ -1,0 +1,99 @@
+//! Interactive suites: the time from a parameter change to the updated viewer picture, at full
+//! size and at proxy sizes (what the editor shows while a knob is dragged, `eval::proxy`).
+//!
+//! Each setting of the suite is a change (`node.param` keys, or `node.@data` for a data block
+//! as RON text) to the suite's graph. For each factor of `proxies` and each run, the unchanged
+//! graph is evaluated first (untimed: the cache then holds every node's result at that size),
+//! then the changed one, timed from the request to the viewed port (`node`.`output`) read back
+//! to the CPU — the editor's worker does the same before the window can show it. Only the
+//! nodes the change touches run again; which ran is counted in the row (`x first` column:
+//! the time over the full-size row's).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::eval::proxy::{proxy_graph, proxy_size};
+use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
+use crate::gpu::Gpu;
+use crate::graph::Graph;
+
+use super::{apply, describe, BenchError, Row, Suite};
+
+/// One evaluation of `g` at `size` with the viewed port read back: the wall-clock time, ms.
+fn picture(
+    ev: &mut Evaluator,
+    gpu: &Gpu,
+    g: &Graph,
+    target: &Target,
+    size: (u32, u32),
+) -> Result<f64, BenchError> {
+    let opts = EvalOptions {
+        size,
+        ..Default::default()
+    };
+    let start = Instant::now();
+    let r = ev
+        .evaluate(g, std::slice::from_ref(target), &opts)
+        .map_err(Box::new)?;
+    let Target::Port(n, p) = target else {
+        return Err(BenchError::Input("the viewed output must be a port".into()));
+    };
+    let v = r
+        .outputs
+        .get(&(n.clone(), p.clone()))
+        .ok_or_else(|| BenchError::Input(format!("{n}.{p} produced nothing")))?;
+    download(gpu, v).map_err(|e| BenchError::Input(e.to_string()))?;
+    Ok(start.elapsed().as_secs_f64() * 1e3)
+}
+
+/// Run an interactive suite (see the module docs); `progress` gets a line per measurement.
+pub fn run(
+    registry: Arc<Registry>,
+    gpu: Arc<Gpu>,
+    base: &Graph,
+    suite: &Suite,
+    runs: usize,
+    size: (u32, u32),
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
+    let cat = registry.catalog().clone();
+    let target = Target::Port(suite.node.clone(), suite.output.clone());
+    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+    let mut rows: Vec<Row> = Vec::new();
+    for (i, change) in suite.configs.iter().enumerate() {
+        let mut changed = base.clone();
+        apply(&registry, &mut changed, &suite.node, change)?;
+        let mut full_ms = f64::NAN;
+        for &factor in &suite.proxies {
+            let f = factor.max(1);
+            let at = proxy_size(size, f);
+            progress(&format!(
+                "[{}/{}] {} at 1/{f} ({}x{})",
+                i + 1,
+                suite.configs.len(),
+                describe(change),
+                at.0,
+                at.1
+            ));
+            let (before, after) = (proxy_graph(base, &cat, f), proxy_graph(&changed, &cat, f));
+            let mut times = Vec::new();
+            for _ in 0..runs.max(1) {
+                picture(&mut ev, &gpu, &before, &target, at)?;
+                times.push(picture(&mut ev, &gpu, &after, &target, at)?);
+            }
+            times.sort_by(f64::total_cmp);
+            let median = times[times.len() / 2];
+            if f == 1 {
+                full_ms = median;
+            }
+            let mut params: BTreeMap<String, String> = change.clone();
+            params.insert("proxy".into(), format!("1/{f}"));
+            rows.push(Row {
+                growth: median / full_ms,
+                ..Row::timed(&params, median, times[0])
+            });
+        }
+    }
+    Ok(rows)
+}
