@@ -35,7 +35,7 @@ use std::sync::Arc;
 
 pub use polygon::{
     footprint_difference, polygon, polygon_pays, polygon_span, reference_lines, segments,
-    LineParams, DIRECTIONS,
+    LineParams, DIRECTIONS, POLYGON_FROM,
 };
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
@@ -191,7 +191,7 @@ pub fn capped(r: i32, w: u32, h: u32, circle: bool) -> i32 {
 }
 
 /// CPU reference of `method = Fast`: the polygon's line passes where [`polygon_pays`], else
-/// [`reference`].
+/// [`reference()`].
 pub fn reference_fast(map: &Raster, r: i32, circle: bool, max: bool) -> Raster {
     let r = capped(r, map.width, map.height, circle);
     if circle && polygon_pays(r) {
