@@ -494,3 +494,83 @@ fn image_layers_in_a_data_block_resolve_against_the_graph_folder() {
     );
     assert_eq!(tf.layers.len(), 3, "the solid layer is kept");
 }
+
+/// A chain of `n` Math nodes after a Constant (as `scripts/make_chain.py` writes).
+fn chain(n: usize) -> Graph {
+    let mut text =
+        String::from("(version: 3, nodes: {\"c\": (kind: \"Constant\", params: {\"value\": 0.5}),");
+    for i in 0..n {
+        text += &format!("\"m{i}\": (kind: \"Math\", params: {{\"op\": \"add\", \"b\": 0.25}}),");
+    }
+    text += "}, edges: [";
+    let mut prev = "c.value".to_string();
+    for i in 0..n {
+        text += &format!("(\"{prev}\", \"m{i}.a\"),");
+        prev = format!("m{i}.out");
+    }
+    text += "])";
+    load_str(
+        &text,
+        std::path::Path::new("chain.ron"),
+        tyndall::nodes::registry().catalog(),
+    )
+    .expect("chain")
+}
+
+#[test]
+fn pipelined_evaluation_gives_the_same_values() {
+    let gpu = require_gpu!();
+    let g = chain(40);
+    let target = [Target::Port("m39".into(), "out".into())];
+    let mut values = Vec::new();
+    for pipelined in [false, true] {
+        let opts = EvalOptions {
+            size: (8, 4),
+            pipelined,
+            ..Default::default()
+        };
+        let r = evaluator(gpu.clone())
+            .evaluate(&g, &target, &opts)
+            .expect("eval");
+        let v = tyndall::eval::download(&gpu, &r.outputs[&("m39".into(), "out".into())])
+            .expect("download");
+        values.push(v.data);
+    }
+    // 0.5 + 40 × 0.25, exactly representable: both ways.
+    assert!(
+        values[0].iter().all(|v| *v == 10.5),
+        "{:?}",
+        &values[0][..4]
+    );
+    assert_eq!(values[0], values[1]);
+}
+
+#[test]
+fn a_cancelled_evaluation_stops_between_nodes_and_keeps_what_ran() {
+    let gpu = require_gpu!();
+    let g = chain(10);
+    let target = [Target::Port("m9".into(), "out".into())];
+    let mut ev = evaluator(gpu);
+    // Stop before the sixth node: c, m0…m3 ran.
+    let asked = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let count = asked.clone();
+    let opts = EvalOptions {
+        size: (4, 4),
+        cancel: Some(tyndall::eval::CancelCheck(Arc::new(move || {
+            count.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= 5
+        }))),
+        ..Default::default()
+    };
+    match ev.evaluate(&g, &target, &opts) {
+        Err(tyndall::eval::EvalError::Cancelled { before }) => assert_eq!(before, "m4"),
+        other => panic!("expected a cancellation, got {other:?}"),
+    }
+    // The nodes that ran are reused by the next (uncancelled) evaluation.
+    let opts = EvalOptions {
+        size: (4, 4),
+        ..Default::default()
+    };
+    let r = ev.evaluate(&g, &target, &opts).expect("eval");
+    assert_eq!(r.stats.with_status(Status::Reused).len(), 5, "{}", r.stats);
+    assert_eq!(r.stats.with_status(Status::Ran).len(), 6, "{}", r.stats);
+}

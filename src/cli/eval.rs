@@ -67,6 +67,8 @@ pub(super) fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliEr
             output_suffix: v.suffix.clone(),
             frame: None,
             gpu_timings: a.common.stats,
+            // Without --stats nobody reads per-node times: let the GPU work overlap.
+            pipelined: !a.common.stats,
             inject: BTreeMap::new(),
             progress: Some(node_progress()),
             ..Default::default()

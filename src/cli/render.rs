@@ -186,6 +186,8 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
                         output_suffix: v.suffix.clone(),
                         frame: *f,
                         gpu_timings: a.common.stats,
+                        // Without --stats nobody reads per-node times: let the GPU work overlap.
+                        pipelined: !a.common.stats,
                         inject: BTreeMap::new(),
                         progress: Some(node_progress()),
                         ..Default::default()

@@ -112,6 +112,12 @@ pub struct EvalOptions {
     /// Measure each node's GPU time with timestamp queries (when the adapter has them); this
     /// waits for every pass, so it is meant for statistics and benchmarks.
     pub gpu_timings: bool,
+    /// Let each node's GPU work run while the next nodes are recorded, instead of waiting for
+    /// it after every node: what a long chain of small nodes needs (the wait per submission
+    /// dominates there). A node's time is then the time to record and submit its passes, and
+    /// an error the GPU raises while executing shows at the next read-back. Off by default
+    /// (the editor and `--stats` show each node's real cost); ignored with `gpu_timings`.
+    pub pipelined: bool,
     /// Values injected on unconnected input ports, by (node, port) — how `tyndall node` feeds
     /// files to a node. Each carries its own cache key.
     pub inject: BTreeMap<(String, String), (PortValue, u64)>,
@@ -131,6 +137,7 @@ impl Default for EvalOptions {
             output_suffix: String::new(),
             frame: None,
             gpu_timings: false,
+            pipelined: false,
             inject: BTreeMap::new(),
             progress: None,
             cancel: None,
@@ -423,17 +430,20 @@ impl Evaluator {
         }
         self.gpu.set_timing(opts.gpu_timings);
         let start = Instant::now();
-        let submitted = self.gpu.submit_count();
+        let submitted = self.gpu.thread_submit_count();
         // The node's passes go into one command encoder, submitted once (see gpu/batch.rs).
         self.gpu.begin_batch();
         let ran = k.run(ctx);
         let ended = self.gpu.end_batch();
+        let wait = opts.gpu_timings || !opts.pipelined;
         let ran = ran.and(ended.map_err(NodeError::from)).and_then(|()| {
-            self.gpu.wait()?;
+            if wait {
+                self.gpu.wait()?;
+            }
             self.gpu.take_errors()?;
             Ok(())
         });
-        let submits = self.gpu.submit_count() - submitted;
+        let submits = self.gpu.thread_submit_count() - submitted;
         let elapsed = start.elapsed();
         let gpu_time = self.gpu.take_gpu_time();
         self.gpu.set_timing(false);

@@ -17,6 +17,8 @@ use std::sync::atomic::Ordering;
 use super::{tracing, Gpu, GpuError};
 
 thread_local! {
+    /// Submissions made by this thread ([`Gpu::thread_submit_count`]).
+    static THREAD_SUBMITS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
     /// `Some` while batching on this thread: the encoder commands are recorded into (created on
     /// first use).
     static BATCH: RefCell<Option<Option<wgpu::CommandEncoder>>> = const { RefCell::new(None) };
@@ -128,10 +130,17 @@ impl Gpu {
         out
     }
 
-    /// Submit one command buffer, counted.
+    /// Submit one command buffer, counted (for the context and for this thread).
     pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) {
         self.submits.fetch_add(1, Ordering::Relaxed);
+        THREAD_SUBMITS.with(|n| n.set(n.get() + 1));
         self.queue.submit([commands]);
+    }
+
+    /// Command buffers this thread has submitted (to any context) so far: what one node run
+    /// submitted is the difference across it, whatever other threads submit meanwhile.
+    pub fn thread_submit_count(&self) -> u64 {
+        THREAD_SUBMITS.with(std::cell::Cell::get)
     }
 
     /// Command buffers submitted by this context so far (all threads): the evaluator reports
