@@ -128,7 +128,7 @@ static CLOSURE: NodeDecl = decl(
 );
 
 crate::uniforms! {
-    /// Uniforms of `shaders/morphology2d.wgsl` (struct `Params`).
+    /// Uniforms of `shaders/morphology2d/chords.wgsl` (struct `Params`).
     pub struct MorphParams as "Params" {
         /// Radius in texels.
         pub r: i32,
