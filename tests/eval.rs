@@ -574,3 +574,52 @@ fn a_cancelled_evaluation_stops_between_nodes_and_keeps_what_ran() {
     assert_eq!(r.stats.with_status(Status::Reused).len(), 5, "{}", r.stats);
     assert_eq!(r.stats.with_status(Status::Ran).len(), 6, "{}", r.stats);
 }
+
+#[test]
+fn proxy_copies_divide_screen_pixel_knobs_and_nothing_else() {
+    use tyndall::eval::proxy::{proxy_graph, proxy_size};
+    let reg = tyndall::nodes::registry();
+    let cat = reg.catalog();
+    let mut g = Graph::new();
+    let bf = g.add_node(cat, "BilateralFilter").expect("node");
+    let gb = g.add_node(cat, "GBuffer").expect("node");
+    let rb = g.add_node(cat, "RadialBlur").expect("node");
+    g.set_param(cat, &gb, "width", ParamValue::Int(3))
+        .expect("w");
+    let keys = vec![
+        Key {
+            t: 0.0,
+            v: 8.0,
+            interp: Interp::Linear,
+        },
+        Key {
+            t: 10.0,
+            v: 16.0,
+            interp: Interp::Linear,
+        },
+    ];
+    g.set_keys(cat, &bf, "sigma_spatial", keys).expect("keys");
+    let p = proxy_graph(&g, cat, 4);
+    let at = |g: &Graph, id: &str, name: &str, t: f64| g.param_at(cat, id, name, t).expect(name);
+    // Key-frames scale with the value: 8 → 2 at t 0, 12 → 3 at t 5.
+    assert_eq!(at(&p, &bf, "sigma_spatial", 0.0), ParamValue::Float(2.0));
+    assert_eq!(at(&p, &bf, "sigma_spatial", 5.0), ParamValue::Float(3.0));
+    // An integer size stays at least 1; 0 ("the evaluation size") stays 0.
+    assert_eq!(at(&p, &gb, "width", 0.0), ParamValue::Int(1));
+    assert_eq!(at(&p, &gb, "height", 0.0), ParamValue::Int(0));
+    // A default in pixels is divided too (the light position 480, 100 → 120, 25).
+    assert_eq!(at(&p, &rb, "light_x", 0.0), ParamValue::Float(120.0));
+    assert_eq!(at(&p, &rb, "light_y", 0.0), ParamValue::Float(25.0));
+    // Other units are left alone (the filter's range σ and taps, the blur's sample count).
+    for (id, name) in [(&bf, "sigma_range"), (&bf, "radius"), (&rb, "samples")] {
+        assert_eq!(at(&p, id, name, 0.0), at(&g, id, name, 0.0), "{name}");
+    }
+    // Factor 1 is the document itself; sizes never reach 0.
+    assert_eq!(save_string_of(&proxy_graph(&g, cat, 1)), save_string_of(&g));
+    assert_eq!(proxy_size((960, 540), 4), (240, 135));
+    assert_eq!(proxy_size((3, 2), 8), (1, 1));
+}
+
+fn save_string_of(g: &Graph) -> String {
+    tyndall::graph::save_string(g)
+}
