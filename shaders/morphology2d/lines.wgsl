@@ -59,8 +59,8 @@ fn clip(range: vec2<i32>, alpha: i32, beta: i32, hi: i32) -> vec2<i32> {
     }
     // alpha > 0: −beta ≤ alpha·t ≤ hi − beta; alpha < 0: beta − hi ≤ |alpha|·t ≤ beta.
     let d = abs(alpha);
-    var lo = select(beta - hi, -beta, alpha > 0);
-    var up = select(beta, hi - beta, alpha > 0);
+    let lo = select(beta - hi, -beta, alpha > 0);
+    let up = select(beta, hi - beta, alpha > 0);
     return vec2<i32>(max(range.x, -fdiv(-lo, d)), min(range.y, fdiv(up, d)));
 }
 
