@@ -283,7 +283,12 @@ fn evaluate(
         Ok(f) => f,
         Err(e) => return failed(req, &e.to_string(), start),
     };
-    let graph = crate::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy);
+    // A full request evaluates the flattened document itself (no second copy).
+    let graph = if proxy > 1 {
+        crate::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy)
+    } else {
+        graph
+    };
     let mut nodes: BTreeMap<String, NodeReport> = graph
         .nodes()
         .map(|n| (n.id.clone(), NodeReport::default()))
