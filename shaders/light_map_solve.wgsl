@@ -22,7 +22,20 @@ struct View {
     sigma_t: f32,
     map_size: vec2<u32>,
     bias: f32,
+    row_offset: u32,
+}
+
+// The resident solve's vector passes (`combine`, `mask_frozen`, `reduce`, `decode`, `clear`).
+struct Vectors {
+    scale: vec4<f32>,
+    count: u32,
+    mode: u32,
+    slot: u32,
+    clamp_at_zero: u32,
+    alpha: f32,
     _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: View;
@@ -33,6 +46,12 @@ struct View {
 @group(0) @binding(5) var out_tx: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(6) var residual: texture_2d<f32>;
 @group(0) @binding(7) var<storage, read_write> acc: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read_write> vin: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> vout: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> pixels: array<u32>;
+@group(0) @binding(11) var<storage, read_write> vin2: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> partials: array<vec4<f32>>;
+@group(0) @binding(13) var<uniform> V: Vectors;
 
 fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
     return pixel_ray(P.inv_view_proj, P.eye, p, size);
@@ -166,5 +185,200 @@ fn adjoint(@builtin(global_invocation_id) id: vec3<u32>) {
         add(c.idx.y, r * (w * c.w.y));
         add(c.idx.z, r * (w * c.w.z));
         add(c.idx.w, r * (w * c.w.w));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The resident solve (nodes/light_map_solve/resident.rs): T and Tᵀ over the constraint pixels
+// listed in `pixels` (one invocation per row, rows stored at `row_offset` + j of the row
+// vectors), and the CG vector work on buffers of vec4 (rgb; a unused). Consecutive samples of a
+// ray in the same four texels are summed before they touch the map (the weights of the four
+// corners add up): the same sums, one fetch or atomic add per texel crossed instead of per sample.
+
+fn pixel_of(j: u32) -> vec2<u32> {
+    let w = textureDimensions(depth).x;
+    let k = pixels[j];
+    return vec2<u32>(k % w, k / w);
+}
+
+@compute @workgroup_size(64)
+fn forward_rows(@builtin(global_invocation_id) id: vec3<u32>) {
+    let j = id.x;
+    if j >= arrayLength(&pixels) {
+        return;
+    }
+    let px = pixel_of(j);
+    let dir = view_ray(px, textureDimensions(depth));
+    let s = textureLoad(depth, px, 0).r;
+    var sum = vec3<f32>(0.0);
+    var cur = vec4<i32>(-1);
+    var wc = vec4<f32>(0.0);
+    for (var i = 0u; i < P.steps; i++) {
+        let m = sample_at(dir, s, i);
+        if m.w <= 0.0 {
+            continue;
+        }
+        let c = corners(m.l.xy);
+        if any(c.idx != cur) {
+            if cur.x >= 0 {
+                sum += wc.x * vin[cur.x].rgb + wc.y * vin[cur.y].rgb + wc.z * vin[cur.z].rgb + wc.w * vin[cur.w].rgb;
+            }
+            cur = c.idx;
+            wc = vec4<f32>(0.0);
+        }
+        wc += m.w * c.w;
+    }
+    if cur.x >= 0 {
+        sum += wc.x * vin[cur.x].rgb + wc.y * vin[cur.y].rgb + wc.z * vin[cur.z].rgb + wc.w * vin[cur.w].rgb;
+    }
+    vout[P.row_offset + j] = vec4<f32>(sum, 0.0);
+}
+
+fn add_corners(idx: vec4<i32>, r: vec3<f32>, wc: vec4<f32>) {
+    add(idx.x, r * wc.x);
+    add(idx.y, r * wc.y);
+    add(idx.z, r * wc.z);
+    add(idx.w, r * wc.w);
+}
+
+@compute @workgroup_size(64)
+fn adjoint_rows(@builtin(global_invocation_id) id: vec3<u32>) {
+    let j = id.x;
+    if j >= arrayLength(&pixels) {
+        return;
+    }
+    let r = vin[P.row_offset + j].rgb;
+    if all(r == vec3<f32>(0.0)) {
+        return;
+    }
+    let px = pixel_of(j);
+    let dir = view_ray(px, textureDimensions(depth));
+    let s = textureLoad(depth, px, 0).r;
+    var cur = vec4<i32>(-1);
+    var wc = vec4<f32>(0.0);
+    for (var i = 0u; i < P.steps; i++) {
+        let m = sample_at(dir, s, i);
+        if m.w <= 0.0 {
+            continue;
+        }
+        let c = corners(m.l.xy);
+        if any(c.idx != cur) {
+            if cur.x >= 0 {
+                add_corners(cur, r, wc);
+            }
+            cur = c.idx;
+            wc = vec4<f32>(0.0);
+        }
+        wc += m.w * c.w;
+    }
+    if cur.x >= 0 {
+        add_corners(cur, r, wc);
+    }
+}
+
+// vout = u + alpha v (vin, vin2), clamped at 0 when `clamp_at_zero`.
+@compute @workgroup_size(64)
+fn combine(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= V.count {
+        return;
+    }
+    var o = vin[id.x] + V.alpha * vin2[id.x];
+    if V.clamp_at_zero != 0u {
+        o = max(o, vec4<f32>(0.0));
+    }
+    vout[id.x] = o;
+}
+
+// Frozen texels do not move: p (vout) is 0 where x (vin) ≤ 0 and s (vin2) = 0.
+@compute @workgroup_size(64)
+fn mask_frozen(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= V.count {
+        return;
+    }
+    let frozen = vin[id.x] <= vec4<f32>(0.0) & vin2[id.x] == vec4<f32>(0.0);
+    vout[id.x] = select(vout[id.x], vec4<f32>(0.0), frozen);
+}
+
+// One of 64 partial results per reduction, written at partials[slot * 64 + workgroup]
+// (the caller adds the 64 in f64). mode 0: Σ u·v per channel; 1: Σ |u|; 2: min u;
+// 3: min over v < 0 of −u / v (the longest step along v that keeps u ≥ 0; 3.4e38 if none);
+// 4: Σ u² (v unused: a buffer may not be bound twice as writable storage).
+const REDUCE_THREADS: u32 = 16384u;
+var<workgroup> part: array<vec4<f32>, 256>;
+
+@compute @workgroup_size(256)
+fn reduce(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wg: vec3<u32>) {
+    let big = vec4<f32>(3.4e38);
+    let minimum = V.mode == 2u || V.mode == 3u;
+    var acc4 = select(vec4<f32>(0.0), big, vec4<bool>(minimum));
+    for (var i = id.x; i < V.count; i += REDUCE_THREADS) {
+        let u = vin[i];
+        let v = vin2[i];
+        switch V.mode {
+            case 0u: { acc4 += u * v; }
+            case 1u: { acc4 += abs(u); }
+            case 2u: { acc4 = min(acc4, u); }
+            case 4u: { acc4 += u * u; }
+            case 3u: {
+                let lim = select(big, max(-u / v, vec4<f32>(0.0)), v < vec4<f32>(0.0));
+                acc4 = min(acc4, lim);
+            }
+            default: {}
+        }
+    }
+    part[li] = acc4;
+    workgroupBarrier();
+    for (var h = 128u; h > 0u; h = h / 2u) {
+        if li < h {
+            if minimum {
+                part[li] = min(part[li], part[li + h]);
+            } else {
+                part[li] = part[li] + part[li + h];
+            }
+        }
+        workgroupBarrier();
+    }
+    if li == 0u {
+        partials[V.slot * 64u + wg.x] = part[0];
+    }
+}
+
+// The 64-bit fixed-point sums of `adjoint_rows` (count texels) as floats, divided by the
+// channels' scale, into vout; with `clamp_at_zero`, texels frozen at 0 (x = vin ≤ 0) whose
+// gradient points below 0 get 0.
+@compute @workgroup_size(64)
+fn decode(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = V.count;
+    if id.x >= n {
+        return;
+    }
+    var o = vec4<f32>(0.0);
+    for (var c = 0u; c < 3u; c++) {
+        let w = c * n + id.x;
+        let lo = atomicLoad(&acc[2u * w]);
+        let hi = atomicLoad(&acc[2u * w + 1u]);
+        // Two's complement: negative values are −(~v + 1).
+        var mag = f32(hi) * 4294967296.0 + f32(lo);
+        if (hi & 0x80000000u) != 0u {
+            let nlo = ~lo + 1u;
+            let nhi = ~hi + select(0u, 1u, nlo == 0u);
+            mag = -(f32(nhi) * 4294967296.0 + f32(nlo));
+        }
+        if V.scale[c] > 0.0 {
+            o[c] = mag / V.scale[c];
+        }
+    }
+    if V.clamp_at_zero != 0u {
+        let frozen = vin[id.x] <= vec4<f32>(0.0) & o < vec4<f32>(0.0);
+        o = select(o, vec4<f32>(0.0), frozen);
+    }
+    vout[id.x] = vec4<f32>(o.rgb, 0.0);
+}
+
+// acc = 0 (count words).
+@compute @workgroup_size(64)
+fn clear(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x < V.count {
+        atomicStore(&acc[id.x], 0u);
     }
 }

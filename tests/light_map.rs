@@ -380,3 +380,31 @@ fn node_solves_strokes_in_a_graph() {
         .expect("inscatter");
     assert!(ins.data.iter().all(|v| v.is_finite()));
 }
+
+/// The resident solve (vectors on the GPU) reaches the CPU solve's residual on the same problem,
+/// and matches the path that did the vector work on the CPU (`solve_gpu_operator`).
+#[test]
+fn resident_solve_reaches_the_cpu_residual() {
+    let gpu = require_gpu!();
+    let n = 24;
+    let views = views_from_render(&gpu, &known_map(n));
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let set = settings(40);
+    let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
+    let res = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
+    let op = lms::solve_gpu_operator(&gpu, views, &sh, light(), n, SAMPLING, set).expect("op");
+    let last = |s: &lms::Solution| s.residuals[s.residuals.len() - 1];
+    let (c, r, o) = (last(&cpu), last(&res), last(&op));
+    assert!(
+        c < 0.5 * cpu.residuals[0],
+        "the CPU solve did not converge: {c}"
+    );
+    // 1 %: the passes sum in f32 in another order than the CPU's f64, and 40 iterations on an
+    // underdetermined 24² map amplify that (see gpu_and_cpu_solves_agree); the goal is the
+    // residual reached, not the same iterates.
+    assert!(r <= 1.01 * c, "resident residual {r} vs CPU {c}");
+    assert!(
+        (r - o).abs() <= 0.01 * o,
+        "resident residual {r} vs operator path {o}"
+    );
+}

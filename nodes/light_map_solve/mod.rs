@@ -13,7 +13,8 @@
 //! the four texels around each sample (pass `adjoint`) — in 64-bit fixed point built from pairs
 //! of u32 atomics (WGSL has no float atomics; one i32 word loses ~1e-4 per contribution and CG's
 //! conjugacy with it), the scale per channel chosen so that no sum can overflow (see the shader).
-//! The vector updates and the dot products run on the CPU between the passes.
+//! The vectors stay on the GPU (`resident.rs`): updates, dot products and the non-negativity
+//! projection are passes, and inside the loop only the scalars CG needs come back.
 //!
 //! It starts from the constant map `start`; texels no constraint ray reaches get no gradient
 //! and keep the start value. The residual ‖T x − b‖ is reported per iteration (`RunCtx::report`:
@@ -79,10 +80,12 @@ use crate::scene::{Camera, GpuScene};
 
 mod data;
 mod operators;
+mod resident;
 
 pub use crate::nodes::algorithms::cgls::{solve, Operator, Settings, Solution};
 pub use data::*;
 pub use operators::*;
+pub use resident::*;
 
 /// The `LightMapSolve` node kind.
 pub struct LightMapSolve;
@@ -119,7 +122,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 }).tools(&[crate::eval::EditorTool::StrokePainting])
 
 .shaders(&[SHADER])
-.uniforms(&[ViewParams::LAYOUT]);
+.uniforms(&[ViewParams::LAYOUT, VectorParams::LAYOUT]);
 
 const SHADER: Shader = Shader::new(
     "light_map_solve",
@@ -206,20 +209,28 @@ impl NodeKind for LightMapSolve {
         }
         let views = view_problems(ctx.gpu, scene, &data)?;
         let want = desired(&views);
-        let mut op = GpuOperator::new(ctx.gpu, views, &shadow, light, n, sampling)?;
         let pixels = want.len();
         ctx.report(
             0,
             set.iterations as u64,
             format!("{pixels} constraint pixels, {n}² map"),
         );
-        let sol = solve(&mut op, &want, set, &mut |it, res| {
-            ctx.report(
-                it as u64,
-                set.iterations as u64,
-                format!("residual {res:.3e}"),
-            );
-        })?;
+        let sol = solve_resident(
+            ctx.gpu,
+            views,
+            &shadow,
+            light,
+            n,
+            sampling,
+            set,
+            &mut |it, res| {
+                ctx.report(
+                    it as u64,
+                    set.iterations as u64,
+                    format!("residual {res:.3e}"),
+                );
+            },
+        )?;
         ctx.report(
             set.iterations as u64,
             set.iterations as u64,
@@ -253,8 +264,23 @@ pub fn solve_reference(
     solve(&mut op, &desired(views), set, &mut |_, _| {})
 }
 
-/// The GPU solve for given views (tests and the bench): the node's path without the graph.
+/// The GPU solve for given views (tests and the bench): the node's path without the graph
+/// (the resident solve).
 pub fn solve_gpu(
+    gpu: &Gpu,
+    views: Vec<ViewProblem>,
+    shadow: &GpuTexture,
+    light: Matrices,
+    n: u32,
+    sampling: Sampling,
+    set: Settings,
+) -> Result<Solution, NodeError> {
+    solve_resident(gpu, views, shadow, light, n, sampling, set, &mut |_, _| {})
+}
+
+/// The solve with the GPU operator and the CPU-side CG (tests: the path before the resident
+/// solve, which read the views and the sums back every pass).
+pub fn solve_gpu_operator(
     gpu: &Gpu,
     views: Vec<ViewProblem>,
     shadow: &GpuTexture,

@@ -199,8 +199,9 @@ crate::uniforms! {
         pub map_size: [u32; 2],
         /// Shadow bias.
         pub bias: f32,
-        /// Padding.
-        pub _pad0: u32,
+        /// The view's first row in the resident solve's row vectors (`forward_rows`,
+        /// `adjoint_rows`; unused by `forward` and `adjoint`).
+        pub row_offset: u32,
     }
 }
 
@@ -269,7 +270,7 @@ impl<'a> GpuOperator<'a> {
             sigma_t: self.sampling.sigma_t,
             map_size: [self.n, self.n],
             bias: self.sampling.bias,
-            _pad0: 0,
+            row_offset: 0,
         }
     }
 

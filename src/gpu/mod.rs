@@ -485,6 +485,25 @@ impl Gpu {
         Ok(GpuBuffer { raw, words })
     }
 
+    /// A storage buffer holding `data` (32-bit words: u32, or f32 as bits), written through the
+    /// queue after what this thread has recorded so far is submitted (so earlier passes that
+    /// read a buffer being reused see its old contents).
+    pub fn buffer_from(&self, data: &[u32]) -> Result<GpuBuffer, GpuError> {
+        let words = u32::try_from(data.len()).map_err(|_| {
+            GpuError::Validation(format!(
+                "a storage buffer of {} words is too large",
+                data.len()
+            ))
+        })?;
+        let b = self.buffer_zeroed(words)?;
+        if !data.is_empty() {
+            self.flush()?;
+            self.queue
+                .write_buffer(&b.raw, 0, bytemuck::cast_slice(data));
+        }
+        Ok(b)
+    }
+
     /// Copy a `width × height` block from `src` at `(x, y)` to the same place in `dst` (same
     /// format).
     pub fn copy_region(
