@@ -205,6 +205,18 @@ crate::uniforms! {
     }
 }
 
+/// The adjoint's fixed-point scale per channel from Σ|r| per channel: 2^61 / Σ|r|, capped so
+/// that it stays a finite f32 for tiny residuals (0 for a channel with no residual).
+pub fn fixed_point_scale(mass: [f64; 3]) -> [f32; 3] {
+    mass.map(|m| {
+        if m > 0.0 {
+            (2f64.powi(61) / m).min(1e37) as f32
+        } else {
+            0.0
+        }
+    })
+}
+
 /// One view's textures on the GPU.
 pub(super) struct GpuView {
     problem: ViewProblem,
@@ -328,14 +340,7 @@ impl Operator for GpuOperator<'_> {
                 mass[c] += v[c].abs() as f64;
             }
         }
-        // 2^61 / Σ|r|, capped so that it stays a finite f32 for tiny residuals.
-        let scale = mass.map(|m| {
-            if m > 0.0 {
-                (2f64.powi(61) / m).min(1e37) as f32
-            } else {
-                0.0
-            }
-        });
+        let scale = fixed_point_scale(mass);
         let texels = self.texels();
         let acc = self.gpu.buffer_zeroed(6 * texels as u32)?;
         let mut offset = 0;

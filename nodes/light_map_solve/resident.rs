@@ -134,13 +134,7 @@ impl Resident<'_> {
         freeze: bool,
         out: &GpuBuffer,
     ) -> Result<(), GpuError> {
-        let scale = mass.map(|m| {
-            if m > 0.0 {
-                (2f64.powi(61) / m).min(1e37) as f32
-            } else {
-                0.0
-            }
-        });
+        let scale = fixed_point_scale(mass);
         self.vector_pass(
             "clear",
             &[(7, Bind::Buffer(&self.acc))],
