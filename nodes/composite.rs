@@ -43,7 +43,7 @@ crate::params! {
         ambient: [f32; 4] = ParamSpec::colour("ambient", [0.04, 0.05, 0.07, 1.0], 0.0, 1e6, "linear RGB", "Ambient light on surfaces."),
         sky: [f32; 4] = ParamSpec::colour("sky", [0.2, 0.27, 0.38, 1.0], 0.0, 1e6, "linear RGB", "Radiance of sky pixels."),
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Surface shadow bias in light-space depth."),
-        pcf: i64 = ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter."),
+        pcf: i64 = ParamSpec::int("pcf", 1, 0, 4, "texels", "Radius of the surface shadow filter.").light_texels(),
     }
 }
 

@@ -18,6 +18,7 @@
 //! | `channel` | Enum | luminance | luminance, r, g, b, a: Scalar of an RGBA file |
 //! | `srgb` | Bool | true | decode PNG colour from sRGB |
 //! | `layer` | Text | "" | layer of a multi-layer EXR: `ViewLayer.Combined` (its R, G, B, A), `ViewLayer.Depth` (its one channel) or a full channel name `ViewLayer.Depth.Z`; empty: the main image |
+//! | `reduce` | Int | 1 | 1…64: read at ⌈w/r⌉ × ⌈h/r⌉ (point sampling, `Downsample`'s rule); a proxy evaluation multiplies it by its factor, so a plate stays the size of the proxied pictures |
 //!
 //! Multi-layer EXR (Blender/Cycles, Nuke, Tyndall's `AovOutput`): `layer` picks one layer, so
 //! one file gives the beauty (`ViewLayer.Combined`) on one `ImageInput` and its depth
@@ -61,6 +62,7 @@ crate::params! {
         channel: Channel = ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
         srgb: bool = ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
         layer: String = ParamSpec::text("layer", "", "Layer of a multi-layer EXR: `ViewLayer.Combined` (R, G, B, A), `ViewLayer.Depth` (one channel) or a full channel name; empty: the main image."),
+        reduce: i64 = ParamSpec::int("reduce", 1, 1, 64, "×", "Read the file at 1/reduce per axis (point sampling, as Downsample: ⌈w/r⌉ × ⌈h/r⌉); a proxy evaluation multiplies it.").proxy_reduction(),
     }
 }
 
@@ -199,6 +201,11 @@ impl NodeKind for ImageInput {
             crate::io::read_exr_layer(Path::new(path), prm.layer.trim())?
         };
         let camera = header.and_then(|h| header_camera(&h, &file));
+        let file = if prm.reduce > 1 {
+            super::downsample::reference(&file, prm.reduce as u32)
+        } else {
+            file
+        };
         let channel = prm.channel;
         let src = ctx
             .gpu

@@ -30,7 +30,7 @@ pub struct ShadowMapNode;
 crate::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
-        resolution: i64 = ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map."),
+        resolution: i64 = ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map.").light_texels(),
         include: String = ParamSpec::text("include", "", "Comma-separated tags: draw only objects with one of them (empty: all)."),
         exclude: String = ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
     }

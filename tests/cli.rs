@@ -289,7 +289,11 @@ fn every_graph_in_graphs_validates_and_renders() {
             } else {
                 ("--output-dir", sub.display().to_string())
             };
-            let o = tyndall(&["render", &graph, flag, &target, "--size", "32x16"]);
+            // A 32×16 proxy at ¼ (light-space sizes divided too): whether every preset renders,
+            // not how it looks (tests/backends.rs and the snapshots look).
+            let o = tyndall(&[
+                "render", &graph, flag, &target, "--size", "128x64", "--proxy", "4",
+            ]);
             let err = String::from_utf8_lossy(&o.stderr);
             // A node this adapter cannot run (volume writers on wgpu's GL backend): a clean
             // exit 1 naming it instead of a picture.
@@ -1191,4 +1195,49 @@ fn setting_a_parameter_that_is_not_in_effect_warns() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(!err.contains("changes nothing"), "{err}");
+}
+
+/// `--proxy F`: the picture at 1/F of the size with the light-space sizes divided too (the
+/// scattering of a 512² map instead of 2048²: a different picture than the full render at the
+/// small size, which keeps the 2048² map); 0 and 65 are refused with exit 2.
+#[test]
+fn render_proxy_divides_the_size_and_the_light_space() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/physical/window.ron");
+    for bad in ["0", "65"] {
+        let o = tyndall(&["render", graph, "-o", "/dev/null", "--proxy", bad]);
+        assert_eq!(o.status.code(), Some(2), "--proxy {bad}");
+    }
+    if !gpu_available() {
+        return;
+    }
+    let proxy = dir.path().join("p.exr");
+    let small = dir.path().join("s.exr");
+    let run = |args: &[&str]| {
+        let o = tyndall(args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[
+        "render",
+        graph,
+        "-o",
+        proxy.to_str().expect("path"),
+        "--size",
+        "128x72",
+        "--proxy",
+        "4",
+    ]);
+    run(&[
+        "render",
+        graph,
+        "-o",
+        small.to_str().expect("path"),
+        "--size",
+        "32x18",
+    ]);
+    let p = tyndall::io::read_image(&proxy, false).expect("proxy");
+    let s = tyndall::io::read_image(&small, false).expect("small");
+    assert_eq!((p.width, p.height), (32, 18));
+    assert_eq!((s.width, s.height), (32, 18));
+    assert_ne!(p.data, s.data, "the proxy's shadow map is not the full one");
 }

@@ -620,6 +620,38 @@ fn proxy_copies_divide_screen_pixel_knobs_and_nothing_else() {
     assert_eq!(proxy_size((3, 2), 8), (1, 1));
 }
 
+#[test]
+fn proxy_copies_divide_light_space_sizes_and_reduce_input_files() {
+    use tyndall::eval::proxy::proxy_graph;
+    let reg = tyndall::nodes::registry();
+    let cat = reg.catalog();
+    let mut g = Graph::new();
+    let sm = g.add_node(cat, "ShadowMap").expect("node");
+    let close = g.add_node(cat, "Closure2D").expect("node");
+    let metres = g.add_node(cat, "Closure2D").expect("node");
+    let tf = g.add_node(cat, "TransferFunction").expect("node");
+    let solve = g.add_node(cat, "LightMapSolve").expect("node");
+    let plate = g.add_node(cat, "ImageInput").expect("node");
+    g.set_param(cat, &close, "radius", ParamValue::Float(12.0))
+        .expect("r");
+    g.set_param(cat, &metres, "radius", ParamValue::Float(12.0))
+        .expect("r");
+    g.set_param(cat, &metres, "unit", ParamValue::Enum("metres".into()))
+        .expect("unit");
+    let p = proxy_graph(&g, cat, 4);
+    let at = |g: &Graph, id: &str, name: &str| g.param_at(cat, id, name, 0.0).expect(name);
+    // The map (default 2048) and a radius in its texels follow the factor.
+    assert_eq!(at(&p, &sm, "resolution"), ParamValue::Int(512));
+    assert_eq!(at(&p, &close, "radius"), ParamValue::Float(3.0));
+    // A file is read at ¼ (so a plate stays the size of the proxied pictures).
+    assert_eq!(at(&p, &plate, "reduce"), ParamValue::Int(4));
+    // A radius in metres, a table's size and a light map's (the solve's unknowns) do not.
+    assert_eq!(at(&p, &metres, "radius"), ParamValue::Float(12.0));
+    for (id, name) in [(&tf, "resolution"), (&solve, "resolution")] {
+        assert_eq!(at(&p, id, name), at(&g, id, name), "{name}");
+    }
+}
+
 fn save_string_of(g: &Graph) -> String {
     tyndall::graph::save_string(g)
 }

@@ -77,7 +77,7 @@ crate::params! {
     /// The family's parameters, read once per run.
     pub struct Params {
         shape: Shape = ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
-        radius: f64 = ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity."),
+        radius: f64 = ParamSpec::float("radius", 4.0, 0.0, 4096.0, "texels or m", "Kernel radius r (kernel size 2r + 1), rounded to whole texels; 0 is the identity.").light_texels_when("unit", &["texels"]),
         unit: Unit = ParamSpec::choice("unit", Unit::NAMES, "texels", "texels, or metres (converted with the shadow map's light matrices)."),
         method: Method = ParamSpec::choice("method", Method::NAMES, "Fast", "Fast (square: van Herk / Gil–Werman; circle of r ≥ 8: a 16-gon of line passes, cost flat in r), Exact (circle: the exact disk, chords, linear in r) or BruteForce (whole footprint)."),
     }

@@ -92,7 +92,7 @@ crate::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         slices: i64 = ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
-        resolution: i64 = ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer."),
+        resolution: i64 = ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer.").light_texels(),
         kernel: Kernel = ParamSpec::choice("kernel", Kernel::NAMES, "TopHat", "Convolution kernel; all share the mean and variance of seed 004 eq. 7."),
         sun_radius: f64 = ParamSpec::float("sun_radius", 1.0, 0.0, 10.0, "°", "Angular radius of the sun (the real sun: 0.27°)."),
         d1: f64 = ParamSpec::float("d1", 4.0, 0.01, 1e4, "m", "Distance behind an occluder where the penumbra is exact (seed 004's optimal distance)."),

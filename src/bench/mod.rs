@@ -21,6 +21,7 @@
 //! BENCHMARKS.md between their markers ([`report::update_doc`]).
 
 pub mod chain;
+pub mod documents;
 pub mod interactive;
 mod metrics;
 use metrics::errors;
@@ -189,6 +190,9 @@ pub fn run(
         .parent()
         .unwrap_or(Path::new("."))
         .join(&suite.graph);
+    if suite.documents {
+        return documents::run(registry, gpu, suite, runs, size, progress);
+    }
     let base =
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
     if !suite.proxies.is_empty() {
@@ -365,19 +369,7 @@ pub fn run(
             _ => f64::NAN,
         };
         let median = times[times.len() / 2];
-        let group_of = |p: &BTreeMap<String, String>| -> BTreeMap<String, String> {
-            p.iter()
-                .filter(|(k, _)| !suite.kernel.contains(k))
-                .map(|(k, v)| (k.clone(), v.clone()))
-                .collect()
-        };
-        let growth = if suite.kernel.is_empty() {
-            f64::NAN
-        } else {
-            rows.iter()
-                .find(|r| group_of(&r.params) == group_of(setting))
-                .map_or(1.0, |first| median / first.median_ms.max(1e-9))
-        };
+        let growth = kernel_growth(suite, &rows, setting, median);
         let kind = g.node(&node).map(|n| n.kind.clone()).unwrap_or_default();
         rows.push(Row {
             rmse,
@@ -394,6 +386,29 @@ pub fn run(
         });
     }
     Ok(rows)
+}
+
+/// A row's time over that of the first row measured before it with equal settings but the
+/// suite's `kernel` parameters (and the run count) (1 for that first row; NaN when the suite has no `kernel`).
+pub(crate) fn kernel_growth(
+    suite: &Suite,
+    before: &[Row],
+    setting: &BTreeMap<String, String>,
+    median: f64,
+) -> f64 {
+    let group_of = |p: &BTreeMap<String, String>| -> BTreeMap<String, String> {
+        p.iter()
+            .filter(|(k, _)| !suite.kernel.contains(k) && k.as_str() != "runs")
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect()
+    };
+    if suite.kernel.is_empty() {
+        return f64::NAN;
+    }
+    before
+        .iter()
+        .find(|r| group_of(&r.params) == group_of(setting))
+        .map_or(1.0, |first| median / first.median_ms.max(1e-9))
 }
 
 /// One setting of a suite: `key = value` pairs.

@@ -11,7 +11,8 @@ use serde::Deserialize;
 pub struct Suite {
     /// One line saying what is measured.
     pub title: String,
-    /// The graph, relative to the suite file.
+    /// The graph, relative to the suite file (unused by documents suites, which generate theirs).
+    #[serde(default)]
     pub graph: String,
     /// Node measured (a setting's `node` key overrides it; unused by chain suites).
     #[serde(default)]
@@ -76,6 +77,10 @@ pub struct Suite {
     /// A whole-graph suite: the settings are steps (see [`super::chain`]).
     #[serde(default)]
     pub chain: bool,
+    /// A document-size suite: each setting is a generated chain's `nodes` and a `phase` (see
+    /// [`super::documents`]).
+    #[serde(default)]
+    pub documents: bool,
     /// Indices of settings too slow for the default run (it must stay under 15 minutes on two
     /// CPU cores for every suite together): they run only with `--full`.
     #[serde(default)]

@@ -59,11 +59,11 @@ pub(super) fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliEr
             )));
         }
     }
-    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
+    let vars = variants(&registry, &g, &a.common)?;
     for v in &vars {
         let opts = EvalOptions {
             time: a.time,
-            size: a.common.size.unwrap_or((512, 512)),
+            size: a.common.size_or((512, 512)),
             output_suffix: v.suffix.clone(),
             frame: None,
             gpu_timings: a.common.stats,

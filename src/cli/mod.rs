@@ -131,6 +131,32 @@ pub struct Common {
     /// you give on the command line (-o, --output, --set) are yours and always allowed.
     #[arg(long)]
     pub allow_any_path: bool,
+    /// Preview at 1/F: the image size and every size in screen pixels or light-space texels
+    /// (shadow-map resolution, closure radius, soft-visibility buffer…) divided by F, as the
+    /// editor shows a dragged knob (1…64; 1, the default, is the full render).
+    #[arg(long, value_name = "F", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub proxy: u32,
+}
+
+impl Common {
+    /// The evaluation size: `--size`, else `default`, divided by `--proxy`.
+    pub fn size_or(&self, default: (u32, u32)) -> (u32, u32) {
+        crate::eval::proxy::proxy_size(self.size.unwrap_or(default), self.proxy)
+    }
+
+    /// `g` as evaluated under `--proxy` (flattened, its sizes divided; unchanged at 1).
+    fn proxied(&self, registry: &Registry, g: Graph) -> Result<Graph, CliError> {
+        if self.proxy <= 1 {
+            return Ok(g);
+        }
+        let flat = g.flatten(registry.catalog()).map_err(bad)?;
+        Ok(crate::eval::proxy::proxy_graph(
+            &flat,
+            registry.catalog(),
+            self.proxy,
+        ))
+    }
 }
 
 /// A CLI failure with its exit code.
@@ -465,14 +491,16 @@ pub(super) struct Variant {
     label: String,
 }
 
+/// The evaluations a command makes of `g`: one per `--wedge` value (one without it), each
+/// under `--proxy`.
 pub(super) fn variants(
     registry: &Registry,
     g: &Graph,
-    wedge: Option<&str>,
+    common: &Common,
 ) -> Result<Vec<Variant>, CliError> {
-    let Some(w) = wedge else {
+    let Some(w) = common.wedge.as_deref() else {
         return Ok(vec![Variant {
-            graph: g.clone(),
+            graph: common.proxied(registry, g.clone())?,
             suffix: String::new(),
             label: String::new(),
         }]);
@@ -493,7 +521,7 @@ pub(super) fn variants(
             })
             .collect();
         out.push(Variant {
-            graph: gv,
+            graph: common.proxied(registry, gv)?,
             suffix: format!("_{}-{clean}", w.param),
             label: format!(
                 "evaluation {}/{} ({}.{} = {v})",

@@ -56,6 +56,7 @@ pub(super) fn run_pick(registry: Arc<Registry>, a: PickArgs) -> Result<(), CliEr
         output_dir: None,
         // pick writes nothing: the graph's output paths do not matter.
         allow_any_path: true,
+        proxy: 1,
     };
     let g = load_graph(&registry, &a.graph, &common)?;
     let gpu = gpu()?;

@@ -156,7 +156,7 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         }
         None => all,
     };
-    let vars = variants(&registry, &g, a.common.wedge.as_deref())?;
+    let vars = variants(&registry, &g, &a.common)?;
     let total = frames.len() * vars.len();
     use std::io::IsTerminal;
     let mode = match a.progress {
@@ -182,7 +182,7 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
                 } else {
                     let opts = EvalOptions {
                         time: f.map_or(0.0, |f| f as f64),
-                        size: a.common.size.unwrap_or((960, 540)),
+                        size: a.common.size_or((960, 540)),
                         output_suffix: v.suffix.clone(),
                         frame: *f,
                         gpu_timings: a.common.stats,

@@ -51,6 +51,9 @@ pub struct EditorApp {
     pub state: EditorState,
     snarl: Snarl<String>,
     synced: Option<String>,
+    /// Every output's type in the document shown, resolved when it last changed (the canvas
+    /// draws every pin each frame; one resolution per pin would be quadratic in a chain).
+    port_types: BTreeMap<(String, String), crate::graph::PortType>,
     /// Id of the node shown in the parameters panel (and the viewer unless a pin is active).
     pub selected: Option<String>,
     /// Last message (refused connection, save result…).
@@ -171,6 +174,7 @@ impl EditorApp {
             state,
             snarl: Snarl::new(),
             synced: None,
+            port_types: BTreeMap::new(),
             selected: None,
             status: if worker.is_none() {
                 "no GPU adapter: pictures are off".into()
@@ -356,6 +360,7 @@ impl EditorApp {
             }
         }
         self.snarl = snarl;
+        self.port_types = self.state.graph().output_types(self.state.catalog());
         self.synced = Some(text);
     }
 }
@@ -464,6 +469,7 @@ impl eframe::App for EditorApp {
                 show_timings: self.show_timings,
                 thumbs: &self.thumbs,
                 aliases: &self.aliases,
+                types: &self.port_types,
                 frame,
                 transform: &mut self.canvas_transform,
                 restore: self.restore_transform.take(),

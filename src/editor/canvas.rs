@@ -12,6 +12,10 @@ use super::EditorState;
 use crate::eval::Status;
 use crate::graph::{Graph, PortType};
 
+/// The smallest on-screen height (points) at which a node's thumbnail is drawn: below it (a
+/// canvas zoomed far out) the picture is too small to read and only costs drawing time.
+pub const THUMB_MIN_PX: f32 = 16.0;
+
 /// Colour of a port type's pins and wires.
 pub fn port_colour(t: PortType) -> egui::Color32 {
     match t {
@@ -38,6 +42,8 @@ pub(super) struct CanvasView<'a> {
     pub thumbs: &'a BTreeMap<String, egui::TextureHandle>,
     /// Group instance (flattened path) → the flattened node whose thumbnail it shows.
     pub aliases: &'a BTreeMap<String, String>,
+    /// Every output's type (`(node, port)`), as [`Graph::output_types`] resolved it.
+    pub types: &'a BTreeMap<(String, String), PortType>,
     /// When set, the view is moved so this graph-space rectangle fills the canvas.
     pub frame: Option<(egui::Rect, egui::Rect)>,
     /// The canvas's graph-to-screen transform, as last drawn.
@@ -58,9 +64,9 @@ impl CanvasView<'_> {
         let ty = if input {
             p.types[0]
         } else {
-            self.state
-                .graph()
-                .output_type(self.state.catalog(), node, p.name)
+            self.types
+                .get(&(node.to_string(), p.name.to_string()))
+                .copied()
                 .unwrap_or(p.types[0])
         };
         Some((p.name.to_string(), ty))
@@ -182,7 +188,13 @@ impl SnarlViewer<String> for CanvasView<'_> {
             if let Some(t) = thumb {
                 let size = t.size_vec2();
                 let scale = (96.0 / size.x.max(size.y)).min(1.0);
-                ui.add(egui::Image::new(t).fit_to_exact_size(size * scale));
+                // The space is kept either way (nodes keep their size); the picture is drawn
+                // only on screen and when it is at least `THUMB_MIN_PX` points tall there.
+                let (rect, _) = ui.allocate_exact_size(size * scale, egui::Sense::hover());
+                let on_screen = rect.height() * self.transform.scaling;
+                if ui.is_rect_visible(rect) && on_screen >= THUMB_MIN_PX {
+                    egui::Image::new(t).paint_at(ui, rect);
+                }
             }
             match &report {
                 Some(r) if r.error.is_some() => {

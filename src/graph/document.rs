@@ -434,6 +434,16 @@ impl Graph {
         types.get(&(start, port)).copied()
     }
 
+    /// The type of every node's every output (`(node, port)` → type), polymorphic ones resolved
+    /// as [`Graph::output_type`] does, in one pass over the whole graph (linear in its size):
+    /// for callers that ask for many ports, such as the editor drawing every pin.
+    pub fn output_types(&self, catalog: &Catalog) -> BTreeMap<(String, String), PortType> {
+        self.resolve_types(catalog, &self.source_order())
+            .into_iter()
+            .map(|((ix, port), t)| ((self.g[ix].id.clone(), port.to_string()), t))
+            .collect()
+    }
+
     /// The type of every output of the nodes `order` (each after its sources), polymorphic
     /// ones resolved from what reaches their node: the widest of the output's types that one
     /// of the input types can feed. Linear in the nodes and edges visited.

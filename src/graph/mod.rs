@@ -30,6 +30,6 @@ pub use library::{
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
     position, sample_keys, Choice, DefaultValue, Direction, Interp, Key, ParamKind, ParamSpec,
-    PortSpec, PortType,
+    PortSpec, PortType, ProxyScale,
 };
 pub use value::{num, ParamProblem, ParamValue};

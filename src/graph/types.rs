@@ -238,6 +238,26 @@ pub struct ParamSpec {
     /// (e.g. Mie's `radius` only under `preset = custom`); `None`: always. A value set while it
     /// is not in effect is kept but changes nothing: the editor greys it out and `--set` warns.
     pub when: Option<(&'static str, &'static [&'static str])>,
+    /// How a proxy evaluation (see [`crate::eval::proxy`]) changes the value, beyond the `px`
+    /// unit's rule; declared per parameter, since `texels` also names table sizes that must
+    /// not scale. Default [`ProxyScale::ByUnit`].
+    pub proxy: ProxyScale,
+}
+
+/// How a proxy evaluation at 1/f changes a parameter (see [`crate::eval::proxy`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProxyScale {
+    /// By its unit: divided by f when in screen pixels (`px`), else unchanged (the default).
+    ByUnit,
+    /// A size in light-space texels (a shadow map's side, a radius or length on the map):
+    /// divided by f, with the map, so the look holds.
+    LightTexels,
+    /// As [`ProxyScale::LightTexels`] only while parameter `.0` is one of `.1` (a radius whose
+    /// unit is another parameter: in metres it does not follow the map's resolution).
+    LightTexelsWhen(&'static str, &'static [&'static str]),
+    /// A reduction factor: multiplied by f (an input file read at 1/f of its size, so it stays
+    /// the size of the proxied pictures it is combined with).
+    Reduction,
 }
 
 impl ParamSpec {
@@ -263,6 +283,7 @@ impl ParamSpec {
             unit,
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -289,6 +310,7 @@ impl ParamSpec {
             unit,
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -313,6 +335,7 @@ impl ParamSpec {
             unit: "",
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -327,6 +350,7 @@ impl ParamSpec {
             unit: "",
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -341,6 +365,7 @@ impl ParamSpec {
             unit: "",
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -363,6 +388,7 @@ impl ParamSpec {
             unit,
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -384,6 +410,7 @@ impl ParamSpec {
             unit,
             doc,
             when: None,
+            proxy: ProxyScale::ByUnit,
         }
     }
 
@@ -391,6 +418,37 @@ impl ParamSpec {
     pub const fn when(self, param: &'static str, values: &'static [&'static str]) -> Self {
         Self {
             when: Some((param, values)),
+            ..self
+        }
+    }
+
+    /// A size in light-space texels, divided with the map by a proxy evaluation (see
+    /// [`ProxyScale::LightTexels`]).
+    pub const fn light_texels(self) -> Self {
+        Self {
+            proxy: ProxyScale::LightTexels,
+            ..self
+        }
+    }
+
+    /// A size in light-space texels while parameter `param` is one of `values` (see
+    /// [`ProxyScale::LightTexelsWhen`]).
+    pub const fn light_texels_when(
+        self,
+        param: &'static str,
+        values: &'static [&'static str],
+    ) -> Self {
+        Self {
+            proxy: ProxyScale::LightTexelsWhen(param, values),
+            ..self
+        }
+    }
+
+    /// A reduction factor, multiplied by a proxy evaluation's factor (see
+    /// [`ProxyScale::Reduction`]).
+    pub const fn proxy_reduction(self) -> Self {
+        Self {
+            proxy: ProxyScale::Reduction,
             ..self
         }
     }
