@@ -202,11 +202,17 @@ def test_gpu_work_releases_the_gil_and_ctrl_c_interrupts(ev):
     # loaded machine does not finish it before the signal lands (512 steps at 540p, 0.6 s,
     # did once).
     g.set("scatter", "steps", 2048)
+    # Python maps SIGINT to KeyboardInterrupt only if its parent did not ignore the signal,
+    # and a shell ignores it for background jobs (`cargo test &`): install the handler.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()
     with pytest.raises(KeyboardInterrupt):
-        ev.eval(g, ["tonemap.out"], size=(1920, 1080))
+        try:
+            ev.eval(g, ["tonemap.out"], size=(1920, 1080))
+        finally:
+            signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - start < 5.0
     out = ev.eval(g, ["tonemap.out"], size=SMALL)
     assert out["tonemap.out"].shape == (SMALL[1], SMALL[0], 4)

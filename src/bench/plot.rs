@@ -294,7 +294,7 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
         let group: Vec<String> = r
             .params
             .iter()
-            .filter(|(key, _)| !suite.kernel.contains(key))
+            .filter(|(key, _)| !suite.kernel.contains(key) && key.as_str() != "runs")
             .map(|(key, v)| format!("{key}={v}"))
             .collect();
         groups
