@@ -11,6 +11,8 @@ mod error;
 mod format;
 mod group;
 mod library;
+mod port_types;
+mod proxy_scale;
 mod schema;
 mod types;
 mod value;

@@ -244,21 +244,7 @@ pub struct ParamSpec {
     pub proxy: ProxyScale,
 }
 
-/// How a proxy evaluation at 1/f changes a parameter (see [`crate::eval::proxy`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProxyScale {
-    /// By its unit: divided by f when in screen pixels (`px`), else unchanged (the default).
-    ByUnit,
-    /// A size in light-space texels (a shadow map's side, a radius or length on the map):
-    /// divided by f, with the map, so the look holds.
-    LightTexels,
-    /// As [`ProxyScale::LightTexels`] only while parameter `.0` is one of `.1` (a radius whose
-    /// unit is another parameter: in metres it does not follow the map's resolution).
-    LightTexelsWhen(&'static str, &'static [&'static str]),
-    /// A reduction factor: multiplied by f (an input file read at 1/f of its size, so it stays
-    /// the size of the proxied pictures it is combined with).
-    Reduction,
-}
+pub use super::proxy_scale::ProxyScale;
 
 impl ParamSpec {
     /// A `Float` parameter: default, hard range `[min, max]`, unit ("" for none).
@@ -418,37 +404,6 @@ impl ParamSpec {
     pub const fn when(self, param: &'static str, values: &'static [&'static str]) -> Self {
         Self {
             when: Some((param, values)),
-            ..self
-        }
-    }
-
-    /// A size in light-space texels, divided with the map by a proxy evaluation (see
-    /// [`ProxyScale::LightTexels`]).
-    pub const fn light_texels(self) -> Self {
-        Self {
-            proxy: ProxyScale::LightTexels,
-            ..self
-        }
-    }
-
-    /// A size in light-space texels while parameter `param` is one of `values` (see
-    /// [`ProxyScale::LightTexelsWhen`]).
-    pub const fn light_texels_when(
-        self,
-        param: &'static str,
-        values: &'static [&'static str],
-    ) -> Self {
-        Self {
-            proxy: ProxyScale::LightTexelsWhen(param, values),
-            ..self
-        }
-    }
-
-    /// A reduction factor, multiplied by a proxy evaluation's factor (see
-    /// [`ProxyScale::Reduction`]).
-    pub const fn proxy_reduction(self) -> Self {
-        Self {
-            proxy: ProxyScale::Reduction,
             ..self
         }
     }
