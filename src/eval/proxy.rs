@@ -12,7 +12,9 @@
 //! they are. An image read from a file is read at 1/f too (`ImageInput.reduce`, a
 //! [`ProxyScale::Reduction`]), so a plate stays the size of the pictures it is composited with.
 
-use crate::graph::{Catalog, Graph, Key, ParamKind, ParamSpec, ParamValue, ProxyScale};
+use crate::graph::{
+    condition_holds, Catalog, Graph, Key, ParamKind, ParamSpec, ParamValue, ProxyScale,
+};
 
 /// The unit of parameters scaled with the viewer's size.
 pub const SCREEN_PIXELS: &str = "px";
@@ -52,9 +54,10 @@ pub fn proxy_graph(graph: &Graph, catalog: &Catalog, factor: u32) -> Graph {
         let by = |spec: &ParamSpec| -> Option<f64> {
             match spec.proxy {
                 ProxyScale::LightTexels => Some(1.0 / f),
-                ProxyScale::LightTexelsWhen(param, values) => current(param)
-                    .is_some_and(|v| values.contains(&v.to_string().as_str()))
-                    .then_some(1.0 / f),
+                ProxyScale::LightTexelsWhen(param, values) => {
+                    condition_holds((param, values), |p| current(p).map(|v| v.to_string()))
+                        .then_some(1.0 / f)
+                }
                 ProxyScale::Reduction => Some(f),
                 ProxyScale::ByUnit => (spec.unit == SCREEN_PIXELS).then_some(1.0 / f),
             }

@@ -31,7 +31,7 @@ pub use library::{
 };
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
-    position, sample_keys, Choice, DefaultValue, Direction, Interp, Key, ParamKind, ParamSpec,
-    PortSpec, PortType, ProxyScale,
+    condition_holds, position, sample_keys, Choice, DefaultValue, Direction, Interp, Key,
+    ParamKind, ParamSpec, PortSpec, PortType, ProxyScale,
 };
 pub use value::{num, ParamProblem, ParamValue};

@@ -217,6 +217,13 @@ impl DefaultValue {
     }
 }
 
+/// Whether parameter `cond.0` has one of the values `cond.1`, given `value_of` (a parameter's
+/// current value, as text): the test of [`ParamSpec::when`] and of
+/// [`ProxyScale::LightTexelsWhen`].
+pub fn condition_holds(cond: (&str, &[&str]), value_of: impl Fn(&str) -> Option<String>) -> bool {
+    value_of(cond.0).is_some_and(|v| cond.1.contains(&v.as_str()))
+}
+
 /// A parameter declared by a node kind.
 #[derive(Clone, Copy, Debug)]
 pub struct ParamSpec {
@@ -414,9 +421,10 @@ impl ParamSpec {
         let Some((param, values)) = self.when else {
             return Ok(());
         };
-        match value_of(param) {
-            Some(v) if values.contains(&v.as_str()) => Ok(()),
-            _ => Err(format!("only with {param} = {}", values.join(" or "))),
+        if condition_holds((param, values), value_of) {
+            Ok(())
+        } else {
+            Err(format!("only with {param} = {}", values.join(" or ")))
         }
     }
 
