@@ -812,6 +812,60 @@ fn graph_paths_resolve_against_the_graph_folder_and_outputs_stay_inside() {
     assert!(mine.is_file());
 }
 
+/// A reference that is also one of the suite's settings is evaluated once: its evaluation is
+/// that setting's first run (the suite's `reference` and a named one alike), and the header
+/// states the row budget that stops a slow setting's repeats.
+#[test]
+fn bench_reference_that_is_a_setting_counts_as_its_first_run() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let suite = dir.path().join("blur.ron");
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/bench/blur.ron");
+    std::fs::write(
+        &suite,
+        format!(
+            r#"(title: "Blur reuse", graph: "{}", node: "blur", output: "out", size: (64, 36),
+                runs: 2, row_budget_ms: 60000, reference: {{"truncate": "3"}},
+                references: {{"wide": {{"truncate": "4"}}}},
+                configs: [{{"truncate": "1", "reference": "wide"}}, {{"truncate": "3"}},
+                          {{"truncate": "4", "reference": "wide"}}, {{"truncate": "2"}}])"#,
+            graph.display()
+        ),
+    )
+    .expect("suite");
+    let csv = dir.path().join("b.csv");
+    let o = tyndall(&[
+        "bench",
+        &suite.display().to_string(),
+        "--csv",
+        &csv.display().to_string(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{err}");
+    // Settings 2 (the suite's reference) and 3 (the named one) reuse it; 1 and 4 do not.
+    assert_eq!(
+        err.matches("its first run: the reference's evaluation")
+            .count(),
+        2,
+        "{err}"
+    );
+    assert!(
+        out.contains("2 runs per setting (fewer once they pass 60 s)"),
+        "{out}"
+    );
+    let rows =
+        tyndall::bench::report::rows_from_csv(&std::fs::read(&csv).expect("csv")).expect("parse");
+    let rows = &rows[0].2;
+    assert_eq!(rows.len(), 4);
+    // The reused rows still compare against their reference: themselves, exactly.
+    assert_eq!(rows[1].rmse, 0.0, "{}", rows[1].setting);
+    assert_eq!(rows[2].rmse, 0.0, "{}", rows[2].setting);
+    assert!(rows[0].rmse > 0.0, "{}", rows[0].setting);
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -45,8 +45,15 @@ pub fn suite_text(
     command: &str,
     rows: &[Row],
 ) -> String {
+    // Chain, interactive and document suites repeat whole sequences; a setting suite stops a
+    // setting's runs at its row budget.
+    let budget = if suite.chain || suite.documents || !suite.proxies.is_empty() || runs < 2 {
+        String::new()
+    } else {
+        format!(" (fewer once they pass {:.0} s)", suite.row_budget_ms / 1e3)
+    };
     let mut s = format!(
-        "{}\nadapter: {adapter}\nsize {}x{}, {runs} runs per setting, command: {command}\n",
+        "{}\nadapter: {adapter}\nsize {}x{}, {runs} runs per setting{budget}, command: {command}\n",
         suite.title, size.0, size.1
     );
     if suite.chain {

@@ -81,6 +81,11 @@ pub struct Suite {
     /// [`super::documents`]).
     #[serde(default)]
     pub documents: bool,
+    /// A setting's repeated runs stop once its runs together have taken this long, ms (the
+    /// first always runs; default 4000): a multi-second setting's run-to-run spread is a few
+    /// per cent, and repeating it three times was a third of the default run's 15 minutes.
+    #[serde(default = "default_row_budget_ms")]
+    pub row_budget_ms: f64,
     /// Indices of settings too slow for the default run (it must stay under 15 minutes on two
     /// CPU cores for every suite together): they run only with `--full`.
     #[serde(default)]
@@ -95,6 +100,11 @@ pub struct Suite {
     /// parameter, else `node`, else `method`, else one series).
     #[serde(default)]
     pub series: Option<String>,
+}
+
+/// [`Suite::row_budget_ms`]'s default.
+fn default_row_budget_ms() -> f64 {
+    4000.0
 }
 
 impl Suite {
