@@ -1,13 +1,16 @@
 //! The Blender add-on against the real Blender (Debian's `blender`, 3.4): runs
 //! `scripts/test_blender.sh`, which installs and enables the add-on headless, renders shafts
 //! for 3 frames of an animated camera and checks the EXRs and the compositor
-//! (`integrations/blender/tests/test_addon.py`). Without Blender on PATH the test is skipped,
-//! unless `TYNDALL_REQUIRE_BLENDER=1` (set by `.ci/run`), where that fails it.
+//! (`integrations/blender/tests/test_addon.py`); and the scene scripts of `scripts/scenes/`,
+//! which must regenerate the committed `scenes/*.glb` byte for byte. Without Blender on PATH the
+//! tests are skipped, unless `TYNDALL_REQUIRE_BLENDER=1` (set by `.ci/run`), where that fails
+//! them.
 
+use std::path::Path;
 use std::process::Command;
 
-#[test]
-fn blender_addon_renders_shafts_and_wires_the_compositor() {
+/// Whether `blender` runs; panics without it under `TYNDALL_REQUIRE_BLENDER=1`.
+fn blender_found() -> bool {
     let found = Command::new("blender")
         .arg("--version")
         .output()
@@ -17,6 +20,52 @@ fn blender_addon_renders_shafts_and_wires_the_compositor() {
             panic!("TYNDALL_REQUIRE_BLENDER=1 but no `blender` on PATH");
         }
         eprintln!("skipping: no `blender` on PATH (Debian: apt install blender python3-numpy)");
+    }
+    found
+}
+
+#[test]
+fn scene_scripts_regenerate_the_committed_scenes_byte_for_byte() {
+    if !blender_found() {
+        return;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().expect("tempdir");
+    for scene in ["cathedral", "forest", "workshop"] {
+        let out = dir.path().join(format!("{scene}.glb"));
+        let o = Command::new("blender")
+            .args(["-b", "--factory-startup", "--python"])
+            .arg(root.join(format!("scripts/scenes/{scene}.py")))
+            .arg("--")
+            .arg(&out)
+            .output()
+            .expect("run blender");
+        assert!(
+            o.status.success(),
+            "{scene}: {}",
+            tail(&String::from_utf8_lossy(&o.stderr))
+        );
+        let made = std::fs::read(&out).expect("the script wrote its .glb");
+        let committed = std::fs::read(root.join(format!("scenes/{scene}.glb"))).expect("scene");
+        // The issue's limit per file.
+        assert!(
+            committed.len() <= 5 << 20,
+            "{scene}: {} bytes",
+            committed.len()
+        );
+        assert!(
+            made == committed,
+            "{scene}: the script writes {} bytes that differ from scenes/{scene}.glb ({} bytes); \
+             rerun scripts/scenes/make_all.sh and commit",
+            made.len(),
+            committed.len()
+        );
+    }
+}
+
+#[test]
+fn blender_addon_renders_shafts_and_wires_the_compositor() {
+    if !blender_found() {
         return;
     }
     let o = Command::new(concat!(

@@ -152,7 +152,7 @@ fn polygon_footprint_is_the_lattice_points_of_its_zonotope_and_close_to_the_disk
             }
         }
         // Against the disk: measured 6.1 % of the disk's texels at r = 8, 2.2 % at r = 20,
-        // 0.9 % at r = 40 (the search is exhaustive over nearby lengths; a regression in it
+        // 0.9 % at r = 40 (a descent over nearby lengths from the proportions; a regression in it
         // or in the spans shows here).
         let disk: i64 = (-r..=r).map(|dy| 2 * chord(r, dy) as i64 + 1).sum();
         let share = footprint_difference(r, m) as f64 / disk as f64;

@@ -21,8 +21,9 @@ import common  # noqa: E402
 common.clear()
 out = common.out_path("cathedral.glb")
 
-stone = common.material("Stone", (0.16, 0.14, 0.12))
-floor_mat = common.material("Floor", (0.10, 0.09, 0.08))
+stone = common.material("Stone", (0.3, 0.26, 0.21))
+pillar = common.material("Pillar", (0.36, 0.32, 0.26))
+floor_mat = common.material("Floor", (0.22, 0.2, 0.17))
 lead = common.material("Lead", (0.05, 0.05, 0.06))
 
 L, W, H = 30.0, 10.0, 14.0  # nave length (y), width (x), height (z)
@@ -30,7 +31,7 @@ T = 0.8  # wall thickness
 y0, y1 = -L / 2, L / 2
 
 floor = common.Mesh("Floor", floor_mat, "floor")
-floor.box((0, 0, -0.1), (W + 2 * T + 20, L + 2 * T + 20, 0.2))
+floor.box((0, 0, -0.1), (W + 2 * T + 2, L + 2 * T + 2, 0.2))
 floor.finish()
 
 walls = common.Mesh("Walls", stone, "wall")
@@ -38,14 +39,15 @@ walls = common.Mesh("Walls", stone, "wall")
 xw = -W / 2 - T / 2
 win_w, win_lo, win_hi = 1.8, 3.5, 11.0
 centres = [y0 + 4.0 + 4.4 * i for i in range(6)]
-walls.box((xw, 0, win_lo / 2), (T, L, win_lo))
-walls.box((xw, 0, (win_hi + H) / 2), (T, L, H - win_hi))
-edges = [y0] + [e for c in centres for e in (c - win_w / 2, c + win_w / 2)] + [y1]
+walls.box((xw, 0, win_lo / 2), (T, L + 2 * T, win_lo))
+walls.box((xw, 0, (win_hi + H) / 2), (T, L + 2 * T, H - win_hi))
+edges = [y0 - T] + [e for c in centres for e in (c - win_w / 2, c + win_w / 2)] + [y1 + T]
 for a, b in zip(edges[0::2], edges[1::2]):
     walls.box((xw, (a + b) / 2, (win_lo + win_hi) / 2), (T, b - a, win_hi - win_lo))
 # Right wall (+X): solid; roof; entrance wall.
-walls.box((W / 2 + T / 2, 0, H / 2), (T, L, H))
-walls.box((0, 0, H + 0.4), (W + 2 * T, L + 2 * T, 0.8))
+walls.box((W / 2 + T / 2, 0, H / 2), (T, L + 2 * T, H))
+# The roof overlaps the walls' tops by 0.2 m, so no seam lets light through.
+walls.box((0, 0, H + 0.3), (W + 2 * T, L + 2 * T, 1.0))
 walls.box((0, y0 - T / 2, H / 2), (W + 2 * T, T, H))
 # End wall (+Y) with the rose window: a disc of radius 3 m centred 9 m up, built from rows of
 # blocks 0.25 m tall that leave the disc open.
@@ -97,7 +99,7 @@ for rr, width in ((0.55, 0.55), (2.0, 0.12)):
             rose.quad([(px, yy, zc + pz) for px, pz in q])
 rose.finish()
 
-cols = common.Mesh("Columns", stone, "column")
+cols = common.Mesh("Columns", pillar, "column")
 for side in (-1, 1):
     for i in range(7):
         y = y0 + 3.0 + 4.0 * i
@@ -108,7 +110,7 @@ for side in (-1, 1):
 cols.finish()
 
 common.medium_box((-W / 2, y0, 0.0), (W / 2, y1, H))
-common.camera([(1, (1.2, y0 + 2.5, 1.7), (-0.6, y1, 7.5)),
-               (96, (1.0, y0 + 5.5, 1.8), (-0.6, y1, 7.8))], fov_deg=62.0)
-common.sun([(1, 20.0, 300.0), (96, 26.0, 324.0)], strength=6.0, colour=(1.0, 0.86, 0.66))
+common.camera([(1, (1.6, y0 + 1.5, 1.7), (-2.2, y1 - 2.0, 6.0)),
+               (96, (1.4, y0 + 4.5, 1.8), (-2.2, y1 - 1.0, 6.3))], fov_deg=70.0)
+common.sun([(1, 30.0, 302.0), (96, 36.0, 326.0)], strength=6.0, colour=(1.0, 0.86, 0.66))
 common.export(out, (1, 96))
