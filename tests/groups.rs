@@ -44,6 +44,18 @@ fn every_preset_loads_into_v3_and_saves_stably() {
     load_file(&flat, reg.catalog()).expect("v2 loads");
 }
 
+/// A graph file loaded with its relative input paths (a glTF scene, a light map) resolved
+/// against its own folder, as `tyndall render` resolves them.
+fn load_resolved(path: &Path, reg: &tyndall::eval::Registry) -> Result<Graph, String> {
+    let g = load_file(path, reg.catalog()).map_err(|e| e.to_string())?;
+    let policy = tyndall::eval::PathPolicy {
+        graph_dir: path.parent().expect("a file in a folder").to_path_buf(),
+        output_dir: std::env::temp_dir(),
+        allow_any: true,
+    };
+    tyndall::eval::resolve_files(reg, &g, &policy).map_err(|e| e.to_string())
+}
+
 /// The values on `ports` of `g` at a small size.
 fn eval(g: &Graph, ports: &[(&str, &str)]) -> Vec<tyndall::io::Raster> {
     let gpu = common::gpu().expect("adapter");
@@ -72,15 +84,12 @@ fn grouped_preset_renders_like_its_flat_original_and_its_flattened_graph() {
         return;
     }
     let reg = registry();
-    let grouped = load_file(
-        &root().join("graphs/stylize/tree_hole_filling.ron"),
-        reg.catalog(),
-    )
-    .expect("grouped");
+    let grouped =
+        load_resolved(&root().join("graphs/stylize/tree_hole_filling.ron"), &reg).expect("grouped");
     assert!(grouped.has_group_nodes());
-    let flat = load_file(
+    let flat = load_resolved(
         &root().join("tests/fixtures/flat/tree_hole_filling.ron"),
-        reg.catalog(),
+        &reg,
     )
     .expect("flat");
     let a = eval(&grouped, &[("side", "image"), ("holes", "map")]);
@@ -142,7 +151,7 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
             .into_iter()
             .find(|p| p.file_name() == Some(&name))
             .expect("the preset of a flat original");
-        let mut grouped = load_file(&preset, reg.catalog()).unwrap();
+        let mut grouped = load_resolved(&preset, &reg).unwrap();
         assert!(grouped.has_group_nodes(), "{}", preset.display());
         let mut defs: Vec<_> = grouped.groups().values().cloned().collect();
         while let Some(d) = defs.pop() {
@@ -151,7 +160,7 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
             }
             defs.extend(d.graph.groups().values().cloned());
         }
-        let mut flat = load_file(&flat_path, reg.catalog()).unwrap();
+        let mut flat = load_resolved(&flat_path, &reg).unwrap();
         // The same smaller shadow maps on both sides (a 2048² closure takes seconds in a debug
         // build); the comparison is of the same graph either way.
         small_shadow_maps(&mut grouped);
@@ -181,11 +190,8 @@ fn every_preset_rebuilt_on_groups_renders_like_its_flat_original() {
 fn a_knob_reruns_only_what_it_reaches() {
     let Some(gpu) = common::gpu() else { return };
     let reg = registry();
-    let mut g = load_file(
-        &root().join("graphs/stylize/tree_hole_filling.ron"),
-        reg.catalog(),
-    )
-    .expect("preset");
+    let mut g =
+        load_resolved(&root().join("graphs/stylize/tree_hole_filling.ron"), &reg).expect("preset");
     let mut ev = Evaluator::new(reg.clone(), gpu);
     let opts = EvalOptions {
         size: (64, 36),
