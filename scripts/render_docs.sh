@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cargo build --release --quiet
-for scene in torus tree window fence figure window_room; do
+for scene in torus tree window fence figure window_room cathedral forest workshop; do
   ./target/release/tyndall render "graphs/physical/$scene.ron" -o "docs/physical/$scene.png" --size 960x540
 done
 ./target/release/tyndall render tests/fixtures/gltf_scene.ron -o docs/physical/gltf_scene.png --size 960x540
@@ -12,13 +12,14 @@ for preset in tree_hole_filling torus_closure figure_silhouette window_soft_glow
   ./target/release/tyndall render "graphs/stylize/$preset.ron" -o "docs/stylize/$preset.png" --size 960x540
 done
 ./target/release/tyndall render graphs/stylize/tree_holes_animated.ron -o docs/stylize/tree_holes_animated.png --size 960x540 --frames 0-2
-for preset in alarm_tree alarm_fence tree_modulate window_light_map; do
+for preset in alarm_tree alarm_fence tree_modulate window_light_map cathedral_stained_glass; do
   ./target/release/tyndall render "graphs/color/$preset.ron" -o "docs/color/$preset.png" --size 960x540
 done
 ./target/release/tyndall render graphs/color/sunrise.ron -o out/sunrise.png --size 960x540 --frames 0-48
 ./target/release/tyndall render scripts/sunrise_sheet.ron
 ./target/release/tyndall render graphs/medium/tree_bilateral.ron -o docs/medium/tree_bilateral.png --size 480x270
 ./target/release/tyndall render graphs/medium/fence_noise.ron -o docs/medium/fence_noise.png --size 960x540
+./target/release/tyndall render graphs/medium/workshop_dust.ron -o docs/medium/workshop_dust.png --size 960x540
 ./target/release/tyndall render graphs/medium/fence_painted.ron -o docs/medium/fence_painted.png --size 960x540
 ./target/release/tyndall render graphs/medium/tree_intensity.ron -o docs/medium/tree_intensity.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
@@ -32,3 +33,5 @@ for preset in colonnade haze; do
   cp "$plate_out/out/$preset.png" "docs/plate/$preset.png"
 done
 rm -rf "$plate_out"
+# The contact sheet of every picture above (docs/gallery.png).
+scripts/make_gallery.sh
