@@ -866,6 +866,57 @@ fn bench_reference_that_is_a_setting_counts_as_its_first_run() {
     assert!(rows[0].rmse > 0.0, "{}", rows[0].setting);
 }
 
+/// A temporal suite evaluates every setting at each frame against the reference of that frame:
+/// a setting equal to the reference has no error and no flicker; a coarse one has both, and
+/// the CSV carries the flicker and the reference's own change.
+#[test]
+fn bench_temporal_reports_error_and_flicker_along_the_frames() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let suite = dir.path().join("temporal.ron");
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/bench/temporal.ron");
+    std::fs::write(
+        &suite,
+        format!(
+            r#"(title: "Temporal test", graph: "{}", node: "scatter", output: "inscatter",
+                size: (48, 27), runs: 1, frames: [1.0, 40.0, 80.0],
+                reference: {{"method": "BruteForce", "steps": "64", "shadow.resolution": "256"}},
+                configs: [{{"method": "BruteForce", "steps": "64", "shadow.resolution": "256"}},
+                          {{"method": "BruteForce", "steps": "4", "shadow.resolution": "256"}}])"#,
+            graph.display()
+        ),
+    )
+    .expect("suite");
+    let csv = dir.path().join("t.csv");
+    let o = tyndall(&[
+        "bench",
+        &suite.display().to_string(),
+        "--csv",
+        &csv.display().to_string(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("flicker") && out.contains("ref change"),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let mut r = csv::Reader::from_reader(text.as_bytes());
+    let headers = r.headers().expect("headers").clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).expect(name);
+    let (rmse, flicker, change) = (col("rmse"), col("flicker"), col("ref_change"));
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.expect("row")).collect();
+    let f = |row: &csv::StringRecord, i: usize| row[i].parse::<f64>().expect("a number");
+    assert_eq!(rows.len(), 2);
+    assert_eq!(f(&rows[0], rmse), 0.0);
+    assert_eq!(f(&rows[0], flicker), 0.0);
+    assert!(f(&rows[1], rmse) > 0.0 && f(&rows[1], flicker) > 0.0);
+    // The camera walks: the reference changes between frames.
+    assert!(f(&rows[0], change) > 0.0);
+}
+
 /// `tyndall bench NAME` with a folder `benches/NAME/` runs every suite in it, one CSV each.
 #[test]
 fn bench_folder_runs_every_suite() {

@@ -33,12 +33,13 @@ pub mod plot;
 pub mod record;
 pub mod report;
 mod suite;
+pub mod temporal;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
+use crate::eval::{download, resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Target};
 use crate::gpu::Gpu;
 use crate::graph::{load_file, split_endpoint, Graph};
 use crate::io::Raster;
@@ -78,6 +79,8 @@ pub struct Row {
     pub kind: String,
     /// A chain step's counts and per-node times.
     pub chain: Option<chain::Step>,
+    /// A temporal suite's `(flicker, reference change)` ([`temporal`]).
+    pub temporal: Option<(f64, f64)>,
 }
 
 impl Row {
@@ -99,6 +102,7 @@ impl Row {
             node: String::new(),
             kind: String::new(),
             chain: None,
+            temporal: None,
         }
     }
 }
@@ -199,6 +203,17 @@ pub fn run(
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
     if !suite.proxies.is_empty() {
         return interactive::run(registry, gpu, &base, suite, runs, size, progress);
+    }
+    if !suite.frames.is_empty() {
+        // The graph names its input files (the animated glTF shot) relative to its folder.
+        let policy = PathPolicy {
+            graph_dir: graph_path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+            output_dir: std::env::temp_dir(),
+            allow_any: true,
+        };
+        let base = resolve_files(&registry, &base, &policy)
+            .map_err(|e| BenchError::Input(e.to_string()))?;
+        return temporal::run(registry, gpu, &base, suite, size, progress);
     }
     if suite.chain {
         return chain::run(

@@ -164,6 +164,10 @@ pub fn plots(
     if kernel_plot(&kernel, suite, adapter, rows)? {
         out.push(kernel);
     }
+    let flicker = dir.join(format!("{stem}-flicker.png"));
+    if flicker_plot(&flicker, suite, rows)? {
+        out.push(flicker);
+    }
     Ok(out)
 }
 
@@ -266,6 +270,99 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
             .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(&e))?;
+        Ok(())
+    })?;
+    Ok(true)
+}
+
+/// A temporal suite's flicker against its error: each setting a point (mean RMSE over the
+/// frames, flicker), coloured by series and labelled with its setting; the reference's own
+/// frame-to-frame change drawn as a dashed line for scale.
+fn flicker_plot(path: &Path, suite: &Suite, rows: &[Row]) -> Result<bool, PlotError> {
+    let points: Vec<(&Row, f64, f64)> = rows
+        .iter()
+        .filter_map(|r| r.temporal.map(|(f, _)| (r, r.rmse, f)))
+        .filter(|(_, e, f)| e.is_finite() && f.is_finite() && *e > 0.0 && *f > 0.0)
+        .collect();
+    let change = rows.iter().find_map(|r| r.temporal.map(|t| t.1));
+    let Some((e0, e1)) = range_log(points.iter().map(|p| p.1)) else {
+        return Ok(false);
+    };
+    let Some((f0, f1)) = range_log(
+        points
+            .iter()
+            .map(|p| p.2)
+            .chain(change.filter(|c| *c > 0.0)),
+    ) else {
+        return Ok(false);
+    };
+    let mut series: BTreeMap<String, Vec<(f64, f64, String)>> = BTreeMap::new();
+    for (r, e, f) in &points {
+        let label: Vec<String> = r
+            .params
+            .iter()
+            .filter(|(k, _)| !["method", "node", "output", "time"].contains(&k.as_str()))
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        series
+            .entry(series_of(suite, r))
+            .or_default()
+            .push((*e, *f, label.join(" ")));
+    }
+    render(path, |root| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let mut chart = frame(root, suite)
+            .build_cartesian_2d((e0..e1).log_scale(), (f0..f1).log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("mean RMSE against the reference, per frame")
+            .y_desc("flicker: mean |Δ method − Δ reference| between frames")
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| err(&e))?;
+        if let Some(c) = change.filter(|c| *c > 0.0) {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(e0, c), (e1, c)],
+                    6,
+                    4,
+                    BLACK.mix(0.5).stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?
+                .label("the reference's own change between frames")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
+        }
+        for (i, (name, pts)) in series.iter().enumerate() {
+            let colour = colour(i);
+            chart
+                .draw_series(
+                    pts.iter()
+                        .map(|p| Circle::new((p.0, p.1), 5, colour.filled())),
+                )
+                .map_err(|e| err(&e))?
+                .label(name.clone())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 5, colour.filled()));
+            chart
+                .draw_series(pts.iter().map(|p| {
+                    Text::new(
+                        p.2.clone(),
+                        (p.0, p.1),
+                        ("sans-serif", 11).into_font().color(&BLACK.mix(0.7)),
+                    )
+                }))
+                .map_err(|e| err(&e))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::UpperLeft)
             .draw()
             .map_err(|e| err(&e))?;
         Ok(())

@@ -82,7 +82,7 @@ pub fn suite_text(
 
 /// Columns of `bench/results.csv`, one row per measured setting (and, for chain suites, one
 /// row per step and one per node and step).
-pub const RESULT_COLUMNS: [&str; 22] = [
+pub const RESULT_COLUMNS: [&str; 24] = [
     "suite",
     "adapter",
     "node",
@@ -101,6 +101,8 @@ pub const RESULT_COLUMNS: [&str; 22] = [
     "psnr_db",
     "edge_rmse",
     "differ",
+    "flicker",
+    "ref_change",
     "ran",
     "reused",
     "not_needed",
@@ -160,6 +162,8 @@ pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, Be
                 &num(r.psnr),
                 &num(r.edge_rmse),
                 &num(r.differ),
+                &num(r.temporal.map_or(f64::NAN, |t| t.0)),
+                &num(r.temporal.map_or(f64::NAN, |t| t.1)),
                 &ran,
                 &reused,
                 &nn,
@@ -221,6 +225,17 @@ pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, Ben
         row.max_err = f(9);
         row.node = get(2).to_string();
         row.kind = get(3).to_string();
+        // A temporal suite's columns (absent from files written before they existed).
+        let opt = |name: &str| {
+            headers
+                .iter()
+                .position(|h| h == name)
+                .and_then(|i| rec.get(i))
+                .and_then(|v| v.parse::<f64>().ok())
+        };
+        if let (Some(flicker), Some(change)) = (opt("flicker"), opt("ref_change")) {
+            row.temporal = Some((flicker, change));
+        }
         match out.last_mut() {
             Some((suite, _, rows)) if suite == get(0) => rows.push(row),
             _ => out.push((get(0).to_string(), get(1).to_string(), vec![row])),
@@ -323,6 +338,7 @@ pub fn table(rows: &[Row]) -> String {
     let psnr = rows.iter().any(|r| !r.psnr.is_nan());
     let edges = rows.iter().any(|r| !r.edge_rmse.is_nan());
     let differ = rows.iter().any(|r| !r.differ.is_nan());
+    let temporal = rows.iter().any(|r| r.temporal.is_some());
     let mut s = format!(
         "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
         "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
@@ -338,6 +354,9 @@ pub fn table(rows: &[Row]) -> String {
     }
     if differ {
         s.push_str(&format!("  {:>9}", "differ %"));
+    }
+    if temporal {
+        s.push_str(&format!("  {:>10}  {:>10}", "flicker", "ref change"));
     }
     s.push('\n');
     for r in rows {
@@ -364,6 +383,10 @@ pub fn table(rows: &[Row]) -> String {
         }
         if differ {
             s.push_str(&format!("  {:>9}", cell(r.differ * 100.0, 3)));
+        }
+        if temporal {
+            let (f, c) = r.temporal.unwrap_or((f64::NAN, f64::NAN));
+            s.push_str(&format!("  {:>10}  {:>10}", cell(f, 6), cell(c, 6)));
         }
         s.push('\n');
     }

@@ -74,6 +74,11 @@ pub struct Suite {
     /// factor listed (e.g. `[1, 2, 4]`); empty: not an interactive suite.
     #[serde(default)]
     pub proxies: Vec<u32>,
+    /// A temporal suite (see [`super::temporal`]): the times (frames) the graph is evaluated
+    /// at, in order, each setting against the `reference` of the same frame, with the flicker
+    /// between consecutive frames; empty: not a temporal suite.
+    #[serde(default)]
+    pub frames: Vec<f64>,
     /// A whole-graph suite: the settings are steps (see [`super::chain`]).
     #[serde(default)]
     pub chain: bool,
