@@ -15,7 +15,7 @@
 //!
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
-//! | `sigma` | Float | 2 | 0…256 texels | standard deviation σ; 0 is the identity |
+//! | `sigma` | Float | 2 | 0…256 texels | standard deviation σ in texels of `in`; 0 is the identity (a proxy evaluation divides it with the picture or map) |
 //! | `truncate` | Float | 3 | 1…6 σ | kernel radius r = ⌈truncate · σ⌉ (quality knob) |
 
 use std::sync::Arc;
@@ -34,7 +34,7 @@ const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 crate::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
-        sigma: f64 = ParamSpec::float("sigma", 2.0, 0.0, 256.0, "texels", "Standard deviation σ of the Gaussian; 0 is the identity."),
+        sigma: f64 = ParamSpec::float("sigma", 2.0, 0.0, 256.0, "texels", "Standard deviation σ of the Gaussian; 0 is the identity.").input_texels(),
         truncate: f64 = ParamSpec::float("truncate", 3.0, 1.0, 6.0, "σ", "Kernel radius r = ⌈truncate · σ⌉ texels: cost 2(2r + 1) reads per texel."),
     }
 }

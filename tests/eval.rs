@@ -632,6 +632,9 @@ fn proxy_copies_divide_light_space_sizes_and_reduce_input_files() {
     let tf = g.add_node(cat, "TransferFunction").expect("node");
     let solve = g.add_node(cat, "LightMapSolve").expect("node");
     let plate = g.add_node(cat, "ImageInput").expect("node");
+    let blur = g.add_node(cat, "Blur").expect("node");
+    g.set_param(cat, &blur, "sigma", ParamValue::Float(16.0))
+        .expect("sigma");
     g.set_param(cat, &close, "radius", ParamValue::Float(12.0))
         .expect("r");
     g.set_param(cat, &metres, "radius", ParamValue::Float(12.0))
@@ -643,6 +646,8 @@ fn proxy_copies_divide_light_space_sizes_and_reduce_input_files() {
     // The map (default 2048) and a radius in its texels follow the factor.
     assert_eq!(at(&p, &sm, "resolution"), ParamValue::Int(512));
     assert_eq!(at(&p, &close, "radius"), ParamValue::Float(3.0));
+    // A blur's σ is in texels of its input, which shrinks with the proxy (picture or map).
+    assert_eq!(at(&p, &blur, "sigma"), ParamValue::Float(4.0));
     // A file is read at ¼ (so a plate stays the size of the proxied pictures).
     assert_eq!(at(&p, &plate, "reduce"), ParamValue::Int(4));
     // A radius in metres, a table's size and a light map's (the solve's unknowns) do not.

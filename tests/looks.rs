@@ -53,10 +53,9 @@ fn every_stylize_preset_changes_at_least_5_percent_of_its_pixels() {
             .to_string_lossy()
             .to_string();
         let out = dir.path().join(format!("{name}.png"));
-        // The README's 960×540 at a third (320×180 per half): sizes in screen pixels and
-        // light-space texels follow the proxy, so the look holds. Measured at this size:
-        // 9–32 % for every preset; window_soft_glow's 23 % is 8.4 % at full size (its Blur σ
-        // is in pixels and does not follow the proxy, so the glow is relatively wider here).
+        // The README's 960×540 at a third (320×180 per half): sizes in screen pixels, light-space
+        // texels and a blur's texels follow the proxy, so the look holds (window_soft_glow:
+        // 8.4 % here and at full size). Measured at this size: 8–32 % for every preset.
         let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
             .args(["render", &preset.display().to_string()])
             .args(["--size", "960x540", "--proxy", "3", "--frames", "0", "-o"])

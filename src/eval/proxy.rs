@@ -11,6 +11,9 @@
 //! function's, a phase table's) and light-map resolutions (the unknowns of a solve) stay as
 //! they are. An image read from a file is read at 1/f too (`ImageInput.reduce`, a
 //! [`ProxyScale::Reduction`]), so a plate stays the size of the pictures it is composited with.
+//! A size in texels of a node's input, whichever space that input is in
+//! ([`ProxyScale::InputTexels`]: `Blur.sigma`), is divided too, since the proxy shrinks both
+//! pictures and maps: a soft glow keeps its width on the picture.
 
 use crate::graph::{
     condition_holds, Catalog, Graph, Key, ParamKind, ParamSpec, ParamValue, ProxyScale,
@@ -53,7 +56,7 @@ pub fn proxy_graph(graph: &Graph, catalog: &Catalog, factor: u32) -> Graph {
         // The factor a parameter is multiplied by, if it changes.
         let by = |spec: &ParamSpec| -> Option<f64> {
             match spec.proxy {
-                ProxyScale::LightTexels => Some(1.0 / f),
+                ProxyScale::LightTexels | ProxyScale::InputTexels => Some(1.0 / f),
                 ProxyScale::LightTexelsWhen(param, values) => {
                     condition_holds((param, values), |p| current(p).map(|v| v.to_string()))
                         .then_some(1.0 / f)

@@ -14,6 +14,10 @@ pub enum ProxyScale {
     /// As [`ProxyScale::LightTexels`] only while parameter `.0` is one of `.1` (a radius whose
     /// unit is another parameter: in metres it does not follow the map's resolution).
     LightTexelsWhen(&'static str, &'static [&'static str]),
+    /// A size in texels of the node's input, whatever space that is in (a screen picture or a
+    /// light-space map: a proxy divides both): divided by f, so a blur keeps its width on the
+    /// picture.
+    InputTexels,
     /// A reduction factor: multiplied by f (an input file read at 1/f of its size, so it stays
     /// the size of the proxied pictures it is combined with).
     Reduction,
@@ -38,6 +42,15 @@ impl ParamSpec {
     ) -> Self {
         Self {
             proxy: ProxyScale::LightTexelsWhen(param, values),
+            ..self
+        }
+    }
+
+    /// A size in texels of the node's input, divided by a proxy evaluation's factor (see
+    /// [`ProxyScale::InputTexels`]).
+    pub const fn input_texels(self) -> Self {
+        Self {
+            proxy: ProxyScale::InputTexels,
             ..self
         }
     }
