@@ -1,13 +1,15 @@
 //! `Composite`: surfaces lit by the sun (Lambert) and an ambient term, shadowed with the
 //! ORIGINAL shadow map on its own port, seen through the medium, plus the in-scatter (SPEC §1).
 //!
-//! `out = ((albedo · (ambient + E · max(0, n·l) · S) or sky) · T + L_scat) · T_air + L_air`,
+//! `out = ((albedo · (ambient + E · M · max(0, n·l) · S) or sky) · T + L_scat) · T_air + L_air`,
 //! with `T_air`, `L_air` the atmosphere's transmittance and in-scatter (`Sky`: on the background
 //! T_air = 0 and L_air is the sky; 1 and 0 when unconnected), `E` the sun's
 //! radiance carried by the shadow map, `S` the surface shadow (percentage-closer filtered over
 //! (2·pcf + 1)² texels), `T` the transmittance (1 when unconnected), `L_scat` the in-scatter
-//! (0 when unconnected). Surface shadows always use the unmodified map: only the scattering
-//! sees a manipulated one.
+//! (0 when unconnected), `M` the light map's colour at the surface point (1 when unconnected:
+//! the same light-space texture SingleScattering multiplies the medium's light by, so sunlit
+//! patches under stained glass take its colours too). Surface shadows always use the
+//! unmodified map: only the scattering sees a manipulated one.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -17,6 +19,7 @@
 //! | `inscatter` | in | Image (optional) |
 //! | `transmittance` | in | Scalar (optional) |
 //! | `aerial_transmittance`, `aerial_inscatter` | in | Image (optional, from `Sky`) |
+//! | `light_map` | in | LightMap (optional, from `LightMap`) |
 //! | `image` | out | Image (linear RGB, alpha 1) |
 //!
 //! | param | type | default | range | |
@@ -61,6 +64,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("transmittance", &[PortType::Scalar], "Attenuation of surfaces by the medium."),
         PortSpec::input("aerial_transmittance", &[PortType::Image], "Per-channel attenuation by the atmosphere (Sky.transmittance), applied last."),
         PortSpec::input("aerial_inscatter", &[PortType::Image], "The atmosphere's in-scatter and sky (Sky.inscatter), added last."),
+        PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the sun on surfaces (unconnected: 1), as SingleScattering.light_map does for the medium."),
     ],
     outputs: &[PortSpec::output("image", &[PortType::Image], "Linear radiance.")],
     params: Params::SPECS,
@@ -99,8 +103,10 @@ crate::uniforms! {
         pub has_aerial_transmittance: u32,
         /// 1 when aerial_inscatter is connected.
         pub has_aerial_inscatter: u32,
-        /// Padding.
-        pub _pad2: u32,
+        /// 1 when a light map is connected.
+        pub has_light_map: u32,
+        /// World → light-map clip (identity without one).
+        pub light_map_view_proj: [[f32; 4]; 4],
     }
 }
 
@@ -135,6 +141,7 @@ impl NodeKind for Composite {
         let aerial_l = ctx
             .input("aerial_inscatter")
             .and_then(|v| v.texture().cloned());
+        let light_map = ctx.light_map_opt("light_map")?;
         let (vp, lvp) = (cam.view_proj(), light.view_proj());
         let u = CompositeParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
@@ -150,12 +157,17 @@ impl NodeKind for Composite {
             has_transmittance: transmittance.is_some() as u32,
             has_aerial_transmittance: aerial_t.is_some() as u32,
             has_aerial_inscatter: aerial_l.is_some() as u32,
-            _pad2: 0,
+            has_light_map: light_map.is_some() as u32,
+            light_map_view_proj: light_map
+                .as_ref()
+                .map_or(glam::Mat4::IDENTITY, |(_, m)| m.view_proj())
+                .to_cols_array_2d(),
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());
         let tr = transmittance.unwrap_or_else(|| dummy.clone());
         let at = aerial_t.unwrap_or_else(|| dummy.clone());
+        let lm = light_map.map_or_else(|| dummy.clone(), |(t, _)| t);
         let al = aerial_l.unwrap_or(dummy);
         ctx.gpu.dispatch(
             SHADER,
@@ -171,6 +183,7 @@ impl NodeKind for Composite {
                 (7, Bind::Storage(&out)),
                 (8, Bind::Texture(&at)),
                 (9, Bind::Texture(&al)),
+                (10, Bind::Texture(&lm)),
             ],
             w,
             h,

@@ -1,6 +1,7 @@
 // Composite: Lambert + ambient surfaces shadowed with the original shadow map, attenuated by
 // the medium, plus in-scatter (nodes/composite.rs).
 #import lib/camera
+#import lib/sampling
 #import lib/shadow
 
 struct Params {
@@ -17,7 +18,8 @@ struct Params {
     has_transmittance: u32,
     has_aerial_transmittance: u32,
     has_aerial_inscatter: u32,
-    _pad2: u32,
+    has_light_map: u32,
+    light_map_view_proj: mat4x4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -30,6 +32,18 @@ struct Params {
 @group(0) @binding(7) var out_image: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(8) var aerial_transmittance: texture_2d<f32>;
 @group(0) @binding(9) var aerial_inscatter: texture_2d<f32>;
+@group(0) @binding(10) var light_map: texture_2d<f32>;
+
+// The light map's colour at world point `x` (1 when none is connected): bilinear, texel centres
+// at (i + 0.5)/size, clamped to the edge, as SingleScattering reads it for the medium.
+fn sun_colour(x: vec3<f32>) -> vec3<f32> {
+    if P.has_light_map == 0u {
+        return vec3<f32>(1.0);
+    }
+    let c = P.light_map_view_proj * vec4<f32>(x, 1.0);
+    let uv = vec2<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5);
+    return bilinear_texels(light_map, uv * vec2<f32>(textureDimensions(light_map))).rgb;
+}
 
 fn surface_shadow(x: vec3<f32>) -> f32 {
     let uvz = light_uvz(P.light_view_proj, x);
@@ -64,7 +78,7 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
         let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
         let x = P.eye + dir * textureLoad(depth, id.xy, 0).r;
         let n = textureLoad(normal, id.xy, 0).xyz;
-        let direct = P.radiance * max(dot(n, P.to_sun), 0.0) * surface_shadow(x);
+        let direct = P.radiance * sun_colour(x) * max(dot(n, P.to_sun), 0.0) * surface_shadow(x);
         colour = a.rgb * (P.ambient.rgb + direct);
     } else {
         colour = P.sky.rgb;

@@ -660,3 +660,60 @@ fn proxy_copies_divide_light_space_sizes_and_reduce_input_files() {
 fn save_string_of(g: &Graph) -> String {
     tyndall::graph::save_string(g)
 }
+
+/// Composite's `light_map` multiplies the sun on surfaces: with the ambient term off, the
+/// picture through a constant coloured light map is the picture without it times the colour,
+/// channel by channel, on every pixel (the sky colour set to black, as the sun does not light it).
+#[test]
+fn composite_light_map_colours_the_sunlit_surfaces() {
+    let Some(gpu) = common::gpu() else { return };
+    let reg = tyndall::nodes::registry();
+    let text = r#"(version: 3, nodes: {
+        "scene": (kind: "Scene", params: {"name": "window"}),
+        "shadow": (kind: "ShadowMap", params: {"resolution": 512}),
+        "gbuffer": (kind: "GBuffer"),
+        "glass": (kind: "LightMap", params: {"colour": (1.0, 0.25, 0.5, 1.0)}),
+        "plain": (kind: "Composite", params: {"ambient": (0.0, 0.0, 0.0, 1.0), "sky": (0.0, 0.0, 0.0, 1.0)}),
+        "tinted": (kind: "Composite", params: {"ambient": (0.0, 0.0, 0.0, 1.0), "sky": (0.0, 0.0, 0.0, 1.0)}),
+    }, edges: [
+        ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
+        ("shadow.map", "glass.shadow"),
+        ("gbuffer.albedo", "plain.albedo"), ("gbuffer.normal", "plain.normal"),
+        ("gbuffer.depth", "plain.depth"), ("shadow.map", "plain.shadow"),
+        ("gbuffer.albedo", "tinted.albedo"), ("gbuffer.normal", "tinted.normal"),
+        ("gbuffer.depth", "tinted.depth"), ("shadow.map", "tinted.shadow"),
+        ("glass.light_map", "tinted.light_map"),
+    ])"#;
+    let g = load_str(text, std::path::Path::new("g.ron"), reg.catalog()).expect("graph");
+    let targets = [
+        Target::Port("plain".into(), "image".into()),
+        Target::Port("tinted".into(), "image".into()),
+    ];
+    let opts = EvalOptions {
+        size: (64, 36),
+        ..Default::default()
+    };
+    let r = evaluator(gpu.clone())
+        .evaluate(&g, &targets, &opts)
+        .expect("evaluate");
+    let get = |n: &str| {
+        tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), "image".to_string())])
+            .expect("download")
+    };
+    let (plain, tinted) = (get("plain"), get("tinted"));
+    let colour = [1.0f32, 0.25, 0.5];
+    let mut lit = 0;
+    for (p, t) in plain.data.chunks(4).zip(tinted.data.chunks(4)) {
+        for c in 0..3 {
+            // One multiplication more on the tinted side: within a few ULP.
+            let want = p[c] * colour[c];
+            assert!(
+                (t[c] - want).abs() <= 4.0 * f32::EPSILON * want.abs() + 1e-7,
+                "channel {c}: {} vs {want}",
+                t[c]
+            );
+        }
+        lit += (p[0] > 0.01) as usize;
+    }
+    assert!(lit > 0, "the sun lights some surfaces");
+}
