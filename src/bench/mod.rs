@@ -233,34 +233,8 @@ pub fn run(
         size,
         ..Default::default()
     };
-    let read = |ev: &mut Evaluator,
-                g: &Graph,
-                node: &str,
-                port: &str,
-                timed: &[String]|
-     -> Result<(Raster, f64), BenchError> {
-        let r = ev
-            .evaluate(
-                g,
-                &[Target::Port(node.to_string(), port.to_string())],
-                &opts,
-            )
-            .map_err(Box::new)?;
-        let ms = r
-            .stats
-            .nodes
-            .iter()
-            .filter(|n| timed.contains(&n.id) || (timed.is_empty() && n.id == node))
-            .map(|n| n.time.as_secs_f64() * 1e3)
-            .sum();
-        let v = r
-            .outputs
-            .get(&(node.to_string(), port.to_string()))
-            .ok_or_else(|| BenchError::Input(format!("{node}.{port} produced nothing")))?;
-        Ok((
-            download(&gpu, v).map_err(|e| BenchError::Input(e.to_string()))?,
-            ms,
-        ))
+    let read = |ev: &mut Evaluator, g: &Graph, node: &str, port: &str, timed: &[String]| {
+        read_port(ev, &gpu, g, (node, port), timed, &opts)
     };
     let output_of = |setting: &BTreeMap<String, String>| {
         setting
@@ -455,6 +429,36 @@ pub(crate) fn kernel_growth(
         .iter()
         .find(|r| group_of(&r.params) == group_of(setting))
         .map_or(1.0, |first| median / first.median_ms.max(1e-9))
+}
+
+/// Evaluate `g` for `node.port` and read it back, with the summed time of the `timed` nodes
+/// (empty: the node itself), ms.
+pub(crate) fn read_port(
+    ev: &mut Evaluator,
+    gpu: &Gpu,
+    g: &Graph,
+    (node, port): (&str, &str),
+    timed: &[String],
+    opts: &EvalOptions,
+) -> Result<(Raster, f64), BenchError> {
+    let r = ev
+        .evaluate(g, &[Target::Port(node.to_string(), port.to_string())], opts)
+        .map_err(Box::new)?;
+    let ms = r
+        .stats
+        .nodes
+        .iter()
+        .filter(|n| timed.contains(&n.id) || (timed.is_empty() && n.id == node))
+        .map(|n| n.time.as_secs_f64() * 1e3)
+        .sum();
+    let v = r
+        .outputs
+        .get(&(node.to_string(), port.to_string()))
+        .ok_or_else(|| BenchError::Input(format!("{node}.{port} produced nothing")))?;
+    Ok((
+        download(gpu, v).map_err(|e| BenchError::Input(e.to_string()))?,
+        ms,
+    ))
 }
 
 /// The nodes a setting times: its `time` key's `a+b` list, else the measured node.

@@ -171,6 +171,22 @@ pub fn plots(
     Ok(out)
 }
 
+/// The legend box of every plot: at `position`, labels of `size` points.
+fn legend<'a, 'b: 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
+    position: SeriesLabelPosition,
+    size: u32,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", size))
+        .position(position)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 fn caption(suite: &Suite) -> String {
     let mut t = suite.title.clone();
     if t.chars().count() > 90 {
@@ -264,14 +280,7 @@ fn pareto_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
                 )
             }))
             .map_err(|e| err(&e))?;
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight, 14)?;
         Ok(())
     })?;
     Ok(true)
@@ -357,14 +366,7 @@ fn flicker_plot(path: &Path, suite: &Suite, rows: &[Row]) -> Result<bool, PlotEr
                 }))
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| err(&e))?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft, 14)?;
         Ok(())
     })?;
     Ok(true)
@@ -440,14 +442,7 @@ fn kernel_plot(path: &Path, suite: &Suite, adapter: &str, rows: &[Row]) -> Resul
         }
         // One group needs no legend (its name would be empty).
         if groups.len() > 1 {
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .position(SeriesLabelPosition::LowerRight)
-                .draw()
-                .map_err(|e| err(&e))?;
+            legend(&mut chart, SeriesLabelPosition::LowerRight, 12)?;
         }
         Ok(())
     })?;

@@ -356,7 +356,10 @@ pub fn table(rows: &[Row]) -> String {
         s.push_str(&format!("  {:>9}", "differ %"));
     }
     if temporal {
-        s.push_str(&format!("  {:>10}  {:>10}", "flicker", "ref change"));
+        s.push_str(&format!(
+            "  {:>10}  {:>10}  {:>9}",
+            "flicker", "ref change", "flicker %"
+        ));
     }
     s.push('\n');
     for r in rows {
@@ -386,7 +389,14 @@ pub fn table(rows: &[Row]) -> String {
         }
         if temporal {
             let (f, c) = r.temporal.unwrap_or((f64::NAN, f64::NAN));
-            s.push_str(&format!("  {:>10}  {:>10}", cell(f, 6), cell(c, 6)));
+            // The flicker as a share of the reference's own change between frames.
+            let share = if c > 0.0 { 100.0 * f / c } else { f64::NAN };
+            s.push_str(&format!(
+                "  {:>10}  {:>10}  {:>9}",
+                cell(f, 6),
+                cell(c, 6),
+                cell(share, 1)
+            ));
         }
         s.push('\n');
     }

@@ -19,13 +19,13 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
+use crate::eval::{EvalOptions, Evaluator, Registry};
 use crate::gpu::Gpu;
 use crate::graph::Graph;
 use crate::io::Raster;
 
 use super::metrics::errors;
-use super::{apply, timed_of, BenchError, Row, Suite};
+use super::{apply, read_port, timed_of, BenchError, Row, Suite};
 
 /// A setting's running sums over the frames.
 #[derive(Default)]
@@ -103,25 +103,7 @@ pub fn run(
             time,
             ..Default::default()
         };
-        let target = Target::Port(node.clone(), output.clone());
-        let r = ev
-            .evaluate(g, std::slice::from_ref(&target), &opts)
-            .map_err(Box::new)?;
-        let ms = r
-            .stats
-            .nodes
-            .iter()
-            .filter(|n| timed.contains(&n.id))
-            .map(|n| n.time.as_secs_f64() * 1e3)
-            .sum();
-        let v = r
-            .outputs
-            .get(&(node.clone(), output.clone()))
-            .ok_or_else(|| BenchError::Input(format!("{node}.{output} produced nothing")))?;
-        Ok((
-            download(&gpu, v).map_err(|e| BenchError::Input(e.to_string()))?,
-            ms,
-        ))
+        read_port(ev, &gpu, g, (node, output), timed, &opts)
     };
     let mut tracks: Vec<Track> = suite.configs.iter().map(|_| Track::default()).collect();
     let mut ref_previous: Option<Raster> = None;
