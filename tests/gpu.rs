@@ -306,6 +306,39 @@ fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
 }
 
 #[test]
+fn parameters_as_uniform_or_storage_buffers_give_bit_identical_results() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // Mesa's CPU drivers get the passes' parameter blocks as read-only storage buffers (they
+    // would compile a variant per dispatch of a uniform block); every other adapter as
+    // uniforms. The block's layout and the shaders' arithmetic are the same either way, so
+    // one adapter's results must be equal bit for bit.
+    let with = |storage: bool| {
+        let gpu = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+            params_in_storage: Some(storage),
+            ..tyndall::gpu::GpuOptions::from_env()
+        })
+        .expect("device");
+        assert_eq!(gpu.caps.params_in_storage, storage);
+        window_outputs(gpu)
+    };
+    let (a, b) = (with(false), with(true));
+    assert!(!a.is_empty());
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert_eq!((x.width, x.height), (y.width, y.height), "{name}");
+        let differing = x
+            .data
+            .iter()
+            .zip(&y.data)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(differing, 0, "{name}: {differing} samples differ");
+        assert!(x.data.iter().any(|v| *v != 0.0), "{name} is not all zero");
+    }
+}
+
+#[test]
 fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
     if common::gpu().is_none() {
         return;

@@ -127,6 +127,16 @@ pub struct Capabilities {
     /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
     /// 0, …)`), so only slice 0 is written; no substitute is made (volume nodes fail there).
     pub layered_3d_storage: bool,
+    /// Pass the passes' parameter blocks (`var<uniform>` in the WGSL) as read-only storage
+    /// buffers instead ([`Capabilities::adapt_source`] rewrites the declaration; the layout is
+    /// the same, since a block valid as a uniform is laid out alike as storage). On by default
+    /// on Mesa's CPU drivers (lavapipe, llvmpipe): they *inline* uniform values that steer a
+    /// branch or a loop into the shader and compile that variant at every dispatch that binds
+    /// a new buffer (Debian 12's Mesa 22.3 keeps no cache of them), which made a cold chain of
+    /// 10,000 small nodes 10 s of JIT instead of 1.3 s and held ~150 KB of code per
+    /// dispatch. Storage buffers are never inlined. Off elsewhere; `TYNDALL_GPU_PARAMS=uniform`
+    /// or `=storage` chooses by hand (`GpuOptions::params_in_storage`).
+    pub params_in_storage: bool,
 }
 
 impl Capabilities {
@@ -142,7 +152,32 @@ impl Capabilities {
                 .collect(),
             emulate_gl: false,
             layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
+            // Vertex stages read them too (rasterisation), which GL may not allow.
+            params_in_storage: mesa_cpu(&adapter.get_info())
+                && adapter
+                    .get_downlevel_capabilities()
+                    .flags
+                    .contains(wgpu::DownlevelFlags::VERTEX_STORAGE),
         }
+    }
+
+    /// The binding type of a pass's parameter block (see [`Capabilities::params_in_storage`]).
+    pub fn params_binding(&self) -> wgpu::BufferBindingType {
+        if self.params_in_storage {
+            wgpu::BufferBindingType::Storage { read_only: true }
+        } else {
+            wgpu::BufferBindingType::Uniform
+        }
+    }
+
+    /// The usages of a pass's parameter buffer (see [`Capabilities::params_in_storage`]).
+    pub fn params_usage(&self) -> wgpu::BufferUsages {
+        let kind = if self.params_in_storage {
+            wgpu::BufferUsages::STORAGE
+        } else {
+            wgpu::BufferUsages::UNIFORM
+        };
+        kind | wgpu::BufferUsages::COPY_DST
     }
 
     /// The same capabilities taking GL's substitutes (see [`Capabilities::emulate_gl`]).
@@ -201,13 +236,18 @@ impl Capabilities {
     }
 
     /// A shader's WGSL as this adapter runs it: storage formats replaced by what they are
-    /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so).
+    /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so), and
+    /// parameter blocks declared as read-only storage where
+    /// [`Capabilities::params_in_storage`] says so.
     pub fn adapt_source<'a>(&self, source: &'a str) -> std::borrow::Cow<'a, str> {
+        let mut out = std::borrow::Cow::Borrowed(source);
         if self.stored(F::Rg32Float) != F::Rg32Float && source.contains("rg32float") {
-            std::borrow::Cow::Owned(source.replace("<rg32float", "<rgba32float"))
-        } else {
-            std::borrow::Cow::Borrowed(source)
+            out = std::borrow::Cow::Owned(out.replace("<rg32float", "<rgba32float"));
         }
+        if self.params_in_storage && source.contains("var<uniform>") {
+            out = std::borrow::Cow::Owned(out.replace("var<uniform>", "var<storage, read>"));
+        }
+        out
     }
 
     /// Why this adapter does not qualify (empty: it does).
@@ -272,12 +312,21 @@ impl Capabilities {
                 ),
                 (
                     "storage buffers",
-                    e.storage_buffers,
+                    e.storage_buffers
+                        + if self.params_in_storage {
+                            e.uniform_buffers
+                        } else {
+                            0
+                        },
                     l.max_storage_buffers_per_shader_stage,
                 ),
                 (
                     "uniform buffers",
-                    e.uniform_buffers,
+                    if self.params_in_storage {
+                        0
+                    } else {
+                        e.uniform_buffers
+                    },
                     l.max_uniform_buffers_per_shader_stage,
                 ),
             ];
@@ -573,4 +622,13 @@ fn backend_filter_note() -> String {
         .ok()
         .filter(|v| !v.is_empty())
         .map_or(String::new(), |v| format!(" (WGPU_BACKEND={v})"))
+}
+
+/// Whether an adapter is one of Mesa's CPU drivers (lavapipe on Vulkan, llvmpipe on GL), which
+/// inline uniform values into shaders (see [`Capabilities::params_in_storage`]).
+fn mesa_cpu(info: &wgpu::AdapterInfo) -> bool {
+    info.device_type == wgpu::DeviceType::Cpu
+        && ["llvmpipe", "lavapipe"]
+            .iter()
+            .any(|n| info.name.to_lowercase().contains(n))
 }

@@ -82,7 +82,7 @@ impl Gpu {
                         visibility: wgpu::ShaderStages::COMPUTE,
                         ty: match b {
                             Bind::Uniform(_) => wgpu::BindingType::Buffer {
-                                ty: wgpu::BufferBindingType::Uniform,
+                                ty: self.caps.params_binding(),
                                 has_dynamic_offset: false,
                                 min_binding_size: None,
                             },
@@ -238,7 +238,7 @@ impl Gpu {
                     let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("uniform"),
                         size: size.max(16),
-                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        usage: self.caps.params_usage(),
                         mapped_at_creation: false,
                     });
                     let mut padded = bytes.to_vec();

@@ -238,6 +238,9 @@ impl Gpu {
         if options.emulate_gl {
             caps = caps.emulating_gl();
         }
+        if let Some(storage) = options.params_in_storage {
+            caps.params_in_storage = storage;
+        }
         let wanted = wgpu::Features::FLOAT32_FILTERABLE
             | wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;

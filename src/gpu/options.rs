@@ -16,6 +16,11 @@ pub struct GpuOptions {
     pub adapter: Option<String>,
     /// Take GL's substitutes on any adapter (default: `TYNDALL_GPU_EMULATE=gl`).
     pub emulate_gl: bool,
+    /// Pass parameter blocks as uniform (`Some(false)`) or read-only storage buffers
+    /// (`Some(true)`) whatever the adapter; `None` (the default): as
+    /// [`Capabilities::params_in_storage`](super::adapter::Capabilities::params_in_storage)
+    /// decides for it. From `TYNDALL_GPU_PARAMS=uniform|storage`.
+    pub params_in_storage: Option<bool>,
 }
 
 impl GpuOptions {
@@ -27,6 +32,11 @@ impl GpuOptions {
             backends: env_backends(),
             adapter: adapter_choice(),
             emulate_gl: std::env::var("TYNDALL_GPU_EMULATE").is_ok_and(|v| v == "gl"),
+            params_in_storage: match std::env::var("TYNDALL_GPU_PARAMS").as_deref() {
+                Ok("uniform") => Some(false),
+                Ok("storage") => Some(true),
+                _ => None,
+            },
         }
     }
 }

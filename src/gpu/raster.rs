@@ -101,7 +101,7 @@ impl Gpu {
                     binding: 0,
                     visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                     ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
+                        ty: self.caps.params_binding(),
                         has_dynamic_offset: false,
                         min_binding_size: None,
                     },
@@ -216,7 +216,7 @@ impl Gpu {
             let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("raster uniform"),
                 size: padded.len() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: self.caps.params_usage(),
                 mapped_at_creation: false,
             });
             self.queue.write_buffer(&buf, 0, &padded);
