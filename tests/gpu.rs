@@ -320,7 +320,8 @@ fn parameters_as_uniform_or_storage_buffers_give_bit_identical_results() {
             ..tyndall::gpu::GpuOptions::from_env()
         })
         .expect("device");
-        assert_eq!(gpu.caps.params_in_storage, storage);
+        assert_eq!(gpu.caps.params_in_storage(1 << 40), storage);
+        assert_eq!(gpu.caps.params_in_storage(1), storage);
         window_outputs(gpu)
     };
     let (a, b) = (with(false), with(true));

@@ -127,17 +127,26 @@ pub struct Capabilities {
     /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
     /// 0, …)`), so only slice 0 is written; no substitute is made (volume nodes fail there).
     pub layered_3d_storage: bool,
-    /// Pass the passes' parameter blocks (`var<uniform>` in the WGSL) as read-only storage
-    /// buffers instead ([`Capabilities::adapt_source`] rewrites the declaration; the layout is
-    /// the same, since a block valid as a uniform is laid out alike as storage). On by default
-    /// on Mesa's CPU drivers (lavapipe, llvmpipe): they *inline* uniform values that steer a
-    /// branch or a loop into the shader and compile that variant at every dispatch that binds
-    /// a new buffer (Debian 12's Mesa 22.3 keeps no cache of them), which made a cold chain of
-    /// 10,000 small nodes 10 s of JIT instead of 1.3 s and held ~150 KB of code per
-    /// dispatch. Storage buffers are never inlined. Off elsewhere; `TYNDALL_GPU_PARAMS=uniform`
-    /// or `=storage` chooses by hand (`GpuOptions::params_in_storage`).
-    pub params_in_storage: bool,
+    /// Passes of fewer invocations than this get their parameter block (`var<uniform>` in
+    /// the WGSL) as a read-only storage buffer instead ([`Capabilities::adapt_source`]
+    /// rewrites the declaration; a block valid as a uniform is laid out alike as storage); 0:
+    /// never, `u64::MAX`: always. [`PARAMS_IN_STORAGE_BELOW`] on Mesa's CPU drivers (lavapipe,
+    /// llvmpipe), 0 elsewhere; `TYNDALL_GPU_PARAMS=uniform` or `=storage` chooses by hand
+    /// (`GpuOptions::params_in_storage`).
+    ///
+    /// Why: those drivers *inline* uniform values that steer a branch or a loop into the
+    /// shader and compile that variant at every dispatch that binds a new buffer (Debian 12's
+    /// Mesa 22.3 keeps no cache of them). On a big pass the specialised code pays for its
+    /// compile (a 2048² polygon closure runs 1.4× faster with it); on a small one the compile
+    /// is the whole cost (a cold chain of 10,000 Math nodes at 8×8: 10 s of JIT, 1.3 s without).
+    /// Storage buffers are never inlined.
+    pub params_in_storage_below: u64,
 }
+
+/// Where [`Capabilities::params_in_storage_below`] is set on Mesa's CPU drivers: 256² texels.
+/// Measured there (300 Math nodes): storage is 3× faster at 64², 1.6× at 256², even at 512²,
+/// while heavy passes (morphology, marching) at 960×540 and beyond run faster inlined.
+pub const PARAMS_IN_STORAGE_BELOW: u64 = 256 * 256;
 
 impl Capabilities {
     /// Read them off an adapter.
@@ -153,26 +162,37 @@ impl Capabilities {
             emulate_gl: false,
             layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
             // Vertex stages read them too (rasterisation), which GL may not allow.
-            params_in_storage: mesa_cpu(&adapter.get_info())
+            params_in_storage_below: if mesa_cpu(&adapter.get_info())
                 && adapter
                     .get_downlevel_capabilities()
                     .flags
-                    .contains(wgpu::DownlevelFlags::VERTEX_STORAGE),
+                    .contains(wgpu::DownlevelFlags::VERTEX_STORAGE)
+            {
+                PARAMS_IN_STORAGE_BELOW
+            } else {
+                0
+            },
         }
     }
 
-    /// The binding type of a pass's parameter block (see [`Capabilities::params_in_storage`]).
-    pub fn params_binding(&self) -> wgpu::BufferBindingType {
-        if self.params_in_storage {
+    /// Whether a pass of `invocations` invocations gets its parameter block as a storage
+    /// buffer (see [`Capabilities::params_in_storage_below`]).
+    pub fn params_in_storage(&self, invocations: u64) -> bool {
+        invocations < self.params_in_storage_below
+    }
+
+    /// The binding type of a pass's parameter block, as a storage buffer or not.
+    pub fn params_binding(storage: bool) -> wgpu::BufferBindingType {
+        if storage {
             wgpu::BufferBindingType::Storage { read_only: true }
         } else {
             wgpu::BufferBindingType::Uniform
         }
     }
 
-    /// The usages of a pass's parameter buffer (see [`Capabilities::params_in_storage`]).
-    pub fn params_usage(&self) -> wgpu::BufferUsages {
-        let kind = if self.params_in_storage {
+    /// The usages of a pass's parameter buffer, as a storage buffer or not.
+    pub fn params_usage(storage: bool) -> wgpu::BufferUsages {
+        let kind = if storage {
             wgpu::BufferUsages::STORAGE
         } else {
             wgpu::BufferUsages::UNIFORM
@@ -237,14 +257,18 @@ impl Capabilities {
 
     /// A shader's WGSL as this adapter runs it: storage formats replaced by what they are
     /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so), and
-    /// parameter blocks declared as read-only storage where
-    /// [`Capabilities::params_in_storage`] says so.
-    pub fn adapt_source<'a>(&self, source: &'a str) -> std::borrow::Cow<'a, str> {
+    /// with `params_in_storage` the parameter blocks declared as read-only storage buffers
+    /// (see [`Capabilities::params_in_storage_below`]).
+    pub fn adapt_source<'a>(
+        &self,
+        source: &'a str,
+        params_in_storage: bool,
+    ) -> std::borrow::Cow<'a, str> {
         let mut out = std::borrow::Cow::Borrowed(source);
         if self.stored(F::Rg32Float) != F::Rg32Float && source.contains("rg32float") {
             out = std::borrow::Cow::Owned(out.replace("<rg32float", "<rgba32float"));
         }
-        if self.params_in_storage && source.contains("var<uniform>") {
+        if params_in_storage && source.contains("var<uniform>") {
             out = std::borrow::Cow::Owned(out.replace("var<uniform>", "var<storage, read>"));
         }
         out
@@ -313,7 +337,7 @@ impl Capabilities {
                 (
                     "storage buffers",
                     e.storage_buffers
-                        + if self.params_in_storage {
+                        + if self.params_in_storage_below > 0 {
                             e.uniform_buffers
                         } else {
                             0
@@ -322,7 +346,7 @@ impl Capabilities {
                 ),
                 (
                     "uniform buffers",
-                    if self.params_in_storage {
+                    if self.params_in_storage_below == u64::MAX {
                         0
                     } else {
                         e.uniform_buffers
@@ -625,7 +649,7 @@ fn backend_filter_note() -> String {
 }
 
 /// Whether an adapter is one of Mesa's CPU drivers (lavapipe on Vulkan, llvmpipe on GL), which
-/// inline uniform values into shaders (see [`Capabilities::params_in_storage`]).
+/// inline uniform values into shaders (see [`Capabilities::params_in_storage_below`]).
 fn mesa_cpu(info: &wgpu::AdapterInfo) -> bool {
     info.device_type == wgpu::DeviceType::Cpu
         && ["llvmpipe", "lavapipe"]

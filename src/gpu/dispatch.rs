@@ -43,8 +43,12 @@ impl Gpu {
         entry: &str,
         binds: &[(u32, Bind)],
         constants: &[(&str, f64)],
+        params_in_storage: bool,
     ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
         let mut key = format!("{}:{entry}", shader.stem);
+        if params_in_storage {
+            key.push_str(":params-storage");
+        }
         for (name, value) in constants {
             key.push_str(&format!(":{name}={value}"));
         }
@@ -82,7 +86,7 @@ impl Gpu {
                         visibility: wgpu::ShaderStages::COMPUTE,
                         ty: match b {
                             Bind::Uniform(_) => wgpu::BindingType::Buffer {
-                                ty: self.caps.params_binding(),
+                                ty: adapter::Capabilities::params_binding(params_in_storage),
                                 has_dynamic_offset: false,
                                 min_binding_size: None,
                             },
@@ -136,7 +140,9 @@ impl Gpu {
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(shader.stem),
-                        source: wgpu::ShaderSource::Wgsl(self.caps.adapt_source(source)),
+                        source: wgpu::ShaderSource::Wgsl(
+                            self.caps.adapt_source(source, params_in_storage),
+                        ),
                     });
                 Arc::new(
                     self.device
@@ -191,13 +197,16 @@ impl Gpu {
         (width, height): (u32, u32),
         constants: &[(&str, f64)],
     ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds, constants)?;
+        let storage = self
+            .caps
+            .params_in_storage(u64::from(width) * u64::from(height));
+        let pipeline = self.pipeline(shader, entry, binds, constants, storage)?;
         let groups = self.entry_needs(shader, entry)?.groups([width, height, 1]);
         let start = tracing().then(|| {
             let _ = self.wait();
             std::time::Instant::now()
         });
-        self.scoped(|| self.record(&pipeline, shader, binds, groups))??;
+        self.scoped(|| self.record(&pipeline, shader, binds, groups, storage))??;
         if let Some(start) = start {
             self.wait()?;
             eprintln!(
@@ -218,9 +227,12 @@ impl Gpu {
         binds: &[(u32, Bind)],
         size: [u32; 3],
     ) -> Result<(), GpuError> {
-        let pipeline = self.pipeline(shader, entry, binds, &[])?;
+        let storage = self
+            .caps
+            .params_in_storage(size.iter().map(|n| u64::from(*n)).product());
+        let pipeline = self.pipeline(shader, entry, binds, &[], storage)?;
         let groups = self.entry_needs(shader, entry)?.groups(size);
-        self.scoped(|| self.record(&pipeline, shader, binds, groups))?
+        self.scoped(|| self.record(&pipeline, shader, binds, groups, storage))?
     }
 
     fn record(
@@ -229,6 +241,7 @@ impl Gpu {
         shader: Shader,
         binds: &[(u32, Bind)],
         groups: [u32; 3],
+        params_in_storage: bool,
     ) -> Result<(), GpuError> {
         let buffers: Vec<Option<wgpu::Buffer>> = binds
             .iter()
@@ -238,7 +251,7 @@ impl Gpu {
                     let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("uniform"),
                         size: size.max(16),
-                        usage: self.caps.params_usage(),
+                        usage: adapter::Capabilities::params_usage(params_in_storage),
                         mapped_at_creation: false,
                     });
                     let mut padded = bytes.to_vec();

@@ -239,7 +239,7 @@ impl Gpu {
             caps = caps.emulating_gl();
         }
         if let Some(storage) = options.params_in_storage {
-            caps.params_in_storage = storage;
+            caps.params_in_storage_below = if storage { u64::MAX } else { 0 };
         }
         let wanted = wgpu::Features::FLOAT32_FILTERABLE
             | wgpu::Features::TIMESTAMP_QUERY

@@ -16,10 +16,10 @@ pub struct GpuOptions {
     pub adapter: Option<String>,
     /// Take GL's substitutes on any adapter (default: `TYNDALL_GPU_EMULATE=gl`).
     pub emulate_gl: bool,
-    /// Pass parameter blocks as uniform (`Some(false)`) or read-only storage buffers
-    /// (`Some(true)`) whatever the adapter; `None` (the default): as
-    /// [`Capabilities::params_in_storage`](super::adapter::Capabilities::params_in_storage)
-    /// decides for it. From `TYNDALL_GPU_PARAMS=uniform|storage`.
+    /// Pass every pass's parameter block as a uniform (`Some(false)`) or a read-only storage
+    /// buffer (`Some(true)`) whatever the adapter and the pass's size; `None` (the default):
+    /// as [`Capabilities::params_in_storage_below`](super::adapter::Capabilities::params_in_storage_below)
+    /// decides. From `TYNDALL_GPU_PARAMS=uniform|storage`.
     pub params_in_storage: Option<bool>,
 }
 

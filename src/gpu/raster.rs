@@ -74,17 +74,18 @@ impl Gpu {
         shader: Shader,
         formats: &[wgpu::TextureFormat],
         bits: bool,
+        params_in_storage: bool,
     ) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
-        let key = format!("{}:raster:{formats:?}", shader.stem);
+        let key = format!("{}:raster:{formats:?}:{params_in_storage}", shader.stem);
         let wgsl = shader.wgsl().map_err(GpuError::Validation)?;
         let source = if bits {
             wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(
-                bits_module(&self.caps.adapt_source(wgsl)).map_err(|e| {
+                bits_module(&self.caps.adapt_source(wgsl, params_in_storage)).map_err(|e| {
                     GpuError::Validation(format!("shader {}.wgsl, entry fs: {e}", shader.stem))
                 })?,
             ))
         } else {
-            wgpu::ShaderSource::Wgsl(self.caps.adapt_source(wgsl))
+            wgpu::ShaderSource::Wgsl(self.caps.adapt_source(wgsl, params_in_storage))
         };
         let fs_entry = if bits { BITS_ENTRY } else { "fs" };
         let mut cache = match self.render_pipelines.lock() {
@@ -101,7 +102,7 @@ impl Gpu {
                     binding: 0,
                     visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                     ty: wgpu::BindingType::Buffer {
-                        ty: self.caps.params_binding(),
+                        ty: super::adapter::Capabilities::params_binding(params_in_storage),
                         has_dynamic_offset: false,
                         min_binding_size: None,
                     },
@@ -183,7 +184,8 @@ impl Gpu {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let bits = formats != stored;
-        let pipeline = self.raster_pipeline(shader, &formats, bits)?;
+        let storage = self.caps.params_in_storage(u64::from(w) * u64::from(h));
+        let pipeline = self.raster_pipeline(shader, &formats, bits, storage)?;
         // The bit-pattern path renders into integer textures of the same size.
         let temps: Vec<(wgpu::Texture, wgpu::TextureView)> = if bits {
             formats
@@ -216,7 +218,7 @@ impl Gpu {
             let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("raster uniform"),
                 size: padded.len() as u64,
-                usage: self.caps.params_usage(),
+                usage: super::adapter::Capabilities::params_usage(storage),
                 mapped_at_creation: false,
             });
             self.queue.write_buffer(&buf, 0, &padded);
