@@ -3,7 +3,10 @@
 //! drawn headless by egui_kittest (the UI's CPU work: layout, the canvas, the panels; no
 //! painting, which a real GPU does in well under a millisecond). Prints the median and
 //! 90th-percentile frame time and the frame rate, first at the view the file opens with, then
-//! with every node framed (`F`).
+//! with every node framed (`F`). egui_kittest keeps AccessKit on (it finds widgets through
+//! it), which a desktop editor does only while a screen reader asks; so the same frames are
+//! then timed once more on a bare `egui::Context` without it, tessellation included (what
+//! eframe does before it hands the triangles to the GPU).
 //!
 //! ```sh
 //! cargo run --release --example editor_frames -- 1000
@@ -59,5 +62,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     h.key_press(egui::Key::F);
     h.run_steps(10);
     report("all framed", measure(&mut h, 60));
+
+    let state = EditorState::open(registry_catalog(), &path)?;
+    let mut app = EditorApp::on_gpu(state, Arc::new(tyndall::nodes::registry()), None);
+    let ctx = egui::Context::default();
+    let mut frame = eframe::Frame::_new_kittest();
+    let mut step = |k: usize, events: Vec<egui::Event>| {
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(1600.0, 900.0),
+            )),
+            events: [
+                vec![egui::Event::PointerMoved(egui::pos2(
+                    600.0 + (k % 7) as f32,
+                    400.0,
+                ))],
+                events,
+            ]
+            .concat(),
+            ..Default::default()
+        };
+        let start = Instant::now();
+        let out = ctx.run_ui(input, |ui| eframe::App::ui(&mut app, ui, &mut frame));
+        let _ = ctx.tessellate(out.shapes, out.pixels_per_point);
+        start.elapsed().as_secs_f64() * 1e3
+    };
+    let mut bare = |from: usize, events: Vec<egui::Event>| {
+        step(from, events);
+        for k in 1..10 {
+            step(from + k, Vec::new());
+        }
+        let mut ms: Vec<f64> = (0..60).map(|k| step(from + 10 + k, Vec::new())).collect();
+        ms.sort_by(f64::total_cmp);
+        (ms[30], ms[54])
+    };
+    report("as opened, no AccessKit", bare(0, Vec::new()));
+    let f = egui::Event::Key {
+        key: egui::Key::F,
+        physical_key: None,
+        pressed: true,
+        repeat: false,
+        modifiers: Default::default(),
+    };
+    report("all framed, no AccessKit", bare(100, vec![f]));
     Ok(())
+}
+
+fn registry_catalog() -> tyndall::graph::Catalog {
+    tyndall::nodes::registry().catalog().clone()
 }
