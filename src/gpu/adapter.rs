@@ -137,16 +137,18 @@ pub struct Capabilities {
     /// Why: those drivers *inline* uniform values that steer a branch or a loop into the
     /// shader and compile that variant at every dispatch that binds a new buffer (Debian 12's
     /// Mesa 22.3 keeps no cache of them). On a big pass the specialised code pays for its
-    /// compile (a 2048² polygon closure runs 1.4× faster with it); on a small one the compile
+    /// compile (a 2048² polygon closure runs 1.5× faster with it); on a small one the compile
     /// is the whole cost (a cold chain of 10,000 Math nodes at 8×8: 10 s of JIT, 1.3 s without).
     /// Storage buffers are never inlined.
     pub params_in_storage_below: u64,
 }
 
-/// Where [`Capabilities::params_in_storage_below`] is set on Mesa's CPU drivers: 256² texels.
-/// Measured there (300 Math nodes): storage is 3× faster at 64², 1.6× at 256², even at 512²,
-/// while heavy passes (morphology, marching) at 960×540 and beyond run faster inlined.
-pub const PARAMS_IN_STORAGE_BELOW: u64 = 256 * 256;
+/// Where [`Capabilities::params_in_storage_below`] is set on Mesa's CPU drivers: 64² invocations.
+/// Measured there: a chain of 300 Math nodes runs 3× faster from storage at 8×8 and at 63×63
+/// (0.10 s against 0.32 s), since each uniform dispatch compiles ~0.7 ms; but a pass of few
+/// invocations can still be heavy — the light-map solve's constraint-row marches (9–19
+/// thousand invocations of 768 steps) run 15 % faster inlined, a 2048² polygon closure 1.5×.
+pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 
 impl Capabilities {
     /// Read them off an adapter.
