@@ -32,9 +32,10 @@
 use std::sync::Arc;
 
 use super::util::placeholder;
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use crate::gpu::{Bind, Shader, TexFormat};
 use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use crate::io::Raster;
 
 /// The `Composite` node kind.
 pub struct Composite;
@@ -108,6 +109,101 @@ crate::uniforms! {
         /// World → light-map clip (identity without one).
         pub light_map_view_proj: [[f32; 4]; 4],
     }
+}
+
+/// What [`reference`] reads: the node's inputs as rasters with their matrices.
+pub struct RefInputs<'a> {
+    /// `albedo` (RGBA; alpha > 0.5: geometry).
+    pub albedo: &'a Raster,
+    /// `normal` (RGB).
+    pub normal: &'a Raster,
+    /// `depth` (camera linear depth) and the camera.
+    pub depth: (&'a Raster, &'a Matrices),
+    /// `shadow` (light-space depth) and the light.
+    pub shadow: (&'a Raster, &'a Matrices),
+    /// `inscatter` (RGB), if connected.
+    pub inscatter: Option<&'a Raster>,
+    /// `transmittance` (one channel), if connected.
+    pub transmittance: Option<&'a Raster>,
+    /// `aerial_transmittance` (RGB), if connected.
+    pub aerial_transmittance: Option<&'a Raster>,
+    /// `aerial_inscatter` (RGB), if connected.
+    pub aerial_inscatter: Option<&'a Raster>,
+    /// `light_map` (RGB) and its projection, if connected.
+    pub light_map: Option<(&'a Raster, &'a Matrices)>,
+}
+
+/// CPU reference of the node (the formula of the module docs, as `shaders/composite.wgsl`
+/// computes it): `ambient`, `sky` (rgb), `bias` and `pcf` as the parameters.
+pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf: i32) -> Raster {
+    use crate::nodes::algorithms::shader_lib::{bilinear_texels, light_uvz};
+    let (depth, cam) = i.depth;
+    let (shadow, light) = i.shadow;
+    let (w, h) = (depth.width, depth.height);
+    let (inv, eye) = (cam.view_proj().inverse(), cam.eye());
+    let (lvp, to_sun) = (light.view_proj(), light.backward());
+    let surface_shadow = |x: glam::Vec3| {
+        let uvz = light_uvz(lvp, x);
+        let (sw, sh) = (shadow.width as i32, shadow.height as i32);
+        let cx = (uvz.x * sw as f32).floor() as i32;
+        let cy = (uvz.y * sh as f32).floor() as i32;
+        let mut lit = 0.0f32;
+        let mut n = 0.0f32;
+        for dy in -pcf..=pcf {
+            for dx in -pcf..=pcf {
+                let (tx, ty) = (cx + dx, cy + dy);
+                n += 1.0;
+                let outside = tx < 0 || ty < 0 || tx >= sw || ty >= sh;
+                if outside || uvz.z <= shadow.pixel(tx as u32, ty as u32)[0] + bias {
+                    lit += 1.0;
+                }
+            }
+        }
+        lit / n
+    };
+    let sun_colour = |x: glam::Vec3| match i.light_map {
+        None => [1.0f32; 3],
+        Some((map, m)) => {
+            let c = m.view_proj() * x.extend(1.0);
+            let uv = [c.x * 0.5 + 0.5, 0.5 - c.y * 0.5];
+            let v = bilinear_texels(map, [uv[0] * map.width as f32, uv[1] * map.height as f32]);
+            [v[0], v[1], v[2]]
+        }
+    };
+    let mut out = Raster::new(w, h, 4, 1.0);
+    for y in 0..h {
+        for x in 0..w {
+            let a = i.albedo.pixel(x, y);
+            let mut colour = if a[3] > 0.5 {
+                let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
+                let p = eye + dir * depth.pixel(x, y)[0];
+                let nrm = i.normal.pixel(x, y);
+                let lambert = glam::Vec3::new(nrm[0], nrm[1], nrm[2]).dot(to_sun).max(0.0);
+                let (m, s) = (sun_colour(p), surface_shadow(p));
+                std::array::from_fn(|c| {
+                    a[c] * (ambient[c] + light.radiance[c] * m[c] * lambert * s)
+                })
+            } else {
+                sky
+            };
+            let each = |colour: &mut [f32; 3], r: Option<&Raster>, f: fn(f32, f32) -> f32| {
+                if let Some(r) = r {
+                    let v = r.pixel(x, y);
+                    for (c, value) in colour.iter_mut().enumerate() {
+                        // One-channel inputs (transmittance) apply to every channel.
+                        *value = f(*value, v[c.min(v.len() - 1)]);
+                    }
+                }
+            };
+            each(&mut colour, i.transmittance, |a, b| a * b);
+            each(&mut colour, i.inscatter, |a, b| a + b);
+            each(&mut colour, i.aerial_transmittance, |a, b| a * b);
+            each(&mut colour, i.aerial_inscatter, |a, b| a + b);
+            let o = &mut out.data[((y * w + x) * 4) as usize..][..3];
+            o.copy_from_slice(&colour);
+        }
+    }
+    out
 }
 
 impl NodeKind for Composite {
