@@ -485,7 +485,8 @@ pub fn preset_thumbnail(path: &Path) -> Option<PathBuf> {
 }
 
 /// The presets under `folders` (recursively), ordered by name; a folder's `lib/` holds library
-/// groups, not presets, and is left out.
+/// groups and its `bench/` the benchmark suites' inputs (`benches/*.ron` name them), not looks,
+/// so both are left out.
 pub fn list_presets(folders: &[PathBuf]) -> Vec<PresetEntry> {
     let mut out = Vec::new();
     for root in folders {
@@ -497,7 +498,8 @@ pub fn list_presets(folders: &[PathBuf]) -> Vec<PresetEntry> {
             for e in entries.flatten() {
                 let p = e.path();
                 if p.is_dir() {
-                    if !(dir == *root && p.file_name().is_some_and(|n| n == "lib")) {
+                    let skipped = |n: &std::ffi::OsStr| n == "lib" || n == "bench";
+                    if !(dir == *root && p.file_name().is_some_and(skipped)) {
                         stack.push(p);
                     }
                 } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
