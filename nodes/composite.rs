@@ -111,7 +111,7 @@ crate::uniforms! {
     }
 }
 
-/// What [`reference`] reads: the node's inputs as rasters with their matrices.
+/// What [`reference()`] reads: the node's inputs as rasters with their matrices.
 pub struct RefInputs<'a> {
     /// `albedo` (RGBA; alpha > 0.5: geometry).
     pub albedo: &'a Raster,
