@@ -166,6 +166,14 @@ pub(crate) fn gpu_err(py: Python<'_>, e: &tyndall::gpu::GpuError) -> PyErr {
     raise::<GpuError>(py, e.to_string(), About::default())
 }
 
+/// Wait for the GPU's queued work before the interpreter exits (registered with `atexit`):
+/// Mesa's CPU drivers compile shaders on their queue thread, and a process that exits while
+/// one runs crashes in LLVM's teardown (see `Gpu::settle_shared`).
+#[pyfunction]
+fn _settle(py: Python<'_>) {
+    py.detach(tyndall::gpu::Gpu::settle_shared);
+}
+
 /// The `tyndall._native` module.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -181,5 +189,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(values::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(values::write_image, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(_settle, m)?)?;
+    py.import("atexit")?
+        .call_method1("register", (m.getattr("_settle")?,))?;
     Ok(())
 }

@@ -221,13 +221,16 @@ pub(super) fn split_eq(s: &str, what: &str) -> Result<(String, String), CliError
 /// Run the command line; returns the exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();
-    match run(cli) {
+    let code = match run(cli) {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
             e.exit_code()
         }
-    }
+    };
+    // An error can leave passes queued; the driver must finish them before the process exits.
+    crate::gpu::Gpu::settle_shared();
+    code
 }
 
 /// Point `XDG_RUNTIME_DIR` at a private directory (`$TMPDIR/tyndall-runtime-$USER`, mode 0700

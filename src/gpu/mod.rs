@@ -209,6 +209,9 @@ impl log::Log for ValidationLogger {
 
 static LOGGER: ValidationLogger = ValidationLogger;
 
+/// The process-wide context of [`Gpu::shared`] (or the error that made it fail).
+static SHARED: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);
+
 impl Gpu {
     /// Create a headless context on the adapter [`adapter::Survey::choose`] picks: the one
     /// named by [`set_adapter_choice`] or `TYNDALL_ADAPTER`, else the best that qualifies.
@@ -294,8 +297,7 @@ impl Gpu {
     /// creates a new one (the editor restarts its evaluation on it); holders of the old one
     /// keep getting [`GpuError::Lost`]. Without an adapter, the first call's error is kept.
     pub fn shared() -> Result<Arc<Gpu>, GpuError> {
-        static CELL: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);
-        let mut cell = CELL.lock().unwrap_or_else(|e| e.into_inner());
+        let mut cell = SHARED.lock().unwrap_or_else(|e| e.into_inner());
         match &*cell {
             Some(Ok(gpu)) if gpu.check_lost().is_ok() => return Ok(gpu.clone()),
             Some(Err(e)) => return Err(e.clone()),
@@ -308,6 +310,19 @@ impl Gpu {
             *cell = Some(made.clone());
         }
         made
+    }
+
+    /// Wait for the process-wide context's queued work to finish, if one was made (errors
+    /// ignored: this runs on the way out). Call it before the process exits: Mesa's CPU drivers
+    /// compile shaders on their queue thread while it runs the queued work, and a process that
+    /// exits meanwhile tears LLVM down under that thread (`tyndall render` crashed at exit in
+    /// 3 of 10 runs after an evaluation error left submitted passes behind it).
+    pub fn settle_shared() {
+        let gpu = match &*SHARED.lock().unwrap_or_else(|e| e.into_inner()) {
+            Some(Ok(gpu)) => gpu.clone(),
+            _ => return,
+        };
+        let _ = gpu.wait();
     }
 
     /// One line describing the adapter ([`adapter::describe`]).
