@@ -261,6 +261,27 @@ fn window_outputs(gpu: tyndall::gpu::Gpu) -> Vec<(String, tyndall::io::Raster)> 
         .collect()
 }
 
+/// Two runs' outputs (as [`window_outputs`] lists them) are equal bit for bit, and none is all
+/// zero (a comparison of empty pictures would prove nothing).
+fn assert_bit_identical(a: &[(String, tyndall::io::Raster)], b: &[(String, tyndall::io::Raster)]) {
+    assert!(!a.is_empty() && a.len() == b.len());
+    for ((name, x), (_, y)) in a.iter().zip(b) {
+        assert_eq!(
+            (x.width, x.height, x.channels),
+            (y.width, y.height, y.channels),
+            "{name}"
+        );
+        let differing = x
+            .data
+            .iter()
+            .zip(&y.data)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(differing, 0, "{name}: {differing} samples differ");
+        assert!(x.data.iter().any(|v| *v != 0.0), "{name} is not all zero");
+    }
+}
+
 #[test]
 fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
     if common::gpu().is_none() {
@@ -287,22 +308,7 @@ fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
         emulated.caps.render_format(wgpu::TextureFormat::R32Float),
         Some(wgpu::TextureFormat::R32Uint)
     );
-    let (a, b) = (window_outputs(usual), window_outputs(emulated));
-    for ((name, x), (_, y)) in a.iter().zip(&b) {
-        assert_eq!(
-            (x.width, x.height, x.channels),
-            (y.width, y.height, y.channels),
-            "{name}"
-        );
-        let differing = x
-            .data
-            .iter()
-            .zip(&y.data)
-            .filter(|(p, q)| p.to_bits() != q.to_bits())
-            .count();
-        assert_eq!(differing, 0, "{name}: {differing} samples differ");
-        assert!(x.data.iter().any(|v| *v != 0.0), "{name} is not all zero");
-    }
+    assert_bit_identical(&window_outputs(usual), &window_outputs(emulated));
 }
 
 #[test]
@@ -324,19 +330,7 @@ fn parameters_as_uniform_or_storage_buffers_give_bit_identical_results() {
         assert_eq!(gpu.caps.params_in_storage(1), storage);
         window_outputs(gpu)
     };
-    let (a, b) = (with(false), with(true));
-    assert!(!a.is_empty());
-    for ((name, x), (_, y)) in a.iter().zip(&b) {
-        assert_eq!((x.width, x.height), (y.width, y.height), "{name}");
-        let differing = x
-            .data
-            .iter()
-            .zip(&y.data)
-            .filter(|(p, q)| p.to_bits() != q.to_bits())
-            .count();
-        assert_eq!(differing, 0, "{name}: {differing} samples differ");
-        assert!(x.data.iter().any(|v| *v != 0.0), "{name} is not all zero");
-    }
+    assert_bit_identical(&with(false), &with(true));
 }
 
 #[test]

@@ -127,28 +127,13 @@ pub struct Capabilities {
     /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
     /// 0, …)`), so only slice 0 is written; no substitute is made (volume nodes fail there).
     pub layered_3d_storage: bool,
-    /// Passes of fewer invocations than this get their parameter block (`var<uniform>` in
-    /// the WGSL) as a read-only storage buffer instead ([`Capabilities::adapt_source`]
-    /// rewrites the declaration; a block valid as a uniform is laid out alike as storage); 0:
-    /// never, `u64::MAX`: always. [`PARAMS_IN_STORAGE_BELOW`] on Mesa's CPU drivers (lavapipe,
-    /// llvmpipe), 0 elsewhere; `TYNDALL_GPU_PARAMS=uniform` or `=storage` chooses by hand
-    /// (`GpuOptions::params_in_storage`).
-    ///
-    /// Why: those drivers *inline* uniform values that steer a branch or a loop into the
-    /// shader and compile that variant at every dispatch that binds a new buffer (Debian 12's
-    /// Mesa 22.3 keeps no cache of them). On a big pass the specialised code pays for its
-    /// compile (a 2048² polygon closure runs 1.5× faster with it); on a small one the compile
-    /// is the whole cost (a cold chain of 10,000 Math nodes at 8×8: 10 s of JIT, 1.3 s without).
-    /// Storage buffers are never inlined.
+    /// Passes of fewer invocations than this get their parameter block (`var<uniform>`) as a
+    /// read-only storage buffer instead; 0: never, `u64::MAX`: always. Mesa's CPU drivers
+    /// compile a shader per dispatch of a uniform block that steers a branch: see
+    /// `src/gpu/params.rs` for why and for the default ([`super::PARAMS_IN_STORAGE_BELOW`]
+    /// there, 0 elsewhere); `TYNDALL_GPU_PARAMS=uniform|storage` chooses by hand.
     pub params_in_storage_below: u64,
 }
-
-/// Where [`Capabilities::params_in_storage_below`] is set on Mesa's CPU drivers: 64² invocations.
-/// Measured there: a chain of 300 Math nodes runs 3× faster from storage at 8×8 and at 63×63
-/// (0.10 s against 0.32 s), since each uniform dispatch compiles ~0.7 ms; but a pass of few
-/// invocations can still be heavy — the light-map solve's constraint-row marches (9–19
-/// thousand invocations of 768 steps) run 15 % faster inlined, a 2048² polygon closure 1.5×.
-pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 
 impl Capabilities {
     /// Read them off an adapter.
@@ -163,43 +148,8 @@ impl Capabilities {
                 .collect(),
             emulate_gl: false,
             layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
-            // Vertex stages read them too (rasterisation), which GL may not allow.
-            params_in_storage_below: if mesa_cpu(&adapter.get_info())
-                && adapter
-                    .get_downlevel_capabilities()
-                    .flags
-                    .contains(wgpu::DownlevelFlags::VERTEX_STORAGE)
-            {
-                PARAMS_IN_STORAGE_BELOW
-            } else {
-                0
-            },
+            params_in_storage_below: super::params::default_params_in_storage_below(adapter),
         }
-    }
-
-    /// Whether a pass of `invocations` invocations gets its parameter block as a storage
-    /// buffer (see [`Capabilities::params_in_storage_below`]).
-    pub fn params_in_storage(&self, invocations: u64) -> bool {
-        invocations < self.params_in_storage_below
-    }
-
-    /// The binding type of a pass's parameter block, as a storage buffer or not.
-    pub fn params_binding(storage: bool) -> wgpu::BufferBindingType {
-        if storage {
-            wgpu::BufferBindingType::Storage { read_only: true }
-        } else {
-            wgpu::BufferBindingType::Uniform
-        }
-    }
-
-    /// The usages of a pass's parameter buffer, as a storage buffer or not.
-    pub fn params_usage(storage: bool) -> wgpu::BufferUsages {
-        let kind = if storage {
-            wgpu::BufferUsages::STORAGE
-        } else {
-            wgpu::BufferUsages::UNIFORM
-        };
-        kind | wgpu::BufferUsages::COPY_DST
     }
 
     /// The same capabilities taking GL's substitutes (see [`Capabilities::emulate_gl`]).
@@ -325,6 +275,11 @@ impl Capabilities {
             }
         };
         for e in &needs.entries {
+            // Parameter blocks count as storage buffers where they may be bound as such, and as
+            // uniforms where they may stay uniforms (as both when the pass size decides).
+            let below = self.params_in_storage_below;
+            let as_storage = u32::from(below > 0) * e.uniform_buffers;
+            let as_uniform = u32::from(below < u64::MAX) * e.uniform_buffers;
             let counts = [
                 (
                     "storage textures",
@@ -338,21 +293,12 @@ impl Capabilities {
                 ),
                 (
                     "storage buffers",
-                    e.storage_buffers
-                        + if self.params_in_storage_below > 0 {
-                            e.uniform_buffers
-                        } else {
-                            0
-                        },
+                    e.storage_buffers + as_storage,
                     l.max_storage_buffers_per_shader_stage,
                 ),
                 (
                     "uniform buffers",
-                    if self.params_in_storage_below == u64::MAX {
-                        0
-                    } else {
-                        e.uniform_buffers
-                    },
+                    as_uniform,
                     l.max_uniform_buffers_per_shader_stage,
                 ),
             ];
@@ -648,13 +594,4 @@ fn backend_filter_note() -> String {
         .ok()
         .filter(|v| !v.is_empty())
         .map_or(String::new(), |v| format!(" (WGPU_BACKEND={v})"))
-}
-
-/// Whether an adapter is one of Mesa's CPU drivers (lavapipe on Vulkan, llvmpipe on GL), which
-/// inline uniform values into shaders (see [`Capabilities::params_in_storage_below`]).
-fn mesa_cpu(info: &wgpu::AdapterInfo) -> bool {
-    info.device_type == wgpu::DeviceType::Cpu
-        && ["llvmpipe", "lavapipe"]
-            .iter()
-            .any(|n| info.name.to_lowercase().contains(n))
 }

@@ -5,7 +5,9 @@ pub mod adapter;
 mod batch;
 mod dispatch;
 mod layout;
+mod logger;
 mod options;
+mod params;
 mod pool;
 mod raster;
 mod readback;
@@ -20,9 +22,11 @@ use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
 pub use layout::{check_uniform_layout, UniformLayout};
+use logger::{CAPTURING, LOGGED_ERRORS};
 pub use options::{
     adapter_choice, env_backends, instance, instance_on, set_adapter_choice, GpuOptions,
 };
+pub use params::PARAMS_IN_STORAGE_BELOW;
 use pool::{narrow, widen};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
@@ -171,43 +175,6 @@ impl std::fmt::Debug for Gpu {
         write!(f, "Gpu({} on {:?})", self.info.name, self.info.backend)
     }
 }
-
-/// Collects error-level log records from wgpu (the Vulkan validation layer reports through
-/// them) so that [`Gpu::take_errors`] turns them into failures; installed when validation is on.
-struct ValidationLogger;
-
-thread_local! {
-    /// Error records logged on this thread (the validation layer reports synchronously on the
-    /// thread that made the offending call, so per-thread lists attribute errors correctly).
-    static LOGGED_ERRORS: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
-    /// Depth of `Gpu::scoped` calls on this thread: only messages logged inside our own GPU
-    /// calls are ours (an egui renderer on the same thread logs through the same logger).
-    static CAPTURING: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
-}
-
-impl log::Log for ValidationLogger {
-    fn enabled(&self, m: &log::Metadata) -> bool {
-        m.level() <= log::Level::Warn && m.target().starts_with("wgpu")
-    }
-
-    fn log(&self, r: &log::Record) {
-        if !self.enabled(r.metadata()) {
-            return;
-        }
-        let line = format!("{}: {}", r.target(), r.args());
-        if r.level() == log::Level::Warn {
-            eprintln!("warning: {line}");
-        } else {
-            if CAPTURING.with(|c| c.get()) > 0 {
-                LOGGED_ERRORS.with(|v| v.borrow_mut().push(line));
-            }
-        }
-    }
-
-    fn flush(&self) {}
-}
-
-static LOGGER: ValidationLogger = ValidationLogger;
 
 /// The process-wide context of [`Gpu::shared`] (or the error that made it fail).
 static SHARED: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);

@@ -2,7 +2,7 @@
 
 use std::sync::Mutex;
 
-use super::LOGGER;
+use super::logger::LOGGER;
 
 /// How [`Gpu::with_options`](super::Gpu::with_options) makes a context.
 #[derive(Debug, Clone)]
