@@ -41,6 +41,7 @@ pub mod side_by_side;
 pub mod single_scattering;
 pub mod sky;
 pub mod soft_visibility;
+pub mod temporal_accumulate;
 pub mod tonemap;
 pub mod transfer_function;
 pub mod util;
@@ -92,6 +93,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(single_scattering::SingleScattering));
     r.add(Arc::new(sky::Sky));
     r.add(Arc::new(soft_visibility::SoftVisibility));
+    r.add(Arc::new(temporal_accumulate::TemporalAccumulate));
     r.add(Arc::new(tonemap::Tonemap));
     r.add(Arc::new(transfer_function::TransferFunction));
     r

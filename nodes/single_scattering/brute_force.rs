@@ -33,7 +33,8 @@ pub fn reference_pixel_phase(
     let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
     let (t0, t1) = medium_segment(p, dir, s);
     let len = (t1 - t0).max(0.0);
-    let offset = p.jitter * (crate::nodes::algorithms::shader_lib::pixel_jitter(x, y) - 0.5);
+    let hash = crate::nodes::algorithms::shader_lib::pixel_jitter(x, y) + p.jitter_phase;
+    let offset = p.jitter * ((hash - hash.floor()) - 0.5);
     let mut lit = 0u32;
     let mut weighted = 0.0f32;
     let n = p.steps as f32;

@@ -29,7 +29,8 @@
 //! map is refused.
 //!
 //! Methods: `BruteForce` marches `steps` samples per pixel at the centres of equal intervals
-//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash). `MinMax` (the accelerated
+//! (moved by up to ±`jitter`/2 of an interval with a per-pixel hash, the same every frame or,
+//! with `jitter_pattern = frame`, rotated by the golden ratio each frame). `MinMax` (the accelerated
 //! method, in the spirit of Chen et al.'s min-max mip-maps, here as a 2D quadtree over the map
 //! instead of 1D rows of an epipolar rectification) builds a pyramid of per-block minimum and
 //! maximum depth and walks each view ray through it: blocks the ray passes entirely in front of
@@ -66,6 +67,7 @@
 //! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's irradiance |
 //! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
+//! | `jitter_pattern` | Enum | screen | screen, frame | screen: the per-pixel offset is the same every frame; frame: the hash h(x, y) becomes fract(h + φ·⌊t⌋), φ = 0.618… (golden-ratio steps), so consecutive frames put the samples elsewhere and a `TemporalAccumulate` window of n frames sees n evenly spread offsets |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
 //! | `method` | Enum | BruteForce | BruteForce, MinMax, Epipolar | visibility algorithm |
 //! | `bounds` | Enum | none | none, box, tagged | where the medium is |
@@ -116,6 +118,11 @@ crate::choice_enum! {
 }
 
 crate::choice_enum! {
+    /// Whether the per-pixel jitter is the same every frame or drawn anew each frame.
+    pub enum JitterPattern { Screen = "screen", Frame = "frame" }
+}
+
+crate::choice_enum! {
     /// Whether the sun is attenuated on its way through the medium.
     pub enum Extinction { Off = "off", On = "on" }
 }
@@ -131,6 +138,7 @@ crate::params! {
         intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
         steps: i64 = ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
         jitter: f32 = ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
+        jitter_pattern: JitterPattern = ParamSpec::choice("jitter_pattern", JitterPattern::NAMES, "screen", "screen: the jitter is fixed on the screen (the same every frame); frame: its phase moves on by the golden ratio each frame, so a TemporalAccumulate window of n frames sees n evenly spread offsets per pixel.").when("method", &["BruteForce"]),
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
         method: Method = ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm."),
         min_level: i64 = ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact).").when("method", &["MinMax", "Epipolar"]),
@@ -200,6 +208,15 @@ impl Params {
             min_level: self.min_level as u32,
         }
     }
+}
+
+/// The jitter's phase at frame `time` for `jitter_pattern = frame`: fract(φ·⌊time⌋) with φ the
+/// golden ratio's fractional part (a Kronecker sequence: any n consecutive frames' phases are
+/// spread over [0, 1) within about 1/n of evenly).
+pub fn jitter_phase(time: f64) -> f32 {
+    const PHI: f64 = 0.618_033_988_749_894_9;
+    let v = time.floor() * PHI;
+    (v - v.floor()) as f32
 }
 
 /// A soft visibility volume and a light map work with BruteForce only.
@@ -272,6 +289,14 @@ impl NodeKind for SingleScattering {
         &DECL
     }
 
+    /// With `jitter_pattern = frame` the picture changes with the frame: its phase is keyed.
+    fn volatile_key(&self, key: &crate::eval::KeyInput) -> u64 {
+        match crate::eval::ParamReader(key.params).choice::<JitterPattern>("jitter_pattern") {
+            Ok(JitterPattern::Frame) => jitter_phase(key.time).to_bits() as u64 | 1 << 32,
+            _ => 0,
+        }
+    }
+
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let (shadow, light) = ctx.shadow_map("shadow")?;
@@ -285,6 +310,9 @@ impl NodeKind for SingleScattering {
         let bounds = medium_bounds(ctx, &p, extinction)?;
         let mut u = ScatterParams::new(&camera, &light, p.medium()).with_bounds(bounds, extinction);
         u.phase_width = phase.as_ref().map_or(0, |t| t.width);
+        if p.jitter_pattern == JitterPattern::Frame {
+            u.jitter_phase = jitter_phase(ctx.time);
+        }
         if let Some((v, _)) = &soft {
             u.soft_slices = v.size[2];
         }

@@ -43,8 +43,9 @@ crate::uniforms! {
         pub phase_width: u32,
         /// Slices of the connected soft visibility volume (0: the hard shadow-map test).
         pub soft_slices: u32,
-        /// Padding.
-        pub _pad1: u32,
+        /// Added to the per-pixel jitter hash, modulo 1 (`jitter_pattern = frame`: a frame's
+        /// phase, 0 otherwise).
+        pub jitter_phase: f32,
         /// Padding.
         pub _pad2: u32,
     }
@@ -74,7 +75,7 @@ impl ScatterParams {
             light_extinction: 0,
             phase_width: 0,
             soft_slices: 0,
-            _pad1: 0,
+            jitter_phase: 0.0,
             _pad2: 0,
         }
     }

@@ -35,7 +35,7 @@ fn light_map_at(x: vec3<f32>) -> vec3<f32> {
 }
 
 // BruteForce: `steps` samples at the centres of equal intervals of the medium's part of the
-// ray (moved by the per-pixel jitter). With a light map (LM.enabled) each lit sample adds its
+// ray (moved by the per-pixel jitter, rotated by the frame's phase). With a light map (LM.enabled) each lit sample adds its
 // interval's weight times the map's colour; otherwise the factored form (or, with light
 // extinction, the weighted integral) goes to `store`.
 @compute @workgroup_size(8, 8)
@@ -49,7 +49,7 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let seg = medium_segment(dir, s);
     let t0 = seg.x;
     let len = max(seg.y - seg.x, 0.0);
-    let offset = P.jitter * (pixel_jitter(id.x, id.y) - 0.5);
+    let offset = P.jitter * (fract(pixel_jitter(id.x, id.y) + P.jitter_phase) - 0.5);
     let map = LIGHT_MAP && LM.enabled != 0u;
     var lit = 0.0;
     var weighted = 0.0;

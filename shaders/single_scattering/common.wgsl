@@ -25,7 +25,7 @@ struct Params {
     light_extinction: u32,
     phase_width: u32,
     soft_slices: u32,
-    _pad1: u32,
+    jitter_phase: f32,
     _pad2: u32,
 }
 

@@ -3,8 +3,10 @@
 //!
 //! The evaluator knows no node kind: a [`Registry`] of [`NodeKind`]s is handed to it.
 
+mod cache;
 mod convert;
 mod groups;
+mod history;
 mod inputs;
 mod node;
 mod params;
@@ -14,7 +16,7 @@ pub mod proxy;
 mod stats;
 mod value;
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet};
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -22,9 +24,10 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 
 pub use convert::{download, upload_raster};
+pub use history::MAX_HISTORY_DEPTH;
 pub use node::{
-    check_side, output_path, with_frame, with_suffix, EditorTool, FileRole, KeyInput, NodeDecl,
-    NodeError, NodeKind, Registry, RunCtx,
+    check_side, output_path, with_frame, with_suffix, Earlier, EditorTool, FileRole, KeyInput,
+    NodeDecl, NodeError, NodeKind, Registry, RunCtx,
 };
 pub use params::{FromParam, ParamReader};
 pub use paths::{file_stamp, resolve_files, PathPolicy, PathRefused};
@@ -154,20 +157,13 @@ pub struct Evaluation {
     pub stats: Stats,
 }
 
-struct Entry {
-    key: u64,
-    outputs: BTreeMap<String, PortValue>,
-    bytes: usize,
-    last_used: u64,
-}
-
 /// Evaluates documents against a registry on a GPU, keeping a bounded cache between calls.
 pub struct Evaluator {
     registry: Arc<Registry>,
     gpu: Arc<Gpu>,
-    cache: HashMap<String, Entry>,
-    budget: usize,
-    clock: u64,
+    cache: cache::Cache,
+    /// Node runs for earlier frames in the current evaluation (see [`Stats::earlier_runs`]).
+    earlier_runs: usize,
 }
 
 /// Default cache budget: 1 GiB of GPU memory.
@@ -179,30 +175,30 @@ impl Evaluator {
         Self {
             registry,
             gpu,
-            cache: HashMap::new(),
-            budget: DEFAULT_CACHE_BUDGET,
-            clock: 0,
+            cache: cache::Cache::new(DEFAULT_CACHE_BUDGET),
+            earlier_runs: 0,
         }
     }
 
     /// Set the cache budget in bytes (results of the latest evaluation are kept regardless).
     pub fn set_budget(&mut self, bytes: usize) {
-        self.budget = bytes;
+        self.cache.set_budget(bytes);
     }
 
     /// Bytes held by the cache.
     pub fn cached_bytes(&self) -> usize {
-        self.cache.values().map(|e| e.bytes).sum()
+        self.cache.bytes()
     }
 
-    /// Number of nodes with a cached result.
+    /// Number of nodes with at least one cached result (a node keeps one per key it was
+    /// evaluated under: other frames, earlier knob values, until the budget evicts them).
     pub fn cached_nodes(&self) -> usize {
-        self.cache.len()
+        self.cache.nodes()
     }
 
-    /// Drop the cached result of one node (its next evaluation runs it again).
+    /// Drop the cached results of one node (its next evaluation runs it again).
     pub fn invalidate(&mut self, id: &str) {
-        self.cache.remove(id);
+        self.cache.invalidate(id);
     }
 
     /// Drop every cached result.
@@ -264,16 +260,33 @@ impl Evaluator {
         targets: &[Target],
         opts: &EvalOptions,
     ) -> Result<Evaluation, EvalError> {
-        self.clock += 1;
+        self.cache.tick();
+        self.earlier_runs = 0;
         let plan = self.plan(graph, targets)?;
         let order = graph.topo_order();
-        let mut done = Upstream::default();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
+        let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
+        self.cache.evict();
+        let runs = self.earlier_runs;
+        Ok(report(graph, targets, &order, &done?.results, &stats, runs))
+    }
+
+    /// Steps 2–4 for every node of `plan`, in `order`; `depth` counts the histories this
+    /// evaluation is nested in (0: the requested time).
+    fn run_plan(
+        &mut self,
+        graph: &Graph,
+        plan: &Plan,
+        order: &[String],
+        opts: &EvalOptions,
+        stats: &mut BTreeMap<String, NodeRun>,
+        depth: usize,
+    ) -> Result<Upstream, EvalError> {
+        let mut done = Upstream::default();
         let empty = BTreeSet::new();
         let gpu = self.gpu.clone();
         for id in order.iter().filter(|id| plan.needed.contains(*id)) {
             if opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
-                self.evict();
                 return Err(EvalError::Cancelled { before: id.clone() });
             }
             let (k, kind) = self.kind_of(graph, id)?;
@@ -283,8 +296,17 @@ impl Evaluator {
                 source,
             };
             let params = self.params_at(graph, id, k.schema(), opts.time)?;
+            let history =
+                self.history_of(graph, id, &*k, &params, order, opts, depth, &node_err)?;
             let (key, inputs) = key_and_inputs(graph, id, &*k, &kind, &params, &done, opts)
                 .map_err(|e| e.into_eval(&node_err))?;
+            let key = if history.earlier.is_empty() {
+                key
+            } else {
+                let mut h = DefaultHasher::new();
+                (key, history.key).hash(&mut h);
+                h.finish()
+            };
             done.keys.insert(id.clone(), key);
             let want = plan.wanted.get(id).unwrap_or(&empty);
             let data = graph.node(id).and_then(|n| n.data.as_ref());
@@ -302,22 +324,24 @@ impl Evaluator {
                 frame: opts.frame,
                 outputs: BTreeMap::new(),
                 passed_through: false,
+                earlier: &history.earlier,
             };
-            let outputs = match self.reuse(id, key, want) {
+            let outputs = match self.cache.reuse(id, key, want) {
                 Some(outputs) => {
-                    stats.insert(id.clone(), (Status::Reused, Duration::ZERO, None, 0));
+                    let status = (Status::Reused, history.time, None, 0);
+                    stats.insert(id.clone(), status);
                     outputs
                 }
                 None => {
                     let (outputs, wall, gpu, submits) =
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
-                    self.record(id, key, &outputs);
+                    self.cache.record(id, key, &outputs);
                     let status = if ctx.passed_through {
                         Status::PassedThrough
                     } else {
                         Status::Ran
                     };
-                    stats.insert(id.clone(), (status, wall, gpu, submits));
+                    stats.insert(id.clone(), (status, wall + history.time, gpu, submits));
                     outputs
                 }
             };
@@ -326,8 +350,7 @@ impl Evaluator {
             }
             done.results.insert(id.clone(), outputs);
         }
-        self.evict();
-        Ok(report(graph, targets, &order, &done.results, &stats))
+        Ok(done)
     }
 
     /// Step 1, plan: which nodes the targets need, which outputs of each, and which sinks commit.
@@ -398,22 +421,6 @@ impl Evaluator {
         Ok(params)
     }
 
-    /// Step 3a, reuse: the cached outputs of `id` if its key is unchanged and they hold every
-    /// wanted port.
-    fn reuse(
-        &mut self,
-        id: &str,
-        key: u64,
-        want: &BTreeSet<String>,
-    ) -> Option<BTreeMap<String, PortValue>> {
-        let e = self
-            .cache
-            .get_mut(id)
-            .filter(|e| e.key == key && want.iter().all(|p| e.outputs.contains_key(p)))?;
-        e.last_used = self.clock;
-        Some(e.outputs.clone())
-    }
-
     /// Step 3b, run: the node's GPU work, waited for and timed; every wanted port must be set.
     #[allow(clippy::type_complexity)]
     fn run(
@@ -452,37 +459,6 @@ impl Evaluator {
             return Err(NodeError::Other(format!("did not produce output '{p}'")));
         }
         Ok((std::mem::take(&mut ctx.outputs), elapsed, gpu_time, submits))
-    }
-
-    /// Step 4, record: keep a node's fresh outputs in the cache under its key.
-    fn record(&mut self, id: &str, key: u64, outputs: &BTreeMap<String, PortValue>) {
-        let bytes = outputs.values().map(PortValue::bytes).sum();
-        self.cache.insert(
-            id.to_string(),
-            Entry {
-                key,
-                outputs: outputs.clone(),
-                bytes,
-                last_used: self.clock,
-            },
-        );
-    }
-
-    fn evict(&mut self) {
-        while self.cached_bytes() > self.budget {
-            let oldest = self
-                .cache
-                .iter()
-                .filter(|(_, e)| e.last_used < self.clock)
-                .min_by_key(|(_, e)| e.last_used)
-                .map(|(k, _)| k.clone());
-            match oldest {
-                Some(k) => {
-                    self.cache.remove(&k);
-                }
-                None => break,
-            }
-        }
     }
 }
 

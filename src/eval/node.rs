@@ -78,6 +78,18 @@ pub struct RunCtx<'a> {
     pub outputs: BTreeMap<String, PortValue>,
     /// Set by [`RunCtx::pass_through`]: the statistics say "passed through" instead of "ran".
     pub passed_through: bool,
+    /// The connected inputs at earlier frames, one entry per offset of [`NodeKind::history`]
+    /// in its order; empty for a node without history.
+    pub earlier: &'a [Earlier],
+}
+
+/// A node's connected inputs evaluated at an earlier frame (see [`NodeKind::history`]).
+#[derive(Debug, Clone)]
+pub struct Earlier {
+    /// How many frames before the evaluation time (> 0).
+    pub offset: f64,
+    /// The values on the connected input ports at that frame, by port name.
+    pub inputs: BTreeMap<String, PortValue>,
 }
 
 impl RunCtx<'_> {
@@ -440,6 +452,16 @@ pub trait NodeKind: Send + Sync {
     /// evaluation; the evaluator already hashes the parameters and the data block's text.
     fn volatile_key(&self, _key: &KeyInput) -> u64 {
         0
+    }
+
+    /// For a node that also reads its inputs at earlier frames (temporal accumulation): the
+    /// offsets in frames, each > 0, at which the evaluator evaluates every connected input
+    /// again, at time − offset, before the node runs ([`RunCtx::earlier`]). Those evaluations
+    /// use the same cache (in a sequential render the earlier frames are cache hits) and their
+    /// keys enter the node's own key, so a frame evaluated alone gives the same picture as in a
+    /// sequence. Empty (the default): the node reads the evaluation time only.
+    fn history(&self, _params: &BTreeMap<String, ParamValue>) -> Result<Vec<f64>, NodeError> {
+        Ok(Vec::new())
     }
 
     /// For kinds whose data block names files to read (a transfer function's image layers):

@@ -65,6 +65,9 @@ pub struct NodeStat {
 pub struct Stats {
     /// Per node.
     pub nodes: Vec<NodeStat>,
+    /// Node runs made for earlier frames of nodes with a history (`NodeKind::history`): 0 when
+    /// every earlier frame was in the cache, as in a sequential render after its first frames.
+    pub earlier_runs: usize,
 }
 
 impl Stats {
@@ -169,6 +172,7 @@ pub(super) fn report(
     order: &[String],
     results: &BTreeMap<String, BTreeMap<String, PortValue>>,
     stats: &BTreeMap<String, NodeRun>,
+    earlier_runs: usize,
 ) -> Evaluation {
     let mut outputs = BTreeMap::new();
     for t in targets {
@@ -199,6 +203,9 @@ pub(super) fn report(
         .collect();
     Evaluation {
         outputs,
-        stats: Stats { nodes },
+        stats: Stats {
+            nodes,
+            earlier_runs,
+        },
     }
 }

@@ -1,0 +1,328 @@
+//! `TemporalAccumulate`: the mean of the current frame and the `frames − 1` frames before it,
+//! each reprojected into the current camera through the depth (the temporal accumulation of
+//! TAA, over a fixed window so that every frame is computed the same way whether it is rendered
+//! alone or in a sequence). What it is for: few-step marching shimmers under camera motion
+//! (`tyndall bench temporal`: sample positions slide through thin shafts from frame to frame);
+//! with `SingleScattering`'s `jitter_pattern = frame` each frame's samples sit elsewhere along
+//! the ray, and the window averages `frames` of them for the cost of one march per frame.
+//!
+//! The evaluator evaluates the node's inputs again at time − k·`frame_step`, k = 1…`frames` − 1
+//! (`NodeKind::history`; in a sequential render these are cache hits). For pixel p of the
+//! current frame, with view ray d through its centre and depth D (distance from the eye), the
+//! surface point is X = eye + d·D. In earlier frame k, X projects to the continuous pixel
+//! position q_k of that frame's camera; each of the four texels t around q_k (texel centres)
+//! counts with its bilinear weight b_t when it lies on the image, X is in front of that camera,
+//! and |D_k(t) − |X − eye_k|| ≤ `depth_tolerance` · |X − eye_k| (the earlier frame saw the same
+//! surface: disocclusions and moving occluders are rejected). The output is
+//!
+//! ```text
+//! out(p) = (I₀(p) + Σ_k Σ_t b_t I_k(t)) / (1 + Σ_k Σ_t b_t)
+//! ```
+//!
+//! so the current frame always counts fully and a pixel no earlier frame saw is the current
+//! frame's own value. `accepted` is that denominator over `frames` (1: every frame was
+//! reprojected; 1/`frames`: only the current one). Sky pixels carry the camera's far distance as
+//! depth and reproject as points at that distance. With `frames` = 1 the input passes through.
+//! The window lags a moving picture by (`frames` − 1)/2 · `frame_step` frames on average.
+//!
+//! | port | dir | type | |
+//! |---|---|---|---|
+//! | `image` | in | Image \| Scalar (required) | what to accumulate (in-scatter) |
+//! | `depth` | in | Depth (required) | the camera depth `image` was computed with |
+//! | `image` | out | same type as the input | the accumulated picture |
+//! | `accepted` | out | Scalar | frames' weight that reprojected, over `frames` (0…1) |
+//!
+//! | param | type | default | range | |
+//! |---|---|---|---|---|
+//! | `frames` | Int | 4 | 1…16 frames | frames averaged, the current one included (quality knob) |
+//! | `frame_step` | Float | 1 | 0.01…100 frames | spacing of the earlier frames |
+//! | `depth_tolerance` | Float | 0.05 | 0…1 relative | rejection: depth mismatch as a share of the distance |
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use crate::gpu::{Bind, Shader, TexFormat};
+use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use crate::io::Raster;
+
+/// The `TemporalAccumulate` node kind.
+pub struct TemporalAccumulate;
+
+const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
+
+#[rustfmt::skip]
+crate::params! {
+    /// The node's parameters (the table above), read once per run.
+    pub struct Params {
+        frames: i64 = ParamSpec::int("frames", 4, 1, 16, "frames", "Frames averaged, the current one included (quality knob: more frames, less shimmer, more lag)."),
+        frame_step: f64 = ParamSpec::float("frame_step", 1.0, 0.01, 100.0, "frames", "Spacing of the earlier frames."),
+        depth_tolerance: f32 = ParamSpec::float("depth_tolerance", 0.05, 0.0, 1.0, "relative", "An earlier texel whose depth differs from the reprojected point's distance by more than this share of it is rejected."),
+    }
+}
+
+#[rustfmt::skip]
+static DECL: NodeDecl = NodeDecl::new(NodeSchema {
+    kind: "TemporalAccumulate",
+    category: "Image",
+    doc: "Mean of the current frame and the frames before it, reprojected through the depth with depth rejection (a fixed window: every frame renders the same alone or in a sequence). Steadies few-step or jittered marching in motion.",
+    inputs: &[
+        PortSpec::required("image", IMG, "What to accumulate (in-scatter)."),
+        PortSpec::required("depth", &[PortType::Depth], "The camera depth the image was computed with."),
+    ],
+    outputs: &[
+        PortSpec::output("image", IMG, "The accumulated picture, same type as the input."),
+        PortSpec::output("accepted", &[PortType::Scalar], "Weight of the frames that reprojected, over `frames` (1: all of them)."),
+    ],
+    params: Params::SPECS,
+})
+.shaders(&[SHADER])
+.uniforms(&[AccumulateParams::LAYOUT]);
+
+const SHADER: Shader = Shader::new(
+    "temporal_accumulate",
+    include_str!("../shaders/temporal_accumulate.wgsl"),
+);
+
+crate::uniforms! {
+    /// Uniforms of `shaders/temporal_accumulate.wgsl` (struct `Params`).
+    pub struct AccumulateParams as "Params" {
+        /// World → clip of the earlier frame's camera.
+        pub prev_view_proj: [[f32; 4]; 4],
+        /// Clip → world of the current camera.
+        pub inv_view_proj: [[f32; 4]; 4],
+        /// Current eye.
+        pub eye: [f32; 3],
+        /// Relative depth tolerance.
+        pub tolerance: f32,
+        /// Earlier eye.
+        pub prev_eye: [f32; 3],
+        /// 1 for the first pass.
+        pub first: u32,
+        /// Frames asked for.
+        pub frames: f32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
+}
+
+/// One frame for the CPU reference: its picture (any channel count), depth and camera.
+pub struct Frame<'a> {
+    /// The picture.
+    pub image: &'a Raster,
+    /// Its camera depth.
+    pub depth: &'a Raster,
+    /// Its camera.
+    pub camera: Matrices,
+}
+
+/// The reprojected sum (per channel) and weight of pixel (x, y) of the current frame from
+/// earlier frame `prev`.
+fn reproject(cur: &Frame, prev: &Frame, x: u32, y: u32, tolerance: f32) -> (Vec<f32>, f32) {
+    let (w, h) = (cur.depth.width, cur.depth.height);
+    let c = prev.image.channels as usize;
+    let mut sum = vec![0.0f32; c];
+    let mut weight = 0.0f32;
+    let eye = cur.camera.eye();
+    let dir = cur.camera.pixel_ray(x, y, w, h);
+    let p = eye + dir * cur.depth.data[(y * w + x) as usize];
+    let clip = prev.camera.view_proj() * Vec4::from((p, 1.0));
+    if clip.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return (sum, weight);
+    }
+    let (pw, ph) = (prev.image.width as i64, prev.image.height as i64);
+    let ndc = [clip.x / clip.w, clip.y / clip.w];
+    let q = [
+        (ndc[0] + 1.0) * 0.5 * pw as f32 - 0.5,
+        (1.0 - ndc[1]) * 0.5 * ph as f32 - 0.5,
+    ];
+    let base = [q[0].floor(), q[1].floor()];
+    let f = [q[0] - base[0], q[1] - base[1]];
+    let dist = (p - prev.camera.eye()).length();
+    for k in 0..4 {
+        let o = [k & 1, k >> 1];
+        let t = [base[0] as i64 + o[0], base[1] as i64 + o[1]];
+        if t[0] < 0 || t[1] < 0 || t[0] >= pw || t[1] >= ph {
+            continue;
+        }
+        let wb = (if o[0] == 1 { f[0] } else { 1.0 - f[0] })
+            * (if o[1] == 1 { f[1] } else { 1.0 - f[1] });
+        let ti = (t[1] * pw + t[0]) as usize;
+        if (prev.depth.data[ti] - dist).abs() <= tolerance * dist && wb > 0.0 {
+            for (i, s) in sum.iter_mut().enumerate() {
+                *s += wb * prev.image.data[ti * c + i];
+            }
+            weight += wb;
+        }
+    }
+    (sum, weight)
+}
+
+/// CPU reference: `current` accumulated with the `earlier` frames (any order), and the
+/// `accepted` share for a window of `frames`.
+pub fn reference(
+    current: &Frame,
+    earlier: &[Frame],
+    tolerance: f32,
+    frames: u32,
+) -> (Raster, Raster) {
+    let (w, h, c) = (
+        current.image.width,
+        current.image.height,
+        current.image.channels,
+    );
+    let mut out = Raster::new(w, h, c, 0.0);
+    let mut accepted = Raster::new(w, h, 1, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let mut sum: Vec<f32> = current.image.data[i * c as usize..][..c as usize].to_vec();
+            let mut weight = 1.0f32;
+            for prev in earlier {
+                let (s, wt) = reproject(current, prev, x, y, tolerance);
+                sum.iter_mut().zip(s).for_each(|(a, b)| *a += b);
+                weight += wt;
+            }
+            for (k, s) in sum.iter().enumerate() {
+                out.data[i * c as usize + k] = s / weight;
+            }
+            accepted.data[i] = weight / frames as f32;
+        }
+    }
+    (out, accepted)
+}
+
+/// The texture and camera of a Depth value (an earlier frame's `depth`).
+fn depth_value(
+    v: Option<&PortValue>,
+    port: &str,
+) -> Result<(Arc<crate::gpu::GpuTexture>, Matrices), NodeError> {
+    match v {
+        Some(PortValue::Depth(t, m)) => Ok((t.clone(), *m)),
+        _ => Err(NodeError::Input {
+            port: port.into(),
+            message: "produced no depth at an earlier frame".into(),
+        }),
+    }
+}
+
+impl NodeKind for TemporalAccumulate {
+    fn decl(&self) -> &'static NodeDecl {
+        &DECL
+    }
+
+    fn history(&self, params: &BTreeMap<String, ParamValue>) -> Result<Vec<f64>, NodeError> {
+        let p = Params::from_params(params)?;
+        Ok((1..p.frames).map(|k| k as f64 * p.frame_step).collect())
+    }
+
+    fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
+        let p = Params::from_ctx(ctx)?;
+        let image = ctx.require_texture("image")?;
+        if image.format == TexFormat::Rg32F {
+            return Err(NodeError::Input {
+                port: "image".into(),
+                message: "has an internal two-channel format".into(),
+            });
+        }
+        let (depth, camera) = ctx.depth("depth")?;
+        if (depth.width, depth.height) != (image.width, image.height) {
+            return Err(NodeError::Input {
+                port: "depth".into(),
+                message: format!(
+                    "is {}×{} but image is {}×{}",
+                    depth.width, depth.height, image.width, image.height
+                ),
+            });
+        }
+        let (w, h) = (image.width, image.height);
+        let inv = camera.view_proj().inverse();
+        let mut u = AccumulateParams {
+            prev_view_proj: Mat4::IDENTITY.to_cols_array_2d(),
+            inv_view_proj: inv.to_cols_array_2d(),
+            eye: camera.eye().to_array(),
+            tolerance: p.depth_tolerance,
+            prev_eye: Vec3::ZERO.to_array(),
+            first: 1,
+            frames: p.frames as f32,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        };
+        let mut sum: Option<(crate::gpu::GpuTexture, crate::gpu::GpuTexture)> = None;
+        for earlier in ctx.earlier {
+            let prev = earlier
+                .inputs
+                .get("image")
+                .and_then(PortValue::texture)
+                .ok_or_else(|| NodeError::Input {
+                    port: "image".into(),
+                    message: format!("produced no value {} frames earlier", earlier.offset),
+                })?;
+            let (prev_depth, prev_camera) = depth_value(earlier.inputs.get("depth"), "depth")?;
+            u.prev_view_proj = prev_camera.view_proj().to_cols_array_2d();
+            u.prev_eye = prev_camera.eye().to_array();
+            let sum_out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+            let weight_out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+            let (sum_in, weight_in) = match &sum {
+                Some((s, wt)) => (s, wt),
+                None => (&*image, &*image),
+            };
+            ctx.gpu.dispatch(
+                SHADER,
+                "accumulate",
+                &[
+                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                    (1, Bind::Texture(sum_in)),
+                    (2, Bind::Texture(weight_in)),
+                    (3, Bind::Texture(prev)),
+                    (4, Bind::Texture(&prev_depth)),
+                    (5, Bind::Texture(&depth)),
+                    (6, Bind::Storage(&sum_out)),
+                    (7, Bind::Storage(&weight_out)),
+                ],
+                w,
+                h,
+            )?;
+            u.first = 0;
+            sum = Some((sum_out, weight_out));
+        }
+        let Some((sum, weight)) = sum else {
+            let ones = vec![1.0f32; (w * h) as usize];
+            let accepted = ctx.gpu.upload(w, h, 1, &ones)?;
+            ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
+            ctx.set("image", ctx.require("image")?.clone());
+            ctx.pass_through();
+            return Ok(());
+        };
+        let out = ctx.gpu.texture(w, h, image.format)?;
+        let accepted = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+        let (entry, slot) = if image.format == TexFormat::R32F {
+            ("resolve_scalar", 9)
+        } else {
+            ("resolve_image", 8)
+        };
+        ctx.gpu.dispatch(
+            SHADER,
+            entry,
+            &[
+                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
+                (1, Bind::Texture(&sum)),
+                (2, Bind::Texture(&weight)),
+                (slot, Bind::Storage(&out)),
+                (10, Bind::Storage(&accepted)),
+            ],
+            w,
+            h,
+        )?;
+        ctx.set("image", super::util::image_like(Arc::new(out)));
+        ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
+        Ok(())
+    }
+}
