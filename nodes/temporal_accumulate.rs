@@ -19,7 +19,12 @@
 //! out(p) = (I₀(p) + Σ_k Σ_t b_t I_k(t)) / (1 + Σ_k Σ_t b_t)
 //! ```
 //!
-//! so the current frame always counts fully and a pixel no earlier frame saw is the current
+//! where, with `clamp = neighbourhood` (the default), each frame's reprojected value
+//! Σ_t b_t I_k(t) / Σ_t b_t is first clamped, per channel, to the range of the current frame over
+//! the 3×3 pixels around p (TAA's neighbourhood clamp, Karis 2014): reprojection through the
+//! surface depth follows the surface, not the shafts in front of it, and a value the current
+//! neighbourhood does not span is such a lagging change rather than noise. The current frame
+//! always counts fully and a pixel no earlier frame saw is the current
 //! frame's own value. `accepted` is that denominator over `frames` (1: every frame was
 //! reprojected; 1/`frames`: only the current one). Sky pixels carry the camera's far distance as
 //! depth and reproject as points at that distance. With `frames` = 1 the input passes through.
@@ -36,6 +41,7 @@
 //! |---|---|---|---|---|
 //! | `frames` | Int | 4 | 1…16 frames | frames averaged, the current one included (quality knob) |
 //! | `frame_step` | Float | 1 | 0.01…100 frames | spacing of the earlier frames |
+//! | `clamp` | Enum | neighbourhood | neighbourhood, off | clamp earlier frames to the current 3×3 range |
 //! | `depth_tolerance` | Float | 0.05 | 0…1 relative | rejection: depth mismatch as a share of the distance |
 
 use std::collections::BTreeMap;
@@ -51,6 +57,11 @@ use crate::io::Raster;
 /// The `TemporalAccumulate` node kind.
 pub struct TemporalAccumulate;
 
+crate::choice_enum! {
+    /// Whether earlier frames are clamped to the current neighbourhood's range.
+    pub enum Clamp { Neighbourhood = "neighbourhood", Off = "off" }
+}
+
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
@@ -59,6 +70,7 @@ crate::params! {
     pub struct Params {
         frames: i64 = ParamSpec::int("frames", 4, 1, 16, "frames", "Frames averaged, the current one included (quality knob: more frames, less shimmer, more lag)."),
         frame_step: f64 = ParamSpec::float("frame_step", 1.0, 0.01, 100.0, "frames", "Spacing of the earlier frames."),
+        clamp: Clamp = ParamSpec::choice("clamp", Clamp::NAMES, "neighbourhood", "neighbourhood: each earlier frame's reprojected value is clamped to the current frame's range over the 3×3 pixels around (what the current frame does not span is a change the earlier frame lags: shafts in front of the surface, which reprojection by depth cannot follow); off: used as it is."),
         depth_tolerance: f32 = ParamSpec::float("depth_tolerance", 0.05, 0.0, 1.0, "relative", "An earlier texel whose depth differs from the reprojected point's distance by more than this share of it is rejected."),
     }
 }
@@ -103,8 +115,8 @@ crate::uniforms! {
         pub first: u32,
         /// Frames asked for.
         pub frames: f32,
-        /// Padding.
-        pub _pad0: u32,
+        /// 1: clamp to the current neighbourhood's range.
+        pub clamp_history: u32,
         /// Padding.
         pub _pad1: u32,
         /// Padding.
@@ -164,12 +176,31 @@ fn reproject(cur: &Frame, prev: &Frame, x: u32, y: u32, tolerance: f32) -> (Vec<
     (sum, weight)
 }
 
-/// CPU reference: `current` accumulated with the `earlier` frames (any order), and the
-/// `accepted` share for a window of `frames`.
+/// The per-channel range of `image` over the 3×3 pixels around (x, y), clamped at the edges.
+fn neighbourhood(image: &Raster, x: u32, y: u32) -> (Vec<f32>, Vec<f32>) {
+    let c = image.channels as usize;
+    let (mut lo, mut hi) = (vec![f32::MAX; c], vec![f32::MIN; c]);
+    for j in -1i64..=1 {
+        for i in -1i64..=1 {
+            let tx = (x as i64 + i).clamp(0, image.width as i64 - 1);
+            let ty = (y as i64 + j).clamp(0, image.height as i64 - 1);
+            let t = (ty * image.width as i64 + tx) as usize * c;
+            for k in 0..c {
+                lo[k] = lo[k].min(image.data[t + k]);
+                hi[k] = hi[k].max(image.data[t + k]);
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// CPU reference: `current` accumulated with the `earlier` frames (any order), each clamped to
+/// the current neighbourhood when `clamp`, and the `accepted` share for a window of `frames`.
 pub fn reference(
     current: &Frame,
     earlier: &[Frame],
     tolerance: f32,
+    clamp: bool,
     frames: u32,
 ) -> (Raster, Raster) {
     let (w, h, c) = (
@@ -185,7 +216,13 @@ pub fn reference(
             let mut sum: Vec<f32> = current.image.data[i * c as usize..][..c as usize].to_vec();
             let mut weight = 1.0f32;
             for prev in earlier {
-                let (s, wt) = reproject(current, prev, x, y, tolerance);
+                let (mut s, wt) = reproject(current, prev, x, y, tolerance);
+                if clamp && wt > 0.0 {
+                    let (lo, hi) = neighbourhood(current.image, x, y);
+                    for (k, v) in s.iter_mut().enumerate() {
+                        *v = (*v / wt).clamp(lo[k], hi[k]) * wt;
+                    }
+                }
                 sum.iter_mut().zip(s).for_each(|(a, b)| *a += b);
                 weight += wt;
             }
@@ -251,7 +288,7 @@ impl NodeKind for TemporalAccumulate {
             prev_eye: Vec3::ZERO.to_array(),
             first: 1,
             frames: p.frames as f32,
-            _pad0: 0,
+            clamp_history: (p.clamp == Clamp::Neighbourhood) as u32,
             _pad1: 0,
             _pad2: 0,
         };
@@ -284,6 +321,7 @@ impl NodeKind for TemporalAccumulate {
                     (3, Bind::Texture(prev)),
                     (4, Bind::Texture(&prev_depth)),
                     (5, Bind::Texture(&depth)),
+                    (11, Bind::Texture(&image)),
                     (6, Bind::Storage(&sum_out)),
                     (7, Bind::Storage(&weight_out)),
                 ],

@@ -17,7 +17,8 @@ struct Params {
     first: u32,
     // Frames asked for (the resolve's `accepted` is the weight over this).
     frames: f32,
-    _pad0: u32,
+    // 1: clamp each earlier frame's value to the current 3×3 neighbourhood's range.
+    clamp_history: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -33,6 +34,25 @@ struct Params {
 @group(0) @binding(8) var out_image: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(9) var out_scalar: texture_storage_2d<r32float, write>;
 @group(0) @binding(10) var out_accepted: texture_storage_2d<r32float, write>;
+@group(0) @binding(11) var current: texture_2d<f32>;
+
+// The range (per channel) of the current frame over the 3×3 pixels around p, clamped at the
+// image's edges: what an earlier frame's value is clamped to (TAA's neighbourhood clamp — a
+// value the current frame's neighbourhood does not span is a change the earlier frame lags).
+fn neighbourhood(p: vec2<u32>) -> array<vec4<f32>, 2> {
+    let size = vec2<i32>(textureDimensions(current));
+    var lo = vec4<f32>(3.0e38);
+    var hi = vec4<f32>(-3.0e38);
+    for (var j = -1; j <= 1; j++) {
+        for (var i = -1; i <= 1; i++) {
+            let t = clamp(vec2<i32>(p) + vec2<i32>(i, j), vec2<i32>(0), size - 1);
+            let v = textureLoad(current, t, 0);
+            lo = min(lo, v);
+            hi = max(hi, v);
+        }
+    }
+    return array<vec4<f32>, 2>(lo, hi);
+}
 
 // The current pixel's surface point seen from the earlier camera: the bilinear taps around its
 // projection whose earlier depth agrees with the point's distance from the earlier eye (within
@@ -86,7 +106,12 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
         weight = textureLoad(weight_in, id.xy, 0).r;
     }
     let r = reproject(id.xy);
-    sum += r.sum;
+    if P.clamp_history != 0u && r.weight > 0.0 {
+        let range = neighbourhood(id.xy);
+        sum += clamp(r.sum / r.weight, range[0], range[1]) * r.weight;
+    } else {
+        sum += r.sum;
+    }
     weight += r.weight;
     textureStore(sum_out, vec2<i32>(id.xy), sum);
     textureStore(weight_out, vec2<i32>(id.xy), vec4<f32>(weight, 0.0, 0.0, 1.0));

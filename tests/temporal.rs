@@ -14,8 +14,13 @@ use tyndall::nodes::temporal_accumulate::{reference, Frame};
 
 /// The tree under a low sun, the camera dollying sideways 5 cm a frame (`cam_x` keyed from 8 m
 /// at frame 0 to 9 m at frame 20) unless `still`; an 8-step march jittered per frame (`pattern`),
-/// accumulated over `frames`.
+/// accumulated over `frames` with the default clamp.
 fn graph(still: bool, pattern: &str, frames: u32) -> Graph {
+    graph_with(still, pattern, frames, "neighbourhood")
+}
+
+/// [`graph`] with TemporalAccumulate's `clamp`.
+fn graph_with(still: bool, pattern: &str, frames: u32, clamp: &str) -> Graph {
     let keys = if still {
         String::new()
     } else {
@@ -29,7 +34,7 @@ fn graph(still: bool, pattern: &str, frames: u32) -> Graph {
         "shadow": (kind: "ShadowMap", params: {{"resolution": 256}}),
         "gbuffer": (kind: "GBuffer"),
         "s": (kind: "SingleScattering", params: {{"sigma_t": 0.05, "g": 0.6, "steps": 8, "jitter": 1.0, "jitter_pattern": "{pattern}"}}),
-        "acc": (kind: "TemporalAccumulate", params: {{"frames": {frames}}}),
+        "acc": (kind: "TemporalAccumulate", params: {{"frames": {frames}, "clamp": "{clamp}"}}),
     }},
     edges: [
         ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
@@ -98,16 +103,17 @@ fn frame(
     (image, download(gpu, d).expect("dl"), *camera)
 }
 
+/// The largest in-scatter value (RGB; alpha is 1 everywhere): the scale errors are read against.
+fn rgb_max(r: &Raster) -> f32 {
+    r.data
+        .chunks(4)
+        .flat_map(|p| p[..3].iter())
+        .fold(0.0f32, |m, v| m.max(v.abs()))
+}
+
 #[test]
 fn gpu_equals_the_cpu_reference_on_a_moving_camera() {
     let gpu = require_gpu!();
-    let g = graph(false, "frame", 4);
-    let mut ev = evaluator(&gpu);
-    let (got, accepted, _, _) = accumulated(&mut ev, &gpu, &g, 10.0);
-    let frames: Vec<_> = [10.0, 9.0, 8.0, 7.0]
-        .iter()
-        .map(|&t| frame(&mut ev, &gpu, &g, t))
-        .collect();
     fn as_frame(f: &(Raster, Raster, Matrices)) -> Frame<'_> {
         Frame {
             image: &f.0,
@@ -115,32 +121,55 @@ fn gpu_equals_the_cpu_reference_on_a_moving_camera() {
             camera: f.2,
         }
     }
-    let earlier: Vec<Frame> = frames[1..].iter().map(as_frame).collect();
-    let (want, want_accepted) = reference(&as_frame(&frames[0]), &earlier, 0.05, 4);
-    // f32 arithmetic in a different order: the projection lands within ~1e-5 px of the CPU's,
-    // which moves bilinear weights by as much; a texel right at the depth test's threshold could
-    // flip, but none does here (the largest difference is printed).
-    let scale = want.data.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    let diff = common::max_abs_diff(&got, &want);
-    assert!(diff <= 1e-4 * scale, "max diff {diff} (scale {scale})");
-    eprintln!("image: max diff {diff} of {scale}");
-    // `accepted` sums three frames' bilinear weights, each off by the projection's difference
-    // in pixels (measured 2.9e-4 in all at most): 1e-3 is three times that.
-    let diff = common::max_abs_diff(&accepted, &want_accepted);
-    eprintln!("accepted: max diff {diff}");
-    assert!(diff <= 1e-3, "accepted: max diff {diff}");
-    // The dolly moves 15 cm over the window: most pixels reproject from every earlier frame,
-    // and not all (the image edge the camera moves away from, depth edges).
-    let n = (SIZE.0 * SIZE.1) as usize;
-    let full = accepted.data.iter().filter(|&&a| a > 0.99).count();
-    assert!(
-        full > n / 2 && full < n,
-        "{full} of {n} pixels fully reprojected"
-    );
-    assert!(accepted
-        .data
+    let mut ev = evaluator(&gpu);
+    let g = graph(false, "frame", 4);
+    let frames: Vec<_> = [10.0, 9.0, 8.0, 7.0]
         .iter()
-        .all(|&a| (0.25 - 1e-6..=1.0 + 1e-6).contains(&a)));
+        .map(|&t| frame(&mut ev, &gpu, &g, t))
+        .collect();
+    let earlier: Vec<Frame> = frames[1..].iter().map(as_frame).collect();
+    let mut results = Vec::new();
+    for clamp in [true, false] {
+        let g = graph_with(
+            false,
+            "frame",
+            4,
+            if clamp { "neighbourhood" } else { "off" },
+        );
+        let (got, accepted, _, _) = accumulated(&mut ev, &gpu, &g, 10.0);
+        let (want, want_accepted) = reference(&as_frame(&frames[0]), &earlier, 0.05, clamp, 4);
+        // f32 arithmetic in a different order: the projection lands within ~1e-5 px of the
+        // CPU's, which moves bilinear weights by as much; a texel right at the depth test's
+        // threshold could flip, but none does here (the largest difference is printed).
+        let scale = rgb_max(&want);
+        let diff = common::max_abs_diff(&got, &want);
+        eprintln!("clamp {clamp}: image max diff {diff} of {scale}");
+        assert!(
+            diff <= 1e-4 * scale,
+            "clamp {clamp}: max diff {diff} (scale {scale})"
+        );
+        // `accepted` sums three frames' bilinear weights, each off by the projection's
+        // difference in pixels (measured 2.9e-4 in all at most): 1e-3 is three times that.
+        let diff = common::max_abs_diff(&accepted, &want_accepted);
+        assert!(diff <= 1e-3, "accepted: max diff {diff}");
+        // The dolly moves 15 cm over the window: most pixels reproject from every earlier
+        // frame, and not all (the image edge the camera moves away from, depth edges).
+        let n = (SIZE.0 * SIZE.1) as usize;
+        let full = accepted.data.iter().filter(|&&a| a > 0.99).count();
+        assert!(
+            full > n / 2 && full < n,
+            "{full} of {n} pixels fully reprojected"
+        );
+        assert!(accepted
+            .data
+            .iter()
+            .all(|&a| (0.25 - 1e-6..=1.0 + 1e-6).contains(&a)));
+        results.push(got);
+    }
+    assert_ne!(
+        results[0].data, results[1].data,
+        "the clamp changes some pixels"
+    );
 }
 
 #[test]
@@ -152,7 +181,7 @@ fn a_still_camera_reprojects_every_pixel_onto_itself() {
     let mut ev = evaluator(&gpu);
     let (got, accepted, _, _) = accumulated(&mut ev, &gpu, &g, 10.0);
     let (input, _, _) = frame(&mut ev, &gpu, &g, 10.0);
-    let scale = input.data.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let scale = rgb_max(&input);
     // Bilinear weights of a reprojection onto the texel centre are 1 within f32 rounding of
     // the projection (≈ 1e-5 px), so the mean equals the input within that share of a texel
     // step.

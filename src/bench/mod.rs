@@ -431,8 +431,9 @@ pub(crate) fn kernel_growth(
         .map_or(1.0, |first| median / first.median_ms.max(1e-9))
 }
 
-/// Evaluate `g` for `node.port` and read it back, with the summed time of the `timed` nodes
-/// (empty: the node itself), ms.
+/// Evaluate `g` for `node.port` and read it back, with the summed cost of the `timed` nodes
+/// (empty: the node itself), ms: their run times, or for a reused node the time its cached
+/// result took.
 pub(crate) fn read_port(
     ev: &mut Evaluator,
     gpu: &Gpu,
@@ -449,7 +450,7 @@ pub(crate) fn read_port(
         .nodes
         .iter()
         .filter(|n| timed.contains(&n.id) || (timed.is_empty() && n.id == node))
-        .map(|n| n.time.as_secs_f64() * 1e3)
+        .map(|n| n.cost.as_secs_f64() * 1e3)
         .sum();
     let v = r
         .outputs

@@ -5,7 +5,10 @@
 //! that frame (frame-major, so the scene, shadow map and G-buffer of a frame are computed once
 //! and shared). Per setting the row reports:
 //!
-//! - the measured nodes' median time per frame (the `time` key's nodes, else the node);
+//! - the measured nodes' median time per frame (the `time` key's nodes, else the node), each
+//!   node charged what its result cost even when another setting of the frame computed it
+//!   (`NodeStat::cost`); a node with a history includes its earlier frames' runs, which only
+//!   the first frame makes (the later ones find them in the cache);
 //! - `RMSE`: the mean over the frames of the RMSE against that frame's reference; `max err`:
 //!   the largest absolute error of any frame;
 //! - `flicker`: the mean over consecutive frame pairs of mean |(mₖ − mₖ₋₁) − (rₖ − rₖ₋₁)| over

@@ -6,12 +6,15 @@
 //! budget is exceeded; the latest evaluation's results are never evicted.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::time::Duration;
 
 use super::PortValue;
 
 /// One cached result.
 struct Entry {
     outputs: BTreeMap<String, PortValue>,
+    /// The time the node took to compute it.
+    cost: Duration,
     bytes: usize,
     last_used: u64,
 }
@@ -68,28 +71,36 @@ impl Cache {
         self.entries.clear();
     }
 
-    /// The cached outputs of `id` under `key`, if they hold every wanted port.
+    /// The cached outputs of `id` under `key`, if they hold every wanted port, and what they
+    /// cost to compute.
     pub(super) fn reuse(
         &mut self,
         id: &str,
         key: u64,
         want: &BTreeSet<String>,
-    ) -> Option<BTreeMap<String, PortValue>> {
+    ) -> Option<(BTreeMap<String, PortValue>, Duration)> {
         let e = self
             .entries
             .get_mut(&(id.to_string(), key))
             .filter(|e| want.iter().all(|p| e.outputs.contains_key(p)))?;
         e.last_used = self.clock;
-        Some(e.outputs.clone())
+        Some((e.outputs.clone(), e.cost))
     }
 
-    /// Keep a node's fresh outputs under its key.
-    pub(super) fn record(&mut self, id: &str, key: u64, outputs: &BTreeMap<String, PortValue>) {
+    /// Keep a node's fresh outputs under its key, with what they cost.
+    pub(super) fn record(
+        &mut self,
+        id: &str,
+        key: u64,
+        outputs: &BTreeMap<String, PortValue>,
+        cost: Duration,
+    ) {
         let bytes = outputs.values().map(PortValue::bytes).sum();
         self.entries.insert(
             (id.to_string(), key),
             Entry {
                 outputs: outputs.clone(),
+                cost,
                 bytes,
                 last_used: self.clock,
             },

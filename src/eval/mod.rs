@@ -327,21 +327,22 @@ impl Evaluator {
                 earlier: &history.earlier,
             };
             let outputs = match self.cache.reuse(id, key, want) {
-                Some(outputs) => {
-                    let status = (Status::Reused, history.time, None, 0);
+                Some((outputs, cost)) => {
+                    let status = (Status::Reused, history.time, None, 0, cost);
                     stats.insert(id.clone(), status);
                     outputs
                 }
                 None => {
                     let (outputs, wall, gpu, submits) =
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
-                    self.cache.record(id, key, &outputs);
+                    let time = wall + history.time;
+                    self.cache.record(id, key, &outputs, time);
                     let status = if ctx.passed_through {
                         Status::PassedThrough
                     } else {
                         Status::Ran
                     };
-                    stats.insert(id.clone(), (status, wall + history.time, gpu, submits));
+                    stats.insert(id.clone(), (status, time, gpu, submits, time));
                     outputs
                 }
             };

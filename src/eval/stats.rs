@@ -50,8 +50,13 @@ pub struct NodeStat {
     pub kind: String,
     /// Ran, reused or not needed.
     pub status: Status,
-    /// Wall-clock time of its GPU work including completion (zero unless it ran).
+    /// Wall-clock time of its GPU work including completion (zero unless it ran), plus, for a
+    /// node with a history, the runs of its inputs at earlier frames this evaluation made.
     pub time: Duration,
+    /// What its result cost: [`NodeStat::time`] when it ran, else the time recorded when the
+    /// cached result it reused was computed (what a benchmark of a frame sequence charges a
+    /// node that another evaluation of the same frame already ran).
+    pub cost: Duration,
     /// GPU time of its passes from timestamp queries (with `gpu_timings`, when supported).
     pub gpu_time: Option<Duration>,
     /// Command buffers submitted while it ran: 1 for a node whose passes all went into one
@@ -162,8 +167,8 @@ impl std::fmt::Debug for ProgressSink {
     }
 }
 
-/// How one node's run went: status, wall time, GPU time, submissions.
-pub(super) type NodeRun = (Status, Duration, Option<Duration>, u64);
+/// How one node's run went: status, wall time, GPU time, submissions, cost.
+pub(super) type NodeRun = (Status, Duration, Option<Duration>, u64, Duration);
 
 /// Step 5, report: the requested ports' values and one statistic per node in topological order.
 pub(super) fn report(
@@ -186,16 +191,19 @@ pub(super) fn report(
         .iter()
         .filter_map(|id| {
             let node = graph.node(id)?;
-            let (status, time, gpu_time, submits) =
-                stats
-                    .get(id)
-                    .copied()
-                    .unwrap_or((Status::NotNeeded, Duration::ZERO, None, 0));
+            let (status, time, gpu_time, submits, cost) = stats.get(id).copied().unwrap_or((
+                Status::NotNeeded,
+                Duration::ZERO,
+                None,
+                0,
+                Duration::ZERO,
+            ));
             Some(NodeStat {
                 id: id.clone(),
                 kind: node.kind.clone(),
                 status,
                 time,
+                cost,
                 gpu_time,
                 submits,
             })
