@@ -8,6 +8,9 @@
 #   sunrise.webp        graphs/color/sunrise.ron: the key-framed sunrise TF, frames 0–48, 12 fps
 #   cathedral_sun.webp  graphs/color/cathedral_stained_glass.ron: the sun sweeps across the nave
 #                       while the camera dollies in, frames 1–96 every 2nd, 12 fps
+#   forest_temporal.webp graphs/medium/forest_temporal.ron: the forest walk marched with 24
+#                       jittered steps, left as it is, right through TemporalAccumulate; every
+#                       frame 24–71 at 24 fps (2 s: shimmer is a frame-to-frame change)
 # Usage: scripts/render_animations.sh [SIZE]   (SIZE per picture, default 480x270)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,14 +21,15 @@ mkdir -p docs/anim
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 anim() {
-  local name="$1" preset="$2" frames="$3"
+  local name="$1" preset="$2" frames="$3" fps="${4:-12}"
   mkdir -p "$tmp/$name"
   ./target/release/tyndall render "$preset" -o "$tmp/$name/f.png" --size "$size" \
     --frames "$frames" --progress none
-  ffmpeg -loglevel error -y -framerate 12 -pattern_type glob -i "$tmp/$name/f_*.png" \
+  ffmpeg -loglevel error -y -framerate "$fps" -pattern_type glob -i "$tmp/$name/f_*.png" \
     -c:v libwebp_anim -quality 80 -loop 0 "docs/anim/$name.webp"
   echo "docs/anim/$name.webp: $(stat -c %s "docs/anim/$name.webp") bytes"
 }
 anim forest_holes graphs/stylize/tree_holes_animated.ron 1-96x2
 anim sunrise graphs/color/sunrise.ron 0-48
 anim cathedral_sun graphs/color/cathedral_stained_glass.ron 1-96x2
+anim forest_temporal graphs/medium/forest_temporal.ron 24-71 24

@@ -18,6 +18,9 @@ done
 ./target/release/tyndall render graphs/color/sunrise.ron -o out/sunrise.png --size 960x540 --frames 0-48
 ./target/release/tyndall render scripts/sunrise_sheet.ron
 ./target/release/tyndall render graphs/medium/tree_bilateral.ron -o docs/medium/tree_bilateral.png --size 480x270
+# A frame mid-walk (at frame 0 the camera has not moved yet, and there is nothing to average).
+./target/release/tyndall render graphs/medium/forest_temporal.ron -o out/forest_temporal.png --size 480x270 --frames 48
+cp out/forest_temporal_0048.png docs/medium/forest_temporal.png
 ./target/release/tyndall render graphs/medium/fence_noise.ron -o docs/medium/fence_noise.png --size 960x540
 ./target/release/tyndall render graphs/medium/workshop_dust.ron -o docs/medium/workshop_dust.png --size 960x540
 ./target/release/tyndall render graphs/medium/fence_painted.ron -o docs/medium/fence_painted.png --size 960x540
