@@ -81,6 +81,7 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "SingleScattering", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Sky", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "SoftVisibility", connect: &[], fixed: &[], caps: &[("slices", 16.0), ("resolution", 64.0)] },
+    Entry { kind: "TemporalAccumulate", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Tonemap", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "TransferFunction", connect: &["visibility", "depth"], fixed: &[], caps: &[("resolution", 64.0), ("diffusion_cycles", 4.0)] },
 ];
