@@ -1,5 +1,7 @@
-//! The evaluator: pull-based from the requested outputs, cached per node under a key of
-//! (kind, parameter values at t, input keys), bounded in memory, with per-node statistics.
+//! The evaluator: pull-based from the requested outputs, cached per node under keys of (kind,
+//! parameter values at t, input keys) — several keys per node, so other frames and earlier
+//! knob values stay until the memory budget evicts them —, with per-node statistics. A node
+//! with a history also gets its inputs at earlier frames (`history.rs`).
 //!
 //! The evaluator knows no node kind: a [`Registry`] of [`NodeKind`]s is handed to it.
 

@@ -130,7 +130,15 @@ impl fmt::Display for Stats {
             )?;
         }
         let submits: u64 = self.nodes.iter().map(|n| n.submits).sum();
-        writeln!(f, "GPU submissions: {submits}")
+        writeln!(f, "GPU submissions: {submits}")?;
+        if self.earlier_runs > 0 {
+            writeln!(
+                f,
+                "earlier frames for nodes with a history: {} node runs (in those nodes' wall ms)",
+                self.earlier_runs
+            )?;
+        }
+        Ok(())
     }
 }
 
