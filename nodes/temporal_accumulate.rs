@@ -292,8 +292,18 @@ impl NodeKind for TemporalAccumulate {
             _pad1: 0,
             _pad2: 0,
         };
+        let Some(last) = ctx.earlier.len().checked_sub(1) else {
+            let ones = vec![1.0f32; (w * h) as usize];
+            let accepted = ctx.gpu.upload(w, h, 1, &ones)?;
+            ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
+            ctx.set("image", ctx.require("image")?.clone());
+            ctx.pass_through();
+            return Ok(());
+        };
+        let out = ctx.gpu.texture(w, h, image.format)?;
+        let accepted = ctx.gpu.texture(w, h, TexFormat::R32F)?;
         let mut sum: Option<(crate::gpu::GpuTexture, crate::gpu::GpuTexture)> = None;
-        for earlier in ctx.earlier {
+        for (i, earlier) in ctx.earlier.iter().enumerate() {
             let prev = earlier
                 .inputs
                 .get("image")
@@ -305,60 +315,41 @@ impl NodeKind for TemporalAccumulate {
             let (prev_depth, prev_camera) = depth_value(earlier.inputs.get("depth"), "depth")?;
             u.prev_view_proj = prev_camera.view_proj().to_cols_array_2d();
             u.prev_eye = prev_camera.eye().to_array();
-            let sum_out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
-            let weight_out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
             let (sum_in, weight_in) = match &sum {
                 Some((s, wt)) => (s, wt),
                 None => (&*image, &*image),
             };
-            ctx.gpu.dispatch(
-                SHADER,
-                "accumulate",
-                &[
-                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                    (1, Bind::Texture(sum_in)),
-                    (2, Bind::Texture(weight_in)),
-                    (3, Bind::Texture(prev)),
-                    (4, Bind::Texture(&prev_depth)),
-                    (5, Bind::Texture(&depth)),
-                    (11, Bind::Texture(&image)),
-                    (6, Bind::Storage(&sum_out)),
-                    (7, Bind::Storage(&weight_out)),
-                ],
-                w,
-                h,
-            )?;
-            u.first = 0;
-            sum = Some((sum_out, weight_out));
-        }
-        let Some((sum, weight)) = sum else {
-            let ones = vec![1.0f32; (w * h) as usize];
-            let accepted = ctx.gpu.upload(w, h, 1, &ones)?;
-            ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
-            ctx.set("image", ctx.require("image")?.clone());
-            ctx.pass_through();
-            return Ok(());
-        };
-        let out = ctx.gpu.texture(w, h, image.format)?;
-        let accepted = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let (entry, slot) = if image.format == TexFormat::R32F {
-            ("resolve_scalar", 9)
-        } else {
-            ("resolve_image", 8)
-        };
-        ctx.gpu.dispatch(
-            SHADER,
-            entry,
-            &[
+            let mut binds = vec![
                 (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&sum)),
-                (2, Bind::Texture(&weight)),
-                (slot, Bind::Storage(&out)),
-                (10, Bind::Storage(&accepted)),
-            ],
-            w,
-            h,
-        )?;
+                (1, Bind::Texture(sum_in)),
+                (2, Bind::Texture(weight_in)),
+                (3, Bind::Texture(prev)),
+                (4, Bind::Texture(&prev_depth)),
+                (5, Bind::Texture(&depth)),
+                (11, Bind::Texture(&image)),
+            ];
+            if i < last {
+                // Running sums for the next frame's pass.
+                let sum_out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
+                let weight_out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
+                binds.push((6, Bind::Storage(&sum_out)));
+                binds.push((7, Bind::Storage(&weight_out)));
+                ctx.gpu.dispatch(SHADER, "accumulate", &binds, w, h)?;
+                drop(binds);
+                sum = Some((sum_out, weight_out));
+            } else {
+                // The last earlier frame: its pass divides.
+                let (entry, slot) = if image.format == TexFormat::R32F {
+                    ("resolve_scalar", 9)
+                } else {
+                    ("resolve_image", 8)
+                };
+                binds.push((slot, Bind::Storage(&out)));
+                binds.push((10, Bind::Storage(&accepted)));
+                ctx.gpu.dispatch(SHADER, entry, &binds, w, h)?;
+            }
+            u.first = 0;
+        }
         ctx.set("image", super::util::image_like(Arc::new(out)));
         ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
         Ok(())

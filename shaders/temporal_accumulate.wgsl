@@ -1,7 +1,7 @@
 // TemporalAccumulate (nodes/temporal_accumulate.rs): the mean of the current frame and earlier
-// frames reprojected into it through the depth, with depth rejection. One `accumulate` pass per
-// earlier frame adds its reprojected value and weight to running sums (ping-pong textures); a
-// `resolve_*` pass divides.
+// frames reprojected into it through the depth, with depth rejection. One pass per earlier
+// frame adds its reprojected value and weight to running sums: `accumulate` (ping-pong textures)
+// for all but the last, whose `resolve_*` pass divides.
 #import lib/camera
 
 struct Params {
@@ -94,33 +94,41 @@ fn reproject(p: vec2<u32>) -> Reprojected {
     return r;
 }
 
+// The running sums at p after this pass's earlier frame: the incoming sums (or the current
+// frame with weight 1 on the first pass) plus the frame's reprojected value, clamped when asked.
+fn accumulated(p: vec2<u32>) -> Reprojected {
+    var acc = Reprojected(textureLoad(sum_in, p, 0), 1.0);
+    if P.first == 0u {
+        acc.weight = textureLoad(weight_in, p, 0).r;
+    }
+    let r = reproject(p);
+    if P.clamp_history != 0u && r.weight > 0.0 {
+        let range = neighbourhood(p);
+        acc.sum += clamp(r.sum / r.weight, range[0], range[1]) * r.weight;
+    } else {
+        acc.sum += r.sum;
+    }
+    acc.weight += r.weight;
+    return acc;
+}
+
+// Every earlier frame but the last: store the running sums.
 @compute @workgroup_size(8, 8)
 fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(sum_out);
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    var sum = textureLoad(sum_in, id.xy, 0);
-    var weight = 1.0;
-    if P.first == 0u {
-        weight = textureLoad(weight_in, id.xy, 0).r;
-    }
-    let r = reproject(id.xy);
-    if P.clamp_history != 0u && r.weight > 0.0 {
-        let range = neighbourhood(id.xy);
-        sum += clamp(r.sum / r.weight, range[0], range[1]) * r.weight;
-    } else {
-        sum += r.sum;
-    }
-    weight += r.weight;
-    textureStore(sum_out, vec2<i32>(id.xy), sum);
-    textureStore(weight_out, vec2<i32>(id.xy), vec4<f32>(weight, 0.0, 0.0, 1.0));
+    let acc = accumulated(id.xy);
+    textureStore(sum_out, vec2<i32>(id.xy), acc.sum);
+    textureStore(weight_out, vec2<i32>(id.xy), vec4<f32>(acc.weight, 0.0, 0.0, 1.0));
 }
 
+// The last earlier frame: the mean, and the accepted share of the window.
 fn resolved(p: vec2<u32>) -> vec4<f32> {
-    let w = textureLoad(weight_in, p, 0).r;
-    textureStore(out_accepted, vec2<i32>(p), vec4<f32>(w / P.frames, 0.0, 0.0, 1.0));
-    return textureLoad(sum_in, p, 0) / w;
+    let acc = accumulated(p);
+    textureStore(out_accepted, vec2<i32>(p), vec4<f32>(acc.weight / P.frames, 0.0, 0.0, 1.0));
+    return acc.sum / acc.weight;
 }
 
 @compute @workgroup_size(8, 8)
