@@ -111,16 +111,16 @@ crate::uniforms! {
         pub tolerance: f32,
         /// Earlier eye.
         pub prev_eye: [f32; 3],
-        /// 1 for the first pass.
-        pub first: u32,
+        /// Padding.
+        pub _pad0: u32,
         /// Frames asked for.
         pub frames: f32,
-        /// 1: clamp to the current neighbourhood's range.
-        pub clamp_history: u32,
         /// Padding.
         pub _pad1: u32,
         /// Padding.
         pub _pad2: u32,
+        /// Padding.
+        pub _pad3: u32,
     }
 }
 
@@ -286,12 +286,14 @@ impl NodeKind for TemporalAccumulate {
             eye: camera.eye().to_array(),
             tolerance: p.depth_tolerance,
             prev_eye: Vec3::ZERO.to_array(),
-            first: 1,
+            _pad0: 0,
             frames: p.frames as f32,
-            clamp_history: (p.clamp == Clamp::Neighbourhood) as u32,
             _pad1: 0,
             _pad2: 0,
+            _pad3: 0,
         };
+        let on = |b: bool| if b { 1.0 } else { 0.0 };
+        let clamp = on(p.clamp == Clamp::Neighbourhood);
         let Some(last) = ctx.earlier.len().checked_sub(1) else {
             let ones = vec![1.0f32; (w * h) as usize];
             let accepted = ctx.gpu.upload(w, h, 1, &ones)?;
@@ -334,7 +336,9 @@ impl NodeKind for TemporalAccumulate {
                 let weight_out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
                 binds.push((6, Bind::Storage(&sum_out)));
                 binds.push((7, Bind::Storage(&weight_out)));
-                ctx.gpu.dispatch(SHADER, "accumulate", &binds, w, h)?;
+                let constants = [("FIRST", on(i == 0)), ("CLAMP", clamp)];
+                ctx.gpu
+                    .dispatch_with(SHADER, "accumulate", &binds, (w, h), &constants)?;
                 drop(binds);
                 sum = Some((sum_out, weight_out));
             } else {
@@ -346,9 +350,10 @@ impl NodeKind for TemporalAccumulate {
                 };
                 binds.push((slot, Bind::Storage(&out)));
                 binds.push((10, Bind::Storage(&accepted)));
-                ctx.gpu.dispatch(SHADER, entry, &binds, w, h)?;
+                let constants = [("FIRST", on(i == 0)), ("CLAMP", clamp)];
+                ctx.gpu
+                    .dispatch_with(SHADER, entry, &binds, (w, h), &constants)?;
             }
-            u.first = 0;
         }
         ctx.set("image", super::util::image_like(Arc::new(out)));
         ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));

@@ -13,17 +13,21 @@ struct Params {
     // Relative depth tolerance of the rejection.
     tolerance: f32,
     prev_eye: vec3<f32>,
-    // 1 for the first pass: the sums start from the current frame (weight 1).
-    first: u32,
+    _pad0: u32,
     // Frames asked for (the resolve's `accepted` is the weight over this).
     frames: f32,
-    // 1: clamp each earlier frame's value to the current 3×3 neighbourhood's range.
-    clamp_history: u32,
     _pad1: u32,
     _pad2: u32,
+    _pad3: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
+
+// Pipeline constants, set per dispatch: the first pass (the sums start from the current frame),
+// and the neighbourhood clamp. Constants rather than uniforms: lavapipe compiles a variant of a
+// shader for the uniform values its branches read, at every dispatch whose values are new.
+override FIRST: bool = true;
+override CLAMP: bool = true;
 @group(0) @binding(1) var sum_in: texture_2d<f32>;
 @group(0) @binding(2) var weight_in: texture_2d<f32>;
 @group(0) @binding(3) var prev: texture_2d<f32>;
@@ -98,11 +102,11 @@ fn reproject(p: vec2<u32>) -> Reprojected {
 // frame with weight 1 on the first pass) plus the frame's reprojected value, clamped when asked.
 fn accumulated(p: vec2<u32>) -> Reprojected {
     var acc = Reprojected(textureLoad(sum_in, p, 0), 1.0);
-    if P.first == 0u {
+    if !FIRST {
         acc.weight = textureLoad(weight_in, p, 0).r;
     }
     let r = reproject(p);
-    if P.clamp_history != 0u && r.weight > 0.0 {
+    if CLAMP && r.weight > 0.0 {
         let range = neighbourhood(p);
         acc.sum += clamp(r.sum / r.weight, range[0], range[1]) * r.weight;
     } else {
