@@ -2,9 +2,14 @@
 //! each reprojected into the current camera through the depth (the temporal accumulation of
 //! TAA, over a fixed window so that every frame is computed the same way whether it is rendered
 //! alone or in a sequence). What it is for: few-step marching shimmers under camera motion
-//! (`tyndall bench temporal`: sample positions slide through thin shafts from frame to frame);
-//! with `SingleScattering`'s `jitter_pattern = frame` each frame's samples sit elsewhere along
-//! the ray, and the window averages `frames` of them for the cost of one march per frame.
+//! (sample positions slide through thin shafts from frame to frame); the camera's motion puts
+//! each frame's samples elsewhere along the rays, and the window averages `frames` of them for
+//! the cost of one march per frame (`tyndall bench temporal`, the forest walk: 24 steps' flicker
+//! 71 % → 36 % of the picture's real change with 4 frames). For a still camera,
+//! `SingleScattering`'s `jitter_pattern = frame` gives each frame other samples. Reprojection
+//! through the surface depth does not follow shafts in front of the surface (parallax), so the
+//! window adds a flicker of its own (14 % on the exact picture, 4 frames): it does not help a
+//! method that is already steadier than that.
 //!
 //! The evaluator evaluates the node's inputs again at time − k·`frame_step`, k = 1…`frames` − 1
 //! (`NodeKind::history`; in a sequential render these are cache hits). For pixel p of the
@@ -24,8 +29,7 @@
 //! the 3×3 pixels around p (TAA's neighbourhood clamp, Karis 2014): reprojection through the
 //! surface depth follows the surface, not the shafts in front of it, and a value the current
 //! neighbourhood does not span is such a lagging change rather than noise. The current frame
-//! always counts fully and a pixel no earlier frame saw is the current
-//! frame's own value. `accepted` is that denominator over `frames` (1: every frame was
+//! always counts fully, and a pixel no earlier frame saw is the current frame's own value. `accepted` is that denominator over `frames` (1: every frame was
 //! reprojected; 1/`frames`: only the current one). Sky pixels carry the camera's far distance as
 //! depth and reproject as points at that distance. With `frames` = 1 the input passes through.
 //! The window lags a moving picture by (`frames` − 1)/2 · `frame_step` frames on average.

@@ -3,8 +3,9 @@
 //!
 //! Each setting of the suite is a change (`node.param` keys, or `node.@data` for a data block
 //! as RON text) to the suite's graph. For each factor of `proxies` and each run, the unchanged
-//! graph is evaluated first (untimed: the cache then holds every node's result at that size),
-//! then the changed one, timed from the request to the viewed port (`node`.`output`) read back
+//! graph is evaluated first (untimed: the cache then holds every node's result at that size,
+//! and only those — `Evaluator::keep_latest` — so the change is computed, not found), then the
+//! changed one, timed from the request to the viewed port (`node`.`output`) read back
 //! to the CPU — the editor's worker does the same before the window can show it. Only the
 //! nodes the change touches run again; which ran is counted in the row (`x first` column:
 //! the time over the full-size row's).
@@ -80,6 +81,9 @@ pub fn run(
             let mut times = Vec::new();
             for _ in 0..runs.max(1) {
                 picture(&mut ev, &gpu, &before, &target, at)?;
+                // The cache keeps several keys per node: without this the changed graph's
+                // results from the previous run would be found, not computed.
+                ev.keep_latest();
                 times.push(picture(&mut ev, &gpu, &after, &target, at)?);
             }
             times.sort_by(f64::total_cmp);

@@ -71,6 +71,12 @@ impl Cache {
         self.entries.clear();
     }
 
+    /// Drop every entry the latest evaluation did not use.
+    pub(super) fn keep_latest(&mut self) {
+        let clock = self.clock;
+        self.entries.retain(|_, e| e.last_used == clock);
+    }
+
     /// The cached outputs of `id` under `key`, if they hold every wanted port, and what they
     /// cost to compute.
     pub(super) fn reuse(
