@@ -717,3 +717,29 @@ fn composite_light_map_colours_the_sunlit_surfaces() {
     }
     assert!(lit > 0, "the sun lights some surfaces");
 }
+
+#[test]
+fn a_knob_set_back_to_an_earlier_value_is_found_in_the_cache() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut g = two_branches(dir.path());
+    let mut ev = evaluator(gpu);
+    let cat = ev.registry().catalog().clone();
+    let target = [Target::Port("m1".into(), "out".into())];
+    let opts = EvalOptions::default();
+    let status_at = |g: &mut Graph, ev: &mut Evaluator, b: f64| {
+        g.set_param(&cat, "m1", "b", ParamValue::Float(b))
+            .expect("set");
+        let r = ev.evaluate(g, &target, &opts).expect("evaluate");
+        r.stats.status("m1")
+    };
+    assert_eq!(status_at(&mut g, &mut ev, 2.0), Some(Status::Ran));
+    assert_eq!(status_at(&mut g, &mut ev, 4.0), Some(Status::Ran));
+    // Several keys per node: the first value's result is still there.
+    assert_eq!(status_at(&mut g, &mut ev, 2.0), Some(Status::Reused));
+    assert_eq!(ev.cached_nodes(), 2, "m1 and its source c1");
+    // `keep_latest` keeps only what the latest evaluation used (b = 2).
+    ev.keep_latest();
+    assert_eq!(status_at(&mut g, &mut ev, 4.0), Some(Status::Ran));
+    assert_eq!(status_at(&mut g, &mut ev, 2.0), Some(Status::Reused));
+}
