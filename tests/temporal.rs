@@ -257,3 +257,29 @@ fn per_frame_jitter_moves_the_samples_and_keeps_a_frame_reproducible() {
         "jitter_pattern = screen is the same every frame"
     );
 }
+
+#[test]
+fn a_render_keeping_what_each_frame_used_holds_one_window() {
+    let gpu = require_gpu!();
+    let g = graph(false, "frame", 4);
+    // As `tyndall render --frames` does: after each frame, keep what it used.
+    let mut trimmed = evaluator(&gpu);
+    let mut full = evaluator(&gpu);
+    let mut bytes = Vec::new();
+    for t in 6..=12 {
+        let epoch = trimmed.epoch();
+        let (image, _, runs, _) = accumulated(&mut trimmed, &gpu, &g, t as f64);
+        trimmed.keep_used_since(epoch);
+        let (same, _, _, _) = accumulated(&mut full, &gpu, &g, t as f64);
+        assert_eq!(image.data, same.data, "frame {t}: trimming changes nothing");
+        if t > 6 {
+            assert_eq!(runs, 0, "frame {t}: its earlier frames were kept");
+        }
+        bytes.push((trimmed.cached_bytes(), full.cached_bytes()));
+    }
+    // The trimmed cache holds the window (four frames' upstream and one accumulation), the
+    // same amount every frame; the untrimmed one grows by a frame each frame.
+    let (a, b) = (bytes[bytes.len() - 2], bytes[bytes.len() - 1]);
+    assert_eq!(a.0, b.0, "trimmed: {bytes:?}");
+    assert!(b.1 > a.1 && b.1 > b.0, "untrimmed: {bytes:?}");
+}

@@ -173,6 +173,7 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
     let (mut written, mut skipped, mut failed) = (Vec::new(), 0usize, Vec::new());
     let mut done = 0usize;
     for f in &frames {
+        let epoch = ev.epoch();
         for v in &vars {
             let files = written_files(&registry, &v.graph, &targets, &v.suffix, *f);
             let status =
@@ -223,6 +224,9 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
             bar.inc(1);
             report(mode, *f, status, &files, (done, total));
         }
+        // The next frame needs only what this one used (earlier frames of nodes with a
+        // history included): keep about a frame's window, not the whole budget.
+        ev.keep_used_since(epoch);
     }
     bar.finish_and_clear();
     let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });

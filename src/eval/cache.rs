@@ -71,10 +71,14 @@ impl Cache {
         self.entries.clear();
     }
 
-    /// Drop every entry the latest evaluation did not use.
-    pub(super) fn keep_latest(&mut self) {
-        let clock = self.clock;
-        self.entries.retain(|_, e| e.last_used == clock);
+    /// Evaluations started so far (the clock).
+    pub(super) fn clock(&self) -> u64 {
+        self.clock
+    }
+
+    /// Drop every entry no evaluation after the `epoch`-th used.
+    pub(super) fn keep_used_since(&mut self, epoch: u64) {
+        self.entries.retain(|_, e| e.last_used > epoch);
     }
 
     /// The cached outputs of `id` under `key`, if they hold every wanted port, and what they

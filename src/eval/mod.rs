@@ -207,7 +207,21 @@ impl Evaluator {
     /// per node would hold. A benchmark of a change calls it so that a value it measured before
     /// is computed again, not found in the cache.
     pub fn keep_latest(&mut self) {
-        self.cache.keep_latest();
+        self.cache
+            .keep_used_since(self.cache.clock().saturating_sub(1));
+    }
+
+    /// Evaluations made so far: an epoch for [`Evaluator::keep_used_since`].
+    pub fn epoch(&self) -> u64 {
+        self.cache.clock()
+    }
+
+    /// Drop every cached result that no evaluation after `epoch` used. A render of a frame
+    /// sequence calls it after each frame with the epoch before it: the next frame needs only
+    /// what this one used (its earlier frames, for nodes with a history, included), so the
+    /// cache holds about one frame's window instead of filling its budget.
+    pub fn keep_used_since(&mut self, epoch: u64) {
+        self.cache.keep_used_since(epoch);
     }
 
     /// Drop every cached result.
