@@ -552,7 +552,11 @@ pub(crate) fn render(
                 ..Default::default()
             };
             let sinks = ev.sinks(&g);
-            ev.evaluate(&g, &sinks, &opts).map(|_| ())
+            // As `tyndall render` does: the next frame needs only what this one used.
+            let epoch = ev.epoch();
+            let r = ev.evaluate(&g, &sinks, &opts).map(|_| ());
+            ev.keep_used_since(epoch);
+            r
         })?;
         r.map_err(|e| eval_err(py, &e))?;
         let frame = f.unwrap_or(0);
