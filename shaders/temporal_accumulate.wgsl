@@ -58,15 +58,16 @@ fn neighbourhood(p: vec2<u32>) -> array<vec4<f32>, 2> {
     return array<vec4<f32>, 2>(lo, hi);
 }
 
-// The current pixel's surface point seen from the earlier camera: the bilinear taps around its
-// projection whose earlier depth agrees with the point's distance from the earlier eye (within
-// `tolerance` of it) — taps off the earlier image or behind its camera count nothing. Returns the
-// weighted sum (rgb a) and the total weight in `w` of the second value.
+// A weighted sum of texels (every channel) and the sum of its weights.
 struct Reprojected {
     sum: vec4<f32>,
     weight: f32,
 }
 
+// The current pixel's surface point seen from the earlier camera: the bilinear taps around its
+// projection whose earlier depth agrees with the point's distance from the earlier eye (within
+// `tolerance` of it), each with its bilinear weight; taps off the earlier image, or a point
+// behind its camera, count nothing.
 fn reproject(p: vec2<u32>) -> Reprojected {
     var r = Reprojected(vec4<f32>(0.0), 0.0);
     let size = textureDimensions(depth);
