@@ -239,20 +239,6 @@ pub fn reference(
     (out, accepted)
 }
 
-/// The texture and camera of a Depth value (an earlier frame's `depth`).
-fn depth_value(
-    v: Option<&PortValue>,
-    port: &str,
-) -> Result<(Arc<crate::gpu::GpuTexture>, Matrices), NodeError> {
-    match v {
-        Some(PortValue::Depth(t, m)) => Ok((t.clone(), *m)),
-        _ => Err(NodeError::Input {
-            port: port.into(),
-            message: "produced no depth at an earlier frame".into(),
-        }),
-    }
-}
-
 impl NodeKind for TemporalAccumulate {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -311,14 +297,13 @@ impl NodeKind for TemporalAccumulate {
         let mut sum: Option<(crate::gpu::GpuTexture, crate::gpu::GpuTexture)> = None;
         for (i, earlier) in ctx.earlier.iter().enumerate() {
             let prev = earlier
-                .inputs
-                .get("image")
-                .and_then(PortValue::texture)
+                .require("image")?
+                .texture()
                 .ok_or_else(|| NodeError::Input {
                     port: "image".into(),
-                    message: format!("produced no value {} frames earlier", earlier.offset),
+                    message: format!("is no image {} frames earlier", earlier.offset),
                 })?;
-            let (prev_depth, prev_camera) = depth_value(earlier.inputs.get("depth"), "depth")?;
+            let (prev_depth, prev_camera) = earlier.depth("depth")?;
             u.prev_view_proj = prev_camera.view_proj().to_cols_array_2d();
             u.prev_eye = prev_camera.eye().to_array();
             let (sum_in, weight_in) = match &sum {

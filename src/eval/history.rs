@@ -15,7 +15,7 @@ use super::stats::{NodeRun, Status};
 use super::{EvalError, EvalOptions, Evaluator, NodeError, NodeKind, Target};
 use crate::graph::{Graph, ParamValue};
 
-pub use super::node::Earlier;
+use super::node::Earlier;
 
 /// How deeply histories may nest (a node with history upstream of another one's earlier
 /// frames): each level multiplies the frames evaluated.

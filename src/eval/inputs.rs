@@ -1,11 +1,12 @@
 //! Typed input getters: `ctx.shadow_map("shadow")?` for a required input, `ctx.phase_opt("phase")?`
-//! for an optional one (`None` when unconnected). Edges are type-checked when connected, so the
+//! for an optional one (`None` when unconnected); the same on an [`Earlier`] frame's inputs
+//! (`earlier.depth("depth")?`). Edges are type-checked when connected, so the
 //! only failures are an unconnected required input and a value of another type (injected by a
 //! caller), each an error naming the port.
 
 use std::sync::Arc;
 
-use super::{Matrices, NodeError, PortValue, RunCtx};
+use super::{Earlier, Matrices, NodeError, PortValue, RunCtx};
 use crate::gpu::{GpuTexture, GpuVolume};
 
 fn wrong(port: &str, what: &str, v: &PortValue) -> NodeError {
@@ -17,7 +18,11 @@ fn wrong(port: &str, what: &str, v: &PortValue) -> NodeError {
 
 macro_rules! getters {
     ($( $(#[$doc:meta])* $name:ident, $opt:ident, $what:literal: $variant:ident($($f:ident),+) -> $ty:ty; )+) => {
-        impl RunCtx<'_> {
+        getters!(@for RunCtx<'_>; $( $(#[$doc])* $name, $opt, $what: $variant($($f),+) -> $ty; )+);
+        getters!(@for Earlier; $( $(#[$doc])* $name, $opt, $what: $variant($($f),+) -> $ty; )+);
+    };
+    (@for $on:ty; $( $(#[$doc:meta])* $name:ident, $opt:ident, $what:literal: $variant:ident($($f:ident),+) -> $ty:ty; )+) => {
+        impl $on {
             $(
                 $(#[$doc])*
                 pub fn $name(&self, port: &str) -> Result<$ty, NodeError> {
@@ -84,5 +89,20 @@ impl RunCtx<'_> {
             None => Ok(None),
             Some(_) => self.scene(port).map(Some),
         }
+    }
+}
+
+impl Earlier {
+    /// The value on input `port` at this earlier frame, if connected.
+    pub fn input(&self, port: &str) -> Option<&PortValue> {
+        self.inputs.get(port)
+    }
+
+    /// The value on a required input `port` at this earlier frame.
+    pub fn require(&self, port: &str) -> Result<&PortValue, NodeError> {
+        self.input(port).ok_or_else(|| NodeError::Input {
+            port: port.to_string(),
+            message: format!("produced no value {} frames earlier", self.offset),
+        })
     }
 }
