@@ -34,8 +34,8 @@ mod polygon;
 use std::sync::Arc;
 
 pub use polygon::{
-    footprint_difference, polygon, polygon_pays, polygon_span, reference_lines, segments,
-    LineParams, DIRECTIONS, POLYGON_FROM,
+    disk_support, footprint_difference, polygon, polygon_pays, polygon_span, reference_lines,
+    segments, support_error, LineParams, DIRECTIONS, POLYGON_FROM,
 };
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};

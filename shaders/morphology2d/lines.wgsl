@@ -1,38 +1,48 @@
 // Dilate2D / Erode2D / Closure2D, circle by `method = Fast` at larger radii: min (or max) along
 // the digital lines of one direction (nodes/morphology2d/polygon.rs). The polygon close to the
-// disk is a Minkowski sum of such segments in up to eight directions, one pair of passes each.
+// disk is a Minkowski sum of such segments in up to eight directions, one pass each.
 //
 // A direction v = (vx, vy) (gcd 1, |vx|, |vy| ≤ 2) cuts the map into lines {p + t·v}: a texel's
 // line is c = vy·x − vx·y and its place on it t = a·x + b·y, with a·vx + b·vy = 1 (t grows by
-// one per step v, and (x, y) = (vx·t + b·c, vy·t − a·c)). Each line is laid out in a row of
-// `width` slots of the prefix and suffix buffers: slot u holds t = t0 + u − m (t0 the line's
-// first texel in the map), slots outside the map the operation's identity, so texels outside
-// the map are not part of a segment and no bounds are tested per texel. Along each row,
-// van Herk / Gil–Werman as in chords.wgsl: blocks of k = 2m + 1 slots; `blocks` writes the
-// running min/max from each block's start (prefix) and to its end (suffix); `combine` takes
-// suffix(u − m) ⊕ prefix(u + m). A pass covers the lines [lo, lo + lines): maps too large for
-// one buffer run in several.
+// one per step v, and (x, y) = (vx·t + b·c, vy·t − a·c)). Along a line the map's texels are one
+// run of t; outside it the operation's identity stands in, so texels outside the map are not part
+// of a segment and no bounds are tested per texel.
+//
+// The passes run between two storage buffers (row-major, the map's size): `from_map` copies the
+// map in, each `segment` reads one and writes the other, `to_map` copies the result out.
+//
+// Van Herk / Gil–Werman, one thread per run of `n` blocks of k = 2m + 1 outputs on one line. The
+// windows [u − m, u + m] of a block's outputs u all hold its centre q, so each output is
+// S(u − m) ⊕ P(u + m), S the running min/max from q leftwards, P from q rightwards: a leftward
+// sweep stores S, a rightward one folds P in; two reads and three operations per texel whatever
+// m is.
 
 struct Line {
+    // The direction and its Bezout coefficients (a·vx + b·vy = 1).
     vx: i32,
     vy: i32,
     a: i32,
     b: i32,
+    // Half-length in steps.
     m: i32,
+    // 0: min (dilation of depths), 1: max (erosion).
     op: u32,
+    // The pass's first line and its count.
     lo: i32,
     lines: i32,
-    width: i32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Blocks of 2m + 1 outputs per thread.
+    n: i32,
+    // The map's size.
+    w: i32,
+    h: i32,
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> L: Line;
 @group(0) @binding(1) var src: texture_2d<f32>;
-@group(0) @binding(2) var<storage, read_write> prefix: array<f32>;
-@group(0) @binding(3) var<storage, read_write> suffix: array<f32>;
-@group(0) @binding(6) var out_map: texture_storage_2d<r32float, write>;
+@group(0) @binding(2) var<storage, read_write> src_buf: array<f32>;
+@group(0) @binding(3) var<storage, read_write> out_buf: array<f32>;
+@group(0) @binding(4) var out_map: texture_storage_2d<r32float, write>;
 
 const BIG: f32 = 3.4028235e38;
 
@@ -66,68 +76,72 @@ fn clip(range: vec2<i32>, alpha: i32, beta: i32, hi: i32) -> vec2<i32> {
 
 // The t of line c that lie in the map.
 fn t_range(c: i32) -> vec2<i32> {
-    let d = vec2<i32>(textureDimensions(src));
     var r = vec2<i32>(-2147483647, 2147483647);
-    r = clip(r, L.vx, L.b * c, d.x - 1);
-    r = clip(r, L.vy, -L.a * c, d.y - 1);
+    r = clip(r, L.vx, L.b * c, L.w - 1);
+    r = clip(r, L.vy, -L.a * c, L.h - 1);
     return r;
 }
 
-fn at(t: i32, c: i32) -> vec2<u32> {
-    return vec2<u32>(u32(L.vx * t + L.b * c), u32(L.vy * t - L.a * c));
+// Index in the buffers of place t on line c.
+fn at(t: i32, c: i32) -> i32 {
+    return (L.vy * t - L.a * c) * L.w + L.vx * t + L.b * c;
 }
 
-// One thread per (block of slots, line).
+// The map's value at place t of line c, whose in-map places are `r`; the identity outside.
+fn value(t: i32, c: i32, r: vec2<i32>) -> f32 {
+    if t < r.x || t > r.y {
+        return identity();
+    }
+    return src_buf[at(t, c)];
+}
+
+// One thread per (run of n blocks, line).
 @compute @workgroup_size(8, 8)
-fn blocks(@builtin(global_invocation_id) id: vec3<u32>) {
+fn segment(@builtin(global_invocation_id) id: vec3<u32>) {
     let row = i32(id.y);
-    let k = 2 * L.m + 1;
-    let start = i32(id.x) * k;
-    if row >= L.lines || start >= L.width {
+    if row >= L.lines {
         return;
     }
     let c = L.lo + row;
     let r = t_range(c);
-    if r.x > r.y {
-        return;
-    }
-    let base = row * L.width;
-    let end = min(start + k, L.width);
-    var acc = identity();
-    for (var u = start; u < end; u++) {
-        let t = r.x + u - L.m;
-        if t >= r.x && t <= r.y {
-            acc = pick(acc, textureLoad(src, at(t, c), 0).r);
+    let m = L.m;
+    let k = 2 * m + 1;
+    // The centre of the run's first block; its outputs are q − m … q + m.
+    var q = r.x + i32(id.x) * L.n * k + m;
+    for (var j = 0; j < L.n; j++) {
+        if q - m > r.y {
+            return;
         }
-        prefix[base + u] = acc;
-    }
-    acc = identity();
-    for (var u = end - 1; u >= start; u--) {
-        let t = r.x + u - L.m;
-        if t >= r.x && t <= r.y {
-            acc = pick(acc, textureLoad(src, at(t, c), 0).r);
+        // Leftwards: S(x) for x = q … q − 2m, stored at output u = x + m.
+        var acc = identity();
+        for (var x = q; x >= q - 2 * m; x--) {
+            acc = pick(acc, value(x, c, r));
+            if x + m <= r.y {
+                out_buf[at(x + m, c)] = acc;
+            }
         }
-        suffix[base + u] = acc;
+        // Rightwards: P(x) for x = q … q + 2m, folded into output u = x − m.
+        acc = identity();
+        for (var x = q; x <= q + 2 * m && x - m <= r.y; x++) {
+            acc = pick(acc, value(x, c, r));
+            let i = at(x - m, c);
+            out_buf[i] = pick(out_buf[i], acc);
+        }
+        q += k;
     }
 }
 
 @compute @workgroup_size(8, 8)
-fn combine(@builtin(global_invocation_id) id: vec3<u32>) {
-    let d = textureDimensions(src);
-    if id.x >= d.x || id.y >= d.y {
-        return;
+fn from_map(@builtin(global_invocation_id) id: vec3<u32>) {
+    if i32(id.x) < L.w && i32(id.y) < L.h {
+        out_buf[i32(id.y) * L.w + i32(id.x)] = textureLoad(src, id.xy, 0).r;
     }
-    let x = i32(id.x);
-    let y = i32(id.y);
-    let c = L.vy * x - L.vx * y;
-    let row = c - L.lo;
-    if row < 0 || row >= L.lines {
-        return;
+}
+
+@compute @workgroup_size(8, 8)
+fn to_map(@builtin(global_invocation_id) id: vec3<u32>) {
+    if i32(id.x) < L.w && i32(id.y) < L.h {
+        let v = src_buf[i32(id.y) * L.w + i32(id.x)];
+        textureStore(out_map, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
     }
-    let t = L.a * x + L.b * y;
-    // Slot of t is u = t − t0 + m; the window [u − m, u + m] spans at most two blocks.
-    let u = t - t_range(c).x + L.m;
-    let base = row * L.width;
-    let v = pick(suffix[base + u - L.m], prefix[base + u + L.m]);
-    textureStore(out_map, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
