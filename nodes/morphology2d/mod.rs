@@ -10,8 +10,8 @@
 //! Methods. Square: two van Herk / Gil–Werman passes, constant per texel whatever r (`Fast` and
 //! `Exact` are the same). Circle, `Exact`: one horizontal van Herk pass per distinct chord
 //! width, folded row by row (`chords.wgsl`), linear in r. Circle, `Fast`: a 16-gon close to the
-//! disk, the Minkowski sum of segments in eight directions, one van Herk pass each
-//! (`polygon.rs`, `lines.wgsl`), flat in r; at radii where the chords need no more passes
+//! disk (closest in support, so edges move as the disk moves them), the Minkowski sum of
+//! segments in eight directions, one van Herk pass each (`polygon.rs`, `lines.wgsl`), flat in r; at radii where the chords need no more passes
 //! (r ≤ 7) it is the exact disk. `BruteForce` visits the whole footprint (O(r²)), for
 //! benchmarks. Each equals its CPU reference exactly (min and max involve no rounding); how far
 //! the polygon is from the disk is measured in `benches/morphology.ron` and bounded in

@@ -7,7 +7,10 @@
 //! {Σ iⱼ·vⱼ : |iⱼ| ≤ mⱼ} is exactly the set of texels inside the continuous zonotope with the
 //! same generators (checked in `tests/morphology.rs`), so its row spans follow from the
 //! half-planes |n·p| ≤ Σ mⱼ·|n·vⱼ|, one per direction's normal n. [`polygon`] picks the lengths
-//! whose footprint differs from the disk dx² + dy² ≤ r² in the fewest texels.
+//! whose support (how far it moves an edge) is closest to the disk dx² + dy² ≤ r².
+//!
+//! On the GPU each segment is one dispatch, reading one map-sized buffer and writing the other
+//! (`from_map` and `to_map` copy the map in and out): sixteen passes for a closure whatever r.
 //!
 //! Each pass keeps to the map: a footprint texel reached only through texels outside the map
 //! is not part of the result (within r of the map's edge only). The CPU reference
@@ -235,8 +238,8 @@ pub fn chord_dispatches(r: i32) -> usize {
 
 /// The smallest radius `method = Fast` takes the polygon at. Below it the polygon needs only
 /// a few of the eight directions and differs from the disk in 3.5–31 % of its texels, while the
-/// exact chords cost about as much (at r 5 on the 2048² tree map: 1.8 s exact, 1.5 s polygon,
-/// `benches/morphology.ron`).
+/// exact chords cost about as much as its sixteen passes (at 2048², the chords at r 5 and the
+/// polygon at r 10 and 20 take the same time within lavapipe's noise, `benches/morphology.ron`).
 pub const POLYGON_FROM: i32 = 8;
 
 /// Whether `method = Fast` takes the polygon at radius `r` (else the exact chords): from
