@@ -40,6 +40,7 @@ struct Line {
 
 @group(0) @binding(0) var<uniform> L: Line;
 @group(0) @binding(1) var src: texture_2d<f32>;
+// Only read; read_write because `Bind::Buffer` binds every storage buffer so.
 @group(0) @binding(2) var<storage, read_write> src_buf: array<f32>;
 @group(0) @binding(3) var<storage, read_write> out_buf: array<f32>;
 @group(0) @binding(4) var out_map: texture_storage_2d<r32float, write>;
