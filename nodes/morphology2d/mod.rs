@@ -35,7 +35,8 @@ use std::sync::Arc;
 
 pub use polygon::{
     disk_support, footprint_difference, polygon, polygon_pays, polygon_span, reference_lines,
-    segments, support_error, LineParams, DIRECTIONS, POLYGON_FROM,
+    segments, support_error, LineParams, DIRECTIONS, EXHAUSTIVE_BELOW, POLYGON_FROM,
+    SUPPORT_DIRECTIONS,
 };
 
 use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};

@@ -99,11 +99,11 @@ pub fn footprint_difference(r: i32, m: [i32; 3]) -> i64 {
 }
 
 /// Directions [`support_error`] compares in (evenly spaced, offset by half a step).
-const SUPPORT_DIRECTIONS: usize = 360;
+pub const SUPPORT_DIRECTIONS: usize = 360;
 
 /// Below this radius [`polygon`] searches every length triple up to the proportions' reach;
 /// from it on, a descent (the box holds ~r³/48 triples).
-const EXHAUSTIVE_BELOW: i32 = 48;
+pub const EXHAUSTIVE_BELOW: i32 = 48;
 
 /// The disk's support values h(θ) = max p·n(θ) over its texels p, at the
 /// [`SUPPORT_DIRECTIONS`] directions.
