@@ -1,7 +1,8 @@
 //! Nodes with a history (`TemporalAccumulate`): the GPU equals the CPU reference on a moving
 //! camera, a still camera reprojects every pixel onto itself, a frame rendered alone equals the
 //! same frame in a sequence, a sequence evaluates each earlier frame once, and the per-frame
-//! jitter moves the samples while keeping a frame reproducible.
+//! jitter moves the samples while keeping a frame reproducible; a failure at an earlier frame
+//! names that frame.
 
 mod common;
 
@@ -282,4 +283,60 @@ fn a_render_keeping_what_each_frame_used_holds_one_window() {
     let (a, b) = (bytes[bytes.len() - 2], bytes[bytes.len() - 1]);
     assert_eq!(a.0, b.0, "trimmed: {bytes:?}");
     assert!(b.1 > a.1 && b.1 > b.0, "untrimmed: {bytes:?}");
+}
+
+#[test]
+fn a_failure_at_an_earlier_frame_names_that_frame_and_the_node_that_reads_it() {
+    // An image sequence with frame 5 only: frame 5 alone renders, but accumulating two frames
+    // at frame 5 reads frame 4, whose file is missing.
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plate = Raster::new(SIZE.0, SIZE.1, 4, 0.25);
+    tyndall::io::write_image(
+        &dir.path().join("plate_0005.exr"),
+        &plate,
+        tyndall::io::Precision::F32,
+        false,
+    )
+    .expect("write plate");
+    let text = format!(
+        r#"(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"name": "tree"}}),
+        "gbuffer": (kind: "GBuffer"),
+        "plate": (kind: "ImageInput", params: {{"path": "{}"}}),
+        "acc": (kind: "TemporalAccumulate", params: {{"frames": 2}}),
+    }},
+    edges: [
+        ("scene.scene", "gbuffer.scene"),
+        ("plate.image", "acc.image"), ("gbuffer.depth", "acc.depth"),
+    ],
+)"#,
+        dir.path().join("plate_####.exr").display()
+    );
+    let g = load_str(
+        &text,
+        std::path::Path::new("t.ron"),
+        tyndall::nodes::registry().catalog(),
+    )
+    .expect("graph");
+    let mut ev = evaluator(&gpu);
+    let plate_only = [Target::Port("plate".into(), "image".into())];
+    ev.evaluate(&g, &plate_only, &at(5.0))
+        .expect("frame 5 on its own reads its file");
+    let acc = [Target::Port("acc".into(), "image".into())];
+    let err = ev
+        .evaluate(&g, &acc, &at(5.0))
+        .expect_err("frame 4 is missing")
+        .to_string();
+    for want in [
+        "node 'plate' (ImageInput)",
+        "at time 4",
+        "1 back",
+        "node 'acc' reads",
+        "plate_0004.exr",
+    ] {
+        assert!(err.contains(want), "{want:?} not in: {err}");
+    }
 }

@@ -82,7 +82,9 @@ impl Evaluator {
                 ..opts.clone()
             };
             let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
-            let up = self.run_plan(graph, &plan, order, &at, &mut stats, depth + 1)?;
+            let up = self
+                .run_plan(graph, &plan, order, &at, &mut stats, depth + 1)
+                .map_err(|e| at_earlier_frame(e, id, offset, at.time))?;
             let ran = stats.values().filter(|s| s.0 != Status::Reused);
             self.earlier_runs += ran.clone().count();
             history.time += ran.map(|s| s.1).sum::<Duration>();
@@ -98,5 +100,23 @@ impl Evaluator {
         }
         history.key = h.finish();
         Ok(history)
+    }
+}
+
+/// A node's failure at an earlier frame, saying which frame and which node with a history
+/// asked for it (other errors, a cancellation among them, pass unchanged).
+fn at_earlier_frame(e: EvalError, by: &str, offset: f64, time: f64) -> EvalError {
+    match e {
+        EvalError::Node { node, kind, source } => EvalError::Node {
+            node,
+            kind,
+            source: NodeError::EarlierFrame {
+                time,
+                offset,
+                by: by.to_string(),
+                error: Box::new(source),
+            },
+        },
+        other => other,
     }
 }

@@ -28,11 +28,13 @@ use thiserror::Error;
 pub use convert::{download, upload_raster};
 pub use history::MAX_HISTORY_DEPTH;
 pub use node::{
-    check_side, output_path, with_frame, with_suffix, Earlier, EditorTool, FileRole, KeyInput,
-    NodeDecl, NodeError, NodeKind, Registry, RunCtx,
+    check_side, Earlier, EditorTool, FileRole, KeyInput, NodeDecl, NodeError, NodeKind, Registry,
+    RunCtx,
 };
 pub use params::{FromParam, ParamReader};
-pub use paths::{file_stamp, resolve_files, PathPolicy, PathRefused};
+pub use paths::{
+    file_stamp, output_path, resolve_files, with_frame, with_suffix, PathPolicy, PathRefused,
+};
 use stats::{report, NodeRun};
 pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
@@ -84,10 +86,8 @@ impl EvalError {
     pub fn device_lost(&self) -> bool {
         matches!(
             self,
-            EvalError::Node {
-                source: NodeError::Gpu(GpuError::Lost(_) | GpuError::Hung(_)),
-                ..
-            }
+            EvalError::Node { source, .. }
+                if matches!(source.innermost(), NodeError::Gpu(GpuError::Lost(_) | GpuError::Hung(_)))
         )
     }
 }

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use thiserror::Error;
 
 use super::params::ParamReader;
+use super::paths::output_path;
 use super::value::PortValue;
 use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
 use crate::graph::{Choice, NodeData, NodeSchema, ParamValue};
@@ -42,6 +43,29 @@ pub enum NodeError {
     /// Anything else.
     #[error("{0}")]
     Other(String),
+    /// The node failed at an earlier frame that a node with a history
+    /// ([`super::NodeKind::history`]) reads: the time it failed at, how far back, and who asked.
+    #[error("at time {time} (the frame {offset} back that node '{by}' reads): {error}")]
+    EarlierFrame {
+        /// The earlier frame's time.
+        time: f64,
+        /// How many frames before the evaluated one.
+        offset: f64,
+        /// The node with the history.
+        by: String,
+        /// What went wrong there.
+        error: Box<NodeError>,
+    },
+}
+
+impl NodeError {
+    /// The error itself, seen through any [`NodeError::EarlierFrame`] around it.
+    pub fn innermost(&self) -> &NodeError {
+        match self {
+            NodeError::EarlierFrame { error, .. } => error.innermost(),
+            other => other,
+        }
+    }
 }
 
 impl From<crate::io::IoError> for NodeError {
@@ -248,45 +272,6 @@ impl RunCtx<'_> {
     }
 }
 
-/// The file a sink writes for `path` with a wedge `suffix` at `frame`: the frame replaces a
-/// `####` run (zero-padded to its length) or a printf `%d` / `%0Nd` in the path, else `_NNNN` is
-/// appended to the suffix; the suffix goes before the extension.
-pub fn output_path(path: &str, suffix: &str, frame: Option<i64>) -> PathBuf {
-    match frame {
-        None => with_suffix(path, suffix),
-        Some(f) => match with_frame(path, f) {
-            Some(p) => with_suffix(&p, suffix),
-            None => with_suffix(path, &format!("{suffix}_{f:04}")),
-        },
-    }
-}
-
-/// `path` with its first `####` run or `%d` / `%0Nd` replaced by `frame` (`None`: no pattern).
-pub fn with_frame(path: &str, frame: i64) -> Option<String> {
-    if let Some(start) = path.find('#') {
-        let run = path[start..].chars().take_while(|c| *c == '#').count();
-        let digits = format!("{frame:0run$}");
-        return Some(format!(
-            "{}{digits}{}",
-            &path[..start],
-            &path[start + run..]
-        ));
-    }
-    let start = path.find('%')?;
-    let rest = &path[start + 1..];
-    let spec: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
-    if !rest[spec.len()..].starts_with('d') {
-        return None;
-    }
-    let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
-    let digits = format!("{frame:0width$}");
-    Some(format!(
-        "{}{digits}{}",
-        &path[..start],
-        &rest[spec.len() + 1..]
-    ))
-}
-
 /// `value` as a texture side if it is within 1..=`limit` (the adapter's
 /// `max_texture_dimension_{dims}d`), else an error naming `param` and the limit.
 pub fn check_side(param: &str, value: i64, limit: u32, dims: u32) -> Result<u32, NodeError> {
@@ -300,23 +285,6 @@ pub fn check_side(param: &str, value: i64, limit: u32, dims: u32) -> Result<u32,
             ),
         }),
     }
-}
-
-/// Insert `suffix` before a path's extension (`out.exr` + `_w1` → `out_w1.exr`).
-pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
-    let p = PathBuf::from(path);
-    if suffix.is_empty() {
-        return p;
-    }
-    let stem = p
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let name = match p.extension() {
-        Some(ext) => format!("{stem}{suffix}.{}", ext.to_string_lossy()),
-        None => format!("{stem}{suffix}"),
-    };
-    p.with_file_name(name)
 }
 
 /// What [`NodeKind::volatile_key`] may look at.

@@ -2,7 +2,8 @@
 //! folder, output paths under the output directory, and an output path that is absolute or
 //! climbs out with `..` is refused unless the user allows any path — so a preset from someone
 //! else cannot overwrite your files. Which parameters name files, and whether they are read or
-//! written, each node declares ([`NodeDecl::files`](super::NodeDecl::files)).
+//! written, each node declares ([`NodeDecl::files`](super::NodeDecl::files)). Also how a
+//! frame number and a wedge suffix enter a file name.
 
 use std::path::{Component, Path, PathBuf};
 
@@ -125,4 +126,60 @@ pub fn file_stamp(path: &std::path::Path) -> u64 {
         m.modified().ok().hash(&mut h);
     }
     h.finish()
+}
+
+/// The file a sink writes for `path` with a wedge `suffix` at `frame`: the frame replaces a
+/// `####` run (zero-padded to its length) or a printf `%d` / `%0Nd` in the path, else `_NNNN` is
+/// appended to the suffix; the suffix goes before the extension.
+pub fn output_path(path: &str, suffix: &str, frame: Option<i64>) -> PathBuf {
+    match frame {
+        None => with_suffix(path, suffix),
+        Some(f) => match with_frame(path, f) {
+            Some(p) => with_suffix(&p, suffix),
+            None => with_suffix(path, &format!("{suffix}_{f:04}")),
+        },
+    }
+}
+
+/// `path` with its first `####` run or `%d` / `%0Nd` replaced by `frame` (`None`: no pattern).
+pub fn with_frame(path: &str, frame: i64) -> Option<String> {
+    if let Some(start) = path.find('#') {
+        let run = path[start..].chars().take_while(|c| *c == '#').count();
+        let digits = format!("{frame:0run$}");
+        return Some(format!(
+            "{}{digits}{}",
+            &path[..start],
+            &path[start + run..]
+        ));
+    }
+    let start = path.find('%')?;
+    let rest = &path[start + 1..];
+    let spec: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+    if !rest[spec.len()..].starts_with('d') {
+        return None;
+    }
+    let width: usize = spec.trim_start_matches('0').parse().unwrap_or(0);
+    let digits = format!("{frame:0width$}");
+    Some(format!(
+        "{}{digits}{}",
+        &path[..start],
+        &rest[spec.len() + 1..]
+    ))
+}
+
+/// Insert `suffix` before a path's extension (`out.exr` + `_w1` → `out_w1.exr`).
+pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
+    let p = PathBuf::from(path);
+    if suffix.is_empty() {
+        return p;
+    }
+    let stem = p
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = match p.extension() {
+        Some(ext) => format!("{stem}{suffix}.{}", ext.to_string_lossy()),
+        None => format!("{stem}{suffix}"),
+    };
+    p.with_file_name(name)
 }
