@@ -105,13 +105,18 @@ pub const SUPPORT_DIRECTIONS: usize = 360;
 /// from it on, a descent (the box holds ~r³/48 triples).
 pub const EXHAUSTIVE_BELOW: i32 = 48;
 
+/// The unit normal n(θ) of direction `i` of `n` evenly spaced ones, offset by half a step.
+fn normal(i: usize, n: usize) -> (f64, f64) {
+    let th = std::f64::consts::TAU * (i as f64 + 0.5) / n as f64;
+    (th.cos(), th.sin())
+}
+
 /// The disk's support values h(θ) = max p·n(θ) over its texels p, at the
 /// [`SUPPORT_DIRECTIONS`] directions.
 pub fn disk_support(r: i32) -> Vec<f64> {
     (0..SUPPORT_DIRECTIONS)
         .map(|i| {
-            let th = std::f64::consts::TAU * (i as f64 + 0.5) / SUPPORT_DIRECTIONS as f64;
-            let (nx, ny) = (th.cos(), th.sin());
+            let (nx, ny) = normal(i, SUPPORT_DIRECTIONS);
             (-r..=r)
                 .map(|dy| chord(r, dy) as f64 * nx.abs() + dy as f64 * ny)
                 .fold(f64::MIN, f64::max)
@@ -128,8 +133,7 @@ pub fn support_error(m: [i32; 3], disk: &[f64]) -> f64 {
     disk.iter()
         .enumerate()
         .map(|(i, hd)| {
-            let th = std::f64::consts::TAU * (i as f64 + 0.5) / n as f64;
-            let (nx, ny) = (th.cos(), th.sin());
+            let (nx, ny) = normal(i, n);
             let hp: f64 = DIRECTIONS
                 .iter()
                 .map(|((vx, vy), k)| m[*k] as f64 * (nx * *vx as f64 + ny * *vy as f64).abs())

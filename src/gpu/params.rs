@@ -6,7 +6,7 @@
 //! Why: those drivers *inline* uniform values that steer a branch or a loop into the shader
 //! and compile that variant at every dispatch that binds a new buffer (Debian 12's Mesa 22.3
 //! keeps no cache of them). On a big pass the specialised code pays for its compile (a 2048²
-//! polygon closure runs 2.4× faster with it); on a small one the compile is the whole cost (a
+//! polygon closure runs 2× faster with it); on a small one the compile is the whole cost (a
 //! cold chain of 10,000 Math nodes at 8×8: 10 s of JIT, 1.3 s without). Storage buffers are
 //! never inlined.
 
@@ -16,8 +16,9 @@ use super::adapter::Capabilities;
 /// Measured there: a chain of 300 Math nodes runs 3× faster from storage at 8×8 and at 63×63
 /// (0.10 s against 0.32 s), since each uniform dispatch compiles ~0.7 ms; but a pass of few
 /// invocations can still be heavy — the light-map solve's constraint-row marches (9–19
-/// thousand invocations of 768 steps) run 15 % faster inlined, a 2048² polygon closure 2.4×
-/// (0.94 s against 2.3 s, `TYNDALL_GPU_PARAMS`, session 19).
+/// thousand invocations of 768 steps) run 15 % faster inlined, a 2048² polygon closure 2×
+/// (0.84–1.0 s against 2.0 s, session 19; the command is in BENCHMARKS.md, "Occluder
+/// manipulation").
 pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 
 /// [`Capabilities::params_in_storage_below`] as read off an adapter: [`PARAMS_IN_STORAGE_BELOW`]
