@@ -54,5 +54,5 @@ fn bake(@builtin(global_invocation_id) id: vec3<u32>) {
         let target_value = select(a.w, P.base, c.y > 0.5);
         v = mix(v, target_value, w);
     }
-    textureStore(out_level, vec3<i32>(id), vec4<f32>(v, 0.0, 0.0, 1.0));
+    textureStore(out_level, id, vec4<f32>(v, 0.0, 0.0, 1.0));
 }

@@ -71,7 +71,7 @@ fn noise(@builtin(global_invocation_id) id: vec3<u32>) {
         scale *= 2.0;
     }
     let v = clamp(0.5 + 0.5 * sum / max(norm, 1e-12), 0.0, 1.0);
-    textureStore(out_level, vec3<i32>(id), vec4<f32>(v, 0.0, 0.0, 1.0));
+    textureStore(out_level, id, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
 
 // One mip level from the level below: the mean of the (up to) 2×2×2 texels it covers.
@@ -91,5 +91,5 @@ fn mip(@builtin(global_invocation_id) id: vec3<u32>) {
             n += 1.0;
         }
     }
-    textureStore(out_level, vec3<i32>(id), vec4<f32>(sum / max(n, 1.0), 0.0, 0.0, 1.0));
+    textureStore(out_level, id, vec4<f32>(sum / max(n, 1.0), 0.0, 0.0, 1.0));
 }

@@ -6,22 +6,18 @@
 //! tests are skipped, unless `TYNDALL_REQUIRE_BLENDER=1` (set by `.ci/run`), where that fails
 //! them.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
-/// Whether `blender` runs; panics without it under `TYNDALL_REQUIRE_BLENDER=1`.
+/// Whether `blender` runs (see [`common::tool`]: `TYNDALL_REQUIRE_BLENDER=1` fails without it).
 fn blender_found() -> bool {
-    let found = Command::new("blender")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !found {
-        if std::env::var("TYNDALL_REQUIRE_BLENDER").is_ok_and(|v| v == "1") {
-            panic!("TYNDALL_REQUIRE_BLENDER=1 but no `blender` on PATH");
-        }
-        eprintln!("skipping: no `blender` on PATH (Debian: apt install blender python3-numpy)");
-    }
-    found
+    common::tool(
+        "blender",
+        "--version",
+        "Debian: apt install blender python3-numpy",
+    )
 }
 
 #[test]

@@ -421,3 +421,124 @@ fn the_bit_pattern_entry_point_wraps_every_raster_shader() {
     .expect_err("a scalar output is refused");
     assert!(err.contains("vec4<f32>"), "{err}");
 }
+
+/// Every volume level the volume presets make (noise and its mip chain, a painted blend volume,
+/// soft visibility written slice by slice), evaluated on `gpu` at ¼ of 160×90.
+fn volume_levels(gpu: tyndall::gpu::Gpu) -> Vec<(String, Vec<f32>)> {
+    use tyndall::eval::{PortValue, Target};
+    let gpu = std::sync::Arc::new(gpu);
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut out = Vec::new();
+    for preset in [
+        "medium/fence_noise",
+        "medium/fence_painted",
+        "atmosphere/fence_soft_kernels",
+    ] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("graphs")
+            .join(format!("{preset}.ron"));
+        let g = tyndall::graph::load_file(&path, &cat).expect("graph");
+        let g = tyndall::eval::proxy::proxy_graph(&g.flatten(&cat).expect("flatten"), &cat, 4);
+        let ports: Vec<(String, String)> = g
+            .output_types(&cat)
+            .into_iter()
+            .filter(|(_, t)| {
+                matches!(
+                    t,
+                    tyndall::graph::PortType::Volume | tyndall::graph::PortType::SoftShadow
+                )
+            })
+            .map(|(k, _)| k)
+            .collect();
+        assert!(!ports.is_empty(), "{preset} has no volume");
+        let targets: Vec<Target> = ports
+            .iter()
+            .map(|(n, p)| Target::Port(n.clone(), p.clone()))
+            .collect();
+        let opts = tyndall::eval::EvalOptions {
+            size: (160, 90),
+            ..Default::default()
+        };
+        let mut ev = tyndall::eval::Evaluator::new(registry.clone(), gpu.clone());
+        let r = ev.evaluate(&g, &targets, &opts).expect("evaluate");
+        for (n, p) in &ports {
+            let (PortValue::Volume(v, _) | PortValue::SoftShadow(v, _)) =
+                &r.outputs[&(n.clone(), p.clone())]
+            else {
+                panic!("{preset} {n}.{p} is not a volume");
+            };
+            for level in 0..v.mips() {
+                let texels = gpu.read_volume(v, level).expect("read");
+                out.push((format!("{preset} {n}.{p} level {level}"), texels));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn volumes_written_through_storage_buffers_are_bit_identical_on_one_adapter() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // wgpu's GL backend writes one slice of a 3D storage image, so there every volume level is
+    // written into a storage buffer that is copied into the texture after the pass. Taken on
+    // this adapter too (the GL emulation), it must give the same texels bit for bit as 3D
+    // storage textures: the same arithmetic, only where the result is stored differs. Noise
+    // builds its mip chain through it, soft visibility one slice per pass.
+    let usual = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+        emulate_gl: false,
+        ..tyndall::gpu::GpuOptions::from_env()
+    })
+    .expect("device");
+    let emulated = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+        emulate_gl: true,
+        ..tyndall::gpu::GpuOptions::from_env()
+    })
+    .expect("device");
+    assert!(emulated.caps.volume_rows());
+    let (a, b) = (volume_levels(usual), volume_levels(emulated));
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() >= 4, "{} levels", a.len());
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert_eq!(x.len(), y.len(), "{name}");
+        let differing = x
+            .iter()
+            .zip(y)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(
+            differing,
+            0,
+            "{name}: {differing} of {} texels differ",
+            x.len()
+        );
+        assert!(x.iter().any(|v| *v != 0.0), "{name} is all zero");
+    }
+}
+
+#[test]
+fn a_gl_context_without_compute_is_refused_in_one_line() {
+    use tyndall::gpu::adapter::gl_context_lacks;
+    // What drivers report as GL_VERSION (wgpu's `driver_info` on its GL backend).
+    for ok in [
+        "4.5 (Core Profile) Mesa 22.3.6",
+        "4.6.0 NVIDIA 580.95.05",
+        "4.3 (Core Profile) Mesa 20.0.8",
+        "OpenGL ES 3.2 Mesa 22.3.6",
+        "OpenGL ES 3.1 NVIDIA 580.95.05",
+    ] {
+        assert_eq!(gl_context_lacks(ok), None, "{ok}");
+    }
+    for (bad, api) in [
+        ("3.3.0 NVIDIA 580.95.05", "OpenGL 3.3"),
+        ("4.1 (Core Profile) Mesa 22.3.6", "OpenGL 4.1"),
+        ("OpenGL ES 3.0 Mesa 22.3.6", "OpenGL ES 3.0"),
+    ] {
+        let why = gl_context_lacks(bad).expect("refused");
+        assert!(why.contains(api), "{why}");
+        assert!(why.starts_with("compute shaders"), "{why}");
+        assert!(!why.contains('\n'), "{why}");
+    }
+}

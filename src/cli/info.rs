@@ -48,6 +48,12 @@ fn substitutes(r: &AdapterReport) -> Vec<String> {
             _ => {}
         }
     }
+    if caps.volume_rows() {
+        out.push(
+            "volume levels written through storage buffers copied into the 3D texture (no layered 3D storage images)"
+                .to_string(),
+        );
+    }
     out
 }
 

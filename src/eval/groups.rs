@@ -1,7 +1,7 @@
 //! Evaluating a graph with group nodes: it is flattened first (`group/inner` ids, in statistics
 //! too), and targets on a group's ports or on a group node are translated to inner ports.
 
-use super::{EvalError, EvalOptions, Evaluation, Evaluator, Target};
+use super::{EvalError, EvalOptions, Evaluation, Evaluator, NodeError, Target};
 use crate::graph::Graph;
 
 impl Evaluator {
@@ -54,7 +54,9 @@ impl Evaluator {
                     _ => vec![t.clone()],
                 })
                 .collect();
-            let mut ev = self.evaluate_flat(&flat, &targets, opts)?;
+            let mut ev = self
+                .evaluate_flat(&flat, &targets, opts)
+                .map_err(|e| in_group(graph, e))?;
             for (from, to) in renamed {
                 if let Some(v) = ev.outputs.get(&from).cloned() {
                     ev.outputs.insert(to, v);
@@ -63,5 +65,27 @@ impl Evaluator {
             return Ok(ev);
         }
         self.evaluate_flat(graph, targets, opts)
+    }
+}
+
+/// A failure of a node inside a group node (`group/inner` in the flattened graph) names the
+/// group node and its group: `node 'irregular/noise' (NoiseVolume): inside group node
+/// 'irregular' (IrregularMedium): …`. Nested groups name the outermost.
+fn in_group(graph: &Graph, e: EvalError) -> EvalError {
+    let EvalError::Node { node, kind, source } = e else {
+        return e;
+    };
+    let group = node.split('/').next().unwrap_or_default();
+    match graph.node(group).filter(|_| node.contains('/')) {
+        Some(g) if graph.groups().contains_key(&g.kind) => EvalError::Node {
+            source: NodeError::InGroup {
+                group: group.to_string(),
+                definition: g.kind.clone(),
+                error: Box::new(source),
+            },
+            node,
+            kind,
+        },
+        _ => EvalError::Node { node, kind, source },
     }
 }

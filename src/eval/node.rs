@@ -56,13 +56,27 @@ pub enum NodeError {
         /// What went wrong there.
         error: Box<NodeError>,
     },
+    /// The node is inside a group node (its id is `group/inner` in the flattened graph): the
+    /// group node's id and the group's name, so a message says where the node came from.
+    #[error("inside group node '{group}' ({definition}): {error}")]
+    InGroup {
+        /// The group node's id in the document.
+        group: String,
+        /// The group's name (its kind in the document).
+        definition: String,
+        /// What went wrong.
+        error: Box<NodeError>,
+    },
 }
 
 impl NodeError {
-    /// The error itself, seen through any [`NodeError::EarlierFrame`] around it.
+    /// The error itself, seen through any [`NodeError::EarlierFrame`] or
+    /// [`NodeError::InGroup`] around it.
     pub fn innermost(&self) -> &NodeError {
         match self {
-            NodeError::EarlierFrame { error, .. } => error.innermost(),
+            NodeError::EarlierFrame { error, .. } | NodeError::InGroup { error, .. } => {
+                error.innermost()
+            }
             other => other,
         }
     }

@@ -125,8 +125,15 @@ pub struct Capabilities {
     pub emulate_gl: bool,
     /// Whether a compute pass can write every slice of a 3D storage texture. Not on wgpu's GL
     /// backend: it binds a 3D image non-layered (`glBindImageTexture(…, layered = false, layer
-    /// 0, …)`), so only slice 0 is written; no substitute is made (volume nodes fail there).
+    /// 0, …)`), so only slice 0 would be written; volumes are then written through storage
+    /// buffers ([`Capabilities::volume_rows`]).
     pub layered_3d_storage: bool,
+    /// On wgpu's GL backend, the context's version as `GL_VERSION` gives it (wgpu reports it
+    /// as the adapter's `driver_info`); `None` on other backends. wgpu calls a context
+    /// compute-capable when the driver lists `GL_ARB_compute_shader`, but naga writes compute
+    /// shaders only for GLSL 4.30 / ES 3.10, so the check reads the version itself
+    /// ([`gl_context_lacks`]).
+    pub gl_version: Option<String>,
     /// Passes of fewer invocations than this get their parameter block (`var<uniform>`) as a
     /// read-only storage buffer instead; 0: never, `u64::MAX`: always. Mesa's CPU drivers
     /// compile a shader per dispatch of a uniform block that steers a branch: see
@@ -148,6 +155,8 @@ impl Capabilities {
                 .collect(),
             emulate_gl: false,
             layered_3d_storage: adapter.get_info().backend != wgpu::Backend::Gl,
+            gl_version: (adapter.get_info().backend == wgpu::Backend::Gl)
+                .then(|| adapter.get_info().driver_info),
             params_in_storage_below: super::params::default_params_in_storage_below(adapter),
         }
     }
@@ -156,6 +165,14 @@ impl Capabilities {
     pub fn emulating_gl(mut self) -> Self {
         self.emulate_gl = true;
         self
+    }
+
+    /// Whether passes write volume levels through a storage buffer copied into the texture
+    /// after the pass (see `src/gpu/volume.rs`), rather than as a 3D storage texture: where the
+    /// adapter cannot write every slice of one ([`Capabilities::layered_3d_storage`]), and when
+    /// emulating GL.
+    pub fn volume_rows(&self) -> bool {
+        self.emulate_gl || !self.layered_3d_storage
     }
 
     /// The usages the adapter allows for `format` (empty for a format not recorded).
@@ -208,9 +225,10 @@ impl Capabilities {
     }
 
     /// A shader's WGSL as this adapter runs it: storage formats replaced by what they are
-    /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so), and
-    /// with `params_in_storage` the parameter blocks declared as read-only storage buffers
-    /// (see [`Capabilities::params_in_storage_below`]).
+    /// stored as (`rg32float` → `rgba32float` where [`Capabilities::stored`] says so), with
+    /// `params_in_storage` the parameter blocks declared as read-only storage buffers (see
+    /// [`Capabilities::params_in_storage_below`]), and 3D storage levels written through row
+    /// buffers where [`Capabilities::volume_rows`] says so.
     pub fn adapt_source<'a>(
         &self,
         source: &'a str,
@@ -223,6 +241,9 @@ impl Capabilities {
         if params_in_storage && source.contains("var<uniform>") {
             out = std::borrow::Cow::Owned(out.replace("var<uniform>", "var<storage, read>"));
         }
+        if self.volume_rows() && source.contains("texture_storage_3d") {
+            out = std::borrow::Cow::Owned(super::volume::rows_source(&out));
+        }
         out
     }
 
@@ -234,6 +255,8 @@ impl Capabilities {
             .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
         {
             out.push("compute shaders".to_string());
+        } else if let Some(why) = self.gl_version.as_deref().and_then(gl_context_lacks) {
+            out.push(why);
         }
         for need in NEEDED_FORMATS {
             let missing = need.usages - self.usages(need.format);
@@ -278,12 +301,14 @@ impl Capabilities {
             // Parameter blocks count as storage buffers where they may be bound as such, and as
             // uniforms where they may stay uniforms (as both when the pass size decides).
             let below = self.params_in_storage_below;
-            let as_storage = u32::from(below > 0) * e.uniform_buffers;
+            // Volume levels written through row buffers are storage buffers, not textures.
+            let rows = u32::from(self.volume_rows()) * e.storage_3d;
+            let as_storage = u32::from(below > 0) * e.uniform_buffers + rows;
             let as_uniform = u32::from(below < u64::MAX) * e.uniform_buffers;
             let counts = [
                 (
                     "storage textures",
-                    e.storage_textures,
+                    e.storage_textures - rows,
                     l.max_storage_textures_per_shader_stage,
                 ),
                 (
@@ -318,12 +343,6 @@ impl Capabilities {
             {
                 note(format!("workgroups of {x}×{y}×{z} (entry `{}`)", e.entry));
             }
-            if e.storage_3d > 0 && !self.layered_3d_storage {
-                note(
-                    "writable 3D storage textures (wgpu's GL backend binds one slice of a 3D image only)"
-                        .to_string(),
-                );
-            }
             for f in &e.storage_formats {
                 if !self.allows(self.stored(*f), U::STORAGE_BINDING) {
                     note(format!("{f:?} storage textures (entry `{}`)", e.entry));
@@ -332,6 +351,35 @@ impl Capabilities {
         }
         out
     }
+}
+
+/// What a GL context of version `version` (`GL_VERSION`: `4.5 (Core Profile) Mesa 22.3.6`,
+/// `3.3.0 NVIDIA 580.95.05`, `OpenGL ES 3.2 Mesa …`) lacks for Tyndall's compute passes: `None`
+/// from OpenGL 4.3 and OpenGL ES 3.1 on (and for a version it cannot read, which wgpu would not
+/// have opened), else one line naming the context and what to do.
+pub fn gl_context_lacks(version: &str) -> Option<String> {
+    let v = version.trim();
+    let (es, rest) = match v.strip_prefix("OpenGL ES") {
+        Some(r) => (true, r.trim_start()),
+        None => (false, v),
+    };
+    let number = rest.split_whitespace().next()?;
+    let mut parts = number.split('.');
+    let major: u32 = parts.next()?.parse().ok()?;
+    let minor: u32 = parts
+        .next()?
+        .trim_end_matches(|c: char| !c.is_ascii_digit())
+        .parse()
+        .ok()?;
+    let need = if es { (3, 1) } else { (4, 3) };
+    if (major, minor) >= need {
+        return None;
+    }
+    let api = if es { "OpenGL ES" } else { "OpenGL" };
+    Some(format!(
+        "compute shaders: the driver gave an {api} {major}.{minor} context ({v}) and compute passes need {api} ≥ {}.{} (wgpu asks EGL for a 3.3 context, which some drivers give exactly: use the Vulkan backend, WGPU_BACKEND=vulkan)",
+        need.0, need.1
+    ))
 }
 
 fn usage_names(u: wgpu::TextureUsages) -> String {

@@ -114,6 +114,15 @@ impl Gpu {
                                     multisampled: false,
                                 }
                             }
+                            // Written through its row buffer where the adapter cannot write
+                            // every slice of a 3D storage texture (see volume.rs).
+                            Bind::VolumeLevel(..) if self.caps.volume_rows() => {
+                                wgpu::BindingType::Buffer {
+                                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                                    has_dynamic_offset: false,
+                                    min_binding_size: None,
+                                }
+                            }
                             Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
                                 access: wgpu::StorageTextureAccess::WriteOnly,
                                 format: wgpu::TextureFormat::R32Float,
@@ -271,7 +280,11 @@ impl Gpu {
                 (Bind::Uniform(_), Some(buf)) => buf.as_entire_binding(),
                 (Bind::Buffer(b), _) => b.raw.as_entire_binding(),
                 (Bind::Volume(v), _) => wgpu::BindingResource::TextureView(v.view()),
-                (Bind::VolumeLevel(v, l), _) | (Bind::VolumeLevelRead(v, l), _) => {
+                (Bind::VolumeLevel(v, l), _) => match v.rows(*l) {
+                    Some(rows) => rows.as_entire_binding(),
+                    None => wgpu::BindingResource::TextureView(v.level_view(*l)),
+                },
+                (Bind::VolumeLevelRead(v, l), _) => {
                     wgpu::BindingResource::TextureView(v.level_view(*l))
                 }
                 (Bind::Uniform(_), None) => {
@@ -303,6 +316,13 @@ impl Gpu {
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+            drop(pass);
+            // Volume levels written through row buffers: into their textures.
+            for (_, b) in binds {
+                if let Bind::VolumeLevel(v, l) = b {
+                    v.copy_rows(enc, *l);
+                }
+            }
         };
         // Into this thread's batch (see batch.rs); timed, with its timestamps resolved after it.
         let Some(timer) = self.pass_timer() else {

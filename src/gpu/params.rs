@@ -24,12 +24,20 @@ pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 /// [`Capabilities::params_in_storage_below`] as read off an adapter: [`PARAMS_IN_STORAGE_BELOW`]
 /// on Mesa's CPU drivers whose vertex stages may read storage buffers (rasterisation binds the
 /// block there too, which GL may not allow), else 0.
+///
+/// Never on wgpu's GL backend: llvmpipe's GLSL path read a read-only storage block as zeros in
+/// the phase tables' reductions (`shaders/phase.wgsl`: `P.width` in the loop condition of a
+/// function that then meets a workgroup barrier), so every `Phase` table came out empty, with
+/// no error; the same block as a uniform, and the same WGSL through SPIR-V on lavapipe, read
+/// right. Hoisting the read into a local made that shader work, but nothing would find the next
+/// shader of that shape, so GL keeps the path every driver reads as written.
 pub(super) fn default_params_in_storage_below(adapter: &wgpu::Adapter) -> u64 {
     let vertex_storage = adapter
         .get_downlevel_capabilities()
         .flags
         .contains(wgpu::DownlevelFlags::VERTEX_STORAGE);
-    if mesa_cpu(&adapter.get_info()) && vertex_storage {
+    let gl = adapter.get_info().backend == wgpu::Backend::Gl;
+    if mesa_cpu(&adapter.get_info()) && vertex_storage && !gl {
         PARAMS_IN_STORAGE_BELOW
     } else {
         0

@@ -1,6 +1,18 @@
 //! 3D textures (`Volume` values: noise and painted blend volumes): one float channel, with a
 //! chain of mip levels (each half the size, rounded up, of the one below) that shaders read with
 //! `textureLoad(volume, texel, level)` and write one level at a time.
+//!
+//! **Written through rows** where an adapter cannot bind a whole 3D level as a storage texture
+//! (wgpu's GL backend binds one slice of it: see
+//! [`Capabilities::volume_rows`](super::adapter::Capabilities::volume_rows)): each level then
+//! has a storage buffer laid out as a buffer-to-texture copy reads it — a 16-byte header (the
+//! level's size and the row pitch, in texels), then rows of `pitch` floats (a multiple of 64, so
+//! rows are 256 bytes apart), `size.y` rows per slice. A pass writes the buffer (its WGSL
+//! rewritten by [`rows_source`]: `textureStore(v, p, x)` stores `x.r` at row `p.y` of slice
+//! `p.z`, `textureDimensions(v)` reads the header) and the dispatch copies the whole level into
+//! the texture after it. The buffer keeps what earlier passes wrote, so passes that each write
+//! one slice (`SoftVisibility`) build the level up as they do on a storage texture. Shaders
+//! read volumes as textures either way.
 
 use super::{Gpu, GpuError};
 
@@ -9,6 +21,9 @@ pub struct GpuVolume {
     raw: wgpu::Texture,
     all: wgpu::TextureView,
     levels: Vec<wgpu::TextureView>,
+    /// Per level, the storage buffer its passes write where volumes are written through rows
+    /// (empty otherwise).
+    rows: Vec<wgpu::Buffer>,
     /// Size of level 0 in texels (x, y, z).
     pub size: [u32; 3],
 }
@@ -63,15 +78,147 @@ impl GpuVolume {
         &self.levels[(level as usize).min(self.levels.len() - 1)]
     }
 
-    /// Bytes held on the GPU.
+    /// Bytes held on the GPU (the row buffers too, where there are some).
     pub fn bytes(&self) -> usize {
-        (0..self.mips())
+        let texels: usize = (0..self.mips())
             .map(|l| {
                 let s = self.level_size(l);
                 (s[0] * s[1] * s[2] * 4) as usize
             })
-            .sum()
+            .sum();
+        texels + self.rows.iter().map(|b| b.size() as usize).sum::<usize>()
     }
+
+    /// The storage buffer that passes writing `level` bind, where volumes are written through
+    /// rows (`None`: they bind [`GpuVolume::level_view`] as a storage texture).
+    pub(crate) fn rows(&self, level: u32) -> Option<&wgpu::Buffer> {
+        self.rows.get(level as usize)
+    }
+
+    /// Copy level `level`'s row buffer into the texture (after a pass wrote it).
+    pub(crate) fn copy_rows(&self, enc: &mut wgpu::CommandEncoder, level: u32) {
+        let Some(buffer) = self.rows(level) else {
+            return;
+        };
+        let s = self.level_size(level);
+        enc.copy_buffer_to_texture(
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: ROWS_HEADER,
+                    bytes_per_row: Some(row_pitch(s[0]) * 4),
+                    rows_per_image: Some(s[1]),
+                },
+            },
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.raw,
+                mip_level: level,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::Extent3d {
+                width: s[0],
+                height: s[1],
+                depth_or_array_layers: s[2],
+            },
+        );
+    }
+}
+
+/// Bytes before the texels of a row buffer: the level's size (x, y, z) and the row pitch.
+const ROWS_HEADER: u64 = 16;
+
+/// Texels from one row of a row buffer to the next: `width` rounded up to 64 (256 bytes, what a
+/// buffer-to-texture copy requires of `bytes_per_row`).
+pub fn row_pitch(width: u32) -> u32 {
+    width.div_ceil(64) * 64
+}
+
+/// Bytes of the row buffer of a level of `size`.
+fn rows_bytes(size: [u32; 3]) -> u64 {
+    let texels = u64::from(row_pitch(size[0])) * u64::from(size[1]) * u64::from(size[2]);
+    ROWS_HEADER + texels * 4
+}
+
+/// The row buffer of a level of `size`, its header written.
+fn rows_buffer(device: &wgpu::Device, queue: &wgpu::Queue, size: [u32; 3]) -> wgpu::Buffer {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("volume rows"),
+        size: rows_bytes(size),
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let header = [size[0], size[1], size[2], row_pitch(size[0])];
+    queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&header));
+    buffer
+}
+
+/// The WGSL declarations [`rows_source`] adds once per shader.
+const ROWS_STRUCT: &str = "
+// Added by Tyndall (src/gpu/volume.rs): a 3D storage level written through a row buffer.
+struct TyndallVolumeRows {
+    size: vec3<u32>,
+    pitch: u32,
+    texels: array<f32>,
+}
+";
+
+/// `source` with every `var NAME: texture_storage_3d<r32float, write>` binding written through
+/// a row buffer (see the module docs): the declaration becomes a read-write storage buffer,
+/// `textureStore(NAME, p, v)` a call that stores `v.r` at texel `p` (a `vec3<u32>`), and
+/// `textureDimensions(NAME)` the level's size from the buffer's header. Other uses of such a
+/// binding are not rewritten (naga then rejects the shader, naming them).
+pub fn rows_source(source: &str) -> String {
+    const TY: &str = "texture_storage_3d<r32float, write>";
+    let mut names = Vec::new();
+    let mut out = String::with_capacity(source.len() + 512);
+    for line in source.lines() {
+        let decl = line
+            .find("var ")
+            .filter(|_| line.contains(TY))
+            .and_then(|at| {
+                let rest = &line[at + 4..];
+                let (name, ty) = rest.split_once(':')?;
+                (ty.trim().trim_end_matches(';').trim() == TY).then(|| (at, name.trim()))
+            });
+        match decl {
+            Some((at, name)) => {
+                out.push_str(&line[..at]);
+                out.push_str(&format!(
+                    "var<storage, read_write> {name}: TyndallVolumeRows;"
+                ));
+                names.push(name.to_string());
+            }
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    if names.is_empty() {
+        return source.to_string();
+    }
+    for name in &names {
+        out = out
+            .replace(
+                &format!("textureStore({name},"),
+                &format!("tyndall_rows_store_{name}("),
+            )
+            .replace(
+                &format!("textureDimensions({name})"),
+                &format!("{name}.size"),
+            );
+    }
+    out.push_str(ROWS_STRUCT);
+    for name in &names {
+        out.push_str(&format!(
+            "fn tyndall_rows_store_{name}(p: vec3<u32>, v: vec4<f32>) {{
+    {name}.texels[(p.z * {name}.size.y + p.y) * {name}.pitch + p.x] = v.r;
+}}
+"
+        ));
+    }
+    out
 }
 
 impl Gpu {
@@ -105,6 +252,26 @@ impl Gpu {
                 view_formats: &[],
             })
         })?;
+        let rows = if self.caps.volume_rows() {
+            let level0 = rows_bytes(size);
+            let limit = self.limits.max_storage_buffer_binding_size;
+            if level0 > limit {
+                return Err(GpuError::Unsupported {
+                    adapter: self.describe(),
+                    lacks: format!(
+                        "storage buffers of {level0} bytes (a {}×{}×{} volume is written through one here; the limit is {limit})",
+                        size[0], size[1], size[2]
+                    ),
+                });
+            }
+            self.scoped(|| {
+                (0..mips)
+                    .map(|l| rows_buffer(&self.device, &self.queue, mip_size(size, l)))
+                    .collect()
+            })?
+        } else {
+            Vec::new()
+        };
         let all = raw.create_view(&Default::default());
         let levels = (0..mips)
             .map(|l| {
@@ -119,6 +286,7 @@ impl Gpu {
             raw,
             all,
             levels,
+            rows,
             size,
         })
     }

@@ -22,6 +22,24 @@ pub fn gpu() -> Option<Arc<Gpu>> {
     }
 }
 
+/// Whether the program `name` runs here (`name ARG` exits 0). Without it the test is skipped
+/// with one line naming what to install — or fails, under `TYNDALL_REQUIRE_<NAME>=1` (e.g.
+/// `TYNDALL_REQUIRE_OIIOTOOL`, `TYNDALL_REQUIRE_BLENDER`; `.ci/run` sets them all).
+pub fn tool(name: &str, arg: &str, install: &str) -> bool {
+    let found = std::process::Command::new(name)
+        .arg(arg)
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !found {
+        let var = format!("TYNDALL_REQUIRE_{}", name.to_uppercase());
+        if std::env::var(&var).is_ok_and(|v| v == "1") {
+            panic!("{var}=1 but no `{name}` on PATH ({install})");
+        }
+        eprintln!("skipping: no `{name}` on PATH ({install})");
+    }
+    found
+}
+
 /// Why the shared adapter cannot run node `kind` (`None`: it can, or `kind` runs no shader):
 /// the one-line reason the evaluator gives (e.g. wgpu's GL backend writes no 3D storage
 /// textures, so the volume nodes are refused there).
@@ -32,6 +50,17 @@ pub fn unsupported(gpu: &Gpu, kind: &str) -> Option<String> {
         .iter()
         .find_map(|s| gpu.supports(*s).err())
         .map(|e| format!("{kind}: {e}"))
+}
+
+/// The nodes of `graph` the shared adapter cannot run, inside group nodes too (the graph is
+/// flattened: ids `group/inner`), as `(id, kind)`.
+pub fn refused(gpu: &Gpu, graph: &tyndall::graph::Graph) -> Vec<(String, String)> {
+    let registry = tyndall::nodes::registry();
+    let flat = graph.flatten(registry.catalog()).expect("flatten");
+    flat.nodes()
+        .filter(|n| unsupported(gpu, &n.kind).is_some())
+        .map(|n| (n.id.clone(), n.kind.clone()))
+        .collect()
 }
 
 /// [`gpu`], or `None` (printing why) when the adapter cannot run one of `kinds`: a capability
