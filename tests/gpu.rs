@@ -514,7 +514,10 @@ fn volumes_written_through_storage_buffers_are_bit_identical_on_one_adapter() {
             "{name}: {differing} of {} texels differ",
             x.len()
         );
-        assert!(x.iter().any(|v| *v != 0.0), "{name} is all zero");
+        // Level 0 of each is written (soft visibility's coarser levels are not: it reads level 0).
+        if name.ends_with("level 0") {
+            assert!(x.iter().any(|v| *v != 0.0), "{name} is all zero");
+        }
     }
 }
 

@@ -531,3 +531,42 @@ fn merge_and_paste_carry_the_groups() {
     assert_eq!(pasted.len(), 1);
     assert_eq!(t.graph().node(&pasted[0]).unwrap().kind, "HoleFilling");
 }
+
+#[test]
+fn a_node_failing_inside_a_group_names_its_path_and_its_group() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // What an adapter cannot run, a missing file, any failure of an inner node: the message
+    // names the node by its flattened path and the group node and group it came from.
+    let lib = r#"(version: 3, group: (name: "Plate", version: 1, doc: "A plate.",
+        inputs: {},
+        outputs: {"out": (from: "img.image")},
+        knobs: {},
+        nodes: {"img": (kind: "ImageInput", params: {"path": "no_such_plate.exr"})},
+    ))"#;
+    let graph = r#"(version: 3,
+        nodes: {"p": (kind: "Plate")},
+        edges: [],
+        groups: {"Plate": (library: "grade", version: 1)},
+    )"#;
+    let reg = registry();
+    let dir = tempfile::tempdir().unwrap();
+    let path = scratch(dir.path(), lib, graph);
+    let g = load_file(&path, reg.catalog()).unwrap();
+    let gpu = common::gpu().expect("adapter");
+    let mut ev = tyndall::eval::Evaluator::new(reg.clone(), gpu);
+    let e = ev
+        .evaluate(
+            &g,
+            &[tyndall::eval::Target::Port("p".into(), "out".into())],
+            &tyndall::eval::EvalOptions::default(),
+        )
+        .expect_err("the plate is missing");
+    let text = e.to_string();
+    assert!(
+        text.starts_with("node 'p/img' (ImageInput): inside group node 'p' (Plate): "),
+        "{text}"
+    );
+    assert!(text.contains("no_such_plate.exr"), "{text}");
+}

@@ -305,6 +305,12 @@ impl Gpu {
             entries: &entries,
         });
         let pass = |enc: &mut wgpu::CommandEncoder, timer: Option<&super::PassTimer>| {
+            // Volumes this pass reads: what was written through their row buffers, first.
+            for (_, b) in binds {
+                if let Bind::Volume(v) | Bind::VolumeLevelRead(v, _) = b {
+                    v.flush_rows(enc);
+                }
+            }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(shader.stem),
                 timestamp_writes: timer.map(|t| wgpu::ComputePassTimestampWrites {
@@ -317,10 +323,11 @@ impl Gpu {
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
             drop(pass);
-            // Volume levels written through row buffers: into their textures.
+            // Volume levels written through row buffers: copied into their textures when
+            // something reads them (see volume.rs).
             for (_, b) in binds {
                 if let Bind::VolumeLevel(v, l) = b {
-                    v.copy_rows(enc, *l);
+                    v.mark_written(*l);
                 }
             }
         };

@@ -32,7 +32,7 @@ pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
 pub use shader::{compose, shader_file, shader_files, Shader};
 pub use timer::PassTimer;
-pub use volume::{mip_count, mip_size, GpuVolume};
+pub use volume::{mip_count, mip_size, row_pitch, rows_source, GpuVolume};
 
 /// Errors from the GPU layer.
 #[derive(Debug, Error, Clone)]

@@ -27,10 +27,13 @@ pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 ///
 /// Never on wgpu's GL backend: llvmpipe's GLSL path read a read-only storage block as zeros in
 /// the phase tables' reductions (`shaders/phase.wgsl`: `P.width` in the loop condition of a
-/// function that then meets a workgroup barrier), so every `Phase` table came out empty, with
-/// no error; the same block as a uniform, and the same WGSL through SPIR-V on lavapipe, read
-/// right. Hoisting the read into a local made that shader work, but nothing would find the next
-/// shader of that shape, so GL keeps the path every driver reads as written.
+/// function that then meets a workgroup barrier), so every `Phase` table of `tests/phase.rs`
+/// came out empty, with no error (`TYNDALL_GPU_PARAMS=storage WGPU_BACKEND=gl cargo test --test
+/// phase` still shows it; the same passes in another test process read right, so the driver's
+/// fault was not pinned down further). The same block as a uniform, and the same WGSL through
+/// SPIR-V on lavapipe, read right every time. Hoisting the read into a local made that shader
+/// work, but nothing would find the next shader of that shape, so GL keeps the path every
+/// driver reads as written.
 pub(super) fn default_params_in_storage_below(adapter: &wgpu::Adapter) -> u64 {
     let vertex_storage = adapter
         .get_downlevel_capabilities()

@@ -9,10 +9,10 @@
 //! level's size and the row pitch, in texels), then rows of `pitch` floats (a multiple of 64, so
 //! rows are 256 bytes apart), `size.y` rows per slice. A pass writes the buffer (its WGSL
 //! rewritten by [`rows_source`]: `textureStore(v, p, x)` stores `x.r` at row `p.y` of slice
-//! `p.z`, `textureDimensions(v)` reads the header) and the dispatch copies the whole level into
-//! the texture after it. The buffer keeps what earlier passes wrote, so passes that each write
-//! one slice (`SoftVisibility`) build the level up as they do on a storage texture. Shaders
-//! read volumes as textures either way.
+//! `p.z`, `textureDimensions(v)` reads the header), and the whole level is copied into the
+//! texture before anything next reads the volume (a pass binding it, a read-back). The buffer
+//! keeps what earlier passes wrote, so passes that each write one slice (`SoftVisibility`) build
+//! the level up as they do on a storage texture. Shaders read volumes as textures either way.
 
 use super::{Gpu, GpuError};
 
@@ -24,6 +24,9 @@ pub struct GpuVolume {
     /// Per level, the storage buffer its passes write where volumes are written through rows
     /// (empty otherwise).
     rows: Vec<wgpu::Buffer>,
+    /// Levels whose row buffer was written since it was last copied into the texture (bit l:
+    /// level l). The copy waits until something reads the volume.
+    dirty: std::sync::atomic::AtomicU32,
     /// Size of level 0 in texels (x, y, z).
     pub size: [u32; 3],
 }
@@ -95,8 +98,34 @@ impl GpuVolume {
         self.rows.get(level as usize)
     }
 
-    /// Copy level `level`'s row buffer into the texture (after a pass wrote it).
-    pub(crate) fn copy_rows(&self, enc: &mut wgpu::CommandEncoder, level: u32) {
+    /// Note that a pass wrote level `level` through its row buffer.
+    pub(crate) fn mark_written(&self, level: u32) {
+        if self.rows(level).is_some() {
+            self.dirty
+                .fetch_or(1 << level, std::sync::atomic::Ordering::AcqRel);
+        }
+    }
+
+    /// Before something reads the volume (a pass binds it, or it is read back): copy every
+    /// level written through its row buffer since the last copy into the texture. Once per
+    /// write, not per pass: `SoftVisibility` writes one slice per pass, and copying the whole
+    /// level after each of its 96 passes was most of its time on GL.
+    pub(crate) fn flush_rows(&self, enc: &mut wgpu::CommandEncoder) {
+        let dirty = self.dirty.swap(0, std::sync::atomic::Ordering::AcqRel);
+        for level in 0..self.mips() {
+            if dirty & (1 << level) != 0 {
+                self.copy_rows(enc, level);
+            }
+        }
+    }
+
+    /// Whether a level waits for [`GpuVolume::flush_rows`].
+    pub(crate) fn has_unflushed_rows(&self) -> bool {
+        self.dirty.load(std::sync::atomic::Ordering::Acquire) != 0
+    }
+
+    /// Copy level `level`'s row buffer into the texture.
+    fn copy_rows(&self, enc: &mut wgpu::CommandEncoder, level: u32) {
         let Some(buffer) = self.rows(level) else {
             return;
         };
@@ -287,12 +316,16 @@ impl Gpu {
             all,
             levels,
             rows,
+            dirty: std::sync::atomic::AtomicU32::new(0),
             size,
         })
     }
 
     /// Read mip `level` of a volume back: x fastest, then y, then z.
     pub fn read_volume(&self, v: &GpuVolume, level: u32) -> Result<Vec<f32>, GpuError> {
+        if v.has_unflushed_rows() {
+            self.encode(|enc| v.flush_rows(enc));
+        }
         self.read_texels(&v.raw, level, v.level_size(level), 4)
     }
 }
