@@ -643,3 +643,111 @@ fn long_chains_load_without_recursion_and_cycles_are_still_found() {
         "{err}"
     );
 }
+
+/// Every `.ron` file under `graphs/`, library groups included.
+fn every_graph_file() -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read_dir") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().and_then(|x| x.to_str()) == Some("ron") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn every_graph_opens_readable_with_no_two_nodes_overlapping() {
+    let registry = tyndall::nodes::registry();
+    let cat = registry.catalog();
+    let files = every_graph_file();
+    assert!(files.len() > 40, "{} graph files", files.len());
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read");
+        let g = if tyndall::graph::is_library_text(&text) {
+            tyndall::graph::load_library_file(&f, cat)
+                .expect("library group")
+                .graph
+                .clone()
+        } else {
+            tyndall::graph::load_file(&f, cat).expect("graph")
+        };
+        // Saved with a position for every node, from the layered layout where none was set.
+        let rects: Vec<(String, [f32; 2], [f32; 2])> = g
+            .nodes()
+            .map(|n| {
+                let pos = n
+                    .pos
+                    .unwrap_or_else(|| panic!("{}: node '{}' has no position", f.display(), n.id));
+                (
+                    n.id.clone(),
+                    pos,
+                    tyndall::graph::nominal_size(&n.id, g.kind_schema(cat, &n.kind)),
+                )
+            })
+            .collect();
+        for (i, a) in rects.iter().enumerate() {
+            for b in &rects[i + 1..] {
+                let apart = a.1[0] + a.2[0] <= b.1[0]
+                    || b.1[0] + b.2[0] <= a.1[0]
+                    || a.1[1] + a.2[1] <= b.1[1]
+                    || b.1[1] + b.2[1] <= a.1[1];
+                assert!(
+                    apart,
+                    "{}: nodes '{}' at {:?} and '{}' at {:?} overlap (nominal sizes {:?}, {:?})",
+                    f.display(),
+                    a.0,
+                    a.1,
+                    b.0,
+                    b.1,
+                    a.2,
+                    b.2
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_graph_without_positions_is_laid_out_in_columns_left_to_right() {
+    let registry = tyndall::nodes::registry();
+    let cat = registry.catalog();
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let mut g = tyndall::graph::load_file(&path, cat).expect("graph");
+    let ids: Vec<String> = g.nodes().map(|n| n.id.clone()).collect();
+    for id in &ids {
+        g.set_pos(id, None).expect("pos");
+    }
+    assert_eq!(g.place_unplaced(cat), ids.len());
+    assert_eq!(g.place_unplaced(cat), 0, "nothing left to place");
+    let pos = |g: &tyndall::graph::Graph, id: &str| g.node(id).and_then(|n| n.pos).expect("placed");
+    // Every edge runs left to right, a column further per step of depth.
+    for e in g.edges() {
+        assert!(
+            pos(&g, &e.from_node)[0] < pos(&g, &e.to_node)[0],
+            "{} → {}",
+            e.from_node,
+            e.to_node
+        );
+    }
+    // A node added to a placed graph goes below the placed ones, not on top of them.
+    let bottom = ids
+        .iter()
+        .map(|id| {
+            pos(&g, id)[1]
+                + tyndall::graph::nominal_size(
+                    id,
+                    g.kind_schema(cat, &g.node(id).expect("node").kind),
+                )[1]
+        })
+        .fold(f32::MIN, f32::max);
+    let new = g.add_node(cat, "Constant").expect("add");
+    assert_eq!(g.place_unplaced(cat), 1);
+    assert!(pos(&g, &new)[1] > bottom);
+}

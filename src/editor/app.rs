@@ -329,8 +329,11 @@ impl EditorApp {
         }
         let mut snarl = Snarl::new();
         let mut ids = BTreeMap::new();
-        for (i, n) in g.nodes().enumerate() {
-            let pos = n.pos.unwrap_or([i as f32 * 40.0, i as f32 * 30.0]);
+        // Nodes the document places nowhere: the layered layout (columns by dependency depth).
+        let mut laid = g.clone();
+        laid.place_unplaced(self.state.catalog());
+        for n in laid.nodes() {
+            let pos = n.pos.unwrap_or_default();
             ids.insert(
                 n.id.clone(),
                 snarl.insert_node(egui::pos2(pos[0], pos[1]), n.id.clone()),
@@ -456,7 +459,9 @@ impl eframe::App for EditorApp {
                 let bb = self
                     .snarl
                     .nodes_pos_ids()
-                    .map(|(_, pos, _)| egui::Rect::from_min_size(pos, egui::vec2(220.0, 140.0)))
+                    .map(|(_, pos, _)| {
+                        egui::Rect::from_min_size(pos, egui::vec2(crate::graph::NODE_WIDTH, 200.0))
+                    })
                     .fold(egui::Rect::NOTHING, |a, r| a.union(r));
                 Some((bb, ui.max_rect()))
             } else {
@@ -477,8 +482,13 @@ impl eframe::App for EditorApp {
             // Titles and port names are not selectable text, so a click on them reaches the
             // node (Shift+click selects it).
             ui.style_mut().interaction.selectable_labels = false;
+            // Zoomed out far enough to frame a big graph (egui-snarl's default stops at 0.2: a
+            // 400-pixel canvas then shows 2,000 units, five columns of the layered layout).
+            let mut style = egui_snarl::ui::SnarlStyle::new();
+            style.min_scale = Some(MIN_CANVAS_SCALE);
             SnarlWidget::new()
                 .id(canvas)
+                .style(style)
                 .show(&mut self.snarl, &mut view, ui);
             let selected = get_selected_nodes(canvas, ui.ctx());
             if let Some(n) = selected.first() {
@@ -506,6 +516,10 @@ impl eframe::App for EditorApp {
         });
     }
 }
+
+/// How far the canvas zooms out (canvas pixels per unit): far enough to frame a graph of a few
+/// hundred nodes.
+pub(super) const MIN_CANVAS_SCALE: f32 = 0.03;
 
 /// Open the editor window on `path` (or an empty graph).
 pub fn run(path: Option<PathBuf>) -> Result<(), String> {

@@ -236,7 +236,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
             let bb = bb.expand(40.0);
             let scale = (canvas.width() / bb.width())
                 .min(canvas.height() / bb.height())
-                .clamp(0.4, 1.2);
+                .clamp(super::app::MIN_CANVAS_SCALE, 1.2);
             *to_global = emath::TSTransform::new(
                 canvas.center().to_vec2() - bb.center().to_vec2() * scale,
                 scale,

@@ -10,6 +10,7 @@ mod edges;
 mod error;
 mod format;
 mod group;
+mod layout;
 mod library;
 mod port_types;
 mod proxy_scale;
@@ -25,6 +26,7 @@ pub use format::{
     MIGRATIONS,
 };
 pub use group::{GroupDef, GroupPort, Knob, LibraryRef};
+pub use layout::{nominal_size, COLUMN_GAP, NODE_WIDTH, ROW_GAP};
 pub use library::{
     is_library_text, library_folders, library_text, list_library, load_library_file,
     load_library_group, reference_entry, user_library,
