@@ -425,7 +425,7 @@ fn unknown_choice_is_an_error_naming_node_and_parameter() {
 }
 
 /// A texture side beyond the adapter's limit fails naming the parameter and the limit (every
-/// node with a resolution parameter reads it through `RunCtx::texture_side`); lavapipe's limits
+/// node with a resolution parameter reads it through `RunCtx::side`); lavapipe's limits
 /// are above every parameter's range, so the check itself is tested here.
 #[test]
 fn texture_sides_beyond_the_limit_name_the_parameter_and_the_limit() {

@@ -104,9 +104,6 @@ pub use params::*;
 /// The `SingleScattering` node kind.
 pub struct SingleScattering;
 
-/// Visibility methods.
-pub const METHODS: &[&str] = Method::NAMES;
-
 crate::choice_enum! {
     /// Visibility algorithms.
     pub enum Method { BruteForce = "BruteForce", MinMax = "MinMax", Epipolar = "Epipolar" }

@@ -116,29 +116,6 @@ pub fn depth_coordinate(d: f32, depth_min: f32, depth_max: f32) -> f32 {
     }
 }
 
-/// CPU reference of the lookup: one RGBA pixel per visibility texel.
-pub fn lookup_reference(
-    lut: &Raster,
-    vis: &Raster,
-    depth: &Raster,
-    inscatter: Option<&Raster>,
-    range: (f32, f32),
-    intensity: f32,
-) -> Raster {
-    let mut out = Raster::new(vis.width, vis.height, 4, 1.0);
-    for k in 0..(vis.width * vis.height) as usize {
-        let u = vis.data[k];
-        let u = if u.is_nan() { 0.0 } else { u.clamp(0.0, 1.0) };
-        let v = depth_coordinate(depth.data[k], range.0, range.1);
-        let tf = bilinear(lut, u, v);
-        for (c, tc) in tf.iter().take(3).enumerate() {
-            let t = tc * intensity;
-            out.data[k * 4 + c] = inscatter.map_or(t, |s| s.data[k * 4 + c] * t);
-        }
-    }
-    out
-}
-
 /// `depth_range = auto`: the 1st and 99th percentiles (nearest rank) of the finite surface
 /// depths — below the camera's far distance when the depth comes from a camera (sky pixels sit
 /// at the far distance), all finite values when it comes from a file (identity matrices).

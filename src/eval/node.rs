@@ -6,11 +6,10 @@ use std::sync::Arc;
 
 use thiserror::Error;
 
-use super::params::ParamReader;
 use super::paths::output_path;
 use super::value::PortValue;
 use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
-use crate::graph::{Choice, NodeData, NodeSchema, ParamValue};
+use crate::graph::{NodeData, NodeSchema, ParamValue};
 
 /// A failure inside a node, before the evaluator adds the node's id and kind.
 #[derive(Debug, Error, Clone)]
@@ -131,34 +130,9 @@ pub struct Earlier {
 }
 
 impl RunCtx<'_> {
-    fn reader(&self) -> ParamReader<'_> {
-        ParamReader(self.params)
-    }
-
-    /// A `Float` or `Int` parameter as f64 (see [`ParamReader`]).
-    pub fn f64(&self, name: &str) -> Result<f64, NodeError> {
-        self.reader().f64(name)
-    }
-
-    /// A numeric parameter as f32.
-    pub fn f32(&self, name: &str) -> Result<f32, NodeError> {
-        self.reader().f32(name)
-    }
-
-    /// An `Int` parameter.
-    pub fn int(&self, name: &str) -> Result<i64, NodeError> {
-        self.reader().int(name)
-    }
-
-    /// An `Int` parameter giving a texture's side (`dims` = 2 for a 2D texture, 3 for a volume),
-    /// checked against the adapter's limit: a value beyond it fails naming the parameter and
-    /// the limit instead of failing later inside the GPU layer.
-    pub fn texture_side(&self, name: &str, dims: u32) -> Result<u32, NodeError> {
-        self.side(name, self.int(name)?, dims)
-    }
-
-    /// [`RunCtx::texture_side`] for a value already read (a typed parameter): `name` is the
-    /// parameter the error names.
+    /// An `Int` parameter's value giving a texture's side (`dims` = 2 for a 2D texture, 3 for a
+    /// volume), checked against the adapter's limit: a value beyond it fails naming the
+    /// parameter `name` and the limit instead of failing later inside the GPU layer.
     pub fn side(&self, name: &str, value: i64, dims: u32) -> Result<u32, NodeError> {
         let limits = &self.gpu.limits;
         let limit = if dims == 3 {
@@ -187,31 +161,6 @@ impl RunCtx<'_> {
                 mib(limit)
             ),
         })
-    }
-
-    /// A `Bool` parameter.
-    pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
-        self.reader().bool(name)
-    }
-
-    /// A `Text` parameter (a choice is refused: see [`ParamReader::text`]).
-    pub fn text(&self, name: &str) -> Result<&str, NodeError> {
-        ParamReader(self.params).text(name)
-    }
-
-    /// An `Enum` parameter as its [`Choice`] type (see [`ParamReader::choice`]).
-    pub fn choice<T: Choice>(&self, name: &str) -> Result<T, NodeError> {
-        self.reader().choice(name)
-    }
-
-    /// A `Vec3` parameter.
-    pub fn vec3(&self, name: &str) -> Result<[f32; 3], NodeError> {
-        self.reader().vec3(name)
-    }
-
-    /// A `Colour` parameter.
-    pub fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
-        self.reader().colour(name)
     }
 
     /// The data block parsed into the node's structure; `T::default()` when the node has none.

@@ -25,15 +25,6 @@ impl TexFormat {
         }
     }
 
-    /// Bytes per texel.
-    pub fn bytes_per_texel(self) -> u32 {
-        match self {
-            TexFormat::R32F => 4,
-            TexFormat::Rgba32F => 16,
-            TexFormat::Rg32F => 8,
-        }
-    }
-
     /// Channels per texel.
     pub fn channels(self) -> u32 {
         match self {

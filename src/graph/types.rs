@@ -427,16 +427,6 @@ impl ParamSpec {
             Err(format!("only with {param} = {}", values.join(" or ")))
         }
     }
-
-    /// For an `Enum` parameter, the index of `value` among its names.
-    pub fn choice_index(&self, value: &ParamValue) -> Result<usize, ParamProblem> {
-        match (&self.kind, value) {
-            (ParamKind::Enum(names), ParamValue::Enum(v) | ParamValue::Text(v)) => {
-                position(names, v).ok_or_else(|| ParamProblem::UnknownEnum(v.clone()))
-            }
-            _ => Err(ParamProblem::WrongType),
-        }
-    }
 }
 
 /// Index of `name` in `names` (usable in constant tables, where `==` on strings is not).
