@@ -13,6 +13,7 @@ mod raster;
 mod readback;
 mod shader;
 mod shader_needs;
+mod survey;
 mod timer;
 mod volume;
 
