@@ -104,22 +104,19 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// PSNR of `b` against `a` (peak: the largest |value| of `a`, at least 1) and the largest
-/// absolute difference.
-fn psnr(a: &tyndall::io::Raster, b: &tyndall::io::Raster) -> (f64, f64) {
-    assert_eq!(
-        (a.width, a.height, a.channels),
-        (b.width, b.height, b.channels)
-    );
-    let peak = a.data.iter().map(|v| v.abs() as f64).fold(1.0, f64::max);
+/// PSNR of `b` against `a` (peak: the largest |value| of `a`, at least `peak_floor`) and the
+/// largest absolute difference.
+fn psnr_values(a: &[f32], b: &[f32], peak_floor: f64) -> (f64, f64) {
+    assert_eq!(a.len(), b.len());
+    let peak = a.iter().map(|v| v.abs() as f64).fold(peak_floor, f64::max);
     let mut se = 0.0;
     let mut max = 0.0f64;
-    for (x, y) in a.data.iter().zip(&b.data) {
+    for (x, y) in a.iter().zip(b) {
         let d = (*x as f64 - *y as f64).abs();
         se += d * d;
         max = max.max(d);
     }
-    let mse = se / a.data.len().max(1) as f64;
+    let mse = se / a.len().max(1) as f64;
     let db = if mse == 0.0 {
         f64::INFINITY
     } else {
@@ -128,23 +125,40 @@ fn psnr(a: &tyndall::io::Raster, b: &tyndall::io::Raster) -> (f64, f64) {
     (db, max)
 }
 
-#[test]
-fn every_preset_renders_on_gl_and_matches_vulkan() {
-    let (vk, gl) = (adapter_on("vulkan"), adapter_on("gl"));
-    let (vk, gl) = match (vk, gl) {
-        (Ok(vk), Ok(gl)) => (vk, gl),
+/// PSNR of picture `b` against `a` (peak at least 1) and the largest absolute difference.
+fn psnr(a: &tyndall::io::Raster, b: &tyndall::io::Raster) -> (f64, f64) {
+    assert_eq!(
+        (a.width, a.height, a.channels),
+        (b.width, b.height, b.channels)
+    );
+    psnr_values(&a.data, &b.data, 1.0)
+}
+
+/// Both sides of a GL-vs-Vulkan comparison, or `None` after saying why one is missing (a
+/// failure under `TYNDALL_REQUIRE_GPU=1`).
+fn both<T, E: std::fmt::Display>(vk: Result<T, E>, gl: Result<T, E>) -> Option<(T, T)> {
+    match (vk, gl) {
+        (Ok(vk), Ok(gl)) => Some((vk, gl)),
         (vk, gl) => {
+            let err = |r: Result<T, E>| r.err().map_or_else(|| "ok".into(), |e| e.to_string());
             let why = format!(
                 "GL-vs-Vulkan comparison needs both: vulkan: {}; gl: {}",
-                vk.err().unwrap_or_else(|| "ok".into()),
-                gl.err().unwrap_or_else(|| "ok".into())
+                err(vk),
+                err(gl)
             );
             if std::env::var("TYNDALL_REQUIRE_GPU").is_ok_and(|v| v == "1") {
                 panic!("TYNDALL_REQUIRE_GPU=1: {why}");
             }
             eprintln!("skipping: {why}");
-            return;
+            None
         }
+    }
+}
+
+#[test]
+fn every_preset_renders_on_gl_and_matches_vulkan() {
+    let Some((vk, gl)) = both(adapter_on("vulkan"), adapter_on("gl")) else {
+        return;
     };
     eprintln!("vulkan: {vk}; gl: {gl}");
     // Nodes GL cannot give what they need (none on Mesa's GL since volumes are written through
@@ -253,24 +267,6 @@ fn read_back(gpu: &tyndall::gpu::Gpu, v: &tyndall::eval::PortValue) -> Vec<f32> 
     }
 }
 
-/// PSNR of `b` against `a` (peak: the largest |value| of `a`), and whether `a` has any value
-/// that is not 0.
-fn psnr_of(a: &[f32], b: &[f32]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let peak = a.iter().map(|v| v.abs() as f64).fold(0.0, f64::max);
-    let se: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
-        .sum();
-    let mse = se / a.len().max(1) as f64;
-    if mse == 0.0 {
-        f64::INFINITY
-    } else {
-        10.0 * (peak * peak / mse).log10()
-    }
-}
-
 /// The outputs that are not pictures — phase tables, volumes (noise, painted, soft visibility),
 /// the transfer function's `lut`, light maps — of every preset, evaluated on GL and on Vulkan in
 /// this process and compared with the same metric and bound as the pictures above (PSNR over
@@ -281,20 +277,8 @@ fn psnr_of(a: &[f32], b: &[f32]) -> f64 {
 fn every_preset_tables_volumes_and_maps_match_between_gl_and_vulkan() {
     use tyndall::eval::{EvalOptions, Evaluator, Target};
     use tyndall::graph::PortType;
-    let (vk, gl) = match (gpu_on(wgpu::Backends::VULKAN), gpu_on(wgpu::Backends::GL)) {
-        (Ok(vk), Ok(gl)) => (vk, gl),
-        (vk, gl) => {
-            let why = format!(
-                "GL-vs-Vulkan comparison needs both: vulkan: {}; gl: {}",
-                vk.err().unwrap_or_else(|| "ok".into()),
-                gl.err().unwrap_or_else(|| "ok".into())
-            );
-            if std::env::var("TYNDALL_REQUIRE_GPU").is_ok_and(|v| v == "1") {
-                panic!("TYNDALL_REQUIRE_GPU=1: {why}");
-            }
-            eprintln!("skipping: {why}");
-            return;
-        }
+    let Some((vk, gl)) = both(gpu_on(wgpu::Backends::VULKAN), gpu_on(wgpu::Backends::GL)) else {
+        return;
     };
     let registry = std::sync::Arc::new(tyndall::nodes::registry());
     let cat = registry.catalog().clone();
@@ -362,7 +346,7 @@ fn every_preset_tables_volumes_and_maps_match_between_gl_and_vulkan() {
             }
         };
         for ((((node, port), ty), a), b) in ports.iter().zip(&a).zip(&b) {
-            let db = psnr_of(a, b);
+            let (db, _) = psnr_values(a, b, 0.0);
             let zero = a.iter().all(|v| *v == 0.0);
             eprintln!(
                 "{name} {node}.{port} ({ty:?}, {} values): {db:.1} dB",

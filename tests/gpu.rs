@@ -282,6 +282,15 @@ fn assert_bit_identical(a: &[(String, tyndall::io::Raster)], b: &[(String, tynda
     }
 }
 
+/// A context on the usual adapter, taking GL's substitutes or not (`TYNDALL_GPU_EMULATE=gl`).
+fn gpu_emulating_gl(emulate_gl: bool) -> tyndall::gpu::Gpu {
+    tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
+        emulate_gl,
+        ..tyndall::gpu::GpuOptions::from_env()
+    })
+    .expect("device")
+}
+
 #[test]
 fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
     if common::gpu().is_none() {
@@ -290,16 +299,7 @@ fn gl_substitutes_give_bit_identical_results_on_one_adapter() {
     // The same adapter twice: once as usual, once taking every substitute GL needs (Rg32F stored
     // as Rgba32F, rasterisation into integer bit patterns). Both are exact re-encodings, so the
     // results must be equal bit for bit.
-    let usual = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
-        emulate_gl: false,
-        ..tyndall::gpu::GpuOptions::from_env()
-    })
-    .expect("device");
-    let emulated = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
-        emulate_gl: true,
-        ..tyndall::gpu::GpuOptions::from_env()
-    })
-    .expect("device");
+    let (usual, emulated) = (gpu_emulating_gl(false), gpu_emulating_gl(true));
     assert_eq!(
         emulated.caps.stored(wgpu::TextureFormat::Rg32Float),
         wgpu::TextureFormat::Rgba32Float
@@ -487,16 +487,7 @@ fn volumes_written_through_storage_buffers_are_bit_identical_on_one_adapter() {
     // this adapter too (the GL emulation), it must give the same texels bit for bit as 3D
     // storage textures: the same arithmetic, only where the result is stored differs. Noise
     // builds its mip chain through it, soft visibility one slice per pass.
-    let usual = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
-        emulate_gl: false,
-        ..tyndall::gpu::GpuOptions::from_env()
-    })
-    .expect("device");
-    let emulated = tyndall::gpu::Gpu::with_options(&tyndall::gpu::GpuOptions {
-        emulate_gl: true,
-        ..tyndall::gpu::GpuOptions::from_env()
-    })
-    .expect("device");
+    let (usual, emulated) = (gpu_emulating_gl(false), gpu_emulating_gl(true));
     assert!(emulated.caps.volume_rows());
     let (a, b) = (volume_levels(usual), volume_levels(emulated));
     assert_eq!(a.len(), b.len());

@@ -624,14 +624,15 @@ fn composite_matches_reference_with_every_input() {
     );
     // f32 on both sides, the same operations in the same order; the GPU may fuse
     // multiply-adds (the ray, the projections), which moves a sample by a few ULP of the
-    // image's largest values. Allowed: 1e-4 of the largest sample (alpha, 1, here) on all but
-    // 0.1 % of the samples, and 1e-3 on those. Measured: lavapipe 8e-5 at most (none beyond
-    // 1e-4); llvmpipe's GL 4 samples of 9,216 beyond 1e-4, at most 4.4e-4, in two pixels of
-    // column 55 (why those two was not pinned down: GLSL rounds the world point otherwise, and
-    // a last-bit move of the point moves a bilinear light-map or PCF lookup that sits on a
-    // texel edge by about that much). A real fault moves far more: one PCF tap of 25 taken on the other side of
-    // a shadow edge moves a pixel by a twenty-fifth of its direct light (a reference with
-    // `pcf` 1 instead of 2 fails by 0.23), a lost input or channel whole regions.
+    // image's largest values. Allowed: 1e-4 of the largest sample (alpha, 1, here) on every
+    // sample (lavapipe, measured: 8e-5 at most). On wgpu's GL backend, where GLSL rounds the
+    // world point otherwise, up to 0.1 % of the samples may reach 1e-3 (llvmpipe, measured: 4
+    // samples of 9,216 beyond 1e-4, at most 4.4e-4, in two pixels of column 55; why those two
+    // was not pinned down — a last-bit move of the point moves a bilinear light-map or PCF
+    // lookup on a texel edge by about that much). A real fault moves far more: one PCF tap of
+    // 25 taken on the other side of a shadow edge moves a pixel by a twenty-fifth of its direct
+    // light (a reference with `pcf` 1 instead of 2 fails by 0.23), a lost input or channel
+    // whole regions.
     let scale = want
         .data
         .iter()
@@ -644,8 +645,12 @@ fn composite_matches_reference_with_every_input() {
         .zip(&got.data)
         .filter(|(a, b)| (*a - *b).abs() > 1e-4 * scale)
         .count();
+    let (bound, outliers) = match gpu.info.backend {
+        wgpu::Backend::Gl => (1e-3, want.data.len() / 1000),
+        _ => (1e-4, 0),
+    };
     assert!(
-        worst <= 1e-3 * scale && beyond * 1000 <= want.data.len(),
+        worst <= bound * scale && beyond <= outliers,
         "composite differs from its reference by {worst} (largest sample {scale}); {beyond} of {} samples beyond 1e-4",
         want.data.len()
     );
