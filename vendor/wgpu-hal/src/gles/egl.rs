@@ -7,7 +7,11 @@ use hashbrown::HashMap;
 use parking_lot::{MappedMutexGuard, Mutex, MutexGuard, RwLock};
 
 /// The amount of time to wait while trying to obtain a lock to the adapter context
-const CONTEXT_LOCK_TIMEOUT_SECS: u64 = 6;
+// Tyndall's patch: 6 s upstream. On Mesa's llvmpipe (2 CPU cores, tests in parallel threads)
+// one thread can hold the context longer than that for a single heavy pass, and the waiting
+// thread then panicked ("Could not lock adapter context"); Tyndall's own watchdog
+// (TYNDALL_GPU_TIMEOUT, 600 s) is what decides that the GPU hangs.
+const CONTEXT_LOCK_TIMEOUT_SECS: u64 = 600;
 
 const EGL_CONTEXT_FLAGS_KHR: i32 = 0x30FC;
 const EGL_CONTEXT_OPENGL_DEBUG_BIT_KHR: i32 = 0x0001;
