@@ -23,10 +23,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `BilateralFilter` node kind.
 pub struct BilateralFilter;
@@ -34,7 +34,7 @@ pub struct BilateralFilter;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         radius: i64 = ParamSpec::int("radius", 4, 0, 64, "taps", "Taps on each side of a pixel, in each pass (quality knob)."),
@@ -58,12 +58,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[BilateralParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "bilateral_filter",
     include_str!("../shaders/bilateral_filter.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/bilateral_filter.wgsl` (struct `Params`).
     pub struct BilateralParams as "Params" {
         /// Taps on each side.

@@ -33,14 +33,16 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuVolume, Shader};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuVolume, Shader};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+
+use crate::algorithms::volume_mips;
 
 /// The `BlendVolume` node kind.
 pub struct BlendVolume;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// What the volume drives in `Heterogeneity`.
     pub enum Role { Alpha = "alpha", Frequency = "frequency", Intensity = "intensity" }
 }
@@ -57,7 +59,7 @@ impl Role {
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         role: Role = ParamSpec::choice("role", Role::NAMES, "alpha", "What the volume drives: alpha (0…1), frequency (mip levels 0…16) or intensity (0…1e3); values are clamped to that range."),
@@ -76,14 +78,14 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     inputs: &[PortSpec::input("scene", &[PortType::Scene], "Its bounds place the volume (else box_min…box_max).")],
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The painted volume and its world-space box.")],
     params: Params::SPECS,
-}).tools(&[crate::eval::EditorTool::SplatVolume, crate::eval::EditorTool::SplatBrush])
+}).tools(&[tyndall_engine::eval::EditorTool::SplatVolume, tyndall_engine::eval::EditorTool::SplatBrush])
 
-.shaders(&[SHADER])
+.shaders(&[SHADER, volume_mips::SHADER])
 .uniforms(&[BlendParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("blend_volume", include_str!("../shaders/blend_volume.wgsl"));
+const SHADER: Shader = crate::shader("blend_volume", include_str!("../shaders/blend_volume.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/blend_volume.wgsl` (struct `Params`).
     pub struct BlendParams as "Params" {
         /// Level-0 size.
@@ -240,7 +242,7 @@ pub fn bake(
         ],
         [n; 3],
     )?;
-    super::noise_volume::build_mips(gpu, &v)?;
+    volume_mips::build(gpu, &v)?;
     Ok(v)
 }
 

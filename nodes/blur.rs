@@ -20,10 +20,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Blur` node kind.
 pub struct Blur;
@@ -31,7 +31,7 @@ pub struct Blur;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         sigma: f64 = ParamSpec::float("sigma", 2.0, 0.0, 256.0, "texels", "Standard deviation σ of the Gaussian; 0 is the identity.").input_texels(),
@@ -51,9 +51,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[BlurParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("blur", include_str!("../shaders/blur.wgsl"));
+const SHADER: Shader = crate::shader("blur", include_str!("../shaders/blur.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/blur.wgsl` (struct `Params`).
     pub struct BlurParams as "Params" {
         /// Kernel radius r in texels.

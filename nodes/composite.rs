@@ -32,16 +32,16 @@
 use std::sync::Arc;
 
 use super::util::placeholder;
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Composite` node kind.
 pub struct Composite;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         ambient: [f32; 4] = ParamSpec::colour("ambient", [0.04, 0.05, 0.07, 1.0], 0.0, 1e6, "linear RGB", "Ambient light on surfaces."),
@@ -73,9 +73,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[CompositeParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("composite", include_str!("../shaders/composite.wgsl"));
+const SHADER: Shader = crate::shader("composite", include_str!("../shaders/composite.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/composite.wgsl` (struct `Params`).
     pub struct CompositeParams as "Params" {
         /// Camera clip → world.
@@ -136,7 +136,7 @@ pub struct RefInputs<'a> {
 /// CPU reference of the node (the formula of the module docs, as `shaders/composite.wgsl`
 /// computes it): `ambient`, `sky` (rgb), `bias` and `pcf` as the parameters.
 pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf: i32) -> Raster {
-    use crate::nodes::algorithms::shader_lib::{bilinear_texels, light_uvz};
+    use crate::algorithms::shader_lib::{bilinear_texels, light_uvz};
     let (depth, cam) = i.depth;
     let (shadow, light) = i.shadow;
     let (w, h) = (depth.width, depth.height);
@@ -175,7 +175,7 @@ pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf
         for x in 0..w {
             let a = i.albedo.pixel(x, y);
             let mut colour = if a[3] > 0.5 {
-                let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
+                let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
                 let p = eye + dir * depth.pixel(x, y)[0];
                 let nrm = i.normal.pixel(x, y);
                 let lambert = glam::Vec3::new(nrm[0], nrm[1], nrm[2]).dot(to_sun).max(0.0);

@@ -16,16 +16,16 @@
 use std::sync::Arc;
 
 use super::util::size_or_default;
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Constant` node kind.
 pub struct Constant;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         value: f32 = ParamSpec::float("value", 0.0, -1e30, 1e30, "", "Value of the Scalar output."),
@@ -50,9 +50,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[ConstantParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("constant", include_str!("../shaders/constant.wgsl"));
+const SHADER: Shader = crate::shader("constant", include_str!("../shaders/constant.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/constant.wgsl` (struct `Params`).
     pub struct ConstantParams as "Params" {
         /// Colour of the Image output.

@@ -24,10 +24,12 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
+
+use crate::algorithms::point_sample;
 
 /// The `DepthUpsample` node kind.
 pub struct DepthUpsample;
@@ -35,7 +37,7 @@ pub struct DepthUpsample;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         sigma_depth: f32 = ParamSpec::float("sigma_depth", 0.05, 0.0, 10.0, "relative", "Depth tolerance as a fraction of the depth."),
@@ -55,15 +57,15 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("image", IMG, "The upsampled result, same type, at the depth's size.")],
     params: Params::SPECS,
 })
-.shaders(&[SHADER])
-.uniforms(&[UpsampleParams::LAYOUT]);
+.shaders(&[SHADER, point_sample::SHADER])
+.uniforms(&[UpsampleParams::LAYOUT, point_sample::PointSampleParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "depth_upsample",
     include_str!("../shaders/depth_upsample.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/depth_upsample.wgsl` (struct `Params`).
     pub struct UpsampleParams as "Params" {
         /// Relative depth tolerance.
@@ -144,7 +146,10 @@ pub fn reference(low: &Raster, low_depth: &Raster, high_depth: &Raster, sigma: f
     out
 }
 
-fn depth_of(ctx: &RunCtx, port: &str) -> Result<Option<Arc<crate::gpu::GpuTexture>>, NodeError> {
+fn depth_of(
+    ctx: &RunCtx,
+    port: &str,
+) -> Result<Option<Arc<tyndall_engine::gpu::GpuTexture>>, NodeError> {
     Ok(ctx.depth_opt(port)?.map(|(t, _)| t))
 }
 
@@ -170,7 +175,7 @@ impl NodeKind for DepthUpsample {
             Some(t) => t,
             None => {
                 let f = (high.width as f32 / low.width as f32).round().max(1.0) as u32;
-                Arc::new(super::downsample::downsample(ctx.gpu, &high, f)?)
+                Arc::new(point_sample::downsample(ctx.gpu, &high, f)?)
             }
         };
         if (low_depth.width, low_depth.height) != (low.width, low.height) {

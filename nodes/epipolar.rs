@@ -44,10 +44,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// Which epipolar operation a kind performs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,13 +61,13 @@ pub enum EpiOp {
 /// An epipolar morphology node kind.
 pub struct Epipolar(pub EpiOp);
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Algorithms (same result).
     pub enum Method { Reference = "Reference", Fast = "Fast" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The family's parameters, read once per run.
     pub struct Params {
         method: Method = ParamSpec::choice("method", Method::NAMES, "Reference", "Reference (the definition, O(length) per texel) or Fast (same result; exact end samples proven against a rectified-grid van Herk bound, cost flat in length on shadow maps)."),
@@ -86,7 +86,7 @@ const IN: &[PortSpec] = &[
 #[rustfmt::skip]
 const OUT: &[PortSpec] = &[PortSpec::output("map", &[PortType::ShadowMap], "The filtered map.")];
 
-const SHADER: Shader = Shader::new("epipolar", include_str!("../shaders/epipolar.wgsl"));
+const SHADER: Shader = crate::shader("epipolar", include_str!("../shaders/epipolar.wgsl"));
 
 const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
     let schema = NodeSchema {
@@ -110,7 +110,7 @@ static CLOSURE: NodeDecl = decl(
     "Epipolar dilation then the dual erosion: occlusion stays behind objects, shaft edges sharpen.",
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/epipolar.wgsl` (struct `Params`).
     pub struct EpiParams as "Params" {
         /// Epipole, texel units.
@@ -185,7 +185,7 @@ pub fn epipole(light: &Matrices, camera: &Matrices, w: u32, h: u32) -> ([f32; 2]
     )
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the fast path (struct `Rect` of `shaders/epipolar.wgsl`).
     pub struct RectParams as "Rect" {
         /// Unit direction from the epipole towards the map's centre; angles are measured from it.

@@ -29,16 +29,16 @@
 
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, GpuVolume, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, GpuVolume, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Heterogeneity` node kind.
 pub struct Heterogeneity;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         alpha: f32 = ParamSpec::float("alpha", 0.5, 0.0, 1.0, "", "Heterogeneity amount α when no volume is connected."),
@@ -66,17 +66,17 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("h", &[PortType::Scalar], "The heterogeneity factor h."),
     ],
     params: Params::SPECS,
-}).tools(&[crate::eval::EditorTool::SplatBrush])
+}).tools(&[tyndall_engine::eval::EditorTool::SplatBrush])
 
 .shaders(&[SHADER])
 .uniforms(&[HeteroParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "heterogeneity",
     include_str!("../shaders/heterogeneity.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/heterogeneity.wgsl` (struct `Params`).
     pub struct HeteroParams as "Params" {
         /// Camera clip → world.
@@ -132,13 +132,13 @@ pub struct CpuVolume {
 impl CpuVolume {
     /// Read a GPU volume back (every level).
     pub fn read(
-        gpu: &crate::gpu::Gpu,
+        gpu: &tyndall_engine::gpu::Gpu,
         v: &GpuVolume,
         bounds: [[f32; 3]; 2],
-    ) -> Result<Self, crate::gpu::GpuError> {
+    ) -> Result<Self, tyndall_engine::gpu::GpuError> {
         let levels = (0..v.mips())
             .map(|l| Ok((v.level_size(l), gpu.read_volume(v, l)?)))
-            .collect::<Result<Vec<_>, crate::gpu::GpuError>>()?;
+            .collect::<Result<Vec<_>, tyndall_engine::gpu::GpuError>>()?;
         Ok(Self { levels, bounds })
     }
 

@@ -14,10 +14,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `HoleComposite` node kind.
 pub struct HoleComposite;
@@ -37,7 +37,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "hole_composite",
     include_str!("../shaders/hole_composite.wgsl"),
 );
@@ -59,7 +59,13 @@ pub fn reference(object: &Raster, holes: &Raster, rest: &Raster) -> Raster {
 fn map(
     ctx: &RunCtx,
     port: &str,
-) -> Result<(Arc<crate::gpu::GpuTexture>, crate::eval::Matrices), NodeError> {
+) -> Result<
+    (
+        Arc<tyndall_engine::gpu::GpuTexture>,
+        tyndall_engine::eval::Matrices,
+    ),
+    NodeError,
+> {
     ctx.shadow_map(port)
 }
 

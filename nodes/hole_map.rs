@@ -20,16 +20,16 @@
 
 use std::sync::Arc;
 
-use crate::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `HoleMap` node kind.
 pub struct HoleMap;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         probability: f64 = ParamSpec::float("probability", 0.3, 0.0, 1.0, "", "Hole probability h."),
@@ -49,9 +49,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[HoleParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("hole_map", include_str!("../shaders/hole_map.wgsl"));
+const SHADER: Shader = crate::shader("hole_map", include_str!("../shaders/hole_map.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/hole_map.wgsl` (struct `Params`).
     pub struct HoleParams as "Params" {
         /// Values below this are holes.

@@ -38,10 +38,10 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `ImageInput` node kind.
 pub struct ImageInput;
@@ -49,13 +49,13 @@ pub struct ImageInput;
 /// Names of the `channel` parameter, in the shader's order.
 pub const CHANNELS: &[&str] = Channel::NAMES;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Which channel the one-channel outputs carry, in the shader's order.
     pub enum Channel { Luminance = "luminance", R = "r", G = "g", B = "b", A = "a" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         path: String = ParamSpec::text("path", "", "File to read (.exr or .png)."),
@@ -80,13 +80,13 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     ],
     params: Params::SPECS,
 })
-.files(&[("path", crate::eval::FileRole::Read)])
+.files(&[("path", tyndall_engine::eval::FileRole::Read)])
 .shaders(&[SHADER])
 .uniforms(&[ImageInputParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("image_input", include_str!("../shaders/image_input.wgsl"));
+const SHADER: Shader = crate::shader("image_input", include_str!("../shaders/image_input.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/image_input.wgsl` (struct `Params`).
     pub struct ImageInputParams as "Params" {
         /// Channels in the uploaded file data (1 or 4).
@@ -131,7 +131,7 @@ pub fn reference(file: &Raster, channel: Channel) -> (Raster, Raster) {
 
 /// The camera of an EXR header (`worldToCamera`, `worldToNDC`: Imath's row-vector layout, which
 /// is glam's column-major array), far = the largest finite depth of a one-channel `file`.
-fn header_camera(h: &crate::io::ExrHeader, file: &Raster) -> Option<Matrices> {
+fn header_camera(h: &tyndall_engine::io::ExrHeader, file: &Raster) -> Option<Matrices> {
     let view = glam::Mat4::from_cols_array(&h.world_to_camera?);
     let ndc = glam::Mat4::from_cols_array(&h.world_to_ndc?);
     if view.determinant().abs() < 1e-12 {
@@ -157,7 +157,7 @@ fn header_camera(h: &crate::io::ExrHeader, file: &Raster) -> Option<Matrices> {
 /// rounded); as written when it has none.
 fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
     let f = frame.unwrap_or(time.round() as i64);
-    crate::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
+    tyndall_engine::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
 }
 
 impl NodeKind for ImageInput {
@@ -165,12 +165,12 @@ impl NodeKind for ImageInput {
         &DECL
     }
 
-    fn volatile_key(&self, key: &crate::eval::KeyInput) -> u64 {
+    fn volatile_key(&self, key: &tyndall_engine::eval::KeyInput) -> u64 {
         // An image sequence: each frame is another file (and that file's stamp).
         match Params::from_params(key.params) {
-            Ok(p) if crate::eval::with_frame(&p.path, 0).is_some() => {
+            Ok(p) if tyndall_engine::eval::with_frame(&p.path, 0).is_some() => {
                 let path = frame_path(&p.path, None, key.time);
-                key.time.round().to_bits() ^ crate::eval::file_stamp(Path::new(&path))
+                key.time.round().to_bits() ^ tyndall_engine::eval::file_stamp(Path::new(&path))
             }
             _ => 0,
         }
@@ -187,9 +187,13 @@ impl NodeKind for ImageInput {
             });
         }
         let (file, header) = if prm.layer.trim().is_empty() {
-            (crate::io::read_image(Path::new(path), prm.srgb)?, None)
+            (
+                tyndall_engine::io::read_image(Path::new(path), prm.srgb)?,
+                None,
+            )
         } else {
-            if crate::io::file_kind(Path::new(path))? != crate::io::FileKind::Exr {
+            if tyndall_engine::io::file_kind(Path::new(path))? != tyndall_engine::io::FileKind::Exr
+            {
                 return Err(NodeError::Param {
                     param: "layer".into(),
                     message: format!(
@@ -198,11 +202,11 @@ impl NodeKind for ImageInput {
                     ),
                 });
             }
-            crate::io::read_exr_layer(Path::new(path), prm.layer.trim())?
+            tyndall_engine::io::read_exr_layer(Path::new(path), prm.layer.trim())?
         };
         let camera = header.and_then(|h| header_camera(&h, &file));
         let file = if prm.reduce > 1 {
-            super::downsample::reference(&file, prm.reduce as u32)
+            crate::algorithms::point_sample::reference(&file, prm.reduce as u32)
         } else {
             file
         };

@@ -45,10 +45,10 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::{
+use tyndall_engine::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::{
     file_kind, write_exr_layers, write_image, ExrHeader, ExrLayer, FileKind, Precision, Raster,
 };
 
@@ -58,7 +58,7 @@ pub struct ImageOutput;
 /// Names of the `precision` parameter.
 pub const PRECISIONS: &[&str] = Storage::NAMES;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// The `precision` parameter: how samples are stored.
     pub enum Storage { Auto = "auto", F32 = "f32", F16 = "f16", U8 = "u8", U16 = "u16" }
 }
@@ -71,7 +71,7 @@ const ANY: &[PortType] = &[
 ];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `ImageOutput`'s parameters.
     pub struct OutParams {
         path: String = ParamSpec::text("path", "out.exr", "File to write (.exr or .png)."),
@@ -91,10 +91,10 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "srgb"])
-.files(&[("path", crate::eval::FileRole::Write)])
+.files(&[("path", tyndall_engine::eval::FileRole::Write)])
 .sink();
 
-const SHADER: Shader = Shader::new("image_output", include_str!("../shaders/image_output.wgsl"));
+const SHADER: Shader = crate::shader("image_output", include_str!("../shaders/image_output.wgsl"));
 
 /// The texture on input `port` with non-finite samples replaced by 0 (the GPU pass), as a Scalar
 /// or an Image.
@@ -184,7 +184,7 @@ pub struct AovOutput;
 /// Names of `AovOutput`'s `precision` parameter.
 pub const LAYER_PRECISIONS: &[&str] = LayerStorage::NAMES;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// `AovOutput`'s `precision`: storage of the layers not listed in `float_layers`.
     pub enum LayerStorage { Half = "half", Float = "float" }
 }
@@ -193,7 +193,7 @@ crate::choice_enum! {
 const LAYERS: &[&str] = &["rgba", "visibility", "depth", "inscatter", "transmittance"];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `AovOutput`'s parameters.
     pub struct AovParams {
         path: String = ParamSpec::text("path", "out/aovs.exr", "The .exr file to write."),
@@ -223,7 +223,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
-.files(&[("path", crate::eval::FileRole::Write)])
+.files(&[("path", tyndall_engine::eval::FileRole::Write)])
 .sink();
 
 /// Channel names of the layer on `port` holding `value` (`inscatter` has no alpha).

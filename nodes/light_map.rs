@@ -20,14 +20,15 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `LightMap` node kind.
 pub struct LightMap;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         path: String = ParamSpec::text("path", "", "PNG (sRGB) or EXR (linear) file with the map; empty: the constant `colour`."),
@@ -47,7 +48,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("light_map", &[PortType::LightMap], "The light map (for SingleScattering.light_map).")],
     params: Params::SPECS,
 })
-.files(&[("path", crate::eval::FileRole::Read)]);
+.files(&[("path", tyndall_engine::eval::FileRole::Read)]);
 
 impl NodeKind for LightMap {
     fn decl(&self) -> &'static NodeDecl {
@@ -65,12 +66,12 @@ impl NodeKind for LightMap {
                     let c = p.colour;
                     Arc::new(ctx.gpu.upload(1, 1, 4, &[c[0], c[1], c[2], 1.0])?)
                 } else {
-                    let r = super::transfer_function::read_layer_image(path).map_err(|e| {
-                        NodeError::Param {
+                    let r = tyndall_engine::io::read_image(std::path::Path::new(path), true)
+                        .map(Raster::into_rgba)
+                        .map_err(|e| NodeError::Param {
                             param: "path".into(),
                             message: e.to_string(),
-                        }
-                    })?;
+                        })?;
                     Arc::new(ctx.gpu.upload(r.width, r.height, 4, &r.data)?)
                 }
             }

@@ -29,15 +29,15 @@
 use std::sync::Arc;
 
 use super::util::{image_like, placeholder};
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Math` node kind.
 pub struct Math;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Operations, in the order of the shader's `op` codes.
     pub enum Op {
         Add = "add", Sub = "sub", Mul = "mul", Div = "div", Min = "min", Max = "max",
@@ -51,7 +51,7 @@ pub const OPS: &[&str] = Op::NAMES;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         op: Op = ParamSpec::choice("op", Op::NAMES, "add", "Operation: add, sub, mul, div (0 where b = 0), min, max, mix, clamp, pow (signed, no NaN)."),
@@ -78,9 +78,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[MathParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("math", include_str!("../shaders/math.wgsl"));
+const SHADER: Shader = crate::shader("math", include_str!("../shaders/math.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/math.wgsl` (struct `Params`). Modes: 0 constant, 1 Scalar texture
     /// (broadcast), 2 Image texture.
     pub struct MathParams as "Params" {

@@ -25,15 +25,17 @@
 
 use std::sync::Arc;
 
-use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuVolume, Shader};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuVolume, Shader};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+
+use crate::algorithms::volume_mips;
 
 /// The `NoiseVolume` node kind.
 pub struct NoiseVolume;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         resolution: i64 = ParamSpec::int("resolution", 64, 32, 256, "texels", "Side of the cube."),
@@ -56,12 +58,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The noise volume and its world-space box.")],
     params: Params::SPECS,
 })
-.shaders(&[SHADER])
+.shaders(&[SHADER, volume_mips::SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("noise_volume", include_str!("../shaders/noise_volume.wgsl"));
+const SHADER: Shader = crate::shader("noise_volume", include_str!("../shaders/noise_volume.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/noise_volume.wgsl` (struct `Params`).
     pub struct NoiseParams as "Params" {
         /// Level-0 size.
@@ -84,7 +86,7 @@ crate::uniforms! {
 }
 
 fn hash(i: [i32; 3], seed: u32) -> u32 {
-    crate::nodes::algorithms::shader_lib::pcg(
+    crate::algorithms::shader_lib::pcg(
         (i[0] as u32).wrapping_mul(73_856_093)
             ^ (i[1] as u32).wrapping_mul(19_349_663)
             ^ (i[2] as u32).wrapping_mul(83_492_791)
@@ -161,7 +163,7 @@ pub fn reference(p: &NoiseParams) -> Vec<f32> {
 
 /// CPU reference of one mip step: the 2×2×2 means of `below` (size `s`).
 pub fn reference_mip(below: &[f32], s: [u32; 3]) -> Vec<f32> {
-    let n = crate::gpu::mip_size(s, 1);
+    let n = tyndall_engine::gpu::mip_size(s, 1);
     let mut out = Vec::with_capacity((n[0] * n[1] * n[2]) as usize);
     for z in 0..n[2] {
         for y in 0..n[1] {
@@ -197,25 +199,8 @@ pub fn build(gpu: &Gpu, p: &NoiseParams) -> Result<GpuVolume, GpuError> {
         ],
         p.size,
     )?;
-    build_mips(gpu, &v)?;
+    volume_mips::build(gpu, &v)?;
     Ok(v)
-}
-
-/// Fill levels 1… of `v` from level 0 (each the 2×2×2 mean of the one below); shared with
-/// `BlendVolume`.
-pub fn build_mips(gpu: &Gpu, v: &GpuVolume) -> Result<(), GpuError> {
-    for level in 1..v.mips() {
-        gpu.dispatch_3d(
-            SHADER,
-            "mip",
-            &[
-                (1, Bind::VolumeLevel(v, level)),
-                (2, Bind::VolumeLevelRead(v, level - 1)),
-            ],
-            v.level_size(level),
-        )?;
-    }
-    Ok(())
 }
 
 impl NodeKind for NoiseVolume {

@@ -27,10 +27,10 @@
 use std::sync::Arc;
 
 use super::util::size_or_default;
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `PerlinNoise2D` node kind.
 pub struct PerlinNoise2D;
@@ -38,13 +38,13 @@ pub struct PerlinNoise2D;
 /// Octave schemes.
 pub const MODES: &[&str] = Mode::NAMES;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Octave sums, in the shader's order.
     pub enum Mode { Seed = "seed", Fbm = "fbm" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         frequency: f64 = ParamSpec::float("frequency", 1.0, 0.0, 1e4, "", "Frequency f (lookup point t·g·f); 0 gives a constant map."),
@@ -72,12 +72,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[NoiseParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "perlin_noise2d",
     include_str!("../shaders/perlin_noise2d.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/perlin_noise2d.wgsl` (struct `Params`).
     pub struct NoiseParams as "Params" {
         /// g · f.
@@ -100,7 +100,7 @@ crate::uniforms! {
 }
 
 fn hash(x: i32, y: i32, s: u32) -> u32 {
-    crate::nodes::algorithms::shader_lib::pcg(
+    crate::algorithms::shader_lib::pcg(
         (x as u32).wrapping_mul(1_597_334_677)
             ^ (y as u32).wrapping_mul(3_812_015_801)
             ^ s.wrapping_mul(2_891_336_453),

@@ -47,10 +47,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `PlateDepth` node kind.
 pub struct PlateDepth;
@@ -61,13 +61,13 @@ pub struct PlateOver;
 /// Plate depth values at or beyond this bound nothing (Blender's background Z is 1e10).
 pub const NO_DEPTH: f32 = 1e9;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// What the plate's depth values measure.
     pub enum Convention { Planar = "planar", Distance = "distance" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `PlateDepth`'s parameters (the table above), read once per run.
     pub struct DepthParams {
         convention: Convention = ParamSpec::choice("convention", Convention::NAMES, "planar", "planar: distance along the camera's view axis (Cycles/Blender Z); distance: along the view ray (Tyndall's depth)."),
@@ -110,9 +110,9 @@ static OVER_DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[PlateDepthParams::LAYOUT, PlateOverParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("plate", include_str!("../shaders/plate.wgsl"));
+const SHADER: Shader = crate::shader("plate", include_str!("../shaders/plate.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `plate_depth` in `shaders/plate.wgsl` (struct `DepthParams`).
     pub struct PlateDepthParams as "DepthParams" {
         /// Camera clip → world.
@@ -134,7 +134,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `plate_over` in `shaders/plate.wgsl` (struct `OverParams`).
     pub struct PlateOverParams as "OverParams" {
         /// 1 when inscatter is connected.

@@ -26,10 +26,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `RadialBlur` node kind.
 pub struct RadialBlur;
@@ -37,7 +37,7 @@ pub struct RadialBlur;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         light_x: f32 = ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
@@ -65,9 +65,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[RadialParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("radial_blur", include_str!("../shaders/radial_blur.wgsl"));
+const SHADER: Shader = crate::shader("radial_blur", include_str!("../shaders/radial_blur.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/radial_blur.wgsl` (struct `Params`).
     pub struct RadialParams as "Params" {
         /// Light position, pixels.
@@ -87,7 +87,7 @@ crate::uniforms! {
     }
 }
 
-use crate::nodes::algorithms::shader_lib::bilinear_texels as bilinear;
+use crate::algorithms::shader_lib::bilinear_texels as bilinear;
 
 /// CPU reference of the node.
 pub fn reference(src: &Raster, p: &RadialParams) -> Raster {
@@ -120,7 +120,7 @@ pub fn reference(src: &Raster, p: &RadialParams) -> Raster {
 }
 
 /// The sun's position in pixels of a `w × h` view of the scene's camera.
-pub fn sun_pixel(scene: &crate::scene::Scene, w: u32, h: u32) -> [f32; 2] {
+pub fn sun_pixel(scene: &tyndall_engine::scene::Scene, w: u32, h: u32) -> [f32; 2] {
     let cam = scene.camera;
     let vp = cam.proj(w as f32 / h as f32) * cam.view();
     let far = cam.position + scene.sun.to_sun() * cam.far * 0.5;

@@ -19,10 +19,10 @@
 use std::sync::Arc;
 
 use super::util::image_like;
-use crate::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `Remap` node kind.
 pub struct Remap;
@@ -30,7 +30,7 @@ pub struct Remap;
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         from_min: f32 = ParamSpec::float("from_min", 0.0, -1e30, 1e30, "", "Source value mapped to to_min."),
@@ -53,9 +53,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[RemapParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("remap", include_str!("../shaders/remap.wgsl"));
+const SHADER: Shader = crate::shader("remap", include_str!("../shaders/remap.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/remap.wgsl` (struct `Params`).
     pub struct RemapParams as "Params" {
         /// Source low.

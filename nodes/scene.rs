@@ -1,6 +1,6 @@
 //! `Scene`: a built-in procedural scene or a glTF file, with its camera and sun (SPEC §1).
 //!
-//! Without a `path`, the built-in scene `name` is built from `seed` (see [`crate::scene::builtin`]
+//! Without a `path`, the built-in scene `name` is built from `seed` (see [`tyndall_engine::scene::builtin`]
 //! for the list: torus, tree, window, fence, figure). With a `path`, the glTF file is loaded:
 //! meshes, node transforms, base colours, its first camera and its first directional light
 //! (`KHR_lights_punctual`, whose illuminance in lux is read as irradiance in W/m² by dividing by
@@ -46,20 +46,22 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::{builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Scene, Sun};
+use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::scene::{
+    builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Scene, Sun,
+};
 
 /// The `Scene` node kind.
 pub struct SceneNode;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Where the camera (or the sun) comes from.
     pub enum Source { Scene = "scene", Custom = "custom" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         name: Builtin = ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
@@ -92,7 +94,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and sun.")],
     params: Params::SPECS,
 })
-.files(&[("path", crate::eval::FileRole::Read)]);
+.files(&[("path", tyndall_engine::eval::FileRole::Read)]);
 
 impl NodeKind for SceneNode {
     fn decl(&self) -> &'static NodeDecl {
@@ -113,7 +115,7 @@ impl NodeKind for SceneNode {
 
     fn describe_files(
         &self,
-        params: &std::collections::BTreeMap<String, crate::graph::ParamValue>,
+        params: &std::collections::BTreeMap<String, tyndall_engine::graph::ParamValue>,
     ) -> Vec<String> {
         let Ok(p) = Params::from_params(params) else {
             return Vec::new();
@@ -162,7 +164,7 @@ impl NodeKind for SceneNode {
 }
 
 /// A parsed glTF file and the index of the animation that plays.
-type Chosen = (Arc<crate::scene::GltfAsset>, Option<usize>);
+type Chosen = (Arc<tyndall_engine::scene::GltfAsset>, Option<usize>);
 
 /// The glTF file and the animation `p` chooses (`None` for a built-in scene, an empty path, or
 /// `animation = none`).

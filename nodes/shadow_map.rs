@@ -18,16 +18,16 @@
 
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::fit_light;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::scene::fit_light;
 
 /// The `ShadowMap` node kind.
 pub struct ShadowMapNode;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         resolution: i64 = ParamSpec::int("resolution", 2048, 16, 16384, "texels", "Width and height of the map.").light_texels(),
@@ -48,9 +48,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[ShadowMapParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
+const SHADER: Shader = crate::shader("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/shadow_map.wgsl` (struct `Params`).
     pub struct ShadowMapParams as "Params" {
         /// World → light clip.

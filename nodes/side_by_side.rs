@@ -9,10 +9,10 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `SideBySide` node kind.
 pub struct SideBySide;
@@ -31,7 +31,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER]);
 
-const SHADER: Shader = Shader::new("side_by_side", include_str!("../shaders/side_by_side.wgsl"));
+const SHADER: Shader = crate::shader("side_by_side", include_str!("../shaders/side_by_side.wgsl"));
 
 /// CPU reference.
 pub fn reference(l: &Raster, r: &Raster) -> Raster {

@@ -51,17 +51,17 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::phase::{hg_value, rayleigh_value, PhaseTable};
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::scene::Sun;
+use crate::algorithms::phase_function::{hg_value, rayleigh_value, PhaseTable};
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::scene::Sun;
 
 /// The `Sky` node kind.
 pub struct Sky;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         beta_sea_level: [f32; 3] = ParamSpec::vec3("beta_sea_level", [5.8e-6, 1.35e-5, 3.31e-5], 0.0, 1.0, "1/m", "Air's scattering coefficient at sea level for 680/550/440 nm."),
@@ -98,9 +98,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[SkyParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("sky", include_str!("../shaders/sky.wgsl"));
+const SHADER: Shader = crate::shader("sky", include_str!("../shaders/sky.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/sky.wgsl` (struct `Params`).
     pub struct SkyParams as "Params" {
         /// Camera clip → world.

@@ -53,15 +53,15 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec3, Vec4};
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `TemporalAccumulate` node kind.
 pub struct TemporalAccumulate;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Whether earlier frames are clamped to the current neighbourhood's range.
     pub enum Clamp { Neighbourhood = "neighbourhood", Off = "off" }
 }
@@ -69,7 +69,7 @@ crate::choice_enum! {
 const IMG: &[PortType] = &[PortType::Scalar, PortType::Image];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         frames: i64 = ParamSpec::int("frames", 4, 1, 16, "frames", "Frames averaged, the current one included (quality knob: more frames, less shimmer, more lag)."),
@@ -97,12 +97,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[AccumulateParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "temporal_accumulate",
     include_str!("../shaders/temporal_accumulate.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/temporal_accumulate.wgsl` (struct `Params`).
     pub struct AccumulateParams as "Params" {
         /// World → clip of the earlier frame's camera.
@@ -294,7 +294,10 @@ impl NodeKind for TemporalAccumulate {
         };
         let out = ctx.gpu.texture(w, h, image.format)?;
         let accepted = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let mut sum: Option<(crate::gpu::GpuTexture, crate::gpu::GpuTexture)> = None;
+        let mut sum: Option<(
+            tyndall_engine::gpu::GpuTexture,
+            tyndall_engine::gpu::GpuTexture,
+        )> = None;
         for (i, earlier) in ctx.earlier.iter().enumerate() {
             let prev = earlier
                 .require("image")?

@@ -17,14 +17,14 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 /// The `Tonemap` node kind.
 pub struct Tonemap;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Tone curves, in the shader's order.
     pub enum Operator { Filmic = "filmic", Reinhard = "reinhard", Linear = "linear" }
 }
@@ -33,7 +33,7 @@ crate::choice_enum! {
 pub const OPERATORS: &[&str] = Operator::NAMES;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         exposure: f32 = ParamSpec::float("exposure", 0.0, -20.0, 20.0, "stops", "Multiplies the input by 2^exposure."),
@@ -53,9 +53,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[TonemapParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("tonemap", include_str!("../shaders/tonemap.wgsl"));
+const SHADER: Shader = crate::shader("tonemap", include_str!("../shaders/tonemap.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/tonemap.wgsl` (struct `Params`).
     pub struct TonemapParams as "Params" {
         /// 2^exposure.

@@ -2,8 +2,8 @@
 
 use std::sync::Arc;
 
-use crate::eval::{NodeError, PortValue, RunCtx};
-use crate::gpu::{GpuTexture, TexFormat};
+use tyndall_engine::eval::{NodeError, PortValue, RunCtx};
+use tyndall_engine::gpu::{GpuTexture, TexFormat};
 
 /// Resolve a `width`/`height` pair of parameter values where 0 means "the evaluation size".
 pub fn size_or_default(ctx: &RunCtx, w: i64, h: i64) -> (u32, u32) {

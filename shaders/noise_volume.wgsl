@@ -1,5 +1,5 @@
 // NoiseVolume (nodes/noise_volume.rs): 3D Perlin noise (Perlin's improved noise with a hashed
-// lattice) summed over octaves and mapped to [0, 1], then the mip chain by 2×2×2 averages.
+// lattice) summed over octaves and mapped to [0, 1]; the mip chain is algorithms/volume_mips.
 #import lib/hash
 
 struct Params {
@@ -15,7 +15,6 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var out_level: texture_storage_3d<r32float, write>;
-@group(0) @binding(2) var src_level: texture_3d<f32>;
 
 fn hash(i: vec3<i32>, seed: u32) -> u32 {
     return pcg(bitcast<u32>(i.x) * 73856093u ^ bitcast<u32>(i.y) * 19349663u
@@ -72,24 +71,4 @@ fn noise(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let v = clamp(0.5 + 0.5 * sum / max(norm, 1e-12), 0.0, 1.0);
     textureStore(out_level, id, vec4<f32>(v, 0.0, 0.0, 1.0));
-}
-
-// One mip level from the level below: the mean of the (up to) 2×2×2 texels it covers.
-@compute @workgroup_size(4, 4, 4)
-fn mip(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(out_level);
-    if any(id >= size) {
-        return;
-    }
-    let below = vec3<i32>(textureDimensions(src_level));
-    var sum = 0.0;
-    var n = 0.0;
-    for (var k = 0; k < 8; k++) {
-        let q = vec3<i32>(id) * 2 + vec3<i32>(k & 1, (k >> 1u) & 1, (k >> 2u) & 1);
-        if all(q < below) {
-            sum += textureLoad(src_level, q, 0).r;
-            n += 1.0;
-        }
-    }
-    textureStore(out_level, id, vec4<f32>(sum / max(n, 1.0), 0.0, 0.0, 1.0));
 }

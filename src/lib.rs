@@ -1,18 +1,17 @@
 //! Tyndall: a GPU node-graph compositor for stylizing volumetric light shafts.
 //!
-//! Layout (ARCHITECTURE.md in the repository is the map): [`graph`] is the document, [`eval`]
-//! the evaluator and the node interface, [`gpu`] the wgpu context, [`nodes`] the node kinds
-//! (techniques) and their registry, [`scene`] scenes, [`io`] image files, [`cli`] the command
-//! line, [`editor`] the egui editor, [`bench`](mod@bench) speed-against-accuracy measurements.
+//! This package is the `tyndall` command line ([`cli`]) and one name for the workspace's
+//! layers (ARCHITECTURE.md in the repository is the map), re-exported here so that tests and
+//! examples reach them as `tyndall::…`: [`graph`] is the document, [`eval`] the evaluator and
+//! the node interface, [`gpu`] the wgpu context, [`scene`] scenes, [`io`] image files (these
+//! five are the `tyndall-engine` crate); [`nodes`] the node kinds (techniques) and their
+//! registry (`tyndall-nodes`); [`editor`] the egui editor (`tyndall-editor`);
+//! [`bench`](mod@bench) speed-against-accuracy measurements (`tyndall-bench`).
 #![deny(missing_docs)]
 
-pub mod bench;
 pub mod cli;
-pub mod editor;
-pub mod eval;
-pub mod gpu;
-pub mod graph;
-pub mod io;
-#[path = "../nodes/mod.rs"]
-pub mod nodes;
-pub mod scene;
+
+pub use tyndall_bench as bench;
+pub use tyndall_editor as editor;
+pub use tyndall_engine::{choice_enum, eval, gpu, graph, io, params, scene, uniforms};
+pub use tyndall_nodes as nodes;

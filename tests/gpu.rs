@@ -65,6 +65,7 @@ fn wgpu_validation_errors_surface_as_errors() {
     let gpu = require_gpu!();
     let shader = Shader {
         stem: "test_only",
+        files: &[],
         source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n@compute @workgroup_size(8, 8) fn main(@builtin(global_invocation_id) id: vec3<u32>) { textureStore(o, vec2<i32>(id.xy), vec4<f32>(1.0)); }",
     };
     let t = gpu.texture(4, 4, TexFormat::R32F).expect("tex");
@@ -89,6 +90,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     let gpu = require_gpu!();
     let shader = Shader {
         stem: "test_only_binds",
+        files: &[],
         source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
                  @group(0) @binding(1) var i: texture_2d<f32>;\n\
                  @compute @workgroup_size(3, 5) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
@@ -156,7 +158,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
 
 /// A node's passes are submitted once: the default preset's multi-pass nodes (the window's
 /// shadow map, the MinMax scattering with its pyramid) report one submission each. Not on
-/// wgpu's GL backend, which submits every pass alone (see `src/gpu/batch.rs`).
+/// wgpu's GL backend, which submits every pass alone (see `src/engine/gpu/batch.rs`).
 #[test]
 fn a_node_run_is_one_submission_unless_it_reads_back() {
     let gpu = require_gpu!();
@@ -407,7 +409,17 @@ fn shader_needs_are_read_from_the_wgsl() {
 
 #[test]
 fn the_bit_pattern_entry_point_wraps_every_raster_shader() {
-    for stem in ["shadow_map", "g_buffer"] {
+    // Every raster shader a kind declares (a vertex stage): ShadowMap's and the G-buffer's.
+    let mut raster = std::collections::BTreeSet::new();
+    for kind in tyndall::nodes::registry().iter() {
+        for shader in kind.shaders() {
+            if shader.source.contains("@vertex") {
+                raster.insert(shader.stem);
+            }
+        }
+    }
+    assert!(raster.len() >= 2, "raster shaders: {raster:?}");
+    for stem in raster {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("shaders/{stem}.wgsl"));
         let src = std::fs::read_to_string(path).expect("shader");

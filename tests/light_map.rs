@@ -35,7 +35,7 @@ fn camera(position: Vec3, w: u32, h: u32) -> Matrices {
         near: 0.1,
         far: 40.0,
     };
-    c.matrices(w, h)
+    Matrices::of_camera(&c, w, h)
 }
 
 /// A shadow map with one occluder block (so some rays are partly shadowed).
@@ -382,7 +382,8 @@ fn node_solves_strokes_in_a_graph() {
 }
 
 /// The resident solve (vectors on the GPU) reaches the CPU solve's residual on the same problem,
-/// and matches the path that did the vector work on the CPU (`solve_gpu_operator`).
+/// and matches the operator path: the same GPU passes for T and Tᵀ (`GpuOperator`) driven by
+/// the CPU-side CG (`cgls::solve`), which reads the views and the sums back every pass.
 #[test]
 fn resident_solve_reaches_the_cpu_residual() {
     let gpu = require_gpu!();
@@ -392,7 +393,10 @@ fn resident_solve_reaches_the_cpu_residual() {
     let set = settings(40);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
     let res = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
-    let op = lms::solve_gpu_operator(&gpu, views, &sh, light(), n, SAMPLING, set).expect("op");
+    let want = lms::desired(&views);
+    let mut operator =
+        lms::GpuOperator::new(&gpu, views, &sh, light(), n, SAMPLING).expect("operator");
+    let op = lms::solve(&mut operator, &want, set, &mut |_, _| {}).expect("op");
     let last = |s: &lms::Solution| s.residuals[s.residuals.len() - 1];
     let (c, r, o) = (last(&cpu), last(&res), last(&op));
     assert!(

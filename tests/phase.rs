@@ -10,8 +10,9 @@ use std::sync::Arc;
 use num_complex::Complex64;
 use tyndall::eval::{EvalOptions, Evaluator, Target};
 use tyndall::graph::{Graph, ParamValue};
-use tyndall::nodes::lorenz_mie::{self, Population};
-use tyndall::nodes::phase::{self, PhaseTable, Select};
+use tyndall::nodes::algorithms::lorenz_mie::{self, Population};
+use tyndall::nodes::algorithms::phase_function::PhaseTable;
+use tyndall::nodes::phase::{self, Select};
 
 type Params<'a> = &'a [(&'a str, ParamValue)];
 

@@ -191,14 +191,17 @@ fn plate_nodes_match_their_cpu_references() {
     plate_z.data[3] = 1e10; // background
     plate_z.data[5] = f32::INFINITY;
     let scene_z = common::random_raster(w, h, 1, 1.0, 25.0, 2);
-    let cam = tyndall::scene::Camera {
-        position: glam::Vec3::new(1.0, 2.0, 6.0),
-        target: glam::Vec3::new(0.0, 1.0, 0.0),
-        fov_y: 55.0,
-        near: 0.1,
-        far: 100.0,
-    }
-    .matrices(w, h);
+    let cam = tyndall::eval::Matrices::of_camera(
+        &tyndall::scene::Camera {
+            position: glam::Vec3::new(1.0, 2.0, 6.0),
+            target: glam::Vec3::new(0.0, 1.0, 0.0),
+            fov_y: 55.0,
+            near: 0.1,
+            far: 100.0,
+        },
+        w,
+        h,
+    );
     for convention in ["planar", "distance"] {
         let depth = tyndall::eval::PortValue::Depth(
             Arc::new(gpu.upload(w, h, 1, &scene_z.data).unwrap()),
@@ -294,14 +297,17 @@ fn image_input_depth_carries_the_exr_headers_camera() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plate.exr");
     let (w, h) = (8u32, 6u32);
-    let cam = tyndall::scene::Camera {
-        position: glam::Vec3::new(2.0, 1.5, 7.0),
-        target: glam::Vec3::new(0.0, 1.0, 0.0),
-        fov_y: 40.0,
-        near: 0.1,
-        far: 200.0,
-    }
-    .matrices(w, h);
+    let cam = tyndall::eval::Matrices::of_camera(
+        &tyndall::scene::Camera {
+            position: glam::Vec3::new(2.0, 1.5, 7.0),
+            target: glam::Vec3::new(0.0, 1.0, 0.0),
+            fov_y: 40.0,
+            near: 0.1,
+            far: 200.0,
+        },
+        w,
+        h,
+    );
     let z: Vec<f32> = (0..w * h).map(|i| 3.0 + i as f32 * 0.1).collect();
     tyndall::io::write_exr_layers(
         &path,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use tyndall::gpu::{Bind, Shader, TexFormat};
+use tyndall::gpu::{Bind, TexFormat};
 use tyndall::nodes::algorithms::shader_lib::{decay_integral, pcg, pixel_jitter};
 
 /// `(1 − e^{−len·m})/m` in f64: the reference.
@@ -75,7 +75,7 @@ fn the_wgsl_library_matches_its_cpu_twins_and_f64() {
     let data: Vec<f32> = cases.iter().flat_map(|&(l, m)| [l, m, 0.0, 0.0]).collect();
     let input = gpu.upload(n, 1, 4, &data).expect("upload");
     let out = gpu.texture(n, 1, TexFormat::Rgba32F).expect("texture");
-    let shader = Shader::new("test/shader_lib_probe", PROBE);
+    let shader = tyndall::nodes::shader("test/shader_lib_probe", PROBE);
     gpu.dispatch(
         shader,
         "main",

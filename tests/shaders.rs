@@ -5,7 +5,13 @@
 
 use std::path::{Path, PathBuf};
 
-use tyndall::gpu::{check_uniform_layout, compose, shader_files, Shader, UniformLayout};
+use tyndall::gpu::{check_uniform_layout, Shader, UniformLayout};
+use tyndall::nodes::{shader_files, SHADER_FILES};
+
+/// `#import` composition against the techniques' shader table.
+fn compose(name: &str, source: &str) -> Result<String, String> {
+    tyndall::gpu::compose(name, source, SHADER_FILES)
+}
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -64,7 +70,7 @@ fn every_shader_file_validates_with_naga() {
 
 #[test]
 fn every_shader_validates_with_its_volume_levels_written_through_row_buffers() {
-    // On wgpu's GL backend 3D storage levels are storage buffers (src/gpu/volume.rs rewrites
+    // On wgpu's GL backend 3D storage levels are storage buffers (src/engine/gpu/volume.rs rewrites
     // the shader): every shader that writes one must validate in that form too, on any machine.
     let mut rewritten = 0;
     for (name, path) in &all_wgsl() {
@@ -110,35 +116,54 @@ fn imports_resolve_once_and_fail_clearly() {
 /// only uploads (or passes on) a texture and its light matrices.
 const NO_GPU_PASS: &[&str] = &["LightMap", "Scene"];
 
-/// `nodes/<stem>.rs`, or `nodes/<stem>/mod.rs` for a technique in a folder.
-fn node_file(stem: &str) -> Option<PathBuf> {
-    [format!("nodes/{stem}.rs"), format!("nodes/{stem}/mod.rs")]
+/// The stem of the file under `nodes/` that declares `kind` (`kind: "Blur"` in its
+/// `NodeSchema`, or for a family of kinds sharing one implementation the name as a literal):
+/// `blur` for `nodes/blur.rs`, `phase` for `nodes/phase/mod.rs`.
+fn declaring_stem(kind: &str) -> Option<String> {
+    let mut files = Vec::new();
+    rust_files(&root().join("nodes"), &mut files);
+    let texts: Vec<(PathBuf, String)> = files
         .into_iter()
-        .map(|p| root().join(p))
-        .find(|p| p.exists())
+        .filter_map(|p| std::fs::read_to_string(&p).ok().map(|s| (p, s)))
+        .collect();
+    let schema = format!("kind: \"{kind}\"");
+    let literal = format!("\"{kind}\"");
+    texts
+        .iter()
+        .find(|(_, s)| s.contains(&schema))
+        .or_else(|| texts.iter().find(|(_, s)| s.contains(&literal)))
+        .map(|(p, _)| p)
+        .and_then(|p| p.strip_prefix(root().join("nodes")).ok())
+        .and_then(|rel| rel.components().next())
+        .and_then(|c| c.as_os_str().to_str())
+        .map(|s| s.trim_end_matches(".rs").to_string())
 }
+
+/// Passes several kinds dispatch (`nodes/algorithms/`, `shaders/algorithms/`): any kind may
+/// list them; every other shader of a kind is under the kind's own stem.
+const SHARED: &str = "algorithms";
 
 #[test]
 fn every_node_has_shaders_and_source_under_one_stem() {
     let registry = tyndall::nodes::registry();
     for kind in registry.iter() {
         let name = kind.schema().kind;
+        let stem = declaring_stem(name)
+            .unwrap_or_else(|| panic!("{name}: no file under nodes/ declares it"));
+        assert_ne!(
+            stem, SHARED,
+            "{name} is declared in nodes/{SHARED}/, which holds no node"
+        );
         let shaders = kind.shaders();
         if shaders.is_empty() {
             // Nodes that only upload data (no GPU pass) have no shader; keep that list explicit.
             assert!(NO_GPU_PASS.contains(&name), "{name} has no shader");
             continue;
         }
-        let stem = shaders[0].node_stem();
-        assert!(
-            node_file(stem).is_some(),
-            "{name}: nodes/{stem}.rs or nodes/{stem}/mod.rs missing"
-        );
         for shader in shaders {
-            assert_eq!(
-                shader.node_stem(),
-                stem,
-                "{name}: {} is not under {stem}",
+            assert!(
+                shader.node_stem() == stem || shader.node_stem() == SHARED,
+                "{name}: {} is neither under {stem} nor under {SHARED}",
                 shader.stem
             );
             let wgsl = root().join("shaders").join(format!("{}.wgsl", shader.stem));
@@ -152,6 +177,63 @@ fn every_node_has_shaders_and_source_under_one_stem() {
             );
         }
     }
+}
+
+/// No technique uses another's module: a node reaches another only through the values on its
+/// ports, and what several share lives in `nodes/algorithms/` (ARCHITECTURE.md). A file of stem
+/// `x` may name `crate::x`, `crate::algorithms`, `crate::util` and the crate root's
+/// `crate::shader`; `super::` from a stem's top file is the crate root.
+#[test]
+fn no_technique_uses_another_techniques_module() {
+    let stems: Vec<String> = std::fs::read_dir(root().join("nodes"))
+        .expect("nodes/")
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            let p = e.path();
+            let name = p.file_name()?.to_str()?.to_string();
+            if p.is_dir() {
+                Some(name)
+            } else {
+                name.strip_suffix(".rs").map(str::to_string)
+            }
+        })
+        .filter(|s| !["lib", "build", "util", SHARED].contains(&s.as_str()))
+        .collect();
+    assert!(stems.len() > 25, "only {} stems", stems.len());
+    let mut files = Vec::new();
+    rust_files(&root().join("nodes"), &mut files);
+    let mut found = Vec::new();
+    for path in files {
+        let rel = path
+            .strip_prefix(root().join("nodes"))
+            .expect("under nodes/");
+        let own = rel
+            .components()
+            .next()
+            .and_then(|c| c.as_os_str().to_str())
+            .map(|s| s.trim_end_matches(".rs").to_string())
+            .unwrap_or_default();
+        let top = rel.components().count() == 1;
+        let src = std::fs::read_to_string(&path).expect("read");
+        for (n, line) in src.lines().enumerate() {
+            for other in stems.iter().filter(|s| **s != own) {
+                let mut doors = vec![format!("crate::{other}::"), format!("crate::{other};")];
+                if top {
+                    doors.push(format!("super::{other}::"));
+                } else {
+                    doors.push(format!("super::super::{other}::"));
+                }
+                if doors.iter().any(|d| line.contains(d.as_str())) {
+                    found.push(format!("{}:{}: {}", rel.display(), n + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "techniques using another's module:\n{}",
+        found.join("\n")
+    );
 }
 
 /// Every shader file is a node's shader, imported by one, or part of the shared library.
@@ -312,7 +394,7 @@ fn every_declared_uniform_struct_is_checked() {
             .and_then(|c| c.as_os_str().to_str())
             .map(|s| s.trim_end_matches(".rs").to_string())
             .unwrap_or_default();
-        for block in src.split("crate::uniforms! {").skip(1) {
+        for block in src.split("tyndall_engine::uniforms! {").skip(1) {
             let name = block
                 .split(" as \"")
                 .nth(1)
@@ -342,6 +424,44 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
             out.push(path);
         }
     }
+}
+
+/// A technique reads its parameters as its declared struct (`Params::from_ctx`,
+/// `Params::from_params`), never one by name: the engine's by-name readers are private to it,
+/// and this test keeps the other doors shut (the reader the `params!` macro makes, the trait
+/// it reads through, the raw parameter map).
+#[test]
+fn no_technique_reads_a_parameter_by_name() {
+    let doors = [
+        "ParamReader",
+        "for_declared(",
+        "from_param(",
+        "FromParam",
+        "params.get(",
+        "params[",
+    ];
+    let mut files = Vec::new();
+    rust_files(&root().join("nodes"), &mut files);
+    assert!(files.len() > 40, "only {} files under nodes/", files.len());
+    let mut found = Vec::new();
+    for path in files {
+        let src = std::fs::read_to_string(&path).expect("read");
+        for (n, line) in src.lines().enumerate() {
+            if let Some(d) = doors.iter().find(|d| line.contains(**d)) {
+                found.push(format!(
+                    "{}:{}: {d}: {}",
+                    path.display(),
+                    n + 1,
+                    line.trim()
+                ));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "by-name parameter reads in nodes/:\n{}",
+        found.join("\n")
+    );
 }
 
 /// `src/` knows no technique: no string literal in it equals a node kind (ARCHITECTURE.md's

@@ -133,7 +133,9 @@ fn gpu_bake_matches_the_reference() {
         .expect("ron")
         .parse()
         .expect("TfData");
-    let image = tf::read_layer_image(png.to_str().expect("utf8")).expect("image");
+    let image = tyndall::io::read_image(&png, true)
+        .expect("image")
+        .into_rgba();
     let images = vec![None, None, None, Some(image)];
     let want = tf::bake_reference(&parsed.layers, n, 8, &images);
     // 1e-4: the GPU and the CPU run the same V-cycles in f32 with sums in a different order.

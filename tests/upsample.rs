@@ -8,7 +8,8 @@ use std::sync::Arc;
 use tyndall::eval::{Matrices, PortValue};
 use tyndall::graph::{ParamValue, PortType};
 use tyndall::io::Raster;
-use tyndall::nodes::{depth_upsample as du, downsample as ds};
+use tyndall::nodes::algorithms::point_sample as ds;
+use tyndall::nodes::depth_upsample as du;
 
 /// A depth image with a step along a slanted line: near 2 m on the left, far 9 m on the right.
 fn step_depth(w: u32, h: u32) -> Raster {

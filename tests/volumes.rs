@@ -177,7 +177,7 @@ fn camera(w: u32, h: u32) -> Matrices {
         near: 0.1,
         far: 40.0,
     };
-    c.matrices(w, h)
+    Matrices::of_camera(&c, w, h)
 }
 
 /// A graph: noise (and optionally α and I volumes, other noises) → Heterogeneity, with the

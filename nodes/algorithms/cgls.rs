@@ -3,7 +3,7 @@
 //! generic over [`Operator`], so a CPU reference and GPU passes share one solver. Used by
 //! `LightMapSolve`; any node with a linear least-squares problem in RGB per unknown can use it.
 
-use crate::eval::NodeError;
+use tyndall_engine::eval::NodeError;
 
 /// What the solver needs from T: `T x` and `Tᵀ r` (RGB per texel / per constraint pixel).
 pub trait Operator {

@@ -1,7 +1,16 @@
 //! Algorithms several techniques share: a least-squares solver ([`cgls`]), a multigrid Poisson
-//! solver ([`multigrid`]), and the CPU twins of the WGSL library ([`shader_lib`], mirroring
-//! `shaders/lib/`). Nothing here is a node and nothing here names one; nodes call it.
+//! solver ([`multigrid`]), the Lorenz–Mie series ([`lorenz_mie`]), phase-function tables and
+//! models ([`phase_function`]), GPU passes several kinds dispatch — point sampling
+//! ([`point_sample`]), a volume's mip chain ([`volume_mips`]), a scene's G-buffer
+//! ([`g_buffer`]), each with its shader under `shaders/algorithms/` —, and the CPU twins of the
+//! WGSL library ([`shader_lib`], mirroring `shaders/lib/`). Nothing here is a node and nothing
+//! here names one; nodes call it, and a kind that dispatches a shared pass lists its shader.
 
 pub mod cgls;
+pub mod g_buffer;
+pub mod lorenz_mie;
 pub mod multigrid;
+pub mod phase_function;
+pub mod point_sample;
 pub mod shader_lib;
+pub mod volume_mips;

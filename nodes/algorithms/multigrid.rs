@@ -162,7 +162,7 @@ pub fn restrict(fine: &Level, coarse: &Level, r: &Grid) -> Grid {
 
 /// Add the coarse correction `e`, interpolated bilinearly, to the free fine texels of `u`.
 pub fn prolong(fine: &Level, coarse: &Level, u: &Grid, e: &Grid) -> Grid {
-    let raster = crate::io::Raster {
+    let raster = tyndall_engine::io::Raster {
         width: coarse.w,
         height: coarse.h,
         channels: 4,

@@ -1,12 +1,12 @@
 //! The CPU twins of `shaders/lib/*.wgsl`, for the nodes' CPU references (the camera's are
-//! `crate::eval::screen_ray` / `pixel_ray`, which predate the library; `exp_segment` has no
+//! `tyndall_engine::eval::screen_ray` / `pixel_ray`, which predate the library; `exp_segment` has no
 //! twin: the scattering reference integrates its pieces inline).
 //! A change to one side is a change to both (`tests/shader_lib.rs` runs the WGSL side on the
 //! GPU and compares).
 
 use glam::{Mat4, Vec3};
 
-use crate::io::Raster;
+use tyndall_engine::io::Raster;
 
 // ---- shaders/lib/medium.wgsl -------------------------------------------------------------
 
@@ -51,7 +51,7 @@ pub fn pixel_jitter(x: u32, y: u32) -> f32 {
     pcg(seed) as f32 / 4_294_967_296.0
 }
 
-// ---- shaders/lib/camera.wgsl: its twins are `crate::eval::screen_ray` / `pixel_ray` ----------
+// ---- shaders/lib/camera.wgsl: its twins are `tyndall_engine::eval::screen_ray` / `pixel_ray` ----------
 
 // ---- shaders/lib/shadow.wgsl -------------------------------------------------------------
 

@@ -72,17 +72,19 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
-use crate::scene::{Camera, GpuScene};
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
+use tyndall_engine::scene::{Camera, GpuScene};
+
+use crate::algorithms::g_buffer;
 
 mod data;
 mod operators;
 mod resident;
 
-pub use crate::nodes::algorithms::cgls::{solve, Operator, Settings, Solution};
+pub use crate::algorithms::cgls::{solve, Operator, Settings, Solution};
 pub use data::*;
 pub use operators::*;
 pub use resident::*;
@@ -91,7 +93,7 @@ pub use resident::*;
 pub struct LightMapSolve;
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         resolution: i64 = ParamSpec::int("resolution", 256, 2, 4096, "texels", "Side of the light map."),
@@ -119,12 +121,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("residual", &[PortType::Scalar], "‖T x − b‖ at the start and after each iteration (one texel each)."),
     ],
     params: Params::SPECS,
-}).tools(&[crate::eval::EditorTool::StrokePainting])
+}).tools(&[tyndall_engine::eval::EditorTool::StrokePainting])
 
-.shaders(&[SHADER])
-.uniforms(&[ViewParams::LAYOUT, VectorParams::LAYOUT]);
+.shaders(&[SHADER, g_buffer::SHADER])
+.uniforms(&[ViewParams::LAYOUT, VectorParams::LAYOUT, g_buffer::GBufferParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "light_map_solve",
     include_str!("../../shaders/light_map_solve.wgsl"),
 );
@@ -153,8 +155,7 @@ pub fn view_problems(
                 }
             }
             let cam = view_camera(v, &scene.scene.camera);
-            let (depth, _, _, camera) =
-                super::g_buffer::render(gpu, scene, &cam, v.width, v.height)?;
+            let (depth, _, _, camera) = g_buffer::render(gpu, scene, &cam, v.width, v.height)?;
             let depth = Raster {
                 width: v.width,
                 height: v.height,
@@ -276,20 +277,4 @@ pub fn solve_gpu(
     set: Settings,
 ) -> Result<Solution, NodeError> {
     solve_resident(gpu, views, shadow, light, n, sampling, set, &mut |_, _| {})
-}
-
-/// The solve with the GPU operator and the CPU-side CG (tests: the path before the resident
-/// solve, which read the views and the sums back every pass).
-pub fn solve_gpu_operator(
-    gpu: &Gpu,
-    views: Vec<ViewProblem>,
-    shadow: &GpuTexture,
-    light: Matrices,
-    n: u32,
-    sampling: Sampling,
-    set: Settings,
-) -> Result<Solution, NodeError> {
-    let want = desired(&views);
-    let mut op = GpuOperator::new(gpu, views, shadow, light, n, sampling)?;
-    solve(&mut op, &want, set, &mut |_, _| {})
 }

@@ -2,7 +2,7 @@
 //! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
 
 use super::*;
-use crate::nodes::algorithms::shader_lib::{decay_integral, light_uvz, sun_reaches};
+use crate::algorithms::shader_lib::{decay_integral, light_uvz, sun_reaches};
 
 /// Medium and sampling of the solve.
 #[derive(Debug, Clone, Copy)]
@@ -180,7 +180,7 @@ pub fn desired(views: &[ViewProblem]) -> Vec<[f32; 3]> {
 // ---------------------------------------------------------------------------------------------
 // GPU.
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/light_map_solve.wgsl` (struct `View`).
     pub struct ViewParams as "View" {
         /// Camera clip → world.

@@ -1,4 +1,4 @@
-//! The GPU-resident solve: the CGLS of [`crate::nodes::algorithms::cgls::solve`] step for step
+//! The GPU-resident solve: the CGLS of [`crate::algorithms::cgls::solve`] step for step
 //! (same start, same non-negativity rule, same restarts), with every vector on the GPU. The
 //! light map's vectors (x, p, s) are buffers of n² vec4, the constraint pixels' (b, r, q) buffers
 //! of one vec4 per constraint pixel (each view's pixels listed once, at an offset); T and Tᵀ run
@@ -8,9 +8,9 @@
 //! operator path (`GpuOperator`) read every view and the 3 × n² fixed-point sums back.
 
 use super::*;
-use crate::gpu::GpuBuffer;
+use tyndall_engine::gpu::GpuBuffer;
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the vector passes of `shaders/light_map_solve.wgsl` (struct `Vectors`).
     pub struct VectorParams as "Vectors" {
         /// Fixed-point scale per channel (`decode`).
@@ -312,7 +312,7 @@ fn vec4_data(v: &[[f32; 3]]) -> Vec<u32> {
 }
 
 /// The resident CGLS on the views (see the module docs); `progress` as in
-/// [`crate::nodes::algorithms::cgls::solve`].
+/// [`crate::algorithms::cgls::solve`].
 #[allow(clippy::too_many_arguments)]
 pub fn solve_resident(
     gpu: &Gpu,

@@ -39,10 +39,10 @@ pub use polygon::{
     SUPPORT_DIRECTIONS,
 };
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// Which morphological operation a kind performs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,15 +58,15 @@ pub enum Op {
 /// A 2D morphology node kind.
 pub struct Morphology2D(pub Op);
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Footprint shapes.
     pub enum Shape { Circle = "Circle", Square = "Square" }
 }
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Radius units.
     pub enum Unit { Texels = "texels", Metres = "metres" }
 }
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Algorithms.
     pub enum Method { Fast = "Fast", Exact = "Exact", BruteForce = "BruteForce" }
 }
@@ -74,7 +74,7 @@ crate::choice_enum! {
 const MAPS: &[PortType] = &[PortType::Scalar, PortType::ShadowMap];
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The family's parameters, read once per run.
     pub struct Params {
         shape: Shape = ParamSpec::choice("shape", Shape::NAMES, "Circle", "Footprint: Circle (dx² + dy² ≤ r²) or Square."),
@@ -90,12 +90,12 @@ const IN: &[PortSpec] = &[PortSpec::required("map", MAPS, "Shadow map (or any on
 const OUT: &[PortSpec] = &[PortSpec::output("map", MAPS, "The filtered map, same type as the input.")];
 
 /// The square and the exact circle (chords), and brute force.
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "morphology2d/chords",
     include_str!("../../shaders/morphology2d/chords.wgsl"),
 );
 /// The polygon's line passes.
-const SHADER_LINES: Shader = Shader::new(
+const SHADER_LINES: Shader = crate::shader(
     "morphology2d/lines",
     include_str!("../../shaders/morphology2d/lines.wgsl"),
 );
@@ -128,7 +128,7 @@ static CLOSURE: NodeDecl = decl(
     "Dilation then erosion (seed 000 hole filling): holes smaller than the kernel close, shafts simplify.",
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/morphology2d/chords.wgsl` (struct `Params`).
     pub struct MorphParams as "Params" {
         /// Radius in texels.

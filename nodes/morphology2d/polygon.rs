@@ -19,8 +19,8 @@
 use std::sync::Arc;
 
 use super::{chord, SHADER_LINES};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, TexFormat};
-use crate::io::Raster;
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, TexFormat};
+use tyndall_engine::io::Raster;
 
 /// The eight directions and which of the three lengths each uses.
 pub const DIRECTIONS: [((i32, i32), usize); 8] = [
@@ -314,7 +314,7 @@ fn lines(w: i32, h: i32, v: (i32, i32)) -> ((i32, i32), i32) {
 
 /// The parameter block of one pass along `v` with half-length `m` on a `w × h` map, and its
 /// dispatch size (runs per line, lines). On Mesa's CPU drivers its values are inlined into the
-/// pass (see `src/gpu/params.rs`): the loops' bounds become constants.
+/// pass (see `src/engine/gpu/params.rs`): the loops' bounds become constants.
 fn line_params(
     (w, h): (u32, u32),
     (v, m): ((i32, i32), i32),
@@ -402,7 +402,7 @@ pub fn filter(
     Ok(Arc::new(out))
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/morphology2d/lines.wgsl` (struct `Line`).
     pub struct LineParams as "Line" {
         /// Direction x.

@@ -11,7 +11,7 @@
 //! - `HenyeyGreenstein`: p = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}).
 //! - `Rayleigh`: p = 3/(16π) (1 + cos²θ) (air molecules; the wavelength dependence is in the
 //!   scattering coefficient, not the phase function).
-//! - `Mie`: the Lorenz–Mie series (`nodes/lorenz_mie.rs`, Bohren–Huffman in f64) for spheres of
+//! - `Mie`: the Lorenz–Mie series (`nodes/algorithms/lorenz_mie.rs`, Bohren–Huffman in f64) for spheres of
 //!   refractive index `n_real` + i `n_imag` whose radii follow a log-normal number distribution
 //!   (median `radius` µm, geometric standard deviation `spread`), averaged over `radii` sizes;
 //!   each texel is the mean of up to four sub-angles when the size parameter makes the ripple
@@ -39,10 +39,11 @@ use std::sync::Arc;
 
 use num_complex::Complex64;
 
-use super::lorenz_mie::{self, Population};
-use crate::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Gpu, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use crate::algorithms::lorenz_mie::{self, Population};
+use crate::algorithms::phase_function::PhaseTable;
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Gpu, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 mod tables;
 pub use tables::*;
@@ -70,12 +71,12 @@ pub enum Model {
 /// A phase-function node kind.
 pub struct PhaseNode(pub Model);
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Mie particle presets.
     pub enum Preset { Custom = "custom", Cloud = "cloud", Rain = "rain" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// How `MultipleScatteringPhase` picks n.
     pub enum Select { Count = "count", Transmittance = "transmittance" }
 }
@@ -95,7 +96,7 @@ const SAMPLES: ParamSpec = ParamSpec::int(
 );
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `HenyeyGreenstein`'s parameters.
     pub struct HgParams {
         g: f32 = ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Asymmetry: the mean cosine of the scattering angle (> 0 forward)."),
@@ -104,7 +105,7 @@ crate::params! {
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `Rayleigh`'s parameters.
     pub struct RayleighParams {
         samples: i64 = SAMPLES,
@@ -112,7 +113,7 @@ crate::params! {
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `Mie`'s parameters: the population's are in effect only under `preset = custom`.
     pub struct MieParams {
         preset: Preset = ParamSpec::choice("preset", Preset::NAMES, "cloud", "cloud: 10 µm, spread 1.5; rain: 1 mm, spread 1.2 (both n = 1.33); custom: the parameters below."),
@@ -126,7 +127,7 @@ crate::params! {
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// `MultipleScatteringPhase`'s parameters.
     pub struct MultipleParams {
         select: Select = ParamSpec::choice("select", Select::NAMES, "count", "count: use n; transmittance: n = ⌊−albedo · ln(transmittance)⌋ + 1."),
@@ -187,9 +188,9 @@ static MULTIPLE: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[PhaseParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new("phase", include_str!("../../shaders/phase.wgsl"));
+const SHADER: Shader = crate::shader("phase", include_str!("../../shaders/phase.wgsl"));
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/phase.wgsl` (struct `Params`).
     pub struct PhaseParams as "Params" {
         /// Table width W.

@@ -1,7 +1,7 @@
 //! Method `BruteForce`: the CPU reference of one pixel (the oracle of every method).
 
 use super::*;
-use crate::nodes::algorithms::shader_lib::{light_uvz, sun_reaches};
+use crate::algorithms::shader_lib::{light_uvz, sun_reaches};
 
 /// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image, with the
 /// built-in Henyey–Greenstein phase function.
@@ -21,7 +21,7 @@ pub fn reference_pixel(
 /// `size` image.
 pub fn reference_pixel_phase(
     p: &ScatterParams,
-    phase: Option<&crate::nodes::phase::PhaseTable>,
+    phase: Option<&crate::algorithms::phase_function::PhaseTable>,
     shadow: &Raster,
     s: f32,
     (x, y): (u32, u32),
@@ -30,10 +30,10 @@ pub fn reference_pixel_phase(
     let inv = Mat4::from_cols_array_2d(&p.inv_view_proj);
     let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
     let eye = Vec3::from(p.eye);
-    let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
+    let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
     let (t0, t1) = medium_segment(p, dir, s);
     let len = (t1 - t0).max(0.0);
-    let hash = crate::nodes::algorithms::shader_lib::pixel_jitter(x, y) + p.jitter_phase;
+    let hash = crate::algorithms::shader_lib::pixel_jitter(x, y) + p.jitter_phase;
     let offset = p.jitter * ((hash - hash.floor()) - 0.5);
     let mut lit = 0u32;
     let mut weighted = 0.0f32;

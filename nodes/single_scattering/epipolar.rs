@@ -454,7 +454,7 @@ pub fn epipolar_reference(
                     let px = (q.x.floor().max(0.0) as u32).min(w - 1);
                     let py = (q.y.floor().max(0.0) as u32).min(h - 1);
                     let s = depth.pixel(px, py)[0];
-                    let dir = crate::eval::screen_ray(inv, eye, q, w, h);
+                    let dir = tyndall_engine::eval::screen_ray(inv, eye, q, w, h);
                     let (vbar, len, wt) =
                         tree_ray(p, shadow, (row, g.tree_n, slice), knobs.tree_level, dir, s);
                     [vbar, lit_fraction(p, dir, len, wt, s), s, len]
@@ -465,7 +465,7 @@ pub fn epipolar_reference(
     let mut out = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
         for x in 0..w {
-            let dir = crate::eval::pixel_ray(inv, eye, x, y, w, h);
+            let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
             let s = depth.pixel(x, y)[0];
             let (t0, t1) = medium_segment(p, dir, s);
             let len = (t1 - t0).max(0.0);

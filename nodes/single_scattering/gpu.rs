@@ -140,7 +140,7 @@ pub(super) struct Inputs<'a> {
     /// A tabulated phase function (`None`: Henyey–Greenstein g).
     pub phase: Option<&'a GpuTexture>,
     /// A soft visibility volume and its light (BruteForce only).
-    pub soft: Option<(&'a crate::gpu::GpuVolume, Matrices)>,
+    pub soft: Option<(&'a tyndall_engine::gpu::GpuVolume, Matrices)>,
     /// A light map and its matrices (BruteForce only).
     pub light_map: Option<(&'a GpuTexture, Matrices)>,
 }

@@ -2,7 +2,7 @@
 //! `shaders/single_scattering/common.wgsl`).
 
 use super::*;
-pub use crate::nodes::algorithms::shader_lib::{decay_integral, henyey_greenstein};
+pub use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein};
 
 /// Medium and quality settings (the node's parameters).
 #[derive(Clone, Copy, Debug)]

@@ -82,10 +82,10 @@
 use glam::{Mat4, Vec3};
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 mod brute_force;
 mod epipolar;
@@ -104,28 +104,28 @@ pub use params::*;
 /// The `SingleScattering` node kind.
 pub struct SingleScattering;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Visibility algorithms.
     pub enum Method { BruteForce = "BruteForce", MinMax = "MinMax", Epipolar = "Epipolar" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Where the medium is.
     pub enum Bounds { None = "none", Box = "box", Tagged = "tagged" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Whether the per-pixel jitter is the same every frame or drawn anew each frame.
     pub enum JitterPattern { Screen = "screen", Frame = "frame" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Whether the sun is attenuated on its way through the medium.
     pub enum Extinction { Off = "off", On = "on" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         sigma_t: f32 = ParamSpec::float("sigma_t", 0.08, 0.0, 1e4, "1/m", "Extinction coefficient σt."),
@@ -175,17 +175,17 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .uniforms(&[ScatterParams::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT, EpiParams::LAYOUT]);
 
 /// Method `BruteForce` (and its light-map variant).
-const BRUTE_FORCE: Shader = Shader::new(
+const BRUTE_FORCE: Shader = crate::shader(
     "single_scattering/brute_force",
     include_str!("../../shaders/single_scattering/brute_force.wgsl"),
 );
 /// Method `MinMax`: the pyramid's levels and the traversal.
-const MIN_MAX: Shader = Shader::new(
+const MIN_MAX: Shader = crate::shader(
     "single_scattering/min_max",
     include_str!("../../shaders/single_scattering/min_max.wgsl"),
 );
 /// Method `Epipolar`: rectification, trees, samples, gather, fall-back.
-const EPIPOLAR: Shader = Shader::new(
+const EPIPOLAR: Shader = crate::shader(
     "single_scattering/epipolar",
     include_str!("../../shaders/single_scattering/epipolar.wgsl"),
 );
@@ -287,8 +287,8 @@ impl NodeKind for SingleScattering {
     }
 
     /// With `jitter_pattern = frame` the picture changes with the frame: its phase is keyed.
-    fn volatile_key(&self, key: &crate::eval::KeyInput) -> u64 {
-        match crate::eval::ParamReader(key.params).choice::<JitterPattern>("jitter_pattern") {
+    fn volatile_key(&self, key: &tyndall_engine::eval::KeyInput) -> u64 {
+        match Params::from_params(key.params).map(|p| p.jitter_pattern) {
             Ok(JitterPattern::Frame) => jitter_phase(key.time).to_bits() as u64 | 1 << 32,
             _ => 0,
         }

@@ -3,7 +3,7 @@
 
 use super::*;
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/single_scattering/common.wgsl` (struct `Params`).
     pub struct ScatterParams as "Params" {
         /// Camera clip → world.
@@ -91,7 +91,7 @@ impl ScatterParams {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the soft visibility lookup (struct `SoftView`).
     pub struct SoftView as "SoftView" {
         /// World → light clip of the soft volume.
@@ -99,7 +99,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the light-map lookup (struct `LightMapView`).
     pub struct LightMapView as "LightMapView" {
         /// World → light clip of the light map.
@@ -115,7 +115,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the MinMax traversal (struct `Levels`): level k ≥ 1 of the pyramid lives in
     /// the atlas at `rect[k] = (x, y, width, height)`.
     pub struct LevelsParams as "Levels" {
@@ -132,7 +132,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the pyramid build pass (struct `Build`).
     pub struct BuildParams as "Build" {
         /// Level being built (≥ 1).
@@ -150,7 +150,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of method `Epipolar` (struct `Epi`); the slices themselves are in a texture.
     pub struct EpiParams as "Epi" {
         /// The epipole, pixels.

@@ -63,10 +63,10 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use crate::gpu::{Bind, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 mod kernel;
 pub use kernel::*;
@@ -74,12 +74,12 @@ pub use kernel::*;
 /// The `SoftVisibility` node kind.
 pub struct SoftVisibility;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// How the penumbra grows with the distance behind an occluder.
     pub enum Growth { Seed = "seed", Linear = "linear" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Convolution kernels (seed 004 §3.3–3.4).
     pub enum Kernel {
         TopHat = "TopHat", Dirac2 = "Dirac2", StochasticDirac = "StochasticDirac",
@@ -88,7 +88,7 @@ crate::choice_enum! {
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         slices: i64 = ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
@@ -119,12 +119,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER])
 .uniforms(&[SoftParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "soft_visibility",
     include_str!("../../shaders/soft_visibility.wgsl"),
 );
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `shaders/soft_visibility.wgsl` (struct `Params`).
     pub struct SoftParams as "Params" {
         /// Buffer side.
@@ -331,7 +331,7 @@ impl NodeKind for SoftVisibility {
         let (map, light) = ctx.shadow_map("shadow")?;
         let res = ctx.side("resolution", p.resolution, 3)?;
         let slices = p.slices.clamp(1, 1024) as u32;
-        crate::eval::check_side(
+        tyndall_engine::eval::check_side(
             "slices",
             slices as i64,
             ctx.gpu.limits.max_texture_dimension_3d,

@@ -42,20 +42,6 @@ pub fn bilinear(r: &Raster, u: f32, v: f32) -> Rgba {
     lerp_n(top, bottom, fy)
 }
 
-/// Read an image layer's file as RGBA (one channel becomes grey, alpha 1).
-pub fn read_layer_image(path: &str) -> Result<Raster, NodeError> {
-    let r = crate::io::read_image(Path::new(path), true)?;
-    Ok(match r.channels {
-        4 => r,
-        _ => Raster {
-            width: r.width,
-            height: r.height,
-            channels: 4,
-            data: r.data.iter().flat_map(|v| [*v, *v, *v, 1.0]).collect(),
-        },
-    })
-}
-
 /// CPU reference of the baked table. `images[i]` is layer i's picture (image layers only).
 pub fn bake_reference(
     stack: &[LayerEntry],
@@ -138,7 +124,7 @@ pub fn auto_range(depth: &[f32], m: &Matrices) -> (f32, f32) {
 // ---------------------------------------------------------------------------------------------
 // GPU.
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `bake_layer` (struct `Layer`).
     pub struct LayerParams as "Layer" {
         /// 0 solid, 1 gradient, 2 sampled from the bound texture.
@@ -160,7 +146,7 @@ crate::uniforms! {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of `lookup` (struct `Lookup`).
     pub struct LookupParams as "Lookup" {
         /// Depth at v = 0.
@@ -219,7 +205,7 @@ pub fn bake_gpu(
             }
             Layer::Image { path } => {
                 p.kind = 2;
-                let r = read_layer_image(path)?;
+                let r = tyndall_engine::io::read_image(Path::new(path), true)?.into_rgba();
                 Some(gpu.upload(r.width, r.height, 4, &r.data)?)
             }
         };

@@ -2,7 +2,7 @@
 
 use super::*;
 
-pub use crate::nodes::algorithms::multigrid::Rgba;
+pub use crate::algorithms::multigrid::Rgba;
 
 /// The node's data block: a layer stack, or key-framed stacks.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

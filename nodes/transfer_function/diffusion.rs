@@ -1,8 +1,8 @@
 //! Diffusion layers: constraints rasterised onto the TF grid and diffused by the multigrid
-//! solver of [`crate::nodes::algorithms::multigrid`] (CPU reference) or its GPU passes.
+//! solver of [`crate::algorithms::multigrid`] (CPU reference) or its GPU passes.
 
 use super::*;
-pub use crate::nodes::algorithms::multigrid::*;
+pub use crate::algorithms::multigrid::*;
 
 /// The constrained texels of an N×N diffusion layer: the mask and the fixed colours (constraints
 /// sharing a texel averaged), and the mean of all constraint colours (the start value).
@@ -51,7 +51,7 @@ pub fn diffuse_reference(cs: &[Constraint], n: u32, cycles: u32) -> Raster {
     }
 }
 
-crate::uniforms! {
+tyndall_engine::uniforms! {
     /// Uniforms of the multigrid passes (struct `Multigrid`).
     pub struct MultigridParams as "Multigrid" {
         /// 1: constrained texels take their colour (finest level); 0: they stay 0.

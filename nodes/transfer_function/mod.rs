@@ -82,27 +82,29 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::eval::pick::{PickAt, TablePick};
-use crate::eval::{KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY};
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
-use crate::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
-use crate::io::Raster;
+use tyndall_engine::eval::pick::{PickAt, TablePick};
+use tyndall_engine::eval::{
+    KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY,
+};
+use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::io::Raster;
 
 /// The `TransferFunction` node kind.
 pub struct TransferFunction;
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// What the TF colour does to the shafts.
     pub enum Mode { Replace = "Replace", Modulate = "Modulate" }
 }
 
-crate::choice_enum! {
+tyndall_engine::choice_enum! {
     /// Where the depth range comes from.
     pub enum DepthRange { Manual = "manual", Auto = "auto" }
 }
 
 #[rustfmt::skip]
-crate::params! {
+tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         mode: Mode = ParamSpec::choice("mode", Mode::NAMES, "Replace", "Replace: output = TF colour × intensity; Modulate: in-scatter × TF colour × intensity."),
@@ -132,12 +134,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("lut", &[PortType::Lut2D], "The baked table: N×N RGBA, x = V̄, y = normalised depth."),
     ],
     params: Params::SPECS,
-}).tools(&[crate::eval::EditorTool::LayerList])
+}).tools(&[tyndall_engine::eval::EditorTool::LayerList])
 
 .shaders(&[SHADER])
 .uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT]);
 
-const SHADER: Shader = Shader::new(
+const SHADER: Shader = crate::shader(
     "transfer_function",
     include_str!("../../shaders/transfer_function.wgsl"),
 );
@@ -263,7 +265,7 @@ impl NodeKind for TransferFunction {
     }
 
     /// The key-frames of the layer stack.
-    fn data_key_times(&self, data: &crate::graph::NodeData) -> Vec<f64> {
+    fn data_key_times(&self, data: &tyndall_engine::graph::NodeData) -> Vec<f64> {
         data.parse::<TfData>()
             .map(|d| d.keys.iter().map(|k| k.t).collect())
             .unwrap_or_default()
@@ -276,9 +278,9 @@ impl NodeKind for TransferFunction {
 
     fn data_files(
         &self,
-        data: &crate::graph::NodeData,
+        data: &tyndall_engine::graph::NodeData,
         resolve: &dyn Fn(&str) -> String,
-    ) -> Result<Option<crate::graph::NodeData>, String> {
+    ) -> Result<Option<tyndall_engine::graph::NodeData>, String> {
         let mut tf: TfData = data.parse()?;
         let mut any = false;
         let stacks =
@@ -292,7 +294,7 @@ impl NodeKind for TransferFunction {
         if !any {
             return Ok(None);
         }
-        crate::graph::NodeData::from_value(&tf).map(Some)
+        tyndall_engine::graph::NodeData::from_value(&tf).map(Some)
     }
 
     fn volatile_key(&self, key: &KeyInput) -> u64 {
@@ -310,7 +312,7 @@ impl NodeKind for TransferFunction {
             .chain(data.keys.iter().flat_map(|k| &k.layers))
         {
             if let Layer::Image { path } = &e.layer {
-                crate::eval::file_stamp(Path::new(path)).hash(&mut h);
+                tyndall_engine::eval::file_stamp(Path::new(path)).hash(&mut h);
             }
         }
         h.finish()

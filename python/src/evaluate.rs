@@ -12,9 +12,9 @@ use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use tyndall::eval::{EvalError as RustEvalError, EvalOptions, Matrices, PortValue, Target};
-use tyndall::gpu::Gpu;
-use tyndall::io::Raster;
+use tyndall_engine::eval::{EvalError as RustEvalError, EvalOptions, Matrices, PortValue, Target};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::io::Raster;
 
 use crate::graph::Graph;
 use crate::values::{from_array, matrices, to_array, to_param};
@@ -68,8 +68,8 @@ enum Failed {
     },
 }
 
-fn status_name(s: tyndall::eval::Status) -> &'static str {
-    use tyndall::eval::Status as S;
+fn status_name(s: tyndall_engine::eval::Status) -> &'static str {
+    use tyndall_engine::eval::Status as S;
     match s {
         S::Ran => "ran",
         S::PassedThrough => "passed through",
@@ -80,8 +80,8 @@ fn status_name(s: tyndall::eval::Status) -> &'static str {
 
 /// Evaluate `targets` (labels `node.port`) and read them back.
 fn fetch(
-    ev: &mut tyndall::eval::Evaluator,
-    graph: &tyndall::graph::Graph,
+    ev: &mut tyndall_engine::eval::Evaluator,
+    graph: &tyndall_engine::graph::Graph,
     targets: &[Wanted],
     opts: &EvalOptions,
 ) -> Result<Fetched, Failed> {
@@ -100,7 +100,7 @@ fn fetch(
             port: p.clone(),
             ty: v.port_type().to_string(),
         };
-        let raster = tyndall::eval::download(ev.gpu(), v).map_err(|_| not_array())?;
+        let raster = tyndall_engine::eval::download(ev.gpu(), v).map_err(|_| not_array())?;
         let m = match v {
             PortValue::Depth(_, m) | PortValue::ShadowMap(_, m) | PortValue::LightMap(_, m) => {
                 Some(*m)
@@ -176,7 +176,7 @@ fn prepared(
     py: Python<'_>,
     g: &Graph,
     output_dir: Option<&Path>,
-) -> PyResult<(tyndall::graph::Graph, GroupPorts)> {
+) -> PyResult<(tyndall_engine::graph::Graph, GroupPorts)> {
     let reg = registry();
     let (flat, ports) =
         g.g.flatten_ports(reg.catalog())
@@ -187,12 +187,12 @@ fn prepared(
         .and_then(Path::parent)
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."));
-    let policy = tyndall::eval::PathPolicy {
+    let policy = tyndall_engine::eval::PathPolicy {
         graph_dir: dir.clone(),
         output_dir: output_dir.map(Path::to_path_buf).unwrap_or(dir),
         allow_any: true,
     };
-    let resolved = tyndall::eval::resolve_files(&reg, &flat, &policy)
+    let resolved = tyndall_engine::eval::resolve_files(&reg, &flat, &policy)
         .map_err(|e| raise::<GraphError>(py, e.to_string(), About::default()))?;
     Ok((resolved, ports))
 }
@@ -201,7 +201,7 @@ fn prepared(
 /// read.
 fn targets(
     py: Python<'_>,
-    g: &tyndall::graph::Graph,
+    g: &tyndall_engine::graph::Graph,
     ports: &GroupPorts,
     outputs: Option<Vec<String>>,
 ) -> PyResult<Vec<Wanted>> {
@@ -246,7 +246,7 @@ fn targets(
             if g.node(n).is_none() {
                 return Err(graph_err(
                     py,
-                    &tyndall::graph::GraphError::UnknownNode {
+                    &tyndall_engine::graph::GraphError::UnknownNode {
                         node: n.to_string(),
                     },
                 ));
@@ -260,7 +260,7 @@ fn targets(
 /// whose parameters or inputs changed and those below them.
 #[pyclass(module = "tyndall._native", name = "Evaluator")]
 pub struct Evaluator {
-    inner: Arc<Mutex<tyndall::eval::Evaluator>>,
+    inner: Arc<Mutex<tyndall_engine::eval::Evaluator>>,
     gpu: Arc<Gpu>,
 }
 
@@ -275,14 +275,14 @@ impl Evaluator {
         let gpu = match adapter {
             None => Gpu::shared().map_err(|e| gpu_err(py, &e))?,
             Some(a) => {
-                tyndall::gpu::set_adapter_choice(Some(a));
+                tyndall_engine::gpu::set_adapter_choice(Some(a));
                 let g = Gpu::new(false);
-                tyndall::gpu::set_adapter_choice(None);
+                tyndall_engine::gpu::set_adapter_choice(None);
                 Arc::new(g.map_err(|e| gpu_err(py, &e))?)
             }
         };
         Ok(Self {
-            inner: Arc::new(Mutex::new(tyndall::eval::Evaluator::new(
+            inner: Arc::new(Mutex::new(tyndall_engine::eval::Evaluator::new(
                 registry(),
                 gpu.clone(),
             ))),
@@ -325,30 +325,32 @@ impl Evaluator {
 /// A graph of one node `id` of `schema`'s kind with `params` and the data block `data`.
 fn one_node_graph(
     py: Python<'_>,
-    schema: &'static tyndall::graph::NodeSchema,
+    schema: &'static tyndall_engine::graph::NodeSchema,
     id: &str,
     params: Option<&Bound<'_, PyDict>>,
     data: Option<String>,
-) -> PyResult<tyndall::graph::Graph> {
+) -> PyResult<tyndall_engine::graph::Graph> {
     let cat = registry().catalog().clone();
     let (kind, id) = (schema.kind, id.to_string());
     let data = match data {
-        Some(text) => Some(tyndall::graph::NodeData::from_text(&text).map_err(|e| {
-            raise::<GraphError>(
-                py,
-                format!("node '{id}' data block: {e}"),
-                About {
-                    node: Some(id.clone()),
-                    ..About::default()
-                },
-            )
-        })?),
+        Some(text) => Some(
+            tyndall_engine::graph::NodeData::from_text(&text).map_err(|e| {
+                raise::<GraphError>(
+                    py,
+                    format!("node '{id}' data block: {e}"),
+                    About {
+                        node: Some(id.clone()),
+                        ..About::default()
+                    },
+                )
+            })?,
+        ),
         None => None,
     };
-    let mut g = tyndall::graph::Graph::new();
+    let mut g = tyndall_engine::graph::Graph::new();
     g.insert_node(
         &cat,
-        tyndall::graph::Node {
+        tyndall_engine::graph::Node {
             id: id.clone(),
             kind: kind.to_string(),
             params: BTreeMap::new(),
@@ -372,11 +374,11 @@ fn one_node_graph(
 }
 
 /// Each input array as the port's type, as `tyndall node` makes it of a file.
-type Feed = (String, Raster, tyndall::graph::PortType);
+type Feed = (String, Raster, tyndall_engine::graph::PortType);
 
 fn array_feeds<'py>(
     py: Python<'py>,
-    schema: &'static tyndall::graph::NodeSchema,
+    schema: &'static tyndall_engine::graph::NodeSchema,
     id: &str,
     inputs: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Vec<Feed>> {
@@ -405,7 +407,7 @@ fn array_feeds<'py>(
         let arr: PyReadonlyArrayDyn<'py, f32> = v.extract()?;
         let r = from_array(&format!("input '{port}'"), &arr)
             .map_err(|m| raise::<GraphError>(py, m, about()))?;
-        let ty = tyndall::cli::type_for_file(spec.types, r.channels).ok_or_else(|| {
+        let ty = tyndall_engine::graph::type_for_file(spec.types, r.channels).ok_or_else(|| {
             raise::<GraphError>(
                 py,
                 format!(
@@ -444,7 +446,7 @@ pub(crate) fn node<'py>(
     let schema = cat.get(kind).ok_or_else(|| {
         graph_err(
             py,
-            &tyndall::graph::GraphError::UnknownKind {
+            &tyndall_engine::graph::GraphError::UnknownKind {
                 node: kind.to_lowercase(),
                 kind: kind.to_string(),
                 known: cat.kind_names(),
@@ -464,7 +466,7 @@ pub(crate) fn node<'py>(
             .iter()
             .filter(|p| {
                 p.types.iter().any(|t| {
-                    use tyndall::graph::PortType as T;
+                    use tyndall_engine::graph::PortType as T;
                     matches!(
                         t,
                         T::Image | T::Scalar | T::Depth | T::ShadowMap | T::Lut2D | T::LightMap
@@ -484,11 +486,11 @@ pub(crate) fn node<'py>(
     }
     let r = off_thread(py, move || -> Result<Fetched, Failed> {
         for (port, r, ty) in feeds {
-            let v = tyndall::eval::upload_raster(&gpu, &r, ty).map_err(|source| {
+            let v = tyndall_engine::eval::upload_raster(&gpu, &r, ty).map_err(|source| {
                 Failed::Eval(RustEvalError::Node {
                     node: id.clone(),
                     kind: g.node(&id).map(|n| n.kind.clone()).unwrap_or_default(),
-                    source: tyndall::eval::NodeError::Input {
+                    source: tyndall_engine::eval::NodeError::Input {
                         port: port.clone(),
                         message: source.to_string(),
                     },
@@ -503,7 +505,7 @@ pub(crate) fn node<'py>(
             };
             opts.inject.insert((id.clone(), port), (v, key));
         }
-        let mut ev = tyndall::eval::Evaluator::new(registry(), gpu);
+        let mut ev = tyndall_engine::eval::Evaluator::new(registry(), gpu);
         fetch(&mut ev, &g, &wanted, &opts)
     })?;
     to_python(py, r)
@@ -529,7 +531,7 @@ pub(crate) fn render(
     let out_dir = output_dir.unwrap_or_else(|| PathBuf::from("."));
     let (g, _) = prepared(py, graph, Some(&out_dir))?;
     let list: Vec<Option<i64>> = match frames {
-        Some(s) => tyndall::cli::parse_frame_spec(s)
+        Some(s) => tyndall_engine::eval::parse_frame_spec(s)
             .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("frames: {e}")))?
             .0
             .into_iter()
@@ -538,7 +540,10 @@ pub(crate) fn render(
         None => vec![None],
     };
     let gpu = Gpu::shared().map_err(|e| gpu_err(py, &e))?;
-    let ev = Arc::new(Mutex::new(tyndall::eval::Evaluator::new(registry(), gpu)));
+    let ev = Arc::new(Mutex::new(tyndall_engine::eval::Evaluator::new(
+        registry(),
+        gpu,
+    )));
     let g = Arc::new(g);
     let mut done = Vec::new();
     for (i, f) in list.iter().enumerate() {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use tyndall::graph::{Interp, Key, NodeSchema};
+use tyndall_engine::graph::{Interp, Key, NodeSchema};
 
 use crate::values::{from_param, to_param};
 use crate::{graph_err, load_err, raise, registry, About, GraphError};
@@ -15,7 +15,7 @@ use crate::{graph_err, load_err, raise, registry, About, GraphError};
 #[pyclass(module = "tyndall._native", name = "Graph")]
 #[derive(Clone)]
 pub struct Graph {
-    pub(crate) g: tyndall::graph::Graph,
+    pub(crate) g: tyndall_engine::graph::Graph,
     /// The file it came from: relative input files and library groups are found beside it.
     pub(crate) path: Option<PathBuf>,
 }
@@ -25,7 +25,7 @@ impl Graph {
         let n = self.g.node(node).ok_or_else(|| {
             graph_err(
                 py,
-                &tyndall::graph::GraphError::UnknownNode {
+                &tyndall_engine::graph::GraphError::UnknownNode {
                     node: node.to_string(),
                 },
             )
@@ -48,7 +48,7 @@ impl Graph {
         py: Python<'_>,
         node: &str,
         param: &str,
-    ) -> PyResult<&'static tyndall::graph::ParamSpec> {
+    ) -> PyResult<&'static tyndall_engine::graph::ParamSpec> {
         let schema = self.schema(py, node)?;
         param_spec(py, node, schema, param)
     }
@@ -60,7 +60,7 @@ impl Graph {
     #[new]
     fn new() -> Self {
         Self {
-            g: tyndall::graph::Graph::new(),
+            g: tyndall_engine::graph::Graph::new(),
             path: None,
         }
     }
@@ -70,7 +70,7 @@ impl Graph {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let cat = registry().catalog().clone();
-        let g = tyndall::graph::load_file(&path, &cat).map_err(|e| load_err(py, &e))?;
+        let g = tyndall_engine::graph::load_file(&path, &cat).map_err(|e| load_err(py, &e))?;
         Ok(Self {
             g,
             path: Some(path),
@@ -84,20 +84,20 @@ impl Graph {
     fn from_str(py: Python<'_>, text: &str, path: Option<PathBuf>) -> PyResult<Self> {
         let cat = registry().catalog().clone();
         let file = path.clone().unwrap_or_else(|| PathBuf::from("<string>"));
-        let g = tyndall::graph::load_str(text, &file, &cat).map_err(|e| load_err(py, &e))?;
+        let g = tyndall_engine::graph::load_str(text, &file, &cat).map_err(|e| load_err(py, &e))?;
         Ok(Self { g, path })
     }
 
     /// g.save(path): write the graph (format v3, atomically); it becomes the graph's file.
     fn save(&mut self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        tyndall::graph::save_file(&path, &self.g).map_err(|e| graph_err(py, &e))?;
+        tyndall_engine::graph::save_file(&path, &self.g).map_err(|e| graph_err(py, &e))?;
         self.path = Some(path);
         Ok(())
     }
 
     /// g.to_str() -> str: the graph's text, as `save` writes it.
     fn to_str(&self) -> String {
-        tyndall::graph::save_string(&self.g)
+        tyndall_engine::graph::save_string(&self.g)
     }
 
     /// The file the graph came from (or was saved to), or None.
@@ -178,7 +178,7 @@ impl Graph {
             id.to_string()
         };
         let before = self.g.clone();
-        let node = tyndall::graph::Node {
+        let node = tyndall_engine::graph::Node {
             id: id.clone(),
             kind: kind.to_string(),
             params: Default::default(),
@@ -315,11 +315,11 @@ pub(crate) fn param_spec(
     node: &str,
     schema: &'static NodeSchema,
     param: &str,
-) -> PyResult<&'static tyndall::graph::ParamSpec> {
+) -> PyResult<&'static tyndall_engine::graph::ParamSpec> {
     schema.param(param).ok_or_else(|| {
         graph_err(
             py,
-            &tyndall::graph::GraphError::UnknownParam {
+            &tyndall_engine::graph::GraphError::UnknownParam {
                 node: node.to_string(),
                 kind: schema.kind.to_string(),
                 param: param.to_string(),
@@ -347,9 +347,10 @@ pub(crate) fn catalog<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         list.append(schema_dict(py, s, None)?)?;
     }
     let here = PathBuf::from("graphs/untitled.ron");
-    for (folder, reference) in tyndall::graph::list_library(&tyndall::graph::library_folders(&here))
+    for (folder, reference) in
+        tyndall_engine::graph::list_library(&tyndall_engine::graph::library_folders(&here))
     {
-        if let Ok(def) = tyndall::graph::load_library_group(&folder, &reference, &cat) {
+        if let Ok(def) = tyndall_engine::graph::load_library_group(&folder, &reference, &cat) {
             list.append(schema_dict(py, def.schema(), Some(&reference))?)?;
         }
     }
@@ -365,7 +366,7 @@ fn schema_dict<'py>(
     d.set_item("kind", s.kind)?;
     d.set_item("category", s.category)?;
     d.set_item("doc", s.doc)?;
-    let ports = |ps: &[tyndall::graph::PortSpec]| -> PyResult<Bound<'py, PyList>> {
+    let ports = |ps: &[tyndall_engine::graph::PortSpec]| -> PyResult<Bound<'py, PyList>> {
         let l = PyList::empty(py);
         for p in ps {
             let pd = PyDict::new(py);
@@ -393,7 +394,7 @@ fn schema_dict<'py>(
         pd.set_item("max", numeric.then_some(p.max))?;
         pd.set_item("unit", p.unit)?;
         pd.set_item("doc", p.doc)?;
-        if let tyndall::graph::ParamKind::Enum(names) = p.kind {
+        if let tyndall_engine::graph::ParamKind::Enum(names) = p.kind {
             pd.set_item("choices", names.to_vec())?;
         }
         params.append(pd)?;

@@ -38,10 +38,10 @@ create_exception!(
 );
 
 /// The node registry, built once per process.
-pub(crate) fn registry() -> Arc<tyndall::eval::Registry> {
-    static REGISTRY: OnceLock<Arc<tyndall::eval::Registry>> = OnceLock::new();
+pub(crate) fn registry() -> Arc<tyndall_engine::eval::Registry> {
+    static REGISTRY: OnceLock<Arc<tyndall_engine::eval::Registry>> = OnceLock::new();
     REGISTRY
-        .get_or_init(|| Arc::new(tyndall::nodes::registry()))
+        .get_or_init(|| Arc::new(tyndall_nodes::registry()))
         .clone()
 }
 
@@ -65,18 +65,18 @@ pub(crate) fn raise<E: pyo3::PyTypeInfo>(py: Python<'_>, msg: String, about: Abo
 }
 
 /// A document error as `GraphError`, with the node, port and parameter it names.
-pub(crate) fn graph_err(py: Python<'_>, e: &tyndall::graph::GraphError) -> PyErr {
+pub(crate) fn graph_err(py: Python<'_>, e: &tyndall_engine::graph::GraphError) -> PyErr {
     raise::<GraphError>(py, e.to_string(), about_graph(e))
 }
 
 /// A file that does not load as `GraphError` (the message names the file and the place).
-pub(crate) fn load_err(py: Python<'_>, e: &tyndall::graph::LoadError) -> PyErr {
+pub(crate) fn load_err(py: Python<'_>, e: &tyndall_engine::graph::LoadError) -> PyErr {
     raise::<GraphError>(py, e.to_string(), about_graph(&e.error))
 }
 
 /// The node, port and parameter a document error names.
-fn about_graph(e: &tyndall::graph::GraphError) -> About {
-    use tyndall::graph::GraphError as G;
+fn about_graph(e: &tyndall_engine::graph::GraphError) -> About {
+    use tyndall_engine::graph::GraphError as G;
     let s = |x: &str| Some(x.to_string());
     let endpoint = |x: &str| x.split_once('.').map(|(n, p)| (s(n), s(p)));
     match e {
@@ -122,8 +122,8 @@ fn about_graph(e: &tyndall::graph::GraphError) -> About {
 
 /// An evaluation error as `EvalError` (`GpuError` for a lost device, `GraphError` for a
 /// document the registry refuses).
-pub(crate) fn eval_err(py: Python<'_>, e: &tyndall::eval::EvalError) -> PyErr {
-    use tyndall::eval::{EvalError as E, NodeError as N};
+pub(crate) fn eval_err(py: Python<'_>, e: &tyndall_engine::eval::EvalError) -> PyErr {
+    use tyndall_engine::eval::{EvalError as E, NodeError as N};
     match e {
         E::Graph(g) => graph_err(py, g),
         E::UnknownOutput { node, port, .. } => raise::<EvalError>(
@@ -162,7 +162,7 @@ pub(crate) fn eval_err(py: Python<'_>, e: &tyndall::eval::EvalError) -> PyErr {
 }
 
 /// A GPU context error as `GpuError`.
-pub(crate) fn gpu_err(py: Python<'_>, e: &tyndall::gpu::GpuError) -> PyErr {
+pub(crate) fn gpu_err(py: Python<'_>, e: &tyndall_engine::gpu::GpuError) -> PyErr {
     raise::<GpuError>(py, e.to_string(), About::default())
 }
 
@@ -171,7 +171,7 @@ pub(crate) fn gpu_err(py: Python<'_>, e: &tyndall::gpu::GpuError) -> PyErr {
 /// one runs crashes in LLVM's teardown (see `Gpu::settle_shared`).
 #[pyfunction]
 fn _settle(py: Python<'_>) {
-    py.detach(tyndall::gpu::Gpu::settle_shared);
+    py.detach(tyndall_engine::gpu::Gpu::settle_shared);
 }
 
 /// The `tyndall._native` module.

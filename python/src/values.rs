@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use pyo3::IntoPyObjectExt;
 
-use tyndall::graph::{ParamKind, ParamSpec, ParamValue};
-use tyndall::io::Raster;
+use tyndall_engine::graph::{ParamKind, ParamSpec, ParamValue};
+use tyndall_engine::io::Raster;
 
 use crate::{raise, About, GraphError};
 
@@ -133,9 +133,9 @@ pub(crate) fn from_array(what: &str, a: &PyReadonlyArrayDyn<'_, f32>) -> Result<
 /// the transposes of the column-major matrices the shaders use), `far`, `radiance`.
 pub(crate) fn matrices<'py>(
     py: Python<'py>,
-    m: &tyndall::eval::Matrices,
+    m: &tyndall_engine::eval::Matrices,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let rows = |c: &tyndall::eval::Mat4| -> Vec<Vec<f32>> {
+    let rows = |c: &tyndall_engine::eval::Mat4| -> Vec<Vec<f32>> {
         (0..4).map(|r| (0..4).map(|k| c[k][r]).collect()).collect()
     };
     let d = PyDict::new(py);
@@ -152,7 +152,7 @@ pub(crate) fn matrices<'py>(
 /// (PNG colour decoded from sRGB to linear).
 #[pyfunction]
 pub(crate) fn read_image(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Py<PyAny>> {
-    let r = tyndall::io::read_image(&path, true)
+    let r = tyndall_engine::io::read_image(&path, true)
         .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))?;
     to_array(py, r)
 }
@@ -171,10 +171,10 @@ pub(crate) fn write_image(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     let (precision, srgb) = if png {
-        (tyndall::io::Precision::U8, true)
+        (tyndall_engine::io::Precision::U8, true)
     } else {
-        (tyndall::io::Precision::F32, false)
+        (tyndall_engine::io::Precision::F32, false)
     };
-    tyndall::io::write_image(&path, &r, precision, srgb)
+    tyndall_engine::io::write_image(&path, &r, precision, srgb)
         .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
 }

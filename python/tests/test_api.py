@@ -150,9 +150,20 @@ def test_one_node_on_arrays():
     a = np.linspace(0, 1, 20, dtype=np.float32).reshape(4, 5)
     b = np.full((4, 5), 0.25)
     out = tyndall.node("Math", {"op": "add"}, {"a": a, "b": b})
-    assert np.array_equal(out["math.out"], a + np.float32(0.25))
+    assert list(out) == ["out"]
+    assert np.array_equal(out["out"], a + np.float32(0.25))
+    # The former "kind.port" keys still read, with a DeprecationWarning naming the new key.
+    with pytest.warns(DeprecationWarning, match=r'use \["out"\]'):
+        assert np.array_equal(out["math.out"], out["out"])
+    with pytest.warns(DeprecationWarning):
+        assert "math.out" in out
+    with pytest.warns(DeprecationWarning):
+        assert out.get("math.out") is not None
+    assert "math.nope" not in out and out.get("tonemap.out") is None
+    with pytest.raises(KeyError):
+        out["nope"]
     rgb = np.full((3, 2, 3), 0.5)
-    img = tyndall.node("Tonemap", {"exposure": 0.0}, {"image": rgb})["tonemap.out"]
+    img = tyndall.node("Tonemap", {"exposure": 0.0}, {"image": rgb})["out"]
     assert img.shape == (3, 2, 4)
     with pytest.raises(tyndall.GraphError) as e:
         tyndall.node("Math", inputs={"c": a})

@@ -17,6 +17,7 @@ once (the evaluation in flight finishes in the background). Errors are ``GraphEr
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
@@ -33,6 +34,7 @@ __all__ = [
     "GpuError",
     "Graph",
     "GraphError",
+    "NodeOutputs",
     "NodeStat",
     "Outputs",
     "Stats",
@@ -123,6 +125,59 @@ def _outputs(native: list) -> Outputs:
     return out
 
 
+class NodeOutputs(Outputs):
+    """What :func:`node` returns: port name (``"out"``, ``"map"``) → numpy array, as
+    ``tyndall node --output PORT=FILE`` names them; ``cameras`` likewise by port name.
+
+    Deprecated: the former keys ``"kind.port"`` (kind in lower case, ``"math.out"``) still
+    work for ``[]``, ``in`` and ``get``, with a ``DeprecationWarning``; they will be removed."""
+
+    _prefix: str = ""
+
+    def _former(self, key: object) -> Optional[str]:
+        """The port a former ``"kind.port"`` key names, warning once per use; None if it is not
+        one."""
+        if not (isinstance(key, str) and self._prefix and key.startswith(self._prefix)):
+            return None
+        port = key[len(self._prefix):]
+        if not dict.__contains__(self, port):
+            return None
+        warnings.warn(
+            f'tyndall.node(...)["{key}"]: outputs are keyed by port name now, use ["{port}"]',
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        return port
+
+    def __missing__(self, key: str) -> np.ndarray:
+        port = self._former(key)
+        if port is None:
+            raise KeyError(key)
+        return dict.__getitem__(self, port)
+
+    def __contains__(self, key: object) -> bool:
+        return dict.__contains__(self, key) or self._former(key) is not None
+
+    def get(self, key: str, default: object = None) -> object:
+        if dict.__contains__(self, key):
+            return dict.__getitem__(self, key)
+        port = self._former(key)
+        return default if port is None else dict.__getitem__(self, port)
+
+
+def _node_outputs(native: list, kind: str) -> NodeOutputs:
+    arrays, stats, cameras = native
+    prefix = kind.lower() + "."
+    by_port = {k[len(prefix):] if k.startswith(prefix) else k: v for k, v in arrays.items()}
+    out = NodeOutputs(by_port)
+    out._prefix = prefix
+    out.stats = Stats(stats)
+    out.cameras = {
+        k[len(prefix):] if k.startswith(prefix) else k: v for k, v in dict(cameras).items()
+    }
+    return out
+
+
 class Evaluator:
     """A GPU evaluator keeping its cache across calls: after ``Graph.set`` only the changed
     node and those below it run again.
@@ -170,12 +225,13 @@ def node(
     ``inputs``: port → array (H×W feeds Scalar/Depth/ShadowMap ports, or an Image port as grey;
     H×W×3 or ×4 feeds Image ports); any dtype, converted to float32. ``outputs``: port names
     (None: every picture output). ``data``: the node's data block as RON text. Returns
-    :class:`Outputs` keyed ``"kind.port"`` with the kind in lower case.
+    :class:`NodeOutputs` keyed by port name (``out["out"]``, ``out["map"]``), as ``tyndall
+    node --output PORT=FILE`` names them; the former ``"kind.port"`` keys are deprecated.
     """
     arrays = None
     if inputs is not None:
         arrays = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in inputs.items()}
-    return _outputs(
+    return _node_outputs(
         _native.node(
             kind,
             dict(params or {}),
@@ -184,7 +240,8 @@ def node(
             time,
             None if size is None else tuple(size),
             data,
-        )
+        ),
+        kind,
     )
 
 

@@ -16,9 +16,11 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::eval::{resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Status, Target};
-use crate::gpu::Gpu;
-use crate::graph::{split_endpoint, Graph};
+use tyndall_engine::eval::{
+    resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Status, Target,
+};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::{split_endpoint, Graph};
 
 use super::{apply, BenchError, Row, Suite};
 

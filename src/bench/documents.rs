@@ -21,9 +21,9 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::eval::{EvalOptions, Evaluator, Registry, Target};
-use crate::gpu::Gpu;
-use crate::graph::load_str;
+use tyndall_engine::eval::{EvalOptions, Evaluator, Registry, Target};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::load_str;
 
 use super::{BenchError, Row, Suite};
 

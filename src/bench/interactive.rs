@@ -14,10 +14,10 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::eval::proxy::{proxy_graph, proxy_size};
-use crate::eval::{download, EvalOptions, Evaluator, Registry, Target};
-use crate::gpu::Gpu;
-use crate::graph::Graph;
+use tyndall_engine::eval::proxy::{proxy_graph, proxy_size};
+use tyndall_engine::eval::{download, EvalOptions, Evaluator, Registry, Target};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::Graph;
 
 use super::{apply, describe, BenchError, Row, Suite};
 

@@ -1,7 +1,7 @@
 //! Error metrics of a measured output against its reference: RMSE and maximum error, errors
 //! masked to depth discontinuities, and connected components (holes).
 
-use crate::io::Raster;
+use tyndall_engine::io::Raster;
 
 pub(super) fn errors(a: &Raster, b: &Raster) -> (f64, f64) {
     if a.data.len() != b.data.len() {

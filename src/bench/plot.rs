@@ -71,7 +71,7 @@ fn write_png(path: &Path, buf: Vec<u8>) -> Result<(), PlotError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| err(e.to_string()))?;
     }
-    crate::graph::write_atomic(path, &bytes).map_err(|e| err(e.to_string()))
+    tyndall_engine::graph::write_atomic(path, &bytes).map_err(|e| err(e.to_string()))
 }
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;

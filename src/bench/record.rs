@@ -29,7 +29,7 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| input(format!("{}: {e}", dir.display())))?;
     }
-    crate::graph::write_atomic(path, bytes).map_err(input)
+    tyndall_engine::graph::write_atomic(path, bytes).map_err(input)
 }
 
 impl Recorder {

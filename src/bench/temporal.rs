@@ -22,10 +22,10 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::eval::{EvalOptions, Evaluator, Registry};
-use crate::gpu::Gpu;
-use crate::graph::Graph;
-use crate::io::Raster;
+use tyndall_engine::eval::{EvalOptions, Evaluator, Registry};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::Graph;
+use tyndall_engine::io::Raster;
 
 use super::metrics::errors;
 use super::{apply, read_port, timed_of, BenchError, Row, Suite};

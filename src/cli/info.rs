@@ -30,7 +30,7 @@ fn unavailable_nodes(registry: &Registry, r: &AdapterReport) -> Vec<(String, Str
     out
 }
 
-/// The substitutes `src/gpu/` uses on this adapter, in words.
+/// The substitutes `src/engine/gpu/` uses on this adapter, in words.
 fn substitutes(r: &AdapterReport) -> Vec<String> {
     let mut out = Vec::new();
     let caps = &r.caps;

@@ -14,10 +14,12 @@ mod render;
 
 pub use bench::BenchArgs;
 pub use eval::EvalArgs;
-pub use node::{type_for_file, NodeArgs};
+pub use node::NodeArgs;
 pub use nodes::catalog_text;
 pub use pick::PickArgs;
-pub use render::{chunk_of, parse_frame_spec, FrameList, ProgressMode, RenderArgs};
+pub use render::{chunk_of, ProgressMode, RenderArgs};
+pub use tyndall_engine::eval::{parse_frame_spec, FrameList};
+pub use tyndall_engine::graph::type_for_file;
 
 use std::collections::BTreeMap;
 use std::hash::{Hash, Hasher};
@@ -32,9 +34,7 @@ use crate::eval::{
     Registry, Target,
 };
 use crate::gpu::Gpu;
-use crate::graph::{
-    load_file, num, split_endpoint, Graph, NodeSchema, ParamKind, ParamValue, PortType,
-};
+use crate::graph::{load_file, num, split_endpoint, Graph, NodeSchema, ParamKind, ParamValue};
 use crate::io::{read_image, write_image, Precision};
 
 /// Tyndall: a GPU node-graph compositor for stylized light shafts.
@@ -317,7 +317,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Node(a) => node::run_node(registry, a),
-        Command::Edit { graph } => crate::editor::run(graph).map_err(|e| {
+        Command::Edit { graph } => crate::editor::run(graph, registry).map_err(|e| {
             if Gpu::shared().is_err() {
                 CliError::NoGpu(e)
             } else {

@@ -28,10 +28,10 @@ use super::canvas::CanvasView;
 use super::view::{probe, to_srgb8, Channel};
 use super::worker::{NodeReport, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
-use crate::eval::{EditorTool, Registry};
-use crate::gpu::Gpu;
-use crate::graph::{save_string, Interp, Key, ParamKind, ParamValue};
-use crate::io::Raster;
+use tyndall_engine::eval::{EditorTool, Registry};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::{save_string, Interp, Key, ParamKind, ParamValue};
+use tyndall_engine::io::Raster;
 
 /// Viewer zoom.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,7 +53,7 @@ pub struct EditorApp {
     synced: Option<String>,
     /// Every output's type in the document shown, resolved when it last changed (the canvas
     /// draws every pin each frame; one resolution per pin would be quadratic in a chain).
-    port_types: BTreeMap<(String, String), crate::graph::PortType>,
+    port_types: BTreeMap<(String, String), tyndall_engine::graph::PortType>,
     /// Id of the node shown in the parameters panel (and the viewer unless a pin is active).
     pub selected: Option<String>,
     /// Last message (refused connection, save result…).
@@ -139,7 +139,7 @@ pub struct EditorApp {
     /// The node kinds (for picking 3D constraints on the UI thread).
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
-    pub progress: Option<crate::eval::Progress>,
+    pub progress: Option<tyndall_engine::eval::Progress>,
     /// How many times the GPU device was lost and evaluation restarted on a new one.
     pub device_restarts: u32,
     /// Measured speed/accuracy curves from `bench/results.csv`.
@@ -460,7 +460,10 @@ impl eframe::App for EditorApp {
                     .snarl
                     .nodes_pos_ids()
                     .map(|(_, pos, _)| {
-                        egui::Rect::from_min_size(pos, egui::vec2(crate::graph::NODE_WIDTH, 200.0))
+                        egui::Rect::from_min_size(
+                            pos,
+                            egui::vec2(tyndall_engine::graph::NODE_WIDTH, 200.0),
+                        )
                     })
                     .fold(egui::Rect::NOTHING, |a, r| a.union(r));
                 Some((bb, ui.max_rect()))
@@ -521,9 +524,9 @@ impl eframe::App for EditorApp {
 /// hundred nodes.
 pub(super) const MIN_CANVAS_SCALE: f32 = 0.03;
 
-/// Open the editor window on `path` (or an empty graph).
-pub fn run(path: Option<PathBuf>) -> Result<(), String> {
-    let registry = Arc::new(crate::nodes::registry());
+/// Open the editor window on `path` (or an empty graph), with the node kinds of `registry`
+/// (the command line passes the techniques crate's).
+pub fn run(path: Option<PathBuf>, registry: Arc<Registry>) -> Result<(), String> {
     let state = match &path {
         Some(p) => EditorState::open(registry.catalog().clone(), p).map_err(|e| e.to_string())?,
         None => EditorState::new(registry.catalog().clone()),

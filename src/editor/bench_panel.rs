@@ -49,7 +49,8 @@ pub const NOT_PARAMS: [&str; 7] = [
 
 /// Parse `bench/results.csv` text: the measured settings with a time and an error.
 pub fn parse(text: &str) -> Result<Vec<Measured>, String> {
-    let suites = crate::bench::report::rows_from_csv(text.as_bytes()).map_err(|e| e.to_string())?;
+    let suites =
+        tyndall_bench::report::rows_from_csv(text.as_bytes()).map_err(|e| e.to_string())?;
     Ok(suites
         .into_iter()
         .flat_map(|(suite, adapter, rows)| {
@@ -235,7 +236,7 @@ fn plot<'a>(
         )
     };
     let points: Vec<(f64, f64)> = xs.iter().copied().zip(ys.iter().copied()).collect();
-    let front: Vec<egui::Pos2> = crate::bench::plot::pareto_front(&points)
+    let front: Vec<egui::Pos2> = tyndall_bench::plot::pareto_front(&points)
         .iter()
         .map(|i| at(points[*i].0, points[*i].1))
         .collect();

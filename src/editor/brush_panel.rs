@@ -25,11 +25,13 @@ use std::sync::Arc;
 use eframe::egui;
 use glam::{Mat4, Quat, Vec3, Vec4};
 
-use crate::editor::EditorState;
-use crate::eval::{EditorTool, EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
-use crate::gpu::Gpu;
-use crate::graph::{Graph, PortType};
-use crate::nodes::blend_volume::{BlendData, Role, Splat};
+use crate::EditorState;
+use tyndall_engine::eval::{
+    EditorTool, EvalOptions, Evaluator, Matrices, PortValue, Registry, Target,
+};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::{Graph, PortType};
+use tyndall_nodes::blend_volume::{BlendData, Role, Splat};
 
 /// The brush's state.
 pub struct BrushPanel {
@@ -112,7 +114,9 @@ pub fn volumes(registry: &Registry, graph: &Graph) -> Vec<(String, Role)> {
 /// The role of volume `id` (its default, α, when unset or unknown).
 fn role_of(graph: &Graph, id: &str) -> Role {
     match graph.node(id).and_then(|n| n.params.get("role")) {
-        Some(crate::graph::ParamValue::Enum(r)) => Role::from_name(r).unwrap_or(Role::Alpha),
+        Some(tyndall_engine::graph::ParamValue::Enum(r)) => {
+            Role::from_name(r).unwrap_or(Role::Alpha)
+        }
         _ => Role::Alpha,
     }
 }
@@ -229,7 +233,7 @@ pub fn render_view(
         return Err("the GBuffer's depth is not a Depth value".into());
     };
     let camera = *camera;
-    let depth = crate::eval::download(&gpu, value).map_err(|e| e.to_string())?;
+    let depth = tyndall_engine::eval::download(&gpu, value).map_err(|e| e.to_string())?;
     Ok(BrushView {
         key,
         size: (depth.width, depth.height),
@@ -466,7 +470,7 @@ pub fn show(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Camera;
+    use tyndall_engine::scene::Camera;
 
     fn camera(size: (u32, u32)) -> Matrices {
         let c = Camera {
@@ -476,7 +480,7 @@ mod tests {
             near: 0.1,
             far: 80.0,
         };
-        c.matrices(size.0, size.1)
+        Matrices::of_camera(&c, size.0, size.1)
     }
 
     #[test]

@@ -9,8 +9,8 @@ use egui_snarl::{InPin, NodeId, OutPin, Snarl};
 
 use super::worker::NodeReport;
 use super::EditorState;
-use crate::eval::Status;
-use crate::graph::{Graph, PortType};
+use tyndall_engine::eval::Status;
+use tyndall_engine::graph::{Graph, PortType};
 
 /// The smallest on-screen height (points) at which a node's thumbnail is drawn: below it (a
 /// canvas zoomed far out) the picture is too small to read and only costs drawing time.

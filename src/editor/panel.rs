@@ -2,7 +2,7 @@
 
 use eframe::egui;
 
-use crate::editor::EditorState;
+use crate::EditorState;
 
 /// The colour of refusals and parse errors in the panels.
 pub const ERROR: egui::Color32 = egui::Color32::from_rgb(240, 90, 80);

@@ -8,7 +8,7 @@ use thiserror::Error;
 
 mod groups;
 
-use crate::graph::{
+use tyndall_engine::graph::{
     load_file, load_str, save_string, write_atomic, Catalog, Graph, GraphError, Key, LoadError,
     Node, ParamValue,
 };
@@ -167,7 +167,7 @@ impl EditorState {
     pub fn set_data(
         &mut self,
         node: &str,
-        data: Option<crate::graph::NodeData>,
+        data: Option<tyndall_engine::graph::NodeData>,
         merge: Option<&str>,
     ) -> Result<(), EditorError> {
         let tag = merge.map(|m| format!("{node}:{m}"));
@@ -203,7 +203,7 @@ impl EditorState {
         data: &T,
         merge: Option<&str>,
     ) -> Result<(), String> {
-        let d = crate::graph::NodeData::from_value(data)?;
+        let d = tyndall_engine::graph::NodeData::from_value(data)?;
         self.set_data(node, Some(d), merge)
             .map_err(|e| e.to_string())
     }
@@ -385,7 +385,7 @@ impl EditorState {
 
     /// Save to `path` atomically and make it the document's file; removes the autosave.
     pub fn save_as(&mut self, path: &Path) -> Result<(), EditorError> {
-        crate::graph::save_file(path, &self.graph)?;
+        tyndall_engine::graph::save_file(path, &self.graph)?;
         self.path = Some(path.to_path_buf());
         self.saved = self.graph.clone();
         let _ = std::fs::remove_file(autosave_path(path));

@@ -9,8 +9,8 @@
 
 use eframe::egui;
 
-use crate::editor::EditorState;
-use crate::nodes::light_map_solve::{SolveData, Stroke, View, ViewCamera};
+use crate::EditorState;
+use tyndall_nodes::light_map_solve::{SolveData, Stroke, View, ViewCamera};
 
 /// The panel's own state.
 pub struct StrokePanel {

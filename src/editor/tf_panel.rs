@@ -7,8 +7,8 @@
 
 use eframe::egui;
 
-use crate::editor::EditorState;
-use crate::nodes::transfer_function::{
+use crate::EditorState;
+use tyndall_nodes::transfer_function::{
     bake_reference, layer_name, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
 };
 

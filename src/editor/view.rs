@@ -1,7 +1,7 @@
 //! The viewer's picture maths, kept apart from egui so it can be tested: which channel to show,
 //! exposure in stops, the 8-bit sRGB picture, and the pixel probe's text.
 
-use crate::io::{linear_to_srgb, Raster};
+use tyndall_engine::io::{linear_to_srgb, Raster};
 
 /// Which channel(s) the viewer shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

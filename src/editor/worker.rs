@@ -11,12 +11,12 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use crate::eval::{
+use tyndall_engine::eval::{
     download, EvalError, EvalOptions, Evaluator, PortValue, Registry, Status, Target,
 };
-use crate::gpu::Gpu;
-use crate::graph::{Graph, PortType};
-use crate::io::Raster;
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::{Graph, PortType};
+use tyndall_engine::io::Raster;
 
 /// Longest side of a node's thumbnail on the canvas, in pixels.
 pub const THUMB: u32 = 96;
@@ -39,7 +39,7 @@ pub struct Request {
     pub compare: Option<String>,
     /// Proxy factor: 1 evaluates at `size`; f > 1 (while a knob is dragged) evaluates the
     /// viewed pictures only, at `size` / f with the screen-pixel knobs scaled
-    /// ([`crate::eval::proxy`]), no thumbnails.
+    /// ([`tyndall_engine::eval::proxy`]), no thumbnails.
     pub proxy: u32,
 }
 
@@ -99,7 +99,7 @@ pub struct Outcome {
 pub struct Worker {
     tx: Option<Sender<Request>>,
     rx: Receiver<Outcome>,
-    progress: Receiver<crate::eval::Progress>,
+    progress: Receiver<tyndall_engine::eval::Progress>,
     thread: Option<JoinHandle<()>>,
     /// Generation of the newest request sent.
     pub sent: u64,
@@ -115,7 +115,7 @@ impl Worker {
     pub fn start(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
         let (tx, requests) = channel::<Request>();
         let (results, rx) = channel::<Outcome>();
-        let (progress_tx, progress) = channel::<crate::eval::Progress>();
+        let (progress_tx, progress) = channel::<tyndall_engine::eval::Progress>();
         let newest = Arc::new(AtomicU64::new(0));
         let newest_seen = newest.clone();
         let thread = std::thread::Builder::new()
@@ -124,7 +124,7 @@ impl Worker {
                 let mut ev = Evaluator::new(registry, gpu);
                 let mut thumbed = BTreeSet::new();
                 let progress_tx = std::sync::Mutex::new(progress_tx);
-                let sink = crate::eval::ProgressSink(std::sync::Arc::new(move |p| {
+                let sink = tyndall_engine::eval::ProgressSink(std::sync::Arc::new(move |p| {
                     if let Ok(tx) = progress_tx.lock() {
                         let _ = tx.send(p.clone());
                     }
@@ -140,7 +140,7 @@ impl Worker {
                     }
                     let generation = req.generation;
                     let seen = newest_seen.clone();
-                    let cancel = crate::eval::CancelCheck(Arc::new(move || {
+                    let cancel = tyndall_engine::eval::CancelCheck(Arc::new(move || {
                         seen.load(Ordering::Acquire) > generation
                     }));
                     let out = evaluate(&mut ev, &req, &mut thumbed, &sink, cancel);
@@ -197,7 +197,7 @@ impl Worker {
     }
 
     /// The newest progress report of a long-running node since the last call, if any.
-    pub fn poll_progress(&mut self) -> Option<crate::eval::Progress> {
+    pub fn poll_progress(&mut self) -> Option<tyndall_engine::eval::Progress> {
         let mut last = None;
         while let Ok(p) = self.progress.try_recv() {
             last = Some(p);
@@ -265,14 +265,14 @@ fn evaluate(
     ev: &mut Evaluator,
     req: &Request,
     thumbed: &mut BTreeSet<String>,
-    sink: &crate::eval::ProgressSink,
-    cancel: crate::eval::CancelCheck,
+    sink: &tyndall_engine::eval::ProgressSink,
+    cancel: tyndall_engine::eval::CancelCheck,
 ) -> Outcome {
     let start = std::time::Instant::now();
     let proxy = req.proxy.max(1);
     let opts = EvalOptions {
         time: req.time,
-        size: crate::eval::proxy::proxy_size(req.size, proxy),
+        size: tyndall_engine::eval::proxy::proxy_size(req.size, proxy),
         progress: Some(sink.clone()),
         cancel: Some(cancel),
         ..Default::default()
@@ -285,7 +285,7 @@ fn evaluate(
     };
     // A full request evaluates the flattened document itself (no second copy).
     let graph = if proxy > 1 {
-        crate::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy)
+        tyndall_engine::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy)
     } else {
         graph
     };
@@ -532,19 +532,19 @@ pub fn shrink(r: &Raster, side: u32) -> Raster {
 /// so output paths are left as written.
 pub(super) fn graph_for_evaluation(
     registry: &Registry,
-    state: &crate::editor::EditorState,
-) -> crate::graph::Graph {
+    state: &crate::EditorState,
+) -> tyndall_engine::graph::Graph {
     let graph = state.root();
     let Some(dir) = state.path().and_then(std::path::Path::parent) else {
         return graph.clone();
     };
-    let policy = crate::eval::PathPolicy {
+    let policy = tyndall_engine::eval::PathPolicy {
         graph_dir: dir.to_path_buf(),
         output_dir: dir.to_path_buf(),
         allow_any: true,
     };
     // With `allow_any` nothing is refused; the fall-back keeps the document as it is.
-    crate::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
+    tyndall_engine::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
 }
 
 #[cfg(test)]

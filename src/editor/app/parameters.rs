@@ -2,7 +2,7 @@
 //! measured settings, then the editor tools its declaration names.
 
 use super::*;
-use crate::graph::ParamSpec;
+use tyndall_engine::graph::ParamSpec;
 
 impl EditorApp {
     /// Set node `id`'s parameters to a measured setting (`name → value` text, as in
@@ -39,7 +39,7 @@ impl EditorApp {
         ui.heading(format!("{id} - {}", node.kind));
         ui.label(schema.doc);
         if let Some(err) = self.report(&id).and_then(|r| r.error) {
-            ui.colored_label(crate::editor::panel::ERROR, err);
+            ui.colored_label(crate::panel::ERROR, err);
         }
         ui.separator();
         for p in schema.params {
@@ -53,7 +53,7 @@ impl EditorApp {
 
     /// A group instance's actions: Ungroup, Publish to library, and every inner parameter with
     /// an Expose button (it becomes a knob of the group).
-    fn group_panel(&mut self, ui: &mut egui::Ui, id: &str, def: &crate::graph::GroupDef) {
+    fn group_panel(&mut self, ui: &mut egui::Ui, id: &str, def: &tyndall_engine::graph::GroupDef) {
         ui.separator();
         match &def.library {
             Some(l) => ui.label(format!(
@@ -129,9 +129,9 @@ impl EditorApp {
     fn publish_folder(&self) -> std::path::PathBuf {
         self.state
             .path()
-            .map(crate::graph::library_folders)
+            .map(tyndall_engine::graph::library_folders)
             .and_then(|f| f.into_iter().next())
-            .or_else(crate::graph::user_library)
+            .or_else(tyndall_engine::graph::user_library)
             .unwrap_or_else(|| std::path::PathBuf::from("graphs/lib"))
     }
 
@@ -139,8 +139,8 @@ impl EditorApp {
     fn measured_and_tools(
         &mut self,
         ui: &mut egui::Ui,
-        node: &crate::graph::Node,
-        schema: &crate::graph::NodeSchema,
+        node: &tyndall_engine::graph::Node,
+        schema: &tyndall_engine::graph::NodeSchema,
     ) {
         let id = node.id.clone();
         let current: BTreeMap<String, String> = schema
@@ -166,9 +166,9 @@ impl EditorApp {
         for tool in tools {
             let message = match tool {
                 EditorTool::LayerList => {
-                    crate::editor::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
+                    crate::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
                 }
-                EditorTool::StrokePainting => crate::editor::stroke_panel::show(
+                EditorTool::StrokePainting => crate::stroke_panel::show(
                     ui,
                     &mut self.state,
                     &id,
@@ -176,7 +176,7 @@ impl EditorApp {
                     VIEW_SIZE,
                 ),
                 // A volume that is also brushed shows the brush once.
-                EditorTool::SplatBrush => crate::editor::brush_panel::show(
+                EditorTool::SplatBrush => crate::brush_panel::show(
                     ui,
                     &self.registry,
                     &mut self.state,
@@ -193,7 +193,7 @@ impl EditorApp {
 
     /// One parameter's row: its widget (greyed out, with the reason, while the parameter is
     /// not in effect), its key-frame button, and the edit it makes.
-    fn parameter(&mut self, ui: &mut egui::Ui, node: &crate::graph::Node, p: &ParamSpec) {
+    fn parameter(&mut self, ui: &mut egui::Ui, node: &tyndall_engine::graph::Node, p: &ParamSpec) {
         let id = node.id.as_str();
         let current = self
             .state

@@ -55,7 +55,7 @@ impl EditorApp {
                 .path()
                 .map(std::path::Path::to_path_buf)
                 .unwrap_or_else(|| PathBuf::from("graphs/untitled.ron"));
-            crate::graph::list_library(&crate::graph::library_folders(&here))
+            tyndall_engine::graph::list_library(&tyndall_engine::graph::library_folders(&here))
         });
         let shown: Vec<(PathBuf, String)> = library
             .iter()
@@ -76,13 +76,14 @@ impl EditorApp {
                     let cat = self.state.catalog().clone();
                     let n = self.state.graph().nodes().count() as f32;
                     let pos = [40.0 + 20.0 * n, 40.0 + 10.0 * n];
-                    let added = crate::graph::load_library_group(&folder, &reference, &cat)
-                        .map_err(|e| e.to_string())
-                        .and_then(|def| {
-                            self.state
-                                .add_group_node(def, pos)
-                                .map_err(|e| e.to_string())
-                        });
+                    let added =
+                        tyndall_engine::graph::load_library_group(&folder, &reference, &cat)
+                            .map_err(|e| e.to_string())
+                            .and_then(|def| {
+                                self.state
+                                    .add_group_node(def, pos)
+                                    .map_err(|e| e.to_string())
+                            });
                     match added {
                         Ok(id) => self.selected = Some(id),
                         Err(e) => self.status = e,
@@ -190,7 +191,7 @@ impl EditorApp {
         if let Some(t) = self.preset_thumbs.get(path) {
             return t.clone();
         }
-        let tex = crate::editor::preset_thumbnail(path)
+        let tex = crate::preset_thumbnail(path)
             .and_then(|p| image::open(p).ok())
             .map(|img| {
                 let img = img.thumbnail(128, 72).to_rgba8();
@@ -215,7 +216,7 @@ impl EditorApp {
                 return;
             }
         };
-        let res = crate::graph::load_str(&text, path, self.state.catalog())
+        let res = tyndall_engine::graph::load_str(&text, path, self.state.catalog())
             .map_err(|e| e.to_string())
             .and_then(|fresh| {
                 self.state
@@ -238,7 +239,8 @@ impl EditorApp {
         let res = std::fs::read_to_string(path)
             .map_err(|e| e.to_string())
             .and_then(|t| {
-                crate::graph::load_str(&t, path, self.state.catalog()).map_err(|e| e.to_string())
+                tyndall_engine::graph::load_str(&t, path, self.state.catalog())
+                    .map_err(|e| e.to_string())
             })
             .and_then(|clip| {
                 self.state

@@ -19,7 +19,7 @@ impl EditorApp {
             view,
             self.wipe,
             self.time,
-            crate::graph::save_string(self.state.root())
+            tyndall_engine::graph::save_string(self.state.root())
         );
         let changed = key != self.requested;
         // A change while interacting is shown at the proxy size; the interaction's end asks
@@ -34,7 +34,7 @@ impl EditorApp {
             };
             worker.request(Request {
                 generation: 0,
-                graph: crate::editor::worker::graph_for_evaluation(&self.registry, &self.state),
+                graph: crate::worker::graph_for_evaluation(&self.registry, &self.state),
                 time: self.time,
                 size: VIEW_SIZE,
                 view,

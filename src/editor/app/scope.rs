@@ -60,7 +60,7 @@ impl EditorApp {
             ui.weak("— Tab leaves");
         });
         if let Some(def) = self.state.enclosing() {
-            let list = |ports: &[crate::graph::GroupPort], arrow: &str| {
+            let list = |ports: &[tyndall_engine::graph::GroupPort], arrow: &str| {
                 ports
                     .iter()
                     .map(|p| {

@@ -243,7 +243,7 @@ impl EditorApp {
             Some(id) if tool(EditorTool::StrokePainting) => {
                 if self.strokes.armed {
                     for (p, start) in stroke_points(ui, &response) {
-                        if let Err(e) = crate::editor::stroke_panel::paint(
+                        if let Err(e) = crate::stroke_panel::paint(
                             &self.state,
                             &id,
                             &mut self.strokes,
@@ -259,7 +259,7 @@ impl EditorApp {
                 let painter = ui.painter_at(response.rect);
                 let r = response.rect;
                 for (s, (w, h)) in
-                    crate::editor::stroke_panel::pending_in(&self.state, &id, &self.strokes, size)
+                    crate::stroke_panel::pending_in(&self.state, &id, &self.strokes, size)
                 {
                     let (w, h) = (w.max(1) as f32, h.max(1) as f32);
                     let to = |q: &[f32; 2]| {
@@ -302,7 +302,7 @@ impl EditorApp {
         selected: &str,
         size: (u32, u32),
     ) {
-        use crate::editor::brush_panel as brush;
+        use crate::brush_panel as brush;
         if !self.brush.armed {
             return;
         }
@@ -393,12 +393,12 @@ impl EditorApp {
     /// A click in the viewer while a TF's 3D constraint is armed: pick the surface under the
     /// pixel (an evaluation on this thread) and add a constraint anchored to it.
     pub fn add_3d_constraint(&mut self, id: &str, pixel: (u32, u32), size: (u32, u32)) {
-        use crate::eval::pick::pick;
-        use crate::nodes::transfer_function::{Anchor, Constraint};
+        use tyndall_engine::eval::pick::pick;
+        use tyndall_nodes::transfer_function::{Anchor, Constraint};
         let result = (|| -> Result<String, String> {
             let gpu = Gpu::shared().map_err(|e| e.to_string())?;
-            let mut ev = crate::eval::Evaluator::new(self.registry.clone(), gpu);
-            let opts = crate::eval::EvalOptions {
+            let mut ev = tyndall_engine::eval::Evaluator::new(self.registry.clone(), gpu);
+            let opts = tyndall_engine::eval::EvalOptions {
                 time: self.time,
                 size,
                 ..Default::default()
@@ -417,8 +417,8 @@ impl EditorApp {
             let tf = p.tf.ok_or("not a TransferFunction")?;
             let mut data = self
                 .state
-                .node_data::<crate::nodes::transfer_function::TfData>(id)?;
-            let stack = crate::editor::tf_panel::editable(&mut data, self.time)
+                .node_data::<tyndall_nodes::transfer_function::TfData>(id)?;
+            let stack = crate::tf_panel::editable(&mut data, self.time)
                 .ok_or("add a key at this frame to edit the stack")?;
             let c = Constraint {
                 at: [tf.u, tf.v],
@@ -429,7 +429,7 @@ impl EditorApp {
                     bary: s.bary,
                 }),
             };
-            self.tf.layer = crate::editor::tf_panel::add_constraint(stack, self.tf.layer, c);
+            self.tf.layer = crate::tf_panel::add_constraint(stack, self.tf.layer, c);
             self.state.store_node_data(id, &data, None)?;
             Ok(format!(
                 "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{EditorError, EditorState};
-use crate::graph::{GraphError, Node};
+use tyndall_engine::graph::{GraphError, Node};
 
 impl EditorState {
     /// The group instances entered, from the document down (empty: the document itself).
@@ -61,7 +61,7 @@ impl EditorState {
     }
 
     /// The definition of the group entered last (`None` at the document).
-    pub fn enclosing(&self) -> Option<std::sync::Arc<crate::graph::GroupDef>> {
+    pub fn enclosing(&self) -> Option<std::sync::Arc<tyndall_engine::graph::GroupDef>> {
         let (last, outer) = self.scope.split_last()?;
         let g = self.graph.inside(outer)?;
         g.groups().get(&g.node(last)?.kind).cloned()
@@ -108,7 +108,7 @@ impl EditorState {
     /// that name (its instances would change).
     pub fn add_group_node(
         &mut self,
-        def: std::sync::Arc<crate::graph::GroupDef>,
+        def: std::sync::Arc<tyndall_engine::graph::GroupDef>,
         pos: [f32; 2],
     ) -> Result<String, EditorError> {
         self.apply(|g, c| {
@@ -194,7 +194,10 @@ impl EditorState {
                 std::fs::create_dir_all(dir)
                     .map_err(|e| GraphError::Io(format!("cannot create {}: {e}", dir.display())))?;
             }
-            crate::graph::write_atomic(&path, crate::graph::library_text(&def).as_bytes())
+            tyndall_engine::graph::write_atomic(
+                &path,
+                tyndall_engine::graph::library_text(&def).as_bytes(),
+            )
         })?;
         Ok(path)
     }

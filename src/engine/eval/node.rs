@@ -266,7 +266,7 @@ pub struct KeyInput<'a> {
 ///
 /// ```text
 /// static DECL: NodeDecl = NodeDecl::new(NodeSchema { kind: "Blur", … })
-///     .shaders(&[Shader::new("blur", include_str!("../shaders/blur.wgsl"))])
+///     .shaders(&[crate::shader("blur", include_str!("../shaders/blur.wgsl"))])
 ///     .uniforms(&[BlurParams::LAYOUT]);
 /// ```
 #[derive(Debug)]

@@ -75,17 +75,6 @@ impl Camera {
         glam::camera::rh::view::look_at_mat4(self.position, self.position + dir, up)
     }
 
-    /// The matrices a `Depth` carries for a `w × h` image of this camera (far distance as the
-    /// sky's depth, no radiance).
-    pub fn matrices(&self, w: u32, h: u32) -> crate::eval::Matrices {
-        crate::eval::Matrices {
-            view: self.view().to_cols_array_2d(),
-            proj: self.proj(w as f32 / h.max(1) as f32).to_cols_array_2d(),
-            far: self.far,
-            radiance: [0.0; 3],
-        }
-    }
-
     /// View → clip for an image of this aspect ratio (wgpu depth range 0..1).
     pub fn proj(&self, aspect: f32) -> Mat4 {
         glam::camera::rh::proj::directx::perspective(

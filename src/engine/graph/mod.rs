@@ -31,6 +31,7 @@ pub use library::{
     is_library_text, library_folders, library_text, list_library, load_library_file,
     load_library_group, reference_entry, user_library,
 };
+pub use port_types::type_for_file;
 pub use schema::{Catalog, NodeSchema};
 pub use types::{
     condition_holds, position, sample_keys, Choice, DefaultValue, Direction, Interp, Key,

@@ -186,7 +186,7 @@ fn rows_buffer(device: &wgpu::Device, queue: &wgpu::Queue, size: [u32; 3]) -> wg
 
 /// The WGSL declarations [`rows_source`] adds once per shader.
 const ROWS_STRUCT: &str = "
-// Added by Tyndall (src/gpu/volume.rs): a 3D storage level written through a row buffer.
+// Added by Tyndall (src/engine/gpu/volume.rs): a 3D storage level written through a row buffer.
 struct TyndallVolumeRows {
     size: vec3<u32>,
     pitch: u32,

@@ -31,7 +31,7 @@ pub use params::PARAMS_IN_STORAGE_BELOW;
 use pool::{narrow, widen};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
 pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
-pub use shader::{compose, shader_file, shader_files, Shader};
+pub use shader::{compose, Shader, ShaderFiles};
 pub use timer::PassTimer;
 pub use volume::{mip_count, mip_size, row_pitch, rows_source, GpuVolume};
 

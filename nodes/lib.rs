@@ -1,13 +1,16 @@
-//! Node kinds, one stem each (`<stem>.rs`, or a folder `<stem>/mod.rs` with one file per part:
+//! Tyndall's techniques. Node kinds, one stem each (`<stem>.rs`, or a folder `<stem>/mod.rs` with one file per part:
 //! ports and parameters, CPU reference, GPU dispatch), the algorithms several of them share
 //! ([`algorithms`]), and the registry that hands them to the document and the evaluator.
 //!
 //! Adding a node: write `nodes/<stem>.rs` and `shaders/<stem>.wgsl` (or the folders), then add
 //! one line to [`registry`]; CONTRIBUTING.md lists every other place.
 
+#![deny(missing_docs)]
+
 use std::sync::Arc;
 
-use crate::eval::Registry;
+use tyndall_engine::eval::Registry;
+use tyndall_engine::gpu::Shader;
 
 pub mod algorithms;
 pub mod bilateral_filter;
@@ -26,7 +29,6 @@ pub mod image_input;
 pub mod image_output;
 pub mod light_map;
 pub mod light_map_solve;
-pub mod lorenz_mie;
 pub mod math;
 pub mod morphology2d;
 pub mod noise_volume;
@@ -45,6 +47,28 @@ pub mod temporal_accumulate;
 pub mod tonemap;
 pub mod transfer_function;
 pub mod util;
+
+include!(concat!(env!("OUT_DIR"), "/shader_files.rs"));
+
+/// A technique's shader: `shader("blur", include_str!("../shaders/blur.wgsl"))` — its path
+/// under `shaders/` without `.wgsl`, its embedded text, and [`SHADER_FILES`] for its `#import`
+/// lines.
+pub const fn shader(stem: &'static str, source: &'static str) -> Shader {
+    Shader::new(stem, source, SHADER_FILES)
+}
+
+/// The text of `shaders/<path>.wgsl`, as embedded at build time.
+pub fn shader_file(path: &str) -> Option<&'static str> {
+    SHADER_FILES
+        .iter()
+        .find(|(name, _)| *name == path)
+        .map(|(_, text)| *text)
+}
+
+/// Every `shaders/**/*.wgsl` path (without `.wgsl`), as embedded at build time.
+pub fn shader_files() -> impl Iterator<Item = &'static str> {
+    SHADER_FILES.iter().map(|(name, _)| *name)
+}
 
 /// Every node kind Tyndall ships.
 pub fn registry() -> Registry {

@@ -89,3 +89,21 @@ impl Graph {
         types
     }
 }
+
+/// The port type a file with `channels` channels should become on a port accepting `accepts`.
+pub fn type_for_file(accepts: &[PortType], channels: u32) -> Option<PortType> {
+    if channels == 4 {
+        return [PortType::Image, PortType::Lut2D]
+            .into_iter()
+            .find(|t| accepts.contains(t));
+    }
+    accepts
+        .iter()
+        .copied()
+        .find(|t| t.is_single_channel())
+        .or_else(|| {
+            accepts
+                .contains(&PortType::Image)
+                .then_some(PortType::Image)
+        })
+}

@@ -22,6 +22,7 @@
 //! nodes ran, were reused and were not needed ([`chain`]). `tyndall bench` with no name runs every
 //! suite, writes one long CSV ([`report::results_csv`]), the plots ([`plot`]) and the tables of
 //! BENCHMARKS.md between their markers ([`report::update_doc`]).
+#![deny(missing_docs)]
 
 pub mod chain;
 pub mod documents;
@@ -40,10 +41,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::eval::{download, resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Target};
-use crate::gpu::Gpu;
-use crate::graph::{load_file, split_endpoint, Graph};
-use crate::io::Raster;
+use tyndall_engine::eval::{
+    download, resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Target,
+};
+use tyndall_engine::gpu::Gpu;
+use tyndall_engine::graph::{load_file, split_endpoint, Graph};
+use tyndall_engine::io::Raster;
 
 /// One measured row.
 #[derive(Debug, Clone)]
@@ -116,7 +119,7 @@ pub enum BenchError {
     Input(String),
     /// An evaluation failed.
     #[error(transparent)]
-    Eval(#[from] Box<crate::eval::EvalError>),
+    Eval(#[from] Box<tyndall_engine::eval::EvalError>),
 }
 
 fn set_one(
@@ -148,7 +151,7 @@ pub(crate) fn apply(
         match split_endpoint(key) {
             // `NODE.@data`: the node's data block, as RON text (a TF's layers, strokes…).
             Ok((n, "@data")) => {
-                let data = crate::graph::NodeData::from_text(value)
+                let data = tyndall_engine::graph::NodeData::from_text(value)
                     .map_err(|e| BenchError::Input(format!("{key}: {e}")))?;
                 g.set_data(n, Some(data))
                     .map_err(|e| BenchError::Input(e.to_string()))?;

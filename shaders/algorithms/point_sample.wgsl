@@ -1,14 +1,15 @@
-// Downsample (nodes/downsample.rs): point sampling by an integer factor — low-res texel q takes
-// the high-res texel at q·f + ⌊f/2⌋ (clamped), so depths stay depths of real surfaces.
+// Point sampling by an integer factor (nodes/algorithms/point_sample.rs; the `Downsample` node,
+// and `DepthUpsample` when it reduces a depth itself): low-res texel q takes the high-res texel at
+// q·f + ⌊f/2⌋ (clamped), so depths stay depths of real surfaces.
 
-struct Params {
+struct PointSampleParams {
     factor: u32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(0) var<uniform> P: PointSampleParams;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var out_scalar: texture_storage_2d<r32float, write>;
 @group(0) @binding(3) var out_image: texture_storage_2d<rgba32float, write>;

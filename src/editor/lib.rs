@@ -4,6 +4,8 @@
 //! The window (`app`) draws the canvas (`canvas`), viewer (`view`), parameters, timeline and
 //! preset browser; evaluation runs on a worker thread (`worker`).
 
+#![deny(missing_docs)]
+
 mod app;
 pub mod bench_panel;
 pub mod brush_panel;

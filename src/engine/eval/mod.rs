@@ -33,7 +33,8 @@ pub use node::{
 };
 pub use params::{FromParam, ParamReader};
 pub use paths::{
-    file_stamp, output_path, resolve_files, with_frame, with_suffix, PathPolicy, PathRefused,
+    file_stamp, output_path, parse_frame_spec, resolve_files, with_frame, with_suffix, FrameList,
+    PathPolicy, PathRefused,
 };
 use stats::{report, NodeRun};
 pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};

@@ -1,12 +1,13 @@
-// GBuffer: camera linear depth (distance), world normal and albedo (nodes/g_buffer.rs).
+// A scene's G-buffer: camera linear depth (distance), world normal and albedo
+// (nodes/algorithms/g_buffer.rs; the `GBuffer` node, and `LightMapSolve`'s painted views).
 
-struct Params {
+struct GBufferParams {
     view_proj: mat4x4<f32>,
     eye: vec3<f32>,
     far: f32,
 }
 
-@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(0) var<uniform> P: GBufferParams;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,

@@ -44,6 +44,17 @@ impl Default for Matrices {
 }
 
 impl Matrices {
+    /// The matrices a `Depth` carries for a `w × h` image of `camera` (far distance as the
+    /// sky's depth, no radiance).
+    pub fn of_camera(camera: &crate::scene::Camera, w: u32, h: u32) -> Self {
+        Self {
+            view: camera.view().to_cols_array_2d(),
+            proj: camera.proj(w as f32 / h.max(1) as f32).to_cols_array_2d(),
+            far: camera.far,
+            radiance: [0.0; 3],
+        }
+    }
+
     /// Projection × view (world → clip).
     pub fn view_proj(&self) -> glam::Mat4 {
         glam::Mat4::from_cols_array_2d(&self.proj) * glam::Mat4::from_cols_array_2d(&self.view)

@@ -10,7 +10,7 @@
 //! node fails with one line naming what is missing ([`Capabilities::lacks_for`]).
 //!
 //! Where the adapter offers less than the usual path assumes, [`Capabilities`] also decides the
-//! substitutes the rest of `src/gpu/` uses (one mechanism for every node): a two-channel float
+//! substitutes the rest of `src/engine/gpu/` uses (one mechanism for every node): a two-channel float
 //! texture that cannot be a storage texture (GL) is stored as four channels, and a float format
 //! that cannot be rendered to is rasterised into one that can.
 
@@ -139,7 +139,7 @@ pub struct Capabilities {
     /// Passes of fewer invocations than this get their parameter block (`var<uniform>`) as a
     /// read-only storage buffer instead; 0: never, `u64::MAX`: always. Mesa's CPU drivers
     /// compile a shader per dispatch of a uniform block that steers a branch: see
-    /// `src/gpu/params.rs` for why and for the default ([`super::PARAMS_IN_STORAGE_BELOW`]
+    /// `src/engine/gpu/params.rs` for why and for the default ([`super::PARAMS_IN_STORAGE_BELOW`]
     /// there, 0 elsewhere); `TYNDALL_GPU_PARAMS=uniform|storage` chooses by hand.
     pub params_in_storage_below: u64,
 }
@@ -170,7 +170,7 @@ impl Capabilities {
     }
 
     /// Whether passes write volume levels through a storage buffer copied into the texture
-    /// before the volume is next read (see `src/gpu/volume.rs`), rather than as a 3D storage
+    /// before the volume is next read (see `src/engine/gpu/volume.rs`), rather than as a 3D storage
     /// texture: where the
     /// adapter cannot write every slice of one ([`Capabilities::layered_3d_storage`]), and when
     /// emulating GL.

@@ -9,11 +9,21 @@ use super::NodeError;
 use crate::graph::{Choice, ParamValue};
 
 /// A node's parameter values read as Rust types, each failure naming the parameter: what
-/// [`RunCtx`](super::RunCtx)'s readers and [`FromParam`] use, also where no `RunCtx` exists (a cache key).
+/// [`FromParam`] reads through, for the struct [`params!`](crate::params) declares. Its readers
+/// take a parameter's name and are private to the engine, and only the macro makes one
+/// ([`ParamReader::for_declared`]), so a technique cannot read a parameter by name: it reads
+/// its whole declared struct (`Params::from_ctx`, `Params::from_params`). `tests/shaders.rs`
+/// fails on a by-name read under `nodes/`.
 #[derive(Clone, Copy)]
-pub struct ParamReader<'a>(pub &'a BTreeMap<String, ParamValue>);
+pub struct ParamReader<'a>(&'a BTreeMap<String, ParamValue>);
 
 impl<'a> ParamReader<'a> {
+    /// The reader of a parameter map, for the code [`params!`](crate::params) expands to only.
+    #[doc(hidden)]
+    pub fn for_declared(params: &'a BTreeMap<String, ParamValue>) -> Self {
+        Self(params)
+    }
+
     fn param(&self, name: &str) -> Result<&'a ParamValue, NodeError> {
         self.0.get(name).ok_or_else(|| NodeError::Param {
             param: name.to_string(),
@@ -22,7 +32,7 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A `Float` or `Int` parameter as f64.
-    pub fn f64(&self, name: &str) -> Result<f64, NodeError> {
+    pub(crate) fn f64(&self, name: &str) -> Result<f64, NodeError> {
         self.param(name)?.as_f64().ok_or_else(|| NodeError::Param {
             param: name.to_string(),
             message: "is not numeric".into(),
@@ -30,12 +40,12 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A numeric parameter as f32.
-    pub fn f32(&self, name: &str) -> Result<f32, NodeError> {
+    pub(crate) fn f32(&self, name: &str) -> Result<f32, NodeError> {
         Ok(self.f64(name)? as f32)
     }
 
     /// An `Int` parameter.
-    pub fn int(&self, name: &str) -> Result<i64, NodeError> {
+    pub(crate) fn int(&self, name: &str) -> Result<i64, NodeError> {
         match self.param(name)? {
             ParamValue::Int(v) => Ok(*v),
             ParamValue::Float(v) => Ok(v.round() as i64),
@@ -47,7 +57,7 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A `Bool` parameter.
-    pub fn bool(&self, name: &str) -> Result<bool, NodeError> {
+    pub(crate) fn bool(&self, name: &str) -> Result<bool, NodeError> {
         match self.param(name)? {
             ParamValue::Bool(v) => Ok(*v),
             _ => Err(NodeError::Param {
@@ -59,12 +69,12 @@ impl<'a> ParamReader<'a> {
 
     /// A `Text` parameter. An `Enum` parameter is refused here: read it with
     /// [`ParamReader::choice`], which checks the value against its names.
-    pub fn text(&self, name: &str) -> Result<&'a str, NodeError> {
+    pub(crate) fn text(&self, name: &str) -> Result<&'a str, NodeError> {
         match self.param(name)? {
             ParamValue::Text(v) => Ok(v),
             ParamValue::Enum(_) => Err(NodeError::Param {
                 param: name.to_string(),
-                message: "is a choice: read it with RunCtx::choice".into(),
+                message: "is a choice: declare it with its choice type".into(),
             }),
             _ => Err(NodeError::Param {
                 param: name.to_string(),
@@ -77,7 +87,7 @@ impl<'a> ParamReader<'a> {
     /// [`choice_enum!`](crate::choice_enum)). A value that is not one of `T::NAMES` is an error
     /// naming the parameter, the value and the accepted names (the evaluator adds the node):
     /// never a silent fallback to the first option.
-    pub fn choice<T: Choice>(&self, name: &str) -> Result<T, NodeError> {
+    pub(crate) fn choice<T: Choice>(&self, name: &str) -> Result<T, NodeError> {
         let v = self.param(name)?;
         let text = match v {
             ParamValue::Enum(t) | ParamValue::Text(t) => t.as_str(),
@@ -98,7 +108,7 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A `Vec3` parameter.
-    pub fn vec3(&self, name: &str) -> Result<[f32; 3], NodeError> {
+    pub(crate) fn vec3(&self, name: &str) -> Result<[f32; 3], NodeError> {
         match self.param(name)? {
             ParamValue::Vec3(c) => Ok(c.map(|v| v as f32)),
             _ => Err(NodeError::Param {
@@ -109,7 +119,7 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A `Colour` parameter.
-    pub fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
+    pub(crate) fn colour(&self, name: &str) -> Result<[f32; 4], NodeError> {
         match self.param(name)? {
             ParamValue::Colour(c) => Ok(c.map(|v| v as f32)),
             _ => Err(NodeError::Param {
@@ -210,7 +220,7 @@ macro_rules! params {
             pub fn from_params(
                 params: &::std::collections::BTreeMap<String, $crate::graph::ParamValue>,
             ) -> Result<Self, $crate::eval::NodeError> {
-                let r = $crate::eval::ParamReader(params);
+                let r = $crate::eval::ParamReader::for_declared(params);
                 Ok(Self {
                     $( $field: <$ty as $crate::eval::FromParam>::from_param(r, {
                         const SPEC: $crate::graph::ParamSpec = $spec;

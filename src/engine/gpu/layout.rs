@@ -17,7 +17,7 @@ pub struct UniformLayout {
 /// struct cannot be missing from the check):
 ///
 /// ```
-/// tyndall::uniforms! {
+/// tyndall_engine::uniforms! {
 ///     /// Uniforms of `shaders/x.wgsl`.
 ///     pub struct XParams as "Params" {
 ///         /// Radius.

@@ -469,7 +469,7 @@ pub trait Choice: Sized + Copy + 'static {
 /// (`as u32`) expect.
 ///
 /// ```
-/// tyndall::choice_enum! {
+/// tyndall_engine::choice_enum! {
 ///     /// Footprint of a filter.
 ///     pub enum Shape { Circle = "Circle", Square = "Square" }
 /// }

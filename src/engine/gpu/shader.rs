@@ -12,9 +12,12 @@
 use std::collections::{BTreeSet, HashMap};
 use std::sync::{Mutex, OnceLock};
 
-include!(concat!(env!("OUT_DIR"), "/shader_files.rs"));
+/// The WGSL files `#import` lines resolve against: (path under `shaders/` without `.wgsl`,
+/// text). The engine holds no shader; the techniques crate embeds every `shaders/**/*.wgsl`
+/// file at build time and hands its table to each [`Shader`] it declares.
+pub type ShaderFiles = &'static [(&'static str, &'static str)];
 
-/// A WGSL source and its path under `shaders/`.
+/// A WGSL source, its path under `shaders/`, and the files its `#import` lines resolve against.
 #[derive(Clone, Copy, Debug)]
 pub struct Shader {
     /// Path under `shaders/` without `.wgsl`: `blur` for `shaders/blur.wgsl`,
@@ -23,13 +26,21 @@ pub struct Shader {
     pub stem: &'static str,
     /// The file's text as written (with its `#import` lines; see [`Shader::wgsl`]).
     pub source: &'static str,
+    /// Where its `#import` lines are looked up (see [`ShaderFiles`]).
+    pub files: ShaderFiles,
 }
 
 impl Shader {
-    /// `Shader::new("math", include_str!("../shaders/math.wgsl"))`: the path and the embedded
-    /// source (a test checks that the source equals `shaders/<stem>.wgsl`).
-    pub const fn new(stem: &'static str, source: &'static str) -> Self {
-        Self { stem, source }
+    /// `Shader::new("math", include_str!("../shaders/math.wgsl"), FILES)`: the path, the
+    /// embedded source (a test checks that the source equals `shaders/<stem>.wgsl`) and the
+    /// files its imports resolve against (a technique writes `crate::shader("math", …)`,
+    /// which passes the techniques crate's table).
+    pub const fn new(stem: &'static str, source: &'static str, files: ShaderFiles) -> Self {
+        Self {
+            stem,
+            source,
+            files,
+        }
     }
 
     /// The node stem this shader belongs to: the first component of [`Shader::stem`].
@@ -46,37 +57,27 @@ impl Shader {
         if let Some(text) = done.get(self.stem) {
             return Ok(text);
         }
-        let text: &'static str = Box::leak(compose(self.stem, self.source)?.into_boxed_str());
+        let text: &'static str =
+            Box::leak(compose(self.stem, self.source, self.files)?.into_boxed_str());
         done.insert(self.stem, text);
         Ok(text)
     }
 }
 
-/// The text of `shaders/<path>.wgsl`, as embedded at build time.
-pub fn shader_file(path: &str) -> Option<&'static str> {
-    SHADER_FILES
-        .iter()
-        .find(|(name, _)| *name == path)
-        .map(|(_, text)| *text)
-}
-
-/// Every `shaders/**/*.wgsl` path (without `.wgsl`), as embedded at build time.
-pub fn shader_files() -> impl Iterator<Item = &'static str> {
-    SHADER_FILES.iter().map(|(name, _)| *name)
-}
-
-/// Compose `source` (the text of `shaders/<name>.wgsl`): see the module doc.
-pub fn compose(name: &str, source: &str) -> Result<String, String> {
+/// Compose `source` (the text of `shaders/<name>.wgsl`), its imports looked up in `files`: see
+/// the module doc.
+pub fn compose(name: &str, source: &str, files: ShaderFiles) -> Result<String, String> {
     let mut seen = BTreeSet::new();
     seen.insert(name.to_string());
     let mut out = String::with_capacity(source.len() * 2);
-    expand(name, source, &mut seen, &mut Vec::new(), &mut out)?;
+    expand(name, source, files, &mut seen, &mut Vec::new(), &mut out)?;
     Ok(out)
 }
 
 fn expand(
     name: &str,
     source: &str,
+    files: ShaderFiles,
     seen: &mut BTreeSet<String>,
     stack: &mut Vec<String>,
     out: &mut String,
@@ -99,13 +100,17 @@ fn expand(
             out.push_str(&format!("// (#import {path}: already included)\n"));
             continue;
         }
-        let text = shader_file(path).ok_or_else(|| {
-            format!("shaders/{name}.wgsl: `#import {path}`: there is no shaders/{path}.wgsl")
-        })?;
+        let text = files
+            .iter()
+            .find(|(file, _)| *file == path)
+            .map(|(_, text)| *text)
+            .ok_or_else(|| {
+                format!("shaders/{name}.wgsl: `#import {path}`: there is no shaders/{path}.wgsl")
+            })?;
         out.push_str(&format!(
             "// ---- #import {path} (shaders/{path}.wgsl) ----\n"
         ));
-        expand(path, text, seen, stack, out)?;
+        expand(path, text, files, seen, stack, out)?;
         out.push_str(&format!("// ---- end of {path} ----\n"));
     }
     stack.pop();

@@ -1,6 +1,6 @@
 //! Embeds every `shaders/**/*.wgsl` file in a table (`$OUT_DIR/shader_files.rs`), so that a
-//! shader's `#import name` lines can be resolved at run time by `tyndall::gpu::Shader::wgsl`
-//! without `src/` naming any file of a technique.
+//! shader's `#import name` lines can be resolved at run time by the engine's `Shader::wgsl`
+//! without the engine holding any shader (`crate::shader` hands each shader this table).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -28,13 +28,14 @@ fn walk(dir: &Path, root: &Path, out: &mut Vec<(String, PathBuf)>) {
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
-    let root = manifest.join("shaders");
-    println!("cargo:rerun-if-changed=shaders");
+    // shaders/ sits beside nodes/ at the top of the repository.
+    let root = manifest.join("..").join("shaders");
+    println!("cargo:rerun-if-changed=../shaders");
     let mut files = Vec::new();
     walk(&root, &root, &mut files);
     let mut text = String::from(
         "/// Every `shaders/**/*.wgsl` file: (path under `shaders/` without `.wgsl`, text).\n\
-         pub static SHADER_FILES: &[(&str, &str)] = &[\n",
+         pub const SHADER_FILES: tyndall_engine::gpu::ShaderFiles = &[\n",
     );
     for (name, path) in &files {
         println!("cargo:rerun-if-changed={}", path.display());

@@ -40,6 +40,20 @@ impl Raster {
         let i = (y as usize * self.width as usize + x as usize) * c;
         &self.data[i..i + c]
     }
+
+    /// The raster as RGBA: four channels kept, one channel becomes grey with alpha 1 (what
+    /// `read_image` gives: 1 or 4 channels).
+    pub fn into_rgba(self) -> Self {
+        match self.channels {
+            4 => self,
+            _ => Raster {
+                width: self.width,
+                height: self.height,
+                channels: 4,
+                data: self.data.iter().flat_map(|v| [*v, *v, *v, 1.0]).collect(),
+            },
+        }
+    }
 }
 
 /// How samples are stored in a written file.

@@ -183,3 +183,45 @@ pub fn with_suffix(path: &str, suffix: &str) -> PathBuf {
     };
     p.with_file_name(name)
 }
+
+/// A list of frames (`--frames`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameList(pub Vec<i64>);
+
+/// Parse a frame spec: `A`, `A-B`, `A-BxS`, comma-separated; frames ≥ 0, in the order given,
+/// repeats dropped.
+pub fn parse_frame_spec(s: &str) -> Result<FrameList, String> {
+    let mut out: Vec<i64> = Vec::new();
+    for part in s.split(',').map(str::trim) {
+        let num = |t: &str| -> Result<i64, String> {
+            t.trim()
+                .parse::<i64>()
+                .ok()
+                .filter(|v| *v >= 0)
+                .ok_or_else(|| format!("bad frame '{t}' in '{s}' (frames are whole numbers ≥ 0)"))
+        };
+        let (range, step) = match part.split_once(['x', 'X']) {
+            Some((r, st)) => (r, num(st)?),
+            None => (part, 1),
+        };
+        if step == 0 {
+            return Err(format!("'{part}': the step must be at least 1"));
+        }
+        let (a, b) = match range.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(range)?, num(range)?),
+        };
+        if b < a {
+            return Err(format!("frame range '{part}' is empty"));
+        }
+        if (b - a) / step > 1_000_000 {
+            return Err(format!("'{part}' is more than a million frames"));
+        }
+        for f in (a..=b).step_by(step as usize) {
+            if !out.contains(&f) {
+                out.push(f);
+            }
+        }
+    }
+    Ok(FrameList(out))
+}

@@ -1,0 +1,71 @@
+//! A scene's G-buffer seen by a camera: linear depth (the distance to the first surface; sky:
+//! the camera's far distance), world normals facing the camera and albedo, rasterised. The
+//! `GBuffer` node is this pass; `LightMapSolve` renders the depth of each painted view with it.
+
+use tyndall_engine::eval::Matrices;
+use tyndall_engine::gpu::{Gpu, GpuError, GpuTexture, MeshDraw, RasterTarget, Shader, TexFormat};
+use tyndall_engine::scene::GpuScene;
+
+/// The raster pass (`shaders/algorithms/g_buffer.wgsl`); a kind that calls [`render`] lists it
+/// in its `NodeDecl::shaders`, and [`GBufferParams::LAYOUT`] in its uniforms.
+pub const SHADER: Shader = crate::shader(
+    "algorithms/g_buffer",
+    include_str!("../../shaders/algorithms/g_buffer.wgsl"),
+);
+
+tyndall_engine::uniforms! {
+    /// Uniforms of `shaders/algorithms/g_buffer.wgsl` (struct `GBufferParams`).
+    pub struct GBufferParams as "GBufferParams" {
+        /// World → camera clip.
+        pub view_proj: [[f32; 4]; 4],
+        /// Camera position.
+        pub eye: [f32; 3],
+        /// Far distance.
+        pub far: f32,
+    }
+}
+
+/// Render the G-buffer of `scene` seen by `cam` at `w × h`: linear depth (sky: the far
+/// distance), normals, albedo, and the camera's matrices (for other nodes that need a view of
+/// the scene, e.g. `LightMapSolve`).
+pub fn render(
+    gpu: &Gpu,
+    scene: &GpuScene,
+    cam: &tyndall_engine::scene::Camera,
+    w: u32,
+    h: u32,
+) -> Result<(GpuTexture, GpuTexture, GpuTexture, Matrices), GpuError> {
+    let (view, proj) = (cam.view(), cam.proj(w as f32 / h as f32));
+    let u = GBufferParams {
+        view_proj: (proj * view).to_cols_array_2d(),
+        eye: cam.position.to_array(),
+        far: cam.far,
+    };
+    let depth = gpu.texture(w, h, TexFormat::R32F)?;
+    let normal = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    let albedo = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    gpu.raster(
+        SHADER,
+        bytemuck::bytes_of(&u),
+        &[
+            RasterTarget {
+                texture: &depth,
+                clear: [cam.far as f64, 0.0, 0.0, 0.0],
+            },
+            RasterTarget {
+                texture: &normal,
+                clear: [0.0; 4],
+            },
+            RasterTarget {
+                texture: &albedo,
+                clear: [0.0; 4],
+            },
+        ],
+        &MeshDraw {
+            vertices: &scene.vertices,
+            indices: &scene.indices,
+            ranges: &scene.ranges,
+        },
+    )?;
+    Ok((depth, normal, albedo, Matrices::of_camera(cam, w, h)))
+}
