@@ -13,7 +13,7 @@ W/m² written as lux × 683), renders it with `target/release/tyndall`, and prin
 and the mean relative error over the pixels whose Cycles in-scatter is above 10 % of its maximum.
 
 Default output is tests/fixtures/cycles/: `scene.gltf`, `cycles_volume_direct.exr` (what the test
-`tests/cycles.rs` compares against, so CI needs no Blender) and `compare.ron` (the Tyndall graph).
+`tests/light/cycles.rs` compares against, so CI needs no Blender) and `compare.ron` (the Tyndall graph).
 """
 import math
 import os

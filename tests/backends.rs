@@ -16,7 +16,7 @@
 //! more such edges). Why not looser: a
 //! real fault (a missed substitute, a wrong binding, a channel lost in the Rg32F → Rgba32F
 //! storage) changes whole regions and falls far below 50 dB. The substitutes themselves are
-//! checked bit for bit on one adapter in `tests/gpu.rs`.
+//! checked bit for bit on one adapter in `tests/platform/gpu.rs`.
 
 mod common;
 

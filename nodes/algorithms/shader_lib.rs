@@ -1,7 +1,7 @@
 //! The CPU twins of `shaders/lib/*.wgsl`, for the nodes' CPU references (the camera's are
 //! `tyndall_engine::eval::screen_ray` / `pixel_ray`, which predate the library; `exp_segment` has no
 //! twin: the scattering reference integrates its pieces inline).
-//! A change to one side is a change to both (`tests/shader_lib.rs` runs the WGSL side on the
+//! A change to one side is a change to both (`tests/platform/shader_lib.rs` runs the WGSL side on the
 //! GPU and compares).
 
 use glam::{Mat4, Vec3};

@@ -15,7 +15,7 @@
 //! (r ≤ 7) it is the exact disk. `BruteForce` visits the whole footprint (O(r²)), for
 //! benchmarks. Each equals its CPU reference exactly (min and max involve no rounding); how far
 //! the polygon is from the disk is measured in `benches/morphology.ron` and bounded in
-//! `tests/morphology.rs`.
+//! `tests/filters/morphology.rs`.
 //!
 //! | port | dir | type |
 //! |---|---|---|

@@ -5,7 +5,7 @@
 //! Directions: the axes (1, 0), (0, 1) with `m[0]` steps each way, the diagonals (1, ±1) with
 //! `m[1]`, the knight's moves (2, ±1), (1, ±2) with `m[2]`. The discrete sum
 //! {Σ iⱼ·vⱼ : |iⱼ| ≤ mⱼ} is exactly the set of texels inside the continuous zonotope with the
-//! same generators (checked in `tests/morphology.rs`), so its row spans follow from the
+//! same generators (checked in `tests/filters/morphology.rs`), so its row spans follow from the
 //! half-planes |n·p| ≤ Σ mⱼ·|n·vⱼ|, one per direction's normal n. [`polygon`] picks the lengths
 //! whose support (how far it moves an edge) is closest to the disk dx² + dy² ≤ r².
 //!

@@ -65,7 +65,7 @@ pub fn refused(gpu: &Gpu, graph: &tyndall::graph::Graph) -> Vec<(String, String)
 
 /// [`gpu`], or `None` (printing why) when the adapter cannot run one of `kinds`: a capability
 /// the adapter lacks is a skip even under `TYNDALL_REQUIRE_GPU=1` (the refusal itself is
-/// tested in `tests/gpu.rs` and `tests/backends.rs`).
+/// tested in `tests/platform/gpu.rs` and `tests/backends.rs`).
 pub fn gpu_for(kinds: &[&str]) -> Option<Arc<Gpu>> {
     let gpu = gpu()?;
     if let Some(why) = kinds.iter().find_map(|k| unsupported(&gpu, k)) {
@@ -80,7 +80,7 @@ pub fn gpu_for(kinds: &[&str]) -> Option<Arc<Gpu>> {
 #[macro_export]
 macro_rules! require_gpu_for {
     ($($kind:expr),+ $(,)?) => {
-        match common::gpu_for(&[$($kind),+]) {
+        match $crate::common::gpu_for(&[$($kind),+]) {
             Some(g) => g,
             None => return,
         }
@@ -91,7 +91,7 @@ macro_rules! require_gpu_for {
 #[macro_export]
 macro_rules! require_gpu {
     () => {
-        match common::gpu() {
+        match $crate::common::gpu() {
             Some(g) => g,
             None => return,
         }

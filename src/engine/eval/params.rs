@@ -12,7 +12,7 @@ use crate::graph::{Choice, ParamValue};
 /// [`FromParam`] reads through, for the struct [`params!`](crate::params) declares. Its readers
 /// take a parameter's name and are private to the engine, and only the macro makes one
 /// ([`ParamReader::for_declared`]), so a technique cannot read a parameter by name: it reads
-/// its whole declared struct (`Params::from_ctx`, `Params::from_params`). `tests/shaders.rs`
+/// its whole declared struct (`Params::from_ctx`, `Params::from_params`). `tests/platform/shaders.rs`
 /// fails on a by-name read under `nodes/`.
 #[derive(Clone, Copy)]
 pub struct ParamReader<'a>(&'a BTreeMap<String, ParamValue>);

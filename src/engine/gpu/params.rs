@@ -27,7 +27,7 @@ pub const PARAMS_IN_STORAGE_BELOW: u64 = 64 * 64;
 ///
 /// Never on wgpu's GL backend: llvmpipe's GLSL path read a read-only storage block as zeros in
 /// the phase tables' reductions (`shaders/phase.wgsl`: `P.width` in the loop condition of a
-/// function that then meets a workgroup barrier), so every `Phase` table of `tests/phase.rs`
+/// function that then meets a workgroup barrier), so every `Phase` table of `tests/light/phase.rs`
 /// came out empty, with no error (`TYNDALL_GPU_PARAMS=storage WGPU_BACKEND=gl cargo test --test
 /// phase` still shows it; the same passes in another test process read right, so the driver's
 /// fault was not pinned down further). The same block as a uniform, and the same WGSL through

@@ -6,7 +6,7 @@
 //! import `lib/medium`). `shaders/lib/` holds what several techniques share (camera rays,
 //! shadow-map tests, medium integrals, hashing, sampling); a technique's folder
 //! (`shaders/<stem>/`) may hold parts its passes share. The composed text is what naga
-//! validates (`tests/shaders.rs`), what the layout and capability checks read, and what the
+//! validates (`tests/platform/shaders.rs`), what the layout and capability checks read, and what the
 //! driver compiles.
 
 use std::collections::{BTreeSet, HashMap};

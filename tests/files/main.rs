@@ -1,0 +1,10 @@
+//! Files from elsewhere: image reading and writing, plates and their depth.
+//!
+//! One test binary per area (`cargo test --test files`); each module was a binary of its own.
+
+#[macro_use]
+#[path = "../common/mod.rs"]
+mod common;
+
+mod io;
+mod plate;

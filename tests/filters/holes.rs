@@ -1,0 +1,175 @@
+//! Hole creation: Perlin noise, hole maps (calibrated fractions), hole compositing.
+
+use crate::common;
+use std::sync::Arc;
+
+use tyndall::eval::{Matrices, PortValue};
+use tyndall::graph::{ParamValue, PortType};
+use tyndall::io::Raster;
+use tyndall::nodes::{hole_composite, hole_map, perlin_noise2d};
+
+fn noise(gpu: &Arc<tyndall::gpu::Gpu>, params: &[(&str, ParamValue)], size: (u32, u32)) -> Raster {
+    common::run_node(gpu, "PerlinNoise2D", params, vec![], &["noise"], size)
+        .expect("noise")
+        .remove("noise")
+        .expect("noise")
+}
+
+fn params(freq: f64, octaves: u32, mode: &str) -> perlin_noise2d::NoiseParams {
+    perlin_noise2d::NoiseParams {
+        scale: (16.0 * freq) as f32,
+        persistence: 0.5,
+        octaves,
+        mode: if mode == "seed" { 0 } else { 1 },
+        seed: 3,
+        angle: 0.0,
+        _pad0: 0,
+        _pad1: 0,
+    }
+}
+
+/// The shader and the CPU reference evaluate the same f32 formulas; the GPU may fuse
+/// multiply-adds in the fade and interpolation steps, so values agree within a few ULP of 1.
+#[test]
+fn perlin_matches_reference_for_both_modes_and_octave_extremes() {
+    let gpu = require_gpu!();
+    for mode in ["seed", "fbm"] {
+        for octaves in [1u32, 8] {
+            let got = noise(
+                &gpu,
+                &[
+                    ("mode", ParamValue::Enum(mode.into())),
+                    ("octaves", ParamValue::Int(octaves as i64)),
+                    ("seed", ParamValue::Int(3)),
+                ],
+                (47, 33),
+            );
+            let want = perlin_noise2d::reference(&params(1.0, octaves, mode), 47, 33);
+            let d = common::max_abs_diff(&got, &want);
+            assert!(d <= 1e-5, "{mode} o={octaves}: {d}");
+            assert!(got.data.iter().all(|v| (0.0..=1.0).contains(v)));
+            let spread = got.data.iter().cloned().fold(0.0f32, f32::max)
+                - got.data.iter().cloned().fold(1.0f32, f32::min);
+            assert!(
+                spread > 0.2,
+                "{mode} o={octaves}: noise too flat ({spread})"
+            );
+        }
+    }
+    // Frequency 0: every texel looks the noise up at the origin, a constant map.
+    let flat = noise(&gpu, &[("frequency", ParamValue::Float(0.0))], (9, 9));
+    assert!(flat.data.iter().all(|v| *v == flat.data[0]));
+}
+
+#[test]
+fn animation_moves_the_noise_and_time_zero_is_static() {
+    let gpu = require_gpu!();
+    let base = noise(&gpu, &[], (32, 32));
+    let t0 = noise(
+        &gpu,
+        &[
+            ("speed", ParamValue::Float(1.0)),
+            ("time", ParamValue::Float(0.0)),
+        ],
+        (32, 32),
+    );
+    let t1 = noise(
+        &gpu,
+        &[
+            ("speed", ParamValue::Float(1.0)),
+            ("time", ParamValue::Float(0.5)),
+        ],
+        (32, 32),
+    );
+    assert_eq!(base, t0);
+    assert!(common::max_abs_diff(&base, &t1) > 0.05);
+}
+
+fn holes(gpu: &Arc<tyndall::gpu::Gpu>, n: &Raster, h: f64, calibrated: bool) -> Raster {
+    common::run_node(
+        gpu,
+        "HoleMap",
+        &[
+            ("probability", ParamValue::Float(h)),
+            ("calibrated", ParamValue::Bool(calibrated)),
+        ],
+        vec![("noise", common::upload(gpu, n, PortType::Scalar))],
+        &["holes"],
+        (1, 1),
+    )
+    .expect("holes")
+    .remove("holes")
+    .expect("holes")
+}
+
+#[test]
+fn calibrated_hole_fraction_is_h() {
+    let gpu = require_gpu!();
+    let n = noise(&gpu, &[("octaves", ParamValue::Int(4))], (128, 128));
+    for k in 1..=9 {
+        let h = k as f64 / 10.0;
+        let map = holes(&gpu, &n, h, true);
+        let fraction =
+            map.data.iter().filter(|v| **v == 1.0).count() as f64 / map.data.len() as f64;
+        assert!(
+            (fraction - h).abs() <= 0.02,
+            "h = {h}: hole fraction {fraction}"
+        );
+        assert_eq!(
+            map,
+            hole_map::reference(&n, hole_map::calibrated_threshold(&n.data, h))
+        );
+    }
+    // Uncalibrated, h is a plain threshold: Perlin noise clusters around 0.5.
+    let raw = holes(&gpu, &n, 0.3, false);
+    let fraction = raw.data.iter().filter(|v| **v == 1.0).count() as f64 / raw.data.len() as f64;
+    assert!(fraction < 0.25, "uncalibrated fraction {fraction}");
+    for calibrated in [true, false] {
+        assert!(
+            holes(&gpu, &n, 0.0, calibrated)
+                .data
+                .iter()
+                .all(|v| *v == 0.0),
+            "h = 0: no holes"
+        );
+        assert!(
+            holes(&gpu, &n, 1.0, calibrated)
+                .data
+                .iter()
+                .all(|v| *v == 1.0),
+            "h = 1: all holes"
+        );
+    }
+}
+
+#[test]
+fn hole_composite_matches_reference() {
+    let gpu = require_gpu!();
+    let object = common::random_raster(19, 11, 1, 0.1, 0.4, 5);
+    let rest = common::random_raster(19, 11, 1, 0.2, 1.0, 6);
+    let mut h = Raster::new(19, 11, 1, 0.0);
+    for (i, v) in h.data.iter_mut().enumerate() {
+        *v = (i % 3 == 0) as u8 as f32;
+    }
+    let m = Matrices::default();
+    let out = common::run_node(
+        &gpu,
+        "HoleComposite",
+        &[],
+        vec![
+            (
+                "object",
+                PortValue::ShadowMap(Arc::new(gpu.upload(19, 11, 1, &object.data).expect("o")), m),
+            ),
+            ("holes", common::upload(&gpu, &h, PortType::Scalar)),
+            (
+                "rest",
+                PortValue::ShadowMap(Arc::new(gpu.upload(19, 11, 1, &rest.data).expect("r")), m),
+            ),
+        ],
+        &["map"],
+        (1, 1),
+    )
+    .expect("composite");
+    assert_eq!(out["map"], hole_composite::reference(&object, &h, &rest));
+}

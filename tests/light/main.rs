@@ -1,0 +1,14 @@
+//! Light and media: single scattering (every method, against CPU references and Cycles), phase functions, sky, soft visibility, volumes.
+//!
+//! One test binary per area (`cargo test --test light`); each module was a binary of its own.
+
+#[macro_use]
+#[path = "../common/mod.rs"]
+mod common;
+
+mod cycles;
+mod phase;
+mod scattering;
+mod sky;
+mod soft;
+mod volumes;

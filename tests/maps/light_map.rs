@@ -1,0 +1,413 @@
+//! Light maps: `SingleScattering` with a `LightMap`, and `LightMapSolve` recovering a known map,
+//! agreeing with its CPU reference, never increasing its residual, and staying finite on
+//! degenerate input.
+
+use crate::common;
+use std::sync::Arc;
+
+use glam::Vec3;
+use tyndall::eval::{Matrices, PortValue};
+use tyndall::graph::ParamValue;
+use tyndall::io::Raster;
+use tyndall::nodes::light_map_solve::{self as lms, Sampling, Settings, ViewProblem};
+use tyndall::scene::{fit_light, Camera};
+
+/// An orthographic sun fitted to a 10 m box around the origin.
+fn light() -> Matrices {
+    let (view, proj) = fit_light(
+        Vec3::new(0.3, 1.0, 0.2),
+        (Vec3::new(-5.0, -1.0, -5.0), Vec3::new(5.0, 3.0, 5.0)),
+    );
+    Matrices {
+        view: view.to_cols_array_2d(),
+        proj: proj.to_cols_array_2d(),
+        far: 1.0,
+        radiance: [1.0; 3],
+    }
+}
+
+fn camera(position: Vec3, w: u32, h: u32) -> Matrices {
+    let c = Camera {
+        position,
+        target: Vec3::new(0.0, 0.5, 0.0),
+        fov_y: 50.0,
+        near: 0.1,
+        far: 40.0,
+    };
+    Matrices::of_camera(&c, w, h)
+}
+
+/// A shadow map with one occluder block (so some rays are partly shadowed).
+fn shadow() -> Raster {
+    let mut r = Raster::new(16, 16, 1, 1.0);
+    for y in 6..9 {
+        for x in 5..8 {
+            r.data[y * 16 + x] = 0.2;
+        }
+    }
+    r
+}
+
+const VIEWS: [[f32; 3]; 3] = [[0.0, 1.5, 9.0], [8.0, 2.5, 4.0], [-7.0, 1.0, -5.0]];
+const SAMPLING: Sampling = Sampling {
+    sigma_t: 0.08,
+    steps: 48,
+    bias: 0.002,
+};
+
+/// The known light map: smooth, different per channel, within [0.2, 1.6].
+fn known_map(n: u32) -> Raster {
+    let mut r = Raster::new(n, n, 4, 1.0);
+    for y in 0..n {
+        for x in 0..n {
+            let (u, v) = (x as f32 / n as f32, y as f32 / n as f32);
+            let k = ((y * n + x) * 4) as usize;
+            r.data[k] = 0.9 + 0.7 * (u * 5.0).sin() * (v * 3.0).cos();
+            r.data[k + 1] = 0.6 + 0.4 * v;
+            r.data[k + 2] = 1.0 - 0.5 * u;
+        }
+    }
+    r
+}
+
+/// Render each view with `SingleScattering` (BruteForce, no jitter) with the known map and with
+/// a white one; the desired colour of every pixel is their ratio (so b = T x*).
+fn views_from_render(gpu: &Arc<tyndall::gpu::Gpu>, map: &Raster) -> Vec<ViewProblem> {
+    let (w, h) = (40, 30);
+    let sh = Arc::new(gpu.upload(16, 16, 1, &shadow().data).expect("upload"));
+    let map_tex = Arc::new(
+        gpu.upload(map.width, map.height, 4, &map.data)
+            .expect("map"),
+    );
+    let white = Arc::new(gpu.upload(1, 1, 4, &[1.0; 4]).expect("white"));
+    VIEWS
+        .iter()
+        .map(|p| {
+            let cam = camera(Vec3::from(*p), w, h);
+            let depth = Raster::new(w, h, 1, 14.0);
+            let d = Arc::new(gpu.upload(w, h, 1, &depth.data).expect("depth"));
+            let render = |lm: &Arc<tyndall::gpu::GpuTexture>| {
+                common::run_node(
+                    gpu,
+                    "SingleScattering",
+                    &[
+                        ("steps", ParamValue::Int(SAMPLING.steps as i64)),
+                        ("sigma_t", ParamValue::Float(SAMPLING.sigma_t as f64)),
+                    ],
+                    vec![
+                        ("shadow", PortValue::ShadowMap(sh.clone(), light())),
+                        ("depth", PortValue::Depth(d.clone(), cam)),
+                        ("light_map", PortValue::LightMap(lm.clone(), light())),
+                    ],
+                    &["inscatter"],
+                    (8, 8),
+                )
+                .expect("render")
+                .remove("inscatter")
+                .expect("inscatter")
+            };
+            let (with, base) = (render(&map_tex), render(&white));
+            let mut targets = Raster::new(w, h, 4, 0.0);
+            for k in 0..(w * h) as usize {
+                for c in 0..3 {
+                    let b = base.data[k * 4 + c];
+                    targets.data[k * 4 + c] = if b > 0.0 {
+                        with.data[k * 4 + c] / b
+                    } else {
+                        1.0
+                    };
+                }
+                targets.data[k * 4 + 3] = 1.0;
+            }
+            ViewProblem {
+                camera: cam,
+                depth,
+                targets,
+            }
+        })
+        .collect()
+}
+
+/// Texels whose total constraint weight (column sum of T) is at least `frac` of the largest.
+fn covered(views: &[ViewProblem], n: u32, frac: f32) -> Vec<bool> {
+    let mut op = lms::CpuOperator::new(views, &shadow(), &light(), n, SAMPLING);
+    use lms::Operator;
+    let rows = op.rows();
+    let col = op.adjoint(&vec![[1.0; 3]; rows]).expect("adjoint");
+    let top = col.iter().map(|c| c[0]).fold(0.0, f32::max);
+    col.iter()
+        .map(|c| c[0] > 0.0 && c[0] >= frac * top)
+        .collect()
+}
+
+fn settings(iterations: u32) -> Settings {
+    Settings {
+        iterations,
+        tolerance: 1e-9,
+        non_negative: true,
+        start: 1.0,
+    }
+}
+
+#[test]
+fn light_map_scales_inscatter_per_channel_and_minmax_is_refused() {
+    let gpu = require_gpu!();
+    let (w, h) = (12, 8);
+    let sh = Arc::new(gpu.upload(16, 16, 1, &shadow().data).expect("upload"));
+    let d = Arc::new(
+        gpu.upload(w, h, 1, &vec![14.0; (w * h) as usize])
+            .expect("d"),
+    );
+    let cam = camera(Vec3::new(0.0, 1.5, 9.0), w, h);
+    let run = |c: [f32; 4], method: &str| {
+        let lm = Arc::new(gpu.upload(1, 1, 4, &c).expect("lm"));
+        common::run_node(
+            &gpu,
+            "SingleScattering",
+            &[("method", ParamValue::Enum(method.into()))],
+            vec![
+                ("shadow", PortValue::ShadowMap(sh.clone(), light())),
+                ("depth", PortValue::Depth(d.clone(), cam)),
+                ("light_map", PortValue::LightMap(lm, light())),
+            ],
+            &["inscatter"],
+            (8, 8),
+        )
+    };
+    let white = run([1.0; 4], "BruteForce").expect("white")["inscatter"].clone();
+    let tinted = run([0.5, 0.25, 2.0, 1.0], "BruteForce").expect("tinted")["inscatter"].clone();
+    assert!(white.data.iter().any(|v| *v > 0.0));
+    for k in 0..(w * h) as usize {
+        for (c, f) in [0.5f32, 0.25, 2.0].iter().enumerate() {
+            let (a, b) = (tinted.data[k * 4 + c], white.data[k * 4 + c] * f);
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1e-3), "{a} vs {b}");
+        }
+    }
+    let e = run([1.0; 4], "MinMax").expect_err("refused").to_string();
+    assert!(e.contains("light_map") && e.contains("BruteForce"), "{e}");
+}
+
+/// A target rendered by SingleScattering with a known 8×8 map: the GPU solve recovers the map
+/// on the texels the constraint rays cover, and never increases its residual.
+#[test]
+fn solve_recovers_a_known_light_map() {
+    let gpu = require_gpu!();
+    let n = 8;
+    let truth = known_map(n);
+    let views = views_from_render(&gpu, &truth);
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let sol = lms::solve_gpu(
+        &gpu,
+        views.clone(),
+        &sh,
+        light(),
+        n,
+        SAMPLING,
+        settings(300),
+    )
+    .expect("solve");
+    for w in sol.residuals.windows(2) {
+        // Rounding only: the fixed-point adjoint and f32 sums (relative 1e-6 of the start).
+        assert!(
+            w[1] <= w[0] + 1e-6 * sol.residuals[0],
+            "residual rose: {:?}",
+            w
+        );
+    }
+    let cov = covered(&views, n, 0.2);
+    let mut worst = 0.0f32;
+    for (i, c) in cov.iter().enumerate() {
+        if *c {
+            for ch in 0..3 {
+                let t = truth.data[i * 4 + ch];
+                worst = worst.max((sol.x[i][ch] - t).abs() / t);
+            }
+        }
+    }
+    let count = cov.iter().filter(|c| **c).count();
+    assert!(count >= 16, "only {count} covered texels");
+    // The issue's bound: 1 % relative error on the covered texels.
+    assert!(
+        worst <= 0.01,
+        "worst relative error {worst} over {count} texels"
+    );
+}
+
+/// GPU and CPU solves agree on a small problem.
+#[test]
+fn gpu_and_cpu_solves_agree() {
+    let gpu = require_gpu!();
+    let n = 8;
+    let views = views_from_render(&gpu, &known_map(n));
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let set = settings(20);
+    let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
+    let g = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
+    let top = cpu.x.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+    let d = cpu
+        .x
+        .iter()
+        .flatten()
+        .zip(g.x.iter().flatten())
+        .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+    // 1e-3 relative: the issue's bound (the passes march in f32 in another order; measured
+    // 7e-6). On larger, underdetermined maps the iterates are sensitive to such differences
+    // (24²: 3e-4 without non-negativity after 20 iterations, and the active set of the
+    // non-negativity can differ), so the comparison is made where the problem is well posed.
+    assert!(
+        d <= 1e-3 * top,
+        "GPU vs CPU solve: {d} (largest value {top})"
+    );
+}
+
+/// Texels no constraint ray reaches keep the start value.
+#[test]
+fn unreached_texels_keep_the_start_value() {
+    let gpu = require_gpu!();
+    let n = 24;
+    // One view, a 4×4-pixel stroke: its rays cross a narrow band of the map.
+    let mut views = views_from_render(&gpu, &known_map(n));
+    views.truncate(1);
+    let w = views[0].targets.width as usize;
+    for (k, px) in views[0].targets.data.chunks_mut(4).enumerate() {
+        let (x, y) = (k % w, k / w);
+        px[3] = if (18..22).contains(&x) && (13..17).contains(&y) {
+            1.0
+        } else {
+            0.0
+        };
+    }
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let mut set = settings(20);
+    set.start = 0.7;
+    let g = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
+    let reached = covered(&views, n, 0.0);
+    assert!(
+        reached.iter().any(|c| !c),
+        "every texel is reached: the check is empty"
+    );
+    for (i, c) in reached.iter().enumerate() {
+        if !c {
+            assert_eq!(g.x[i], [0.7; 3], "texel {i} has no ray but moved");
+        }
+    }
+    assert!(g.x.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+}
+
+/// Zero strokes, a single pixel, contradictory strokes and an all-shadowed problem end finite
+/// (and non-negative), the residual never rising.
+#[test]
+fn degenerate_problems_end_finite() {
+    let gpu = require_gpu!();
+    let n = 8;
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let none = lms::solve_gpu(&gpu, vec![], &sh, light(), n, SAMPLING, settings(10)).expect("none");
+    assert!(none.x.iter().all(|v| *v == [1.0; 3]));
+    let mut one = views_from_render(&gpu, &known_map(n));
+    one.truncate(1);
+    for (k, px) in one[0].targets.data.chunks_mut(4).enumerate() {
+        px[3] = if k == 615 { 1.0 } else { 0.0 };
+    }
+    let s1 =
+        lms::solve_gpu(&gpu, one.clone(), &sh, light(), n, SAMPLING, settings(10)).expect("one");
+    assert!(s1.x.iter().flatten().all(|v| v.is_finite()));
+    // Contradictory: the second and third views want the opposite red of the first.
+    let mut contra = views_from_render(&gpu, &known_map(n));
+    for v in contra.iter_mut().skip(1) {
+        for px in v.targets.data.chunks_mut(4) {
+            px[0] = 2.0 - px[0];
+        }
+    }
+    let s3 = lms::solve_gpu(&gpu, contra, &sh, light(), n, SAMPLING, settings(40)).expect("contra");
+    assert!(s3.x.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    for w in s3.residuals.windows(2) {
+        assert!(
+            w[1] <= w[0] + 1e-6 * s3.residuals[0],
+            "residual rose: {:?}",
+            w
+        );
+    }
+    let dark = gpu.upload(16, 16, 1, &[0.0; 256]).expect("dark");
+    let s2 = lms::solve_gpu(&gpu, one, &dark, light(), n, SAMPLING, settings(10)).expect("dark");
+    assert!(s2.x.iter().flatten().all(|v| v.is_finite()));
+    assert!(s2.residuals.iter().all(|r| r.is_finite()));
+}
+
+/// The node in a graph: a built-in scene, its shadow map, one painted view; the light map feeds
+/// SingleScattering.
+#[test]
+fn node_solves_strokes_in_a_graph() {
+    let gpu = require_gpu!();
+    let registry = Arc::new(tyndall::nodes::registry());
+    let text = r#"(
+    version: 2,
+    nodes: {
+        "scene": (kind: "Scene", params: {"name": "window"}),
+        "shadow": (kind: "ShadowMap", params: {"resolution": 256}),
+        "gbuffer": (kind: "GBuffer"),
+        "solve": (kind: "LightMapSolve", params: {"resolution": 32, "iterations": 8, "steps": 32},
+                  data: (views: [(camera: Scene, width: 96, height: 54, strokes: [
+                      (colour: (1.0, 0.3, 0.0), width: 10.0, points: [(10.0, 40.0), (40.0, 30.0)]),
+                      (colour: (0.0, 0.4, 1.0), width: 6.0, points: [(60.0, 35.0)]),
+                  ])])),
+        "scatter": (kind: "SingleScattering", params: {"steps": 32}),
+    },
+    edges: [
+        ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
+        ("scene.scene", "solve.scene"), ("shadow.map", "solve.shadow"),
+        ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"),
+        ("solve.light_map", "scatter.light_map"),
+    ],
+)"#;
+    let g = tyndall::graph::load_str(text, std::path::Path::new("t.ron"), registry.catalog())
+        .expect("graph");
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+    let targets = [
+        tyndall::eval::Target::Port("solve".into(), "residual".into()),
+        tyndall::eval::Target::Port("scatter".into(), "inscatter".into()),
+    ];
+    let opts = tyndall::eval::EvalOptions {
+        size: (96, 54),
+        ..Default::default()
+    };
+    let r = ev.evaluate(&g, &targets, &opts).expect("evaluates");
+    let res = tyndall::eval::download(&gpu, &r.outputs[&("solve".into(), "residual".into())])
+        .expect("residual");
+    assert!(res.data.len() >= 2 && res.data.iter().all(|v| v.is_finite()));
+    assert!(res.data.last() < res.data.first(), "{:?}", res.data);
+    let ins = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "inscatter".into())])
+        .expect("inscatter");
+    assert!(ins.data.iter().all(|v| v.is_finite()));
+}
+
+/// The resident solve (vectors on the GPU) reaches the CPU solve's residual on the same problem,
+/// and matches the operator path: the same GPU passes for T and Tᵀ (`GpuOperator`) driven by
+/// the CPU-side CG (`cgls::solve`), which reads the views and the sums back every pass.
+#[test]
+fn resident_solve_reaches_the_cpu_residual() {
+    let gpu = require_gpu!();
+    let n = 24;
+    let views = views_from_render(&gpu, &known_map(n));
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let set = settings(40);
+    let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
+    let res = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
+    let want = lms::desired(&views);
+    let mut operator =
+        lms::GpuOperator::new(&gpu, views, &sh, light(), n, SAMPLING).expect("operator");
+    let op = lms::solve(&mut operator, &want, set, &mut |_, _| {}).expect("op");
+    let last = |s: &lms::Solution| s.residuals[s.residuals.len() - 1];
+    let (c, r, o) = (last(&cpu), last(&res), last(&op));
+    assert!(
+        c < 0.5 * cpu.residuals[0],
+        "the CPU solve did not converge: {c}"
+    );
+    // 1 %: the passes sum in f32 in another order than the CPU's f64, and 40 iterations on an
+    // underdetermined 24² map amplify that (see gpu_and_cpu_solves_agree); the goal is the
+    // residual reached, not the same iterates.
+    assert!(r <= 1.01 * c, "resident residual {r} vs CPU {c}");
+    assert!(
+        (r - o).abs() <= 0.01 * o,
+        "resident residual {r} vs operator path {o}"
+    );
+}
