@@ -1,6 +1,6 @@
 //! LightMapSolve's data block: the views and the strokes painted in each.
 
-use super::*;
+use super::{Camera, Deserialize, Raster, Serialize, Vec3};
 
 /// The strokes, per view.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -85,9 +85,11 @@ mod operators;
 mod resident;
 
 pub use crate::algorithms::cgls::{solve, Operator, Settings, Solution};
-pub use data::*;
-pub use operators::*;
-pub use resident::*;
+pub use data::{rasterise_strokes, view_camera, SolveData, Stroke, View, ViewCamera};
+pub use operators::{
+    desired, fixed_point_scale, CpuOperator, GpuOperator, Sampling, ViewParams, ViewProblem,
+};
+pub use resident::{solve_resident, VectorParams};
 
 /// The `LightMapSolve` node kind.
 pub struct LightMapSolve;

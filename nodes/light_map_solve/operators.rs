@@ -1,7 +1,10 @@
 //! The operator T of the least-squares problem (a constraint pixel's view ray, marched to its
 //! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
 
-use super::*;
+use super::{
+    Bind, Gpu, GpuError, GpuTexture, Matrices, NodeError, Operator, Raster, TexFormat, SHADER,
+};
+
 use crate::algorithms::shader_lib::{decay_integral, light_uvz, sun_reaches};
 
 /// Medium and sampling of the solve.

@@ -7,7 +7,11 @@
 //! inside the loop (added in f64 here): 4–6 small read-backs per iteration, a few KB, where the
 //! operator path (`GpuOperator`) read every view and the 3 × n² fixed-point sums back.
 
-use super::*;
+use super::{
+    desired, fixed_point_scale, Bind, Gpu, GpuError, GpuTexture, Matrices, NodeError, Sampling,
+    Settings, Solution, ViewParams, ViewProblem, SHADER,
+};
+
 use tyndall_engine::gpu::GpuBuffer;
 
 tyndall_engine::uniforms! {

@@ -35,6 +35,8 @@
 //! | Mie | out `phase` | `preset` (cloud; custom, cloud, rain), `radius` (10 µm, 0.001…2000), `spread` (1.5, 1…3), `n_real` (1.33, 1…3), `n_imag` (0, 0…10), `radii` (64, 1…256), `samples` |
 //! | MultipleScatteringPhase | in `phase` (required); out `phase`, `forward` | `select` (count; count, transmittance), `n` (2, 1…26), `albedo` (1, 0…1), `transmittance` (0.5, 1e-12…1) |
 
+use tables::threads;
+
 use std::sync::Arc;
 
 use num_complex::Complex64;
@@ -46,7 +48,10 @@ use tyndall_engine::gpu::{Bind, Gpu, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 mod tables;
-pub use tables::*;
+pub use tables::{
+    ams_coefficients, henyey_greenstein, mie, mie_raw, multiple, population, rayleigh,
+    scatter_count, sub_angles,
+};
 
 /// Wavelengths of the R, G, B channels, nm.
 pub const WAVELENGTHS_NM: [f64; 3] = [680.0, 550.0, 440.0];

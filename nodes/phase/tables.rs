@@ -1,7 +1,8 @@
 //! Phase-function tables on the CPU: sampling, Legendre series, the analytic models, Lorenz–Mie
 //! populations and the multiple-scattering spread (the references of the GPU passes).
 
-use super::*;
+use super::{lorenz_mie, Complex64, Population, Preset, Select, MAX_SCATTERS, WAVELENGTHS_NM};
+
 use crate::algorithms::phase_function::{hg_value, rayleigh_value, PhaseTable};
 
 /// CPU reference of `HenyeyGreenstein`.

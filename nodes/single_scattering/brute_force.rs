@@ -1,6 +1,9 @@
 //! Method `BruteForce`: the CPU reference of one pixel (the oracle of every method).
 
-use super::*;
+use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein};
+
+use super::{medium_segment, weight, Mat4, PixelResult, Raster, ScatterParams, Vec3};
+
 use crate::algorithms::shader_lib::{light_uvz, sun_reaches};
 
 /// CPU reference of the brute-force method for pixel (x, y) of a `w × h` image, with the

@@ -1,7 +1,8 @@
 //! Method `Epipolar`: slice geometry, 1D min-max trees and the CPU reference (twins of
 //! `shaders/single_scattering/epipolar.wgsl`).
 
-use super::*;
+use super::map_ray::{map_ray, ray_result, texel_walk};
+use super::{exact_ray, medium_segment, weight, Mat4, Raster, ScatterParams, Vec3};
 
 // ---- Method Epipolar: epipolar sampling with 1D min-max trees --------------------------------
 //

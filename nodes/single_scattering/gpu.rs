@@ -1,6 +1,10 @@
 //! GPU driving: the min-max pyramid, the Epipolar passes, and the one dispatch of each method.
 
-use super::*;
+use super::{
+    epipolar_geometry, pyramid_layout, Bind, BuildParams, EpiKnobs, EpiParams, Gpu, GpuError,
+    GpuTexture, LevelsParams, LightMapView, Matrices, Method, NodeError, Params, ScatterParams,
+    SoftView, TexFormat, BRUTE_FORCE, EPIPOLAR, IDENTITY, MIN_MAX,
+};
 
 /// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
 pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTexture), GpuError> {

@@ -1,7 +1,8 @@
 //! A view ray in the shadow map's texel units, walked texel by texel: the exact MinMax limit
 //! (CPU twin of `shaders/single_scattering/map_ray.wgsl`), shared with `Epipolar`.
 
-use super::*;
+use super::epipolar::{map_depth, sign};
+use super::{medium_segment, weight, Mat4, Raster, ScatterParams, Vec3};
 
 /// A view ray in the map's texel units and light depth, `a + d·t`, and the part `[tin, tout]`
 /// of its medium segment `[t0, t1]` inside the map and the light box (the CPU twin of the

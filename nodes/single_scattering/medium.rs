@@ -1,8 +1,9 @@
 //! The medium's extent along a view ray and the weight of each stretch of it (CPU twins of
 //! `shaders/single_scattering/common.wgsl`).
 
-use super::*;
-pub use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein};
+use super::{ScatterParams, Vec3};
+
+use crate::algorithms::shader_lib::decay_integral;
 
 /// Medium and quality settings (the node's parameters).
 #[derive(Clone, Copy, Debug)]

@@ -94,12 +94,17 @@ mod map_ray;
 mod medium;
 mod params;
 
-pub use brute_force::*;
-pub use epipolar::*;
-pub use gpu::*;
-pub use map_ray::*;
-pub use medium::*;
-pub use params::*;
+pub use brute_force::{reference_pixel, reference_pixel_phase};
+pub use epipolar::{
+    epi_interpolate, epi_tree_row, epipolar_geometry, epipolar_reference, tree_ray, EpiGeometry,
+    EpiKnobs, EpiSample, EpiSlice,
+};
+pub use gpu::build_pyramid;
+pub use map_ray::exact_ray;
+pub use medium::{medium_segment, weight, Medium, PixelResult};
+pub use params::{
+    pyramid_layout, BuildParams, EpiParams, LevelsParams, LightMapView, ScatterParams, SoftView,
+};
 
 /// The `SingleScattering` node kind.
 pub struct SingleScattering;

@@ -1,7 +1,7 @@
 //! SingleScattering's uniform structs (the WGSL `Params`, `SoftView`, `Levels`, `Build`,
 //! `LightMapView`, `Epi` of `shaders/single_scattering/`) and how they are filled.
 
-use super::*;
+use super::{EpiGeometry, EpiKnobs, EpiSlice, Matrices, Medium, Vec3};
 
 tyndall_engine::uniforms! {
     /// Uniforms of `shaders/single_scattering/common.wgsl` (struct `Params`).

@@ -1,6 +1,6 @@
 //! The penumbra kernel: its taps (Poisson disk, box, Gaussian), stencils and their variance.
 
-use super::*;
+use super::{BTreeMap, Kernel};
 
 /// Everything that shapes the kernels.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -69,7 +69,7 @@ use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
 mod kernel;
-pub use kernel::*;
+pub use kernel::{poisson_disk, stencil, stencil_variance, KernelSpec, Stencil};
 
 /// The `SoftVisibility` node kind.
 pub struct SoftVisibility;

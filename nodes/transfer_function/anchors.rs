@@ -1,6 +1,9 @@
 //! Constraints anchored to surface points: where they land in TF space each frame.
 
-use super::*;
+use super::{
+    depth_coordinate, input_err, Frame, GpuTexture, Layer, LayerEntry, Matrices, NodeError, Raster,
+    RunCtx,
+};
 
 /// Where an anchored constraint lands in TF space this frame: the surface point projected into
 /// the view; `None` when it is off screen, behind the camera, or hidden by a nearer surface

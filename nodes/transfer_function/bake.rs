@@ -1,7 +1,14 @@
 //! Baking the layer stack into the TF texture, and looking the TF up per pixel (CPU
 //! reference and GPU passes).
 
-use super::*;
+use crate::algorithms::multigrid::Rgba;
+
+use super::data::lerp_n;
+use super::diffusion::mg_pass;
+use super::{
+    diffuse_gpu, diffuse_reference, Bind, Blend, Gpu, GpuTexture, Layer, LayerEntry, Matrices,
+    NodeError, Path, Raster, TexFormat, IDENTITY,
+};
 
 /// The colour of a gradient at p.
 pub fn gradient_colour(from: [f32; 2], to: [f32; 2], c0: Rgba, c1: Rgba, p: [f32; 2]) -> Rgba {

@@ -1,6 +1,6 @@
 //! TransferFunction's data block: the layer stack, its key-frames and its constraints.
 
-use super::*;
+use super::{Deserialize, Serialize};
 
 pub use crate::algorithms::multigrid::Rgba;
 

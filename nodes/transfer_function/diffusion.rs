@@ -1,8 +1,10 @@
 //! Diffusion layers: constraints rasterised onto the TF grid and diffused by the multigrid
 //! solver of [`crate::algorithms::multigrid`] (CPU reference) or its GPU passes.
 
-use super::*;
-pub use crate::algorithms::multigrid::*;
+use super::{Bind, Constraint, Gpu, GpuError, GpuTexture, Raster, TexFormat, SHADER};
+use crate::algorithms::multigrid::{
+    levels, pin, vcycle, Grid, Level, Rgba, COARSE_SWEEPS, OMEGA, SWEEPS,
+};
 
 /// The constrained texels of an N×N diffusion layer: the mask and the fixed colours (constraints
 /// sharing a texel averaged), and the mean of all constraint colours (the start value).

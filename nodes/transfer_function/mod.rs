@@ -77,6 +77,9 @@
 //! | `resolution` | Int | 256 | 2…4096 | N of the baked table |
 //! | `diffusion_cycles` | Int | 8 | 1…64 | multigrid V-cycles per diffusion layer (quality knob) |
 
+use anchors::resolve_anchors;
+use diffusion::mg_pass;
+
 use std::path::Path;
 use std::sync::Arc;
 
@@ -152,10 +155,13 @@ mod bake;
 mod data;
 mod diffusion;
 
-pub use anchors::*;
-pub use bake::*;
-pub use data::*;
-pub use diffusion::*;
+pub use anchors::anchor_tf_position;
+pub use bake::{
+    auto_range, bake_gpu, bake_reference, bilinear, blend, depth_coordinate, gradient_colour,
+    LayerParams, LookupParams,
+};
+pub use data::{layer_name, Anchor, Blend, Constraint, Layer, LayerEntry, TfData, TfKey};
+pub use diffusion::{diffuse_gpu, diffuse_reference, rasterise_constraints, MultigridParams};
 
 fn input_err(port: &str, message: impl Into<String>) -> NodeError {
     NodeError::Input {

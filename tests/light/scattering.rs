@@ -9,9 +9,9 @@ use glam::{Mat4, Vec3};
 use tyndall::eval::{download, EvalOptions, Evaluator, Matrices, PortValue, Target};
 use tyndall::graph::{Graph, ParamValue};
 use tyndall::io::Raster;
+use tyndall::nodes::algorithms::shader_lib::{decay_integral, henyey_greenstein};
 use tyndall::nodes::single_scattering::{
-    decay_integral, epipolar_reference, henyey_greenstein, reference_pixel, EpiKnobs, Medium,
-    ScatterParams,
+    epipolar_reference, reference_pixel, EpiKnobs, Medium, ScatterParams,
 };
 
 /// What a scattering evaluation produced, read back.
