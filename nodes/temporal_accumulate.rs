@@ -54,7 +54,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3, Vec4};
 
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, ParamValue, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -251,23 +251,7 @@ impl NodeKind for TemporalAccumulate {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let image = ctx.require_texture("image")?;
-        if image.format == TexFormat::Rg32F {
-            return Err(NodeError::Input {
-                port: "image".into(),
-                message: "has an internal two-channel format".into(),
-            });
-        }
-        let (depth, camera) = ctx.depth("depth")?;
-        if (depth.width, depth.height) != (image.width, image.height) {
-            return Err(NodeError::Input {
-                port: "depth".into(),
-                message: format!(
-                    "is {}×{} but image is {}×{}",
-                    depth.width, depth.height, image.width, image.height
-                ),
-            });
-        }
+        let (image, depth, camera) = current_frame(ctx)?;
         let (w, h) = (image.width, image.height);
         let inv = camera.view_proj().inverse();
         let mut u = AccumulateParams {
@@ -294,10 +278,7 @@ impl NodeKind for TemporalAccumulate {
         };
         let out = ctx.gpu.texture(w, h, image.format)?;
         let accepted = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-        let mut sum: Option<(
-            tyndall_engine::gpu::GpuTexture,
-            tyndall_engine::gpu::GpuTexture,
-        )> = None;
+        let mut sum: Option<(GpuTexture, GpuTexture)> = None;
         for (i, earlier) in ctx.earlier.iter().enumerate() {
             let prev = earlier
                 .require("image")?
@@ -351,4 +332,28 @@ impl NodeKind for TemporalAccumulate {
         ctx.set("accepted", PortValue::Scalar(Arc::new(accepted)));
         Ok(())
     }
+}
+
+/// This frame's picture, its depth and camera: the picture in a one- or four-channel format,
+/// the depth of the same size.
+#[allow(clippy::type_complexity)]
+fn current_frame(ctx: &RunCtx) -> Result<(Arc<GpuTexture>, Arc<GpuTexture>, Matrices), NodeError> {
+    let image = ctx.require_texture("image")?;
+    if image.format == TexFormat::Rg32F {
+        return Err(NodeError::Input {
+            port: "image".into(),
+            message: "has an internal two-channel format".into(),
+        });
+    }
+    let (depth, camera) = ctx.depth("depth")?;
+    if (depth.width, depth.height) != (image.width, image.height) {
+        return Err(NodeError::Input {
+            port: "depth".into(),
+            message: format!(
+                "is {}×{} but image is {}×{}",
+                depth.width, depth.height, image.width, image.height
+            ),
+        });
+    }
+    Ok((image, depth, camera))
 }

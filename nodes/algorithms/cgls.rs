@@ -64,28 +64,16 @@ pub fn solve(
         .map(|(d, w)| [d[0] * w[0], d[1] * w[1], d[2] * w[2]])
         .collect();
     let mut x = vec![[set.start; 3]; texels];
-    let residual_of = |tx: &[[f32; 3]]| -> Vec<[f32; 3]> {
-        b.iter()
-            .zip(tx)
-            .map(|(b, t)| [b[0] - t[0], b[1] - t[1], b[2] - t[2]])
-            .collect()
-    };
+    let residual_of = |tx: &[[f32; 3]]| residual(&b, tx);
     let mut r = residual_of(&op.forward(&x)?);
     let mut residuals = vec![dot(&r, &r).sqrt()];
     if op.rows() == 0 || set.iterations == 0 {
         return Ok(Solution { x, residuals });
     }
     let mut s = op.adjoint(&r)?;
-    // Texels frozen at 0 (non-negativity): x = 0 and the descent direction points below 0.
     let freeze = |x: &[[f32; 3]], s: &mut [[f32; 3]]| {
         if set.non_negative {
-            for (xi, si) in x.iter().zip(s.iter_mut()) {
-                for c in 0..3 {
-                    if xi[c] <= 0.0 && si[c] < 0.0 {
-                        si[c] = 0.0;
-                    }
-                }
-            }
+            freeze_descent(x, s);
         }
     };
     freeze(&x, &mut s);
@@ -110,39 +98,11 @@ pub fn solve(
         }
         let alpha = sp / qq;
         let a = alpha as f32;
-        let step = |x: &[[f32; 3]], a: f32| -> Vec<[f32; 3]> {
-            x.iter()
-                .zip(&p)
-                .map(|(xi, pi)| std::array::from_fn(|c| xi[c] + a * pi[c]))
-                .collect()
-        };
-        let full = step(&x, a);
+        let full = step(&x, &p, a);
         let leaves = set.non_negative && full.iter().flatten().any(|v| *v < 0.0);
         let hit = if leaves {
-            // The full step leaves x ≥ 0: project it back; keep the projection if it lowers
-            // the residual, else take the longest step that stays feasible (which always
-            // does). Either way CG restarts below.
-            let projected: Vec<[f32; 3]> = full.iter().map(|v| v.map(|c| c.max(0.0))).collect();
-            let rp = residual_of(&op.forward(&projected)?);
             let last = residuals[residuals.len() - 1];
-            if dot(&rp, &rp).sqrt() < last {
-                x = projected;
-                r = rp;
-            } else {
-                let mut limit = alpha;
-                for (xi, pi) in x.iter().zip(&p) {
-                    for c in 0..3 {
-                        if pi[c] < 0.0 {
-                            limit = limit.min((-(xi[c] as f64) / pi[c] as f64).max(0.0));
-                        }
-                    }
-                }
-                x = step(&x, limit as f32)
-                    .into_iter()
-                    .map(|v| v.map(|c| c.max(0.0)))
-                    .collect();
-                r = residual_of(&op.forward(&x)?);
-            }
+            (x, r) = feasible(op, &b, &x, &p, &full, alpha, last)?;
             true
         } else {
             x = full;
@@ -170,16 +130,88 @@ pub fn solve(
             }
         }
         if set.non_negative {
-            // Frozen texels do not move.
-            for ((pi, si), xi) in p.iter_mut().zip(&s).zip(&x) {
-                for c in 0..3 {
-                    if xi[c] <= 0.0 && si[c] == 0.0 {
-                        pi[c] = 0.0;
-                    }
-                }
-            }
+            hold_frozen(&x, &s, &mut p);
         }
         gamma = new_gamma;
     }
     Ok(Solution { x, residuals })
+}
+
+/// b − T x, given T x.
+fn residual(b: &[[f32; 3]], tx: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    b.iter()
+        .zip(tx)
+        .map(|(b, t)| [b[0] - t[0], b[1] - t[1], b[2] - t[2]])
+        .collect()
+}
+
+/// The full step `full` = x + α p leaves x ≥ 0: project it back, and keep the projection if it
+/// lowers the residual below `last`, else take the longest step that stays feasible (which
+/// always does). Either way CG restarts after it. Returns the new x and its residual.
+#[allow(clippy::type_complexity)]
+fn feasible(
+    op: &mut dyn Operator,
+    b: &[[f32; 3]],
+    x: &[[f32; 3]],
+    p: &[[f32; 3]],
+    full: &[[f32; 3]],
+    alpha: f64,
+    last: f64,
+) -> Result<(Vec<[f32; 3]>, Vec<[f32; 3]>), NodeError> {
+    let projected: Vec<[f32; 3]> = full.iter().map(|v| v.map(|c| c.max(0.0))).collect();
+    let rp = residual(b, &op.forward(&projected)?);
+    if dot(&rp, &rp).sqrt() < last {
+        return Ok((projected, rp));
+    }
+    let limit = feasible_step(x, p, alpha);
+    let x: Vec<[f32; 3]> = step(x, p, limit as f32)
+        .into_iter()
+        .map(|v| v.map(|c| c.max(0.0)))
+        .collect();
+    let r = residual(b, &op.forward(&x)?);
+    Ok((x, r))
+}
+
+/// x + a·p.
+fn step(x: &[[f32; 3]], p: &[[f32; 3]], a: f32) -> Vec<[f32; 3]> {
+    x.iter()
+        .zip(p)
+        .map(|(xi, pi)| std::array::from_fn(|c| xi[c] + a * pi[c]))
+        .collect()
+}
+
+/// The longest step along `p`, at most `alpha`, that keeps x ≥ 0.
+fn feasible_step(x: &[[f32; 3]], p: &[[f32; 3]], alpha: f64) -> f64 {
+    let mut limit = alpha;
+    for (xi, pi) in x.iter().zip(p) {
+        for c in 0..3 {
+            if pi[c] < 0.0 {
+                limit = limit.min((-(xi[c] as f64) / pi[c] as f64).max(0.0));
+            }
+        }
+    }
+    limit
+}
+
+/// Texels frozen at 0 (non-negativity): where x = 0 and the descent direction `s` points below
+/// 0, `s` becomes 0.
+fn freeze_descent(x: &[[f32; 3]], s: &mut [[f32; 3]]) {
+    for (xi, si) in x.iter().zip(s.iter_mut()) {
+        for c in 0..3 {
+            if xi[c] <= 0.0 && si[c] < 0.0 {
+                si[c] = 0.0;
+            }
+        }
+    }
+}
+
+/// Frozen texels do not move: the search direction `p` is 0 where x = 0 and `s` was frozen.
+fn hold_frozen(x: &[[f32; 3]], s: &[[f32; 3]], p: &mut [[f32; 3]]) {
+    for ((pi, si), xi) in p.iter_mut().zip(s).zip(x) {
+        for c in 0..3 {
+            if xi[c] <= 0.0 && si[c] == 0.0 {
+                pi[c] = 0.0;
+            }
+        }
+    }
 }

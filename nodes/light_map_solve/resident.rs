@@ -79,7 +79,81 @@ fn vec4_words(count: u32) -> u32 {
     count.max(1) * 4
 }
 
-impl Resident<'_> {
+impl<'a> Resident<'a> {
+    /// Upload the views with constrained pixels (their depths and pixel lists) and the
+    /// solver's scratch buffers.
+    fn upload(
+        gpu: &'a Gpu,
+        views: Vec<ViewProblem>,
+        shadow: &'a GpuTexture,
+        light: Matrices,
+        n: u32,
+        sampling: Sampling,
+    ) -> Result<Self, NodeError> {
+        let mut list = Vec::new();
+        let mut rows = 0u32;
+        for v in views {
+            let (w, h) = (v.depth.width, v.depth.height);
+            let depth = gpu.upload(w, h, 1, &v.depth.data)?;
+            let pixels: Vec<u32> = v.constrained().into_iter().map(|k| k as u32).collect();
+            let count = pixels.len() as u32;
+            if count == 0 {
+                continue;
+            }
+            list.push(View {
+                problem: v,
+                depth,
+                pixels: gpu.buffer_from(&pixels)?,
+                offset: rows,
+            });
+            rows += count;
+        }
+        Ok(Resident {
+            gpu,
+            views: list,
+            shadow,
+            light,
+            n,
+            sampling,
+            rows,
+            acc: gpu.buffer_zeroed(6 * n * n)?,
+            partials: gpu.buffer_zeroed(SLOTS * PARTIALS * 4)?,
+        })
+    }
+
+    /// b = desired ⊙ T 1 (the only row vector that comes back, once).
+    fn right_side(&self, want: &[[f32; 3]]) -> Result<GpuBuffer, GpuError> {
+        let ones = self
+            .gpu
+            .buffer_from(&vec4_data(&vec![[1.0; 3]; self.texels() as usize]))?;
+        let white = self.rows_buffer()?;
+        self.forward(&ones, &white)?;
+        let w = self.read_vec3(&white, self.rows)?;
+        let b: Vec<[f32; 3]> = want
+            .iter()
+            .zip(&w)
+            .map(|(d, w)| [d[0] * w[0], d[1] * w[1], d[2] * w[2]])
+            .collect();
+        self.gpu.buffer_from(&vec4_data(&b))
+    }
+
+    /// Frozen texels do not move: the search direction `p` becomes 0 where x = 0 and `s` was
+    /// frozen (the GPU twin of `cgls`'s rule).
+    fn hold_frozen(&self, x: &GpuBuffer, s: &GpuBuffer, p: &GpuBuffer) -> Result<(), GpuError> {
+        self.vector_pass(
+            "mask_frozen",
+            &[
+                (8, Bind::Buffer(x)),
+                (11, Bind::Buffer(s)),
+                (9, Bind::Buffer(p)),
+            ],
+            VectorParams {
+                count: self.texels(),
+                ..params()
+            },
+        )
+    }
+
     fn texels(&self) -> u32 {
         self.n * self.n
     }
@@ -239,6 +313,17 @@ impl Resident<'_> {
     }
 
     /// [`Resident::reduce`] per rgb channel.
+    /// ‖r‖ and Σ|r| per channel (the adjoint's normalisation), `scratch` a rows buffer.
+    fn residual_norms(
+        &self,
+        r: &GpuBuffer,
+        scratch: &GpuBuffer,
+    ) -> Result<(f64, [f64; 3]), NodeError> {
+        let v =
+            self.reduce_channels(&[(Reduce::Square, r, scratch), (Reduce::AbsSum, r, scratch)])?;
+        Ok((v[0].iter().sum::<f64>().sqrt(), v[1]))
+    }
+
     fn reduce_channels(
         &self,
         what: &[(Reduce, &GpuBuffer, &GpuBuffer)],
@@ -329,47 +414,9 @@ pub fn solve_resident(
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<Solution, NodeError> {
     let want = desired(&views);
-    let mut list = Vec::new();
-    let mut rows = 0u32;
-    for v in views {
-        let (w, h) = (v.depth.width, v.depth.height);
-        let depth = gpu.upload(w, h, 1, &v.depth.data)?;
-        let pixels: Vec<u32> = v.constrained().into_iter().map(|k| k as u32).collect();
-        let count = pixels.len() as u32;
-        if count == 0 {
-            continue;
-        }
-        list.push(View {
-            problem: v,
-            depth,
-            pixels: gpu.buffer_from(&pixels)?,
-            offset: rows,
-        });
-        rows += count;
-    }
     let texels = n * n;
-    let g = Resident {
-        gpu,
-        views: list,
-        shadow,
-        light,
-        n,
-        sampling,
-        rows,
-        acc: gpu.buffer_zeroed(6 * texels)?,
-        partials: gpu.buffer_zeroed(SLOTS * PARTIALS * 4)?,
-    };
-    // b = desired ⊙ T 1 (the only row vector that comes back, once).
-    let ones = gpu.buffer_from(&vec4_data(&vec![[1.0; 3]; texels as usize]))?;
-    let white = g.rows_buffer()?;
-    g.forward(&ones, &white)?;
-    let w = g.read_vec3(&white, rows)?;
-    let b: Vec<[f32; 3]> = want
-        .iter()
-        .zip(&w)
-        .map(|(d, w)| [d[0] * w[0], d[1] * w[1], d[2] * w[2]])
-        .collect();
-    let b = gpu.buffer_from(&vec4_data(&b))?;
+    let g = Resident::upload(gpu, views, shadow, light, n, sampling)?;
+    let b = g.right_side(&want)?;
     let mut x = gpu.buffer_from(&vec4_data(&vec![[set.start; 3]; texels as usize]))?;
     let mut x_new = g.texel_buffer()?;
     let (mut p, mut p_new, s) = (g.texel_buffer()?, g.texel_buffer()?, g.texel_buffer()?);
@@ -380,10 +427,9 @@ pub fn solve_resident(
         g.combine(&b, -1.0, &q, false, out)
     };
     residual_into(&x, &r)?;
-    let rr = g.reduce(&[(Reduce::Square, &r, &r_new)])?[0];
-    let mut residuals = vec![rr.sqrt()];
+    let mut residuals = vec![g.reduce(&[(Reduce::Square, &r, &r_new)])?[0].sqrt()];
     let read_x = |x: &GpuBuffer| g.read_vec3(x, texels);
-    if rows == 0 || set.iterations == 0 {
+    if g.rows == 0 || set.iterations == 0 {
         return Ok(Solution {
             x: read_x(&x)?,
             residuals,
@@ -434,14 +480,10 @@ pub fn solve_resident(
             std::mem::swap(&mut r, &mut r_new);
             false
         };
-        let [rr, m0, m1, m2] = {
-            let v = g.reduce_channels(&[(Reduce::Square, &r, &q), (Reduce::AbsSum, &r, &q)])?;
-            [v[0].iter().sum(), v[1][0], v[1][1], v[1][2]]
-        };
-        let res = f64::sqrt(rr);
+        let (res, mass) = g.residual_norms(&r, &q)?;
         residuals.push(res);
         progress(it + 1, res);
-        g.adjoint(&r, [m0, m1, m2], &x, set.non_negative, &s)?;
+        g.adjoint(&r, mass, &x, set.non_negative, &s)?;
         let new_gamma = g.reduce(&[(Reduce::Square, &s, &p)])?[0];
         if hit {
             g.combine(&s, 0.0, &x, false, &p)?;
@@ -451,18 +493,7 @@ pub fn solve_resident(
             std::mem::swap(&mut p, &mut p_new);
         }
         if set.non_negative {
-            g.vector_pass(
-                "mask_frozen",
-                &[
-                    (8, Bind::Buffer(&x)),
-                    (11, Bind::Buffer(&s)),
-                    (9, Bind::Buffer(&p)),
-                ],
-                VectorParams {
-                    count: texels,
-                    ..params()
-                },
-            )?;
+            g.hold_frozen(&x, &s, &p)?;
         }
         gamma = new_gamma;
     }
