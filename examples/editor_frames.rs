@@ -50,7 +50,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // No evaluation worker: only the UI's own work is timed.
     let mut h = Harness::builder()
         .with_size(egui::vec2(1600.0, 900.0))
-        .build_eframe(move |_cc| EditorApp::on_gpu(state, registry, None));
+        .build_eframe(move |_cc| {
+            EditorApp::on_gpu(state, registry, None).with_tools(tyndall::tools::registry())
+        });
     h.run_steps(10);
     let report = |what: &str, (median, p90): (f64, f64)| {
         println!(
@@ -64,7 +66,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     report("all framed", measure(&mut h, 60));
 
     let state = EditorState::open(registry_catalog(), &path)?;
-    let mut app = EditorApp::on_gpu(state, Arc::new(tyndall::nodes::registry()), None);
+    let mut app = EditorApp::on_gpu(state, Arc::new(tyndall::nodes::registry()), None)
+        .with_tools(tyndall::tools::registry());
     let ctx = egui::Context::default();
     let mut frame = eframe::Frame::_new_kittest();
     let mut step = |k: usize, events: Vec<egui::Event>| {

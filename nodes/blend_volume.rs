@@ -78,7 +78,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     inputs: &[PortSpec::input("scene", &[PortType::Scene], "Its bounds place the volume (else box_min…box_max).")],
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The painted volume and its world-space box.")],
     params: Params::SPECS,
-}).tools(&[tyndall_engine::eval::EditorTool::SplatVolume, tyndall_engine::eval::EditorTool::SplatBrush])
+}).tools(&["splat_volume", "splat_brush"])
 
 .shaders(&[SHADER, volume_mips::SHADER])
 .uniforms(&[BlendParams::LAYOUT]);

@@ -66,7 +66,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("h", &[PortType::Scalar], "The heterogeneity factor h."),
     ],
     params: Params::SPECS,
-}).tools(&[tyndall_engine::eval::EditorTool::SplatBrush])
+}).tools(&["splat_brush"])
 
 .shaders(&[SHADER])
 .uniforms(&[HeteroParams::LAYOUT]);

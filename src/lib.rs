@@ -5,7 +5,8 @@
 //! examples reach them as `tyndall::…`: [`graph`] is the document, [`eval`] the evaluator and
 //! the node interface, [`gpu`] the wgpu context, [`scene`] scenes, [`io`] image files (these
 //! five are the `tyndall-engine` crate); [`nodes`] the node kinds (techniques) and their
-//! registry (`tyndall-nodes`); [`editor`] the egui editor (`tyndall-editor`);
+//! registry (`tyndall-nodes`); [`editor`] the egui editor (`tyndall-editor`) and [`tools`] its
+//! editing tools (`tyndall-tools`);
 //! [`bench`](mod@bench) speed-against-accuracy measurements (`tyndall-bench`).
 #![deny(missing_docs)]
 
@@ -15,3 +16,4 @@ pub use tyndall_bench as bench;
 pub use tyndall_editor as editor;
 pub use tyndall_engine::{choice_enum, eval, gpu, graph, io, params, scene, uniforms};
 pub use tyndall_nodes as nodes;
+pub use tyndall_tools as tools;

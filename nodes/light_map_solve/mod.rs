@@ -123,7 +123,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("residual", &[PortType::Scalar], "‖T x − b‖ at the start and after each iteration (one texel each)."),
     ],
     params: Params::SPECS,
-}).tools(&[tyndall_engine::eval::EditorTool::StrokePainting])
+}).tools(&["stroke_painting"])
 
 .shaders(&[SHADER, g_buffer::SHADER])
 .uniforms(&[ViewParams::LAYOUT, VectorParams::LAYOUT, g_buffer::GBufferParams::LAYOUT]);

@@ -36,7 +36,7 @@
 //! constraint colours: weighted Jacobi (ω = 0.8, two sweeps before and after each correction),
 //! restriction by summing 2×2 residuals, cell-centred bilinear prolongation, 40 sweeps on the
 //! coarsest grid (≤ 4 texels a side); a coarse texel holding a constraint is tied to zero by the
-//! conductance of [`pin`] rather than fixed. Each V-cycle divides the error by about 3 at every
+//! conductance of [`pin`](crate::algorithms::multigrid::pin) rather than fixed. Each V-cycle divides the error by about 3 at every
 //! resolution; `diffusion_cycles` (the quality knob) runs that many, and the default 8 is within
 //! 1.0e-4 of the exact discrete solution on 256² (8e-4 after 6, 6e-3 after 4: measured once
 //! against conjugate gradients in f64 with a probe that was not kept; the kept test,
@@ -137,7 +137,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("lut", &[PortType::Lut2D], "The baked table: N×N RGBA, x = V̄, y = normalised depth."),
     ],
     params: Params::SPECS,
-}).tools(&[tyndall_engine::eval::EditorTool::LayerList])
+}).tools(&["layer_list"])
 
 .shaders(&[SHADER])
 .uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT]);

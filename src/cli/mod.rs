@@ -317,13 +317,14 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Node(a) => node::run_node(registry, a),
-        Command::Edit { graph } => crate::editor::run(graph, registry).map_err(|e| {
-            if Gpu::shared().is_err() {
-                CliError::NoGpu(e)
-            } else {
-                bad(e)
-            }
-        }),
+        Command::Edit { graph } => crate::editor::run(graph, registry, crate::tools::registry())
+            .map_err(|e| {
+                if Gpu::shared().is_err() {
+                    CliError::NoGpu(e)
+                } else {
+                    bad(e)
+                }
+            }),
         Command::Bench(a) if a.replot => bench::replot(
             &a.out.unwrap_or_else(|| PathBuf::from("bench")),
             a.suite.as_deref(),

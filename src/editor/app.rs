@@ -28,7 +28,9 @@ use super::canvas::CanvasView;
 use super::view::{probe, to_srgb8, Channel};
 use super::worker::{NodeReport, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
-use tyndall_engine::eval::{EditorTool, Registry};
+use tyndall_engine::eval::Registry;
+
+use crate::Tools;
 use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::{save_string, Interp, Key, ParamKind, ParamValue};
 use tyndall_engine::io::Raster;
@@ -128,15 +130,9 @@ pub struct EditorApp {
     pub recovery: Option<PathBuf>,
     /// The window was asked to close with unsaved changes: the save/discard/cancel prompt.
     pub confirm_quit: bool,
-    /// The transfer-function panel's state.
-    pub tf: super::tf_panel::TfPanel,
-    /// The stroke panel's state.
-    pub strokes: super::stroke_panel::StrokePanel,
-    /// The 3D brush's state.
-    pub brush: super::brush_panel::BrushPanel,
-    /// The painting plane's tint over the viewer, by (picture size, plane depth).
-    brush_tex: Option<(String, egui::TextureHandle)>,
-    /// The node kinds (for picking 3D constraints on the UI thread).
+    /// The tools offered for the nodes that name them (see [`crate::tool`]), with their state.
+    pub tools: Tools,
+    /// The node kinds.
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
     pub progress: Option<tyndall_engine::eval::Progress>,
@@ -222,14 +218,27 @@ impl EditorApp {
             recovery: None,
             confirm_quit: false,
             allow_close: false,
-            tf: Default::default(),
-            strokes: Default::default(),
-            brush: Default::default(),
-            brush_tex: None,
+            tools: Tools::new(),
             registry,
             progress: None,
             device_restarts: 0,
         }
+    }
+
+    /// The same editor offering `tools` to the nodes that name them.
+    pub fn with_tools(mut self, tools: Tools) -> Self {
+        self.tools = tools;
+        self
+    }
+
+    /// The state of the tool of type `T`, if it is offered (tests and scripts read it).
+    pub fn tool<T: crate::Tool>(&self) -> Option<&T> {
+        self.tools.get::<T>()
+    }
+
+    /// The state of the tool of type `T`, to change it.
+    pub fn tool_mut<T: crate::Tool>(&mut self) -> Option<&mut T> {
+        self.tools.get_mut::<T>()
     }
 
     /// Read the measured speed/accuracy curves from `path` (a `bench/results.csv`) instead of
@@ -251,7 +260,7 @@ impl EditorApp {
             .or_else(|| {
                 let s = self.selected.clone()?;
                 let local = if super::worker::picture_ports(g, &self.registry, &s).is_empty() {
-                    super::brush_panel::nearest_picture(g, &self.registry, &s).unwrap_or(s)
+                    super::worker::nearest_picture(g, &self.registry, &s).unwrap_or(s)
                 } else {
                     s
                 };
@@ -524,14 +533,14 @@ impl eframe::App for EditorApp {
 /// hundred nodes.
 pub(super) const MIN_CANVAS_SCALE: f32 = 0.03;
 
-/// Open the editor window on `path` (or an empty graph), with the node kinds of `registry`
-/// (the command line passes the techniques crate's).
-pub fn run(path: Option<PathBuf>, registry: Arc<Registry>) -> Result<(), String> {
+/// Open the editor window on `path` (or an empty graph), with the node kinds of `registry` and
+/// the editing `tools` (the command line passes the techniques' registry and Tyndall's tools).
+pub fn run(path: Option<PathBuf>, registry: Arc<Registry>, tools: Tools) -> Result<(), String> {
     let state = match &path {
         Some(p) => EditorState::open(registry.catalog().clone(), p).map_err(|e| e.to_string())?,
         None => EditorState::new(registry.catalog().clone()),
     };
-    let mut app = EditorApp::new(state, registry.clone());
+    let mut app = EditorApp::new(state, registry.clone()).with_tools(tools);
     app.recovery = path.as_deref().and_then(EditorState::recoverable);
     // Start on the picture: the node feeding the graph's first output, else the last node.
     let g = app.state.graph();
@@ -539,7 +548,15 @@ pub fn run(path: Option<PathBuf>, registry: Arc<Registry>) -> Result<(), String>
         .nodes()
         .find(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()));
     app.selected = sink
-        .and_then(|n| g.source_of(&n.id, "image").map(|(src, _)| src.to_string()))
+        .and_then(|n| {
+            // The node feeding the sink's first connected input, in its declared order.
+            let kind = registry.get(&n.kind)?;
+            kind.schema()
+                .inputs
+                .iter()
+                .find_map(|p| g.source_of(&n.id, p.name))
+                .map(|(src, _)| src.to_string())
+        })
         .or_else(|| g.topo_order().last().cloned());
     let mut options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()

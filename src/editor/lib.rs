@@ -2,18 +2,18 @@
 //! view of: every change as an undoable command on the petgraph document, copy/paste and
 //! duplicate with fresh ids, preset libraries, atomic save and autosave with recovery.
 //! The window (`app`) draws the canvas (`canvas`), viewer (`view`), parameters, timeline and
-//! preset browser; evaluation runs on a worker thread (`worker`).
+//! preset browser; evaluation runs on a worker thread (`worker`). What edits a node beyond
+//! its parameters is a [`Tool`] ([`tool`]); the window is opened with the [`Tools`] it offers
+//! (Tyndall's are the `tyndall-tools` crate). This crate names no node kind and no tool.
 
 #![deny(missing_docs)]
 
 mod app;
 pub mod bench_panel;
-pub mod brush_panel;
 mod canvas;
-mod panel;
+pub mod panel;
 mod state;
-pub mod stroke_panel;
-pub mod tf_panel;
+pub mod tool;
 pub mod view;
 pub mod worker;
 
@@ -24,3 +24,4 @@ pub use state::{
     autosave_path, list_presets, preset_thumbnail, EditorError, EditorState, PresetEntry,
     UNDO_LIMIT,
 };
+pub use tool::{stroke_points, Tool, ToolContext, Tools};

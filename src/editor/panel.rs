@@ -1,4 +1,4 @@
-//! Pieces shared by the node panels (transfer function, strokes, 3D brush).
+//! Pieces the tools' panels share (see [`crate::tool`]).
 
 use eframe::egui;
 

@@ -4,7 +4,7 @@
 //! inputs or parameters changed run again (the evaluator's cache), so dragging a slider
 //! re-runs the chain below it while the window keeps drawing.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
@@ -545,6 +545,24 @@ pub(super) fn graph_for_evaluation(
     };
     // With `allow_any` nothing is refused; the fall-back keeps the document as it is.
     tyndall_engine::eval::resolve_files(registry, graph, &policy).unwrap_or_else(|_| graph.clone())
+}
+
+/// The nearest node downstream of `id` (breadth first, consumers in id order) that has a
+/// picture output: what the viewer shows for a node that has none itself (a volume, a scene).
+pub fn nearest_picture(graph: &Graph, registry: &Registry, id: &str) -> Option<String> {
+    let mut seen = BTreeSet::from([id.to_string()]);
+    let mut queue = VecDeque::from([id.to_string()]);
+    while let Some(n) = queue.pop_front() {
+        if n != id && !picture_ports(graph, registry, &n).is_empty() {
+            return Some(n);
+        }
+        for c in graph.consumers(&n) {
+            if seen.insert(c.to_string()) {
+                queue.push_back(c.to_string());
+            }
+        }
+    }
+    None
 }
 
 #[cfg(test)]

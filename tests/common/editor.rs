@@ -14,7 +14,9 @@ pub fn open(path: &Path, size: (f32, f32)) -> Harness<'static, EditorApp> {
     let mut h = Harness::builder()
         .with_size(eframe::egui::vec2(size.0, size.1))
         .wgpu()
-        .build_eframe(move |_cc| EditorApp::new(state, registry));
+        .build_eframe(move |_cc| {
+            EditorApp::new(state, registry).with_tools(tyndall::tools::registry())
+        });
     h.run_steps(4);
     h
 }

@@ -9,9 +9,9 @@ use std::path::Path;
 use eframe::egui;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::Harness;
-use tyndall::editor::brush_panel::{camera_rotation, view_depth};
 use tyndall::editor::EditorApp;
 use tyndall::nodes::blend_volume::BlendData;
+use tyndall::tools::splat_brush::{camera_rotation, view_depth, BrushPanel};
 
 use crate::common::editor::{drag, settle};
 
@@ -52,7 +52,7 @@ fn brush_drags_leave_splats_on_the_plane_in_one_undo_step() {
         "a volume shows the nearest picture downstream"
     );
     {
-        let b = &mut h.state_mut().brush;
+        let b = &mut brush_mut(&mut h);
         b.depth = 12.0;
         b.radii = [0.5, 0.4, 2.0];
         b.opacity = 0.8;
@@ -67,7 +67,8 @@ fn brush_drags_leave_splats_on_the_plane_in_one_undo_step() {
     drag(&mut h, a, egui::vec2(120.0, 24.0), 8);
     let view = h
         .state()
-        .brush
+        .tool::<BrushPanel>()
+        .expect("the brush tool")
         .view()
         .expect("the brush rendered its view")
         .clone();
@@ -152,14 +153,14 @@ fn the_brush_paints_into_the_chosen_volume() {
     // From Heterogeneity, the default volume is the one feeding it.
     h.get_by_label("Paint").click();
     h.run_steps(3);
-    let default = tyndall::editor::brush_panel::target_for(
+    let default = tyndall::tools::splat_brush::target_for(
         &tyndall::nodes::registry(),
         h.state().state.graph(),
-        &h.state().brush,
+        brush(&h),
         "het",
     );
     assert_eq!(default.as_deref(), Some("painted_alpha"));
-    h.state_mut().brush.target = Some(other.clone());
+    brush_mut(&mut h).target = Some(other.clone());
     h.run_steps(2);
     let before = splats(&h, "painted_alpha").splats.len();
     let rect = h.get_by_label("viewer picture").rect();
@@ -170,4 +171,16 @@ fn the_brush_paints_into_the_chosen_volume() {
         "untouched"
     );
     assert!(!splats(&h, &other).splats.is_empty(), "painted");
+}
+
+/// The brush tool's state in the window.
+fn brush<'a>(h: &'a Harness<'static, EditorApp>) -> &'a BrushPanel {
+    h.state().tool::<BrushPanel>().expect("the brush tool")
+}
+
+/// The brush tool's state, to change it.
+fn brush_mut<'a>(h: &'a mut Harness<'static, EditorApp>) -> &'a mut BrushPanel {
+    h.state_mut()
+        .tool_mut::<BrushPanel>()
+        .expect("the brush tool")
 }

@@ -11,6 +11,8 @@ use egui_kittest::Harness;
 use tyndall::editor::EditorApp;
 use tyndall::nodes::light_map_solve::SolveData;
 use tyndall::nodes::transfer_function::{Layer, TfData};
+use tyndall::tools::layer_list::TfPanel;
+use tyndall::tools::stroke_painting::StrokePanel;
 
 fn harness_for(text: &str, dir: &Path) -> Harness<'static, EditorApp> {
     let path = dir.join("g.ron");
@@ -204,7 +206,7 @@ fn viewer_click_adds_an_anchored_3d_constraint() {
     settle(&mut h);
     h.get_by_label("3D constraint").click();
     h.run_steps(2);
-    assert!(h.state().tf.arm_3d);
+    assert!(h.state().tool::<TfPanel>().expect("the layer list").arm_3d);
     // The centre of the viewer's 480×270 picture: the tree's trunk.
     h.get_by_label("viewer picture").click();
     h.run_steps(3);
@@ -271,11 +273,24 @@ fn painting_in_the_viewer_adds_one_stroke_per_drag() {
             .expect("SolveData")
     };
     // The stroke waits (drawn over the viewer) until Solve; then it is one undoable step.
-    assert_eq!(h.state().strokes.pending.len(), 1, "one drag, one stroke");
+    assert_eq!(
+        h.state()
+            .tool::<StrokePanel>()
+            .expect("stroke painting")
+            .pending
+            .len(),
+        1,
+        "one drag, one stroke"
+    );
     assert!(data(&h).views[0].strokes.is_empty());
     h.get_by_label("Solve").click();
     h.run_steps(3);
-    assert!(h.state().strokes.pending.is_empty());
+    assert!(h
+        .state()
+        .tool::<StrokePanel>()
+        .expect("stroke painting")
+        .pending
+        .is_empty());
     let d = data(&h);
     assert_eq!(d.views.len(), 1);
     assert_eq!((d.views[0].width, d.views[0].height), (480, 270));

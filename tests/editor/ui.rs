@@ -137,7 +137,7 @@ fn autosave_recovery_is_offered_and_restores_the_changes() {
         .with_size(egui::vec2(1000.0, 700.0))
         .wgpu()
         .build_eframe(move |_cc| {
-            let mut app = EditorApp::new(state, registry);
+            let mut app = EditorApp::new(state, registry).with_tools(tyndall::tools::registry());
             app.recovery = Some(side);
             app
         });
@@ -522,7 +522,9 @@ fn a_lost_device_restarts_evaluation_on_a_new_one() {
     let mut h = Harness::builder()
         .with_size(egui::vec2(1200.0, 760.0))
         .wgpu()
-        .build_eframe(move |_cc| EditorApp::on_gpu(state, registry, Some(gpu)));
+        .build_eframe(move |_cc| {
+            EditorApp::on_gpu(state, registry, Some(gpu)).with_tools(tyndall::tools::registry())
+        });
     settle(&mut h);
     let errors = |h: &Harness<'static, EditorApp>| -> Vec<String> {
         h.state()

@@ -2,6 +2,7 @@
 //! measured settings, then the editor tools its declaration names.
 
 use super::*;
+use crate::ToolContext;
 use tyndall_engine::graph::ParamSpec;
 
 impl EditorApp {
@@ -158,34 +159,24 @@ impl EditorApp {
         if let Some(setting) = self.bench.show(ui, &node.kind, &current) {
             self.use_measured(&id, &setting);
         }
-        // The tools the node's declaration names, in its order.
+        // The tools the node's declaration names, in its order (an id no offered tool answers
+        // to, such as a tag another tool reads, shows nothing).
         let tools = self
             .registry
             .get(&node.kind)
             .map_or(&[][..], |k| k.decl().tools);
-        for tool in tools {
-            let message = match tool {
-                EditorTool::LayerList => {
-                    crate::tf_panel::show(ui, &mut self.state, &id, self.time, &mut self.tf)
-                }
-                EditorTool::StrokePainting => crate::stroke_panel::show(
-                    ui,
-                    &mut self.state,
-                    &id,
-                    &mut self.strokes,
-                    VIEW_SIZE,
-                ),
-                // A volume that is also brushed shows the brush once.
-                EditorTool::SplatBrush => crate::brush_panel::show(
-                    ui,
-                    &self.registry,
-                    &mut self.state,
-                    &id,
-                    &mut self.brush,
-                ),
-                EditorTool::SplatVolume => None,
+        for tool_id in tools {
+            let Some(tool) = self.tools.by_id_mut(tool_id) else {
+                continue;
             };
-            if let Some(m) = message {
+            let mut cx = ToolContext {
+                state: &mut self.state,
+                registry: &self.registry,
+                node: &id,
+                time: self.time,
+                view_size: VIEW_SIZE,
+            };
+            if let Some(m) = tool.panel(ui, &mut cx) {
                 self.status = m;
             }
         }

@@ -221,242 +221,31 @@ impl EditorApp {
             self.probe = probe(pictures, x, y);
         }
         let size = (raster.width, raster.height);
-        let at = |p: egui::Pos2| {
-            let rel = (p - response.rect.min) / response.rect.size();
-            [rel.x * size.0 as f32, rel.y * size.1 as f32]
-        };
+        // The selected node's tools take the pointer over the picture and draw over it.
         let selected = self
             .selected
             .as_ref()
             .and_then(|id| self.state.graph().node(id))
-            .and_then(|n| Some((n.id.clone(), self.registry.get(&n.kind)?.clone())));
-        let tool = |t: EditorTool| selected.as_ref().is_some_and(|(_, k)| k.has_tool(t));
-        let id = selected.as_ref().map(|(id, _)| id.clone());
-        match id {
-            Some(id) if tool(EditorTool::LayerList) && self.tf.arm_3d => {
-                if let (true, Some(p)) = (response.clicked(), response.interact_pointer_pos()) {
-                    let [x, y] = at(p);
-                    let px = ((x as u32).min(size.0 - 1), (y as u32).min(size.1 - 1));
-                    self.add_3d_constraint(&id, px, size);
+            .and_then(|n| Some((n.id.clone(), self.registry.get(&n.kind)?.decl().tools)));
+        if let Some((id, tool_ids)) = selected {
+            for tool_id in tool_ids {
+                let Some(tool) = self.tools.by_id_mut(tool_id) else {
+                    continue;
+                };
+                let mut cx = crate::ToolContext {
+                    state: &mut self.state,
+                    registry: &self.registry,
+                    node: &id,
+                    time: self.time,
+                    view_size: VIEW_SIZE,
+                };
+                if let Some(m) = tool.viewer(ui, &response, size, &mut cx) {
+                    self.status = m;
                 }
             }
-            Some(id) if tool(EditorTool::StrokePainting) => {
-                if self.strokes.armed {
-                    for (p, start) in stroke_points(ui, &response) {
-                        if let Err(e) = crate::stroke_panel::paint(
-                            &self.state,
-                            &id,
-                            &mut self.strokes,
-                            at(p),
-                            size,
-                            start,
-                        ) {
-                            self.status = e;
-                        }
-                    }
-                }
-                // The waiting strokes, drawn over the picture.
-                let painter = ui.painter_at(response.rect);
-                let r = response.rect;
-                for (s, (w, h)) in
-                    crate::stroke_panel::pending_in(&self.state, &id, &self.strokes, size)
-                {
-                    let (w, h) = (w.max(1) as f32, h.max(1) as f32);
-                    let to = |q: &[f32; 2]| {
-                        r.min + egui::vec2(q[0] / w * r.width(), q[1] / h * r.height())
-                    };
-                    let c8 = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8;
-                    let c = if s.erase {
-                        egui::Color32::from_black_alpha(160)
-                    } else {
-                        egui::Color32::from_rgba_unmultiplied(
-                            c8(s.colour[0]),
-                            c8(s.colour[1]),
-                            c8(s.colour[2]),
-                            160,
-                        )
-                    };
-                    let width = (s.width / w * r.width()).max(1.0);
-                    let pts: Vec<egui::Pos2> = s.points.iter().map(to).collect();
-                    if pts.len() == 1 {
-                        painter.circle_filled(pts[0], width * 0.5, c);
-                    } else {
-                        painter.add(egui::Shape::line(pts, egui::Stroke::new(width, c)));
-                    }
-                }
-            }
-            Some(id) if tool(EditorTool::SplatBrush) => {
-                self.brush_in_viewer(ui, &response, &id, size);
-            }
-            _ => {}
         }
         ui.label(egui::RichText::new(&self.probe).monospace().small());
     }
-
-    /// The 3D brush over the viewer picture (`size` pixels shown in `response.rect`) while it is
-    /// armed: the plane's tint, the outline under the pointer, and painting on drags.
-    pub(super) fn brush_in_viewer(
-        &mut self,
-        ui: &egui::Ui,
-        response: &egui::Response,
-        selected: &str,
-        size: (u32, u32),
-    ) {
-        use crate::brush_panel as brush;
-        if !self.brush.armed {
-            return;
-        }
-        let Some(target) =
-            brush::target_for(&self.registry, self.state.graph(), &self.brush, selected)
-        else {
-            return;
-        };
-        // The view is rendered from the whole document, so a scene wired in from outside the
-        // group entered is found; the painting goes to the node of the graph shown.
-        let flat = match self.state.root().flatten(self.registry.catalog()) {
-            Ok(f) => f,
-            Err(e) => {
-                self.status = e.to_string();
-                return;
-            }
-        };
-        let full = self.state.full_id(&target);
-        let view = match self.brush.view_for(&self.registry, &flat, &full, size) {
-            Ok(v) => v.clone(),
-            Err(e) => {
-                self.status = e;
-                return;
-            }
-        };
-        let r = response.rect;
-        let at = |p: egui::Pos2| {
-            let rel = (p - r.min) / r.size();
-            [rel.x * size.0 as f32, rel.y * size.1 as f32]
-        };
-        // The plane: pixels whose surface lies behind it are tinted.
-        let tex_key = format!("{}@{}", view.key, self.brush.depth);
-        if self.brush_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
-            let tint = egui::Color32::from_rgba_unmultiplied(60, 130, 255, 100);
-            let pixels = brush::plane_mask(&view, self.brush.depth)
-                .iter()
-                .map(|m| if *m { tint } else { egui::Color32::TRANSPARENT })
-                .collect();
-            let image = egui::ColorImage::new([view.size.0 as usize, view.size.1 as usize], pixels);
-            let tex = ui
-                .ctx()
-                .load_texture("brush-plane", image, egui::TextureOptions::NEAREST);
-            self.brush_tex = Some((tex_key, tex));
-        }
-        let Some((_, tex)) = &self.brush_tex else {
-            return;
-        };
-        let painter = ui.painter_at(r);
-        painter.image(
-            tex.id(),
-            r,
-            egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-            egui::Color32::WHITE,
-        );
-        self.brush.hover = response.hover_pos().map(at);
-        if let Some(p) = response.hover_pos() {
-            let [rx, ry] = brush::outline_radii(&self.brush, &view.camera, view.size);
-            let scale = r.width() / size.0.max(1) as f32;
-            let colour = if self.brush.erase {
-                egui::Color32::from_gray(20)
-            } else {
-                egui::Color32::WHITE
-            };
-            painter.add(egui::epaint::EllipseShape::stroke(
-                p,
-                egui::vec2(rx, ry) * scale,
-                egui::Stroke::new(1.5, colour),
-            ));
-        }
-        for (p, start) in stroke_points(ui, response) {
-            if let Err(e) = brush::paint(
-                &mut self.state,
-                &mut self.brush,
-                &target,
-                &view.camera,
-                at(p),
-                size,
-                start,
-            ) {
-                self.status = e;
-            }
-        }
-        if response.drag_stopped() || response.clicked() {
-            brush::end_stroke(&mut self.state, &mut self.brush);
-        }
-    }
-
-    /// A click in the viewer while a TF's 3D constraint is armed: pick the surface under the
-    /// pixel (an evaluation on this thread) and add a constraint anchored to it.
-    pub fn add_3d_constraint(&mut self, id: &str, pixel: (u32, u32), size: (u32, u32)) {
-        use tyndall_engine::eval::pick::pick;
-        use tyndall_nodes::transfer_function::{Anchor, Constraint};
-        let result = (|| -> Result<String, String> {
-            let gpu = Gpu::shared().map_err(|e| e.to_string())?;
-            let mut ev = tyndall_engine::eval::Evaluator::new(self.registry.clone(), gpu);
-            let opts = tyndall_engine::eval::EvalOptions {
-                time: self.time,
-                size,
-                ..Default::default()
-            };
-            let p = pick(
-                &mut ev,
-                self.state.root(),
-                Some(&self.state.full_id(id)),
-                pixel,
-                &opts,
-            )
-            .map_err(|e| e.to_string())?;
-            let s = p
-                .surface
-                .ok_or("no surface under this pixel (sky): nothing to anchor to")?;
-            let tf = p.tf.ok_or("not a TransferFunction")?;
-            let mut data = self
-                .state
-                .node_data::<tyndall_nodes::transfer_function::TfData>(id)?;
-            let stack = crate::tf_panel::editable(&mut data, self.time)
-                .ok_or("add a key at this frame to edit the stack")?;
-            let c = Constraint {
-                at: [tf.u, tf.v],
-                colour: self.tf.brush,
-                anchor: Some(Anchor {
-                    object: s.object.clone(),
-                    triangle: s.triangle,
-                    bary: s.bary,
-                }),
-            };
-            self.tf.layer = crate::tf_panel::add_constraint(stack, self.tf.layer, c);
-            self.state.store_node_data(id, &data, None)?;
-            Ok(format!(
-                "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",
-                s.object, s.triangle, p.visibility, p.depth
-            ))
-        })();
-        self.status = result.unwrap_or_else(|e| e);
-    }
-}
-
-/// The pointer positions a painting stroke takes from `response` this frame, each with whether
-/// it starts a stroke. egui recognises a drag only once the pointer has moved, so a stroke
-/// starts where the button was pressed, then follows the pointer; a click is a one-point stroke.
-pub(super) fn stroke_points(ui: &egui::Ui, response: &egui::Response) -> Vec<(egui::Pos2, bool)> {
-    let mut points = Vec::new();
-    if response.drag_started() || response.clicked() {
-        let origin = ui.input(|i| i.pointer.press_origin());
-        points.extend(
-            origin
-                .or(response.interact_pointer_pos())
-                .map(|p| (p, true)),
-        );
-    }
-    if response.dragged() {
-        points.extend(response.interact_pointer_pos().map(|p| (p, false)));
-    }
-    points
 }
 
 /// An egui picture of `r` as the viewer shows it.

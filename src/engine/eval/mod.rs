@@ -28,8 +28,7 @@ use thiserror::Error;
 pub use convert::{download, upload_raster};
 pub use history::MAX_HISTORY_DEPTH;
 pub use node::{
-    check_side, Earlier, EditorTool, FileRole, KeyInput, NodeDecl, NodeError, NodeKind, Registry,
-    RunCtx,
+    check_side, Earlier, FileRole, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx,
 };
 pub use params::{FromParam, ParamReader};
 pub use paths::{

@@ -289,28 +289,16 @@ pub struct NodeDecl {
     /// Text parameters naming files, and whether the node reads or writes them (the CLI resolves
     /// them: see [`crate::eval::resolve_files`]).
     pub files: &'static [(&'static str, FileRole)],
-    /// The editor tools that edit this node's data block (empty: parameters only).
-    pub tools: &'static [EditorTool],
-}
-
-/// A tool of the editor (`src/editor/`) that edits a node's data block. The editor offers a
-/// node the tools its declaration names, and knows no node kind; a tool works on one shape of
-/// data block, so a new node reuses a tool by keeping that shape.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EditorTool {
-    /// A layer list with key-frames over a 2D table preview with a constraint field, and a click
-    /// in the viewer adding a constraint anchored to the surface under it (a data block of
-    /// `transfer_function::TfData` shape; the node gives the click's table coordinates with
-    /// [`NodeKind::table_coordinates`]).
-    LayerList,
-    /// Strokes painted over the viewer, per view (`light_map_solve::SolveData` shape).
-    StrokePainting,
-    /// A volume the 3D splat brush paints into: the node's data block holds the splats
-    /// (`blend_volume::BlendData` shape).
-    SplatVolume,
-    /// The 3D splat brush, shown with this node: it paints into the [`EditorTool::SplatVolume`]
-    /// node feeding it (or the node itself, when it is one).
-    SplatBrush,
+    /// The editor tools that edit this node (their ids; empty: parameters only). The editor
+    /// offers a node the tools its declaration names, in this order, and knows no node kind;
+    /// a tool works on one shape of data block, so a new node reuses a tool by keeping that
+    /// shape. The ids Tyndall's tools answer to (`src/tools/`): `layer_list` (a
+    /// `TransferFunction`-shaped layer stack, and a viewer click adding a constraint anchored
+    /// to the surface under it, at [`NodeKind::table_coordinates`]), `stroke_painting` (strokes
+    /// painted over the viewer per view, `LightMapSolve`-shaped), `splat_brush` (the 3D splat
+    /// brush shown with this node) and `splat_volume` (no panel of its own: marks a volume the
+    /// splat brush paints into, `BlendVolume`-shaped).
+    pub tools: &'static [&'static str],
 }
 
 /// How a node uses a file named by a text parameter.
@@ -363,7 +351,7 @@ impl NodeDecl {
     }
 
     /// Declare the editor tools that edit the node's data block.
-    pub const fn tools(self, tools: &'static [EditorTool]) -> Self {
+    pub const fn tools(self, tools: &'static [&'static str]) -> Self {
         Self { tools, ..self }
     }
 }
@@ -470,9 +458,9 @@ impl dyn NodeKind + '_ {
         self.decl().sink
     }
 
-    /// Whether the editor offers `tool` for this node.
-    pub fn has_tool(&self, tool: EditorTool) -> bool {
-        self.decl().tools.contains(&tool)
+    /// Whether the node's declaration names the editor tool `id` ([`NodeDecl::tools`]).
+    pub fn has_tool(&self, id: &str) -> bool {
+        self.decl().tools.contains(&id)
     }
 
     /// The text parameters naming files the node uses in `role` ([`NodeDecl::files`]), in

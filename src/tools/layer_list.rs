@@ -1,15 +1,21 @@
-//! The transfer-function panel (shown under the parameters of a selected `TransferFunction`):
+//! The layer-list tool (id `layer_list`; shown under the parameters of a node naming it, such
+//! as `TransferFunction`):
 //! the layer list (add, remove, reorder, blend, opacity, colours), the TF square (a preview of
 //! the baked table; a click adds a diffusion constraint, a drag moves one), key-frames of the
 //! layer stack, and the arming of 3D constraints (a click in the viewer adds a constraint
 //! anchored to the surface under that pixel). Every edit is one undoable step on the node's data
 //! block; a drag is one step.
 
+use std::any::Any;
+
 use eframe::egui;
 
-use crate::EditorState;
+use tyndall_editor::{panel, EditorState, Tool, ToolContext};
+use tyndall_engine::eval::pick::pick;
+use tyndall_engine::eval::{EvalOptions, Evaluator};
+use tyndall_engine::gpu::Gpu;
 use tyndall_nodes::transfer_function::{
-    bake_reference, layer_name, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
+    bake_reference, layer_name, Anchor, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
 };
 
 /// Side of the TF square on screen, in points.
@@ -17,7 +23,7 @@ pub const SQUARE: f32 = 200.0;
 /// Resolution of the square's CPU preview.
 const PREVIEW: u32 = 64;
 
-/// The panel's own state (what is selected, the brush colour, the preview texture).
+/// The tool's own state (what is selected, the brush colour, the preview texture).
 pub struct TfPanel {
     /// The layer edited by clicks in the square (index in the stack).
     pub layer: usize,
@@ -39,6 +45,91 @@ impl Default for TfPanel {
             preview: None,
         }
     }
+}
+
+impl Tool for TfPanel {
+    fn id(&self) -> &'static str {
+        "layer_list"
+    }
+
+    fn panel(&mut self, ui: &mut egui::Ui, cx: &mut ToolContext) -> Option<String> {
+        show(ui, cx.state, cx.node, cx.time, self)
+    }
+
+    /// While 3D constraints are armed, a click adds one anchored to the surface under it.
+    fn viewer(
+        &mut self,
+        _ui: &egui::Ui,
+        response: &egui::Response,
+        size: (u32, u32),
+        cx: &mut ToolContext,
+    ) -> Option<String> {
+        if !self.arm_3d {
+            return None;
+        }
+        let (true, Some(p)) = (response.clicked(), response.interact_pointer_pos()) else {
+            return None;
+        };
+        let [x, y] = tyndall_editor::tool::picture_pixel(response, size, p);
+        let px = ((x as u32).min(size.0 - 1), (y as u32).min(size.1 - 1));
+        Some(add_3d_constraint(cx, self, px, size).unwrap_or_else(|e| e))
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
+
+/// A click in the viewer while 3D constraints are armed: pick the surface under `pixel` of a
+/// `size` picture (an evaluation on this thread) and add a constraint anchored to it, in the
+/// brush colour, to the panel's layer. Returns what was added.
+pub fn add_3d_constraint(
+    cx: &mut ToolContext,
+    panel: &mut TfPanel,
+    pixel: (u32, u32),
+    size: (u32, u32),
+) -> Result<String, String> {
+    let id = cx.node;
+    let gpu = Gpu::shared().map_err(|e| e.to_string())?;
+    let mut ev = Evaluator::new(cx.registry.clone(), gpu);
+    let opts = EvalOptions {
+        time: cx.time,
+        size,
+        ..Default::default()
+    };
+    let p = pick(
+        &mut ev,
+        cx.state.root(),
+        Some(&cx.state.full_id(id)),
+        pixel,
+        &opts,
+    )
+    .map_err(|e| e.to_string())?;
+    let s = p
+        .surface
+        .ok_or("no surface under this pixel (sky): nothing to anchor to")?;
+    let tf = p.tf.ok_or("not a TransferFunction")?;
+    let mut data = cx.state.node_data::<TfData>(id)?;
+    let stack = editable(&mut data, cx.time).ok_or("add a key at this frame to edit the stack")?;
+    let c = Constraint {
+        at: [tf.u, tf.v],
+        colour: panel.brush,
+        anchor: Some(Anchor {
+            object: s.object.clone(),
+            triangle: s.triangle,
+            bary: s.bary,
+        }),
+    };
+    panel.layer = add_constraint(stack, panel.layer, c);
+    cx.state.store_node_data(id, &data, None)?;
+    Ok(format!(
+        "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",
+        s.object, s.triangle, p.visibility, p.depth
+    ))
 }
 
 /// The stack edited at `time`: the plain layers, or the key at exactly `time`; `None` when the
@@ -106,7 +197,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Transfer function");
-    let mut data = super::panel::data_block::<TfData>(ui, state, id)?;
+    let mut data = panel::data_block::<TfData>(ui, state, id)?;
     let before = data.clone();
     let mut message = key_bar(ui, &mut data, time);
     ui.horizontal(|ui| {

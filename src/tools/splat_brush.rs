@@ -1,7 +1,6 @@
-//! The 3D brush (seed 000 §4.3, SPEC §6): painting a `BlendVolume` from the viewer. Shown under
-//! the parameters of a selected node whose kind declares the brush tool
-//! ([`EditorTool::SplatBrush`]: `BlendVolume`, `Heterogeneity`); it paints into a node declaring
-//! [`EditorTool::SplatVolume`].
+//! The 3D splat brush (id `splat_brush`; seed 000 §4.3, SPEC §6): painting a `BlendVolume` from
+//! the viewer. Shown under the parameters of a selected node naming it (`BlendVolume`,
+//! `Heterogeneity`); it paints into a node naming `splat_volume`.
 //!
 //! A plane orthogonal to the camera's view direction sits at `depth` metres along it (the
 //! slider moves it along its normal). While the brush is armed the viewer tints the pixels
@@ -19,16 +18,15 @@
 //! once per scene and picture size by the kind that renders a scene's depth (found by its
 //! ports: the G-buffer) evaluated on this thread.
 
-use std::collections::{BTreeSet, VecDeque};
+use std::any::Any;
 use std::sync::Arc;
 
 use eframe::egui;
 use glam::{Mat4, Quat, Vec3, Vec4};
 
-use crate::EditorState;
-use tyndall_engine::eval::{
-    EditorTool, EvalOptions, Evaluator, Matrices, PortValue, Registry, Target,
-};
+use tyndall_editor::tool::{picture_pixel, stroke_points};
+use tyndall_editor::{panel as panels, EditorState, Tool, ToolContext};
+use tyndall_engine::eval::{EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
 use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::{Graph, PortType};
 use tyndall_nodes::blend_volume::{BlendData, Role, Splat};
@@ -58,6 +56,8 @@ pub struct BrushPanel {
     pub hover: Option<[f32; 2]>,
     view: Option<BrushView>,
     last: Option<Vec3>,
+    /// The painting plane's tint over the viewer, by (picture size, plane depth).
+    tint: Option<(String, egui::TextureHandle)>,
 }
 
 impl Default for BrushPanel {
@@ -75,8 +75,116 @@ impl Default for BrushPanel {
             hover: None,
             view: None,
             last: None,
+            tint: None,
         }
     }
+}
+
+impl Tool for BrushPanel {
+    fn id(&self) -> &'static str {
+        "splat_brush"
+    }
+
+    fn panel(&mut self, ui: &mut egui::Ui, cx: &mut ToolContext) -> Option<String> {
+        show(ui, cx.registry, cx.state, cx.node, self)
+    }
+
+    /// While armed: the plane's tint, the outline under the pointer, and painting on drags.
+    fn viewer(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        size: (u32, u32),
+        cx: &mut ToolContext,
+    ) -> Option<String> {
+        if !self.armed {
+            return None;
+        }
+        in_viewer(self, ui, response, size, cx).err()
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
+
+/// The armed brush over the viewer picture (`size` pixels shown in `response.rect`).
+fn in_viewer(
+    brush: &mut BrushPanel,
+    ui: &egui::Ui,
+    response: &egui::Response,
+    size: (u32, u32),
+    cx: &mut ToolContext,
+) -> Result<(), String> {
+    let Some(target) = target_for(cx.registry, cx.state.graph(), brush, cx.node) else {
+        return Ok(());
+    };
+    // The view is rendered from the whole document, so a scene wired in from outside the
+    // group entered is found; the painting goes to the node of the graph shown.
+    let flat = cx
+        .state
+        .root()
+        .flatten(cx.registry.catalog())
+        .map_err(|e| e.to_string())?;
+    let full = cx.state.full_id(&target);
+    let view = brush.view_for(cx.registry, &flat, &full, size)?.clone();
+    let r = response.rect;
+    // The plane: pixels whose surface lies behind it are tinted.
+    let key = format!("{}@{}", view.key, brush.depth);
+    if brush.tint.as_ref().is_none_or(|(k, _)| *k != key) {
+        let tint = egui::Color32::from_rgba_unmultiplied(60, 130, 255, 100);
+        let pixels = plane_mask(&view, brush.depth)
+            .iter()
+            .map(|m| if *m { tint } else { egui::Color32::TRANSPARENT })
+            .collect();
+        let image = egui::ColorImage::new([view.size.0 as usize, view.size.1 as usize], pixels);
+        let tex = ui
+            .ctx()
+            .load_texture("brush-plane", image, egui::TextureOptions::NEAREST);
+        brush.tint = Some((key, tex));
+    }
+    let Some((_, tex)) = &brush.tint else {
+        return Ok(());
+    };
+    let painter = ui.painter_at(r);
+    painter.image(
+        tex.id(),
+        r,
+        egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+        egui::Color32::WHITE,
+    );
+    brush.hover = response
+        .hover_pos()
+        .map(|p| picture_pixel(response, size, p));
+    if let Some(p) = response.hover_pos() {
+        let [rx, ry] = outline_radii(brush, &view.camera, view.size);
+        let scale = r.width() / size.0.max(1) as f32;
+        let colour = if brush.erase {
+            egui::Color32::from_gray(20)
+        } else {
+            egui::Color32::WHITE
+        };
+        painter.add(egui::epaint::EllipseShape::stroke(
+            p,
+            egui::vec2(rx, ry) * scale,
+            egui::Stroke::new(1.5, colour),
+        ));
+    }
+    let mut result = Ok(());
+    for (p, start) in stroke_points(ui, response) {
+        let at = picture_pixel(response, size, p);
+        if let Err(e) = paint(cx.state, brush, &target, &view.camera, at, size, start) {
+            result = Err(e);
+        }
+    }
+    if response.drag_stopped() || response.clicked() {
+        end_stroke(cx.state, brush);
+    }
+    result
 }
 
 /// What the brush knows of the scene at the viewer's size.
@@ -93,13 +201,12 @@ pub struct BrushView {
     pub depth: Vec<f32>,
 }
 
-/// Whether node `id` is a volume the brush paints into (its kind declares
-/// [`EditorTool::SplatVolume`]).
+/// Whether node `id` is a volume the brush paints into (its kind names `splat_volume`).
 fn is_volume(registry: &Registry, graph: &Graph, id: &str) -> bool {
     graph
         .node(id)
         .and_then(|n| registry.get(&n.kind))
-        .is_some_and(|k| k.has_tool(EditorTool::SplatVolume))
+        .is_some_and(|k| k.has_tool("splat_volume"))
 }
 
 /// The volumes of the graph the brush can paint into, with their role, by id.
@@ -148,24 +255,6 @@ pub fn target_for(
         .clone()
         .filter(|t| is_volume(registry, graph, t))
         .or_else(|| default_target(registry, graph, selected))
-}
-
-/// The nearest node downstream of `id` (breadth first, consumers in id order) that has a
-/// picture output: what the viewer shows for a node that has none itself (a volume, a scene).
-pub fn nearest_picture(graph: &Graph, registry: &Registry, id: &str) -> Option<String> {
-    let mut seen = BTreeSet::from([id.to_string()]);
-    let mut queue = VecDeque::from([id.to_string()]);
-    while let Some(n) = queue.pop_front() {
-        if n != id && !super::worker::picture_ports(graph, registry, &n).is_empty() {
-            return Some(n);
-        }
-        for c in graph.consumers(&n) {
-            if seen.insert(c.to_string()) {
-                queue.push_back(c.to_string());
-            }
-        }
-    }
-    None
 }
 
 /// The scene output the brush's camera comes from: the volume's `scene` input, else the first
@@ -447,7 +536,7 @@ pub fn show(
             .on_hover_text("Distance between splats along a drag, × the smaller in-plane radius");
         ui.end_row();
     });
-    let mut data = super::panel::data_block::<BlendData>(ui, state, &target)?;
+    let mut data = panels::data_block::<BlendData>(ui, state, &target)?;
     let mut changed = false;
     ui.horizontal(|ui| {
         ui.label(format!("{} splat(s) in {target}", data.splats.len()));

@@ -1,4 +1,5 @@
-//! The stroke panel (shown under the parameters of a selected `LightMapSolve`): its views, the
+//! The stroke-painting tool (id `stroke_painting`; shown under the parameters of a node naming
+//! it, such as `LightMapSolve`): its views, the
 //! brush (colour, width, eraser), and painting in the viewer. A view is added from the scene's
 //! camera at the viewer's size; while painting is armed a drag over the viewer paints a stroke
 //! for the active view, with pixel coordinates of the viewer's picture scaled to the view's
@@ -7,12 +8,15 @@
 //! spinner is its progress; the solved light map is the node's thumbnail, its `residual` output
 //! the convergence). "Discard" drops the waiting strokes.
 
+use std::any::Any;
+
 use eframe::egui;
 
-use crate::EditorState;
+use tyndall_editor::tool::{picture_pixel, stroke_points};
+use tyndall_editor::{panel, EditorState, Tool, ToolContext};
 use tyndall_nodes::light_map_solve::{SolveData, Stroke, View, ViewCamera};
 
-/// The panel's own state.
+/// The tool's own state.
 pub struct StrokePanel {
     /// The view strokes go into.
     pub view: usize,
@@ -38,6 +42,68 @@ impl Default for StrokePanel {
             armed: false,
             pending: Vec::new(),
         }
+    }
+}
+
+impl Tool for StrokePanel {
+    fn id(&self) -> &'static str {
+        "stroke_painting"
+    }
+
+    fn panel(&mut self, ui: &mut egui::Ui, cx: &mut ToolContext) -> Option<String> {
+        show(ui, cx.state, cx.node, self, cx.view_size)
+    }
+
+    /// While armed, a drag paints a stroke; the waiting strokes are drawn over the picture.
+    fn viewer(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        size: (u32, u32),
+        cx: &mut ToolContext,
+    ) -> Option<String> {
+        let mut message = None;
+        if self.armed {
+            for (p, start) in stroke_points(ui, response) {
+                let at = picture_pixel(response, size, p);
+                if let Err(e) = paint(cx.state, cx.node, self, at, size, start) {
+                    message = Some(e);
+                }
+            }
+        }
+        let painter = ui.painter_at(response.rect);
+        let r = response.rect;
+        for (s, (w, h)) in pending_in(cx.state, cx.node, self, size) {
+            let (w, h) = (w.max(1) as f32, h.max(1) as f32);
+            let to = |q: &[f32; 2]| r.min + egui::vec2(q[0] / w * r.width(), q[1] / h * r.height());
+            let c8 = |v: f32| (v.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8;
+            let c = if s.erase {
+                egui::Color32::from_black_alpha(160)
+            } else {
+                egui::Color32::from_rgba_unmultiplied(
+                    c8(s.colour[0]),
+                    c8(s.colour[1]),
+                    c8(s.colour[2]),
+                    160,
+                )
+            };
+            let width = (s.width / w * r.width()).max(1.0);
+            let pts: Vec<egui::Pos2> = s.points.iter().map(to).collect();
+            if pts.len() == 1 {
+                painter.circle_filled(pts[0], width * 0.5, c);
+            } else {
+                painter.add(egui::Shape::line(pts, egui::Stroke::new(width, c)));
+            }
+        }
+        message
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
     }
 }
 
@@ -126,7 +192,7 @@ pub fn show(
 ) -> Option<String> {
     ui.separator();
     ui.heading("Strokes");
-    let mut data = super::panel::data_block::<SolveData>(ui, state, id)?;
+    let mut data = panel::data_block::<SolveData>(ui, state, id)?;
     let before = data.clone();
     ui.horizontal(|ui| {
         ui.label("brush");
