@@ -175,17 +175,17 @@ fn gpu_pass(
     };
     let out = gpu.texture(src.width, src.height, src.format)?;
     let (entry, slot) = if scalar {
-        ("bilateral_scalar", 3)
+        ("bilateral_scalar", "out_scalar")
     } else {
-        ("bilateral_image", 4)
+        ("bilateral_image", "out_image")
     };
     gpu.dispatch(
         SHADER,
         entry,
         &[
-            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-            (1, Bind::Texture(src)),
-            (2, Bind::Texture(guide.unwrap_or(src))),
+            ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("src", Bind::Texture(src)),
+            ("guide", Bind::Texture(guide.unwrap_or(src))),
             (slot, Bind::Storage(&out)),
         ],
         src.width,

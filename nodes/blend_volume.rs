@@ -236,9 +236,9 @@ pub fn bake(
         SHADER,
         "bake",
         &[
-            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-            (1, Bind::VolumeLevel(&v, 0)),
-            (2, Bind::Texture(&tex)),
+            ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("out_level", Bind::VolumeLevel(&v, 0)),
+            ("splats", Bind::Texture(&tex)),
         ],
         [n; 3],
     )?;

@@ -138,17 +138,17 @@ fn gpu_pass(
         _pad1: 0,
     };
     let (entry, slot) = match src.format {
-        TexFormat::R32F => ("blur_scalar", 3),
-        _ => ("blur_image", 4),
+        TexFormat::R32F => ("blur_scalar", "out_scalar"),
+        _ => ("blur_image", "out_image"),
     };
     let out = gpu.texture(src.width, src.height, src.format)?;
     gpu.dispatch(
         SHADER,
         entry,
         &[
-            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-            (1, Bind::Texture(src)),
-            (2, Bind::Texture(w)),
+            ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("src", Bind::Texture(src)),
+            ("weights", Bind::Texture(w)),
             (slot, Bind::Storage(&out)),
         ],
         src.width,

@@ -99,8 +99,8 @@ impl NodeKind for Constant {
                 SHADER,
                 "fill_scalar",
                 &[
-                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                    (1, Bind::Storage(&out)),
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                    ("out_scalar", Bind::Storage(&out)),
                 ],
                 w,
                 h,
@@ -113,8 +113,8 @@ impl NodeKind for Constant {
                 SHADER,
                 "fill_image",
                 &[
-                    (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                    (2, Bind::Storage(&out)),
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                    ("out_image", Bind::Storage(&out)),
                 ],
                 w,
                 h,

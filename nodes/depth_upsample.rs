@@ -195,18 +195,18 @@ impl NodeKind for DepthUpsample {
         };
         let out = ctx.gpu.texture(high.width, high.height, low.format)?;
         let (entry, slot) = if low.format == TexFormat::R32F {
-            ("upsample_scalar", 4)
+            ("upsample_scalar", "out_scalar")
         } else {
-            ("upsample_image", 5)
+            ("upsample_image", "out_image")
         };
         ctx.gpu.dispatch(
             SHADER,
             entry,
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&low)),
-                (2, Bind::Texture(&low_depth)),
-                (3, Bind::Texture(&high)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("low", Bind::Texture(&low)),
+                ("low_depth", Bind::Texture(&low_depth)),
+                ("high_depth", Bind::Texture(&high)),
                 (slot, Bind::Storage(&out)),
             ],
             high.width,

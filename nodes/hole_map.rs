@@ -117,9 +117,9 @@ impl NodeKind for HoleMap {
             SHADER,
             "threshold",
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&tex)),
-                (2, Bind::Storage(&out)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("noise", Bind::Texture(&tex)),
+                ("out_holes", Bind::Storage(&out)),
             ],
             tex.width,
             tex.height,

@@ -101,8 +101,8 @@ const SHADER: Shader = crate::shader("image_output", include_str!("../shaders/im
 fn sanitized(ctx: &RunCtx, port: &str) -> Result<PortValue, NodeError> {
     let tex = ctx.require_texture(port)?;
     let (entry, slot) = match tex.format {
-        TexFormat::R32F => ("sanitize_scalar", 1),
-        TexFormat::Rgba32F => ("sanitize_image", 2),
+        TexFormat::R32F => ("sanitize_scalar", "out_scalar"),
+        TexFormat::Rgba32F => ("sanitize_image", "out_image"),
         TexFormat::Rg32F => {
             return Err(NodeError::Input {
                 port: port.into(),
@@ -114,7 +114,7 @@ fn sanitized(ctx: &RunCtx, port: &str) -> Result<PortValue, NodeError> {
     ctx.gpu.dispatch(
         SHADER,
         entry,
-        &[(0, Bind::Texture(&tex)), (slot, Bind::Storage(&out))],
+        &[("src", Bind::Texture(&tex)), (slot, Bind::Storage(&out))],
         tex.width,
         tex.height,
     )?;

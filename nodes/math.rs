@@ -258,18 +258,18 @@ impl NodeKind for Math {
         let tb = tb.cloned().unwrap_or(dummy);
         let image = a_mode == 2 || b_mode == 2;
         let (format, entry, slot) = if image {
-            (TexFormat::Rgba32F, "math_image", 4)
+            (TexFormat::Rgba32F, "math_image", "out_image")
         } else {
-            (TexFormat::R32F, "math_scalar", 3)
+            (TexFormat::R32F, "math_scalar", "out_scalar")
         };
         let out = ctx.gpu.texture(w, h, format)?;
         ctx.gpu.dispatch(
             SHADER,
             entry,
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&ta)),
-                (2, Bind::Texture(&tb)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("tex_a", Bind::Texture(&ta)),
+                ("tex_b", Bind::Texture(&tb)),
                 (slot, Bind::Storage(&out)),
             ],
             w,

@@ -194,8 +194,8 @@ pub fn build(gpu: &Gpu, p: &NoiseParams) -> Result<GpuVolume, GpuError> {
         SHADER,
         "noise",
         &[
-            (0, Bind::Uniform(bytemuck::bytes_of(p))),
-            (1, Bind::VolumeLevel(&v, 0)),
+            ("P", Bind::Uniform(bytemuck::bytes_of(p))),
+            ("out_level", Bind::VolumeLevel(&v, 0)),
         ],
         p.size,
     )?;

@@ -201,8 +201,8 @@ impl NodeKind for PerlinNoise2D {
             SHADER,
             "noise",
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Storage(&out)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("out_noise", Bind::Storage(&out)),
             ],
             w,
             h,

@@ -161,16 +161,16 @@ impl NodeKind for RadialBlur {
         };
         let out = ctx.gpu.texture(src.width, src.height, src.format)?;
         let (entry, slot) = if src.format == TexFormat::R32F {
-            ("radial_scalar", 3)
+            ("radial_scalar", "out_scalar")
         } else {
-            ("radial_image", 4)
+            ("radial_image", "out_image")
         };
         ctx.gpu.dispatch(
             SHADER,
             entry,
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&p))),
-                (1, Bind::Texture(&src)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&p))),
+                ("src", Bind::Texture(&src)),
                 (slot, Bind::Storage(&out)),
             ],
             src.width,

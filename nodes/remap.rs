@@ -126,8 +126,8 @@ impl NodeKind for Remap {
             _pad2: 0,
         };
         let (entry, slot) = match tex.format {
-            TexFormat::R32F => ("remap_scalar", 2),
-            TexFormat::Rgba32F => ("remap_image", 3),
+            TexFormat::R32F => ("remap_scalar", "out_scalar"),
+            TexFormat::Rgba32F => ("remap_image", "out_image"),
             TexFormat::Rg32F => {
                 return Err(NodeError::Input {
                     port: "in".into(),
@@ -140,8 +140,8 @@ impl NodeKind for Remap {
             SHADER,
             entry,
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&tex)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("src", Bind::Texture(&tex)),
                 (slot, Bind::Storage(&out)),
             ],
             tex.width,

@@ -70,9 +70,9 @@ impl NodeKind for SideBySide {
             SHADER,
             "join",
             &[
-                (0, Bind::Texture(&l)),
-                (1, Bind::Texture(&r)),
-                (2, Bind::Storage(&out)),
+                ("left", Bind::Texture(&l)),
+                ("right", Bind::Texture(&r)),
+                ("out_image", Bind::Storage(&out)),
             ],
             w,
             h,

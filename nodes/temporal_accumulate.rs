@@ -295,20 +295,20 @@ impl NodeKind for TemporalAccumulate {
                 None => (&*image, &*image),
             };
             let mut binds = vec![
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(sum_in)),
-                (2, Bind::Texture(weight_in)),
-                (3, Bind::Texture(prev)),
-                (4, Bind::Texture(&prev_depth)),
-                (5, Bind::Texture(&depth)),
-                (11, Bind::Texture(&image)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("sum_in", Bind::Texture(sum_in)),
+                ("weight_in", Bind::Texture(weight_in)),
+                ("prev", Bind::Texture(prev)),
+                ("prev_depth", Bind::Texture(&prev_depth)),
+                ("depth", Bind::Texture(&depth)),
+                ("current", Bind::Texture(&image)),
             ];
             if i < last {
                 // Running sums for the next frame's pass.
                 let sum_out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
                 let weight_out = ctx.gpu.texture(w, h, TexFormat::R32F)?;
-                binds.push((6, Bind::Storage(&sum_out)));
-                binds.push((7, Bind::Storage(&weight_out)));
+                binds.push(("sum_out", Bind::Storage(&sum_out)));
+                binds.push(("weight_out", Bind::Storage(&weight_out)));
                 let constants = [("FIRST", on(i == 0)), ("CLAMP", clamp)];
                 ctx.gpu
                     .dispatch_with(SHADER, "accumulate", &binds, (w, h), &constants)?;
@@ -317,12 +317,12 @@ impl NodeKind for TemporalAccumulate {
             } else {
                 // The last earlier frame: its pass divides.
                 let (entry, slot) = if image.format == TexFormat::R32F {
-                    ("resolve_scalar", 9)
+                    ("resolve_scalar", "out_scalar")
                 } else {
-                    ("resolve_image", 8)
+                    ("resolve_image", "out_image")
                 };
                 binds.push((slot, Bind::Storage(&out)));
-                binds.push((10, Bind::Storage(&accepted)));
+                binds.push(("out_accepted", Bind::Storage(&accepted)));
                 let constants = [("FIRST", on(i == 0)), ("CLAMP", clamp)];
                 ctx.gpu
                     .dispatch_with(SHADER, entry, &binds, (w, h), &constants)?;

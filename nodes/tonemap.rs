@@ -101,9 +101,9 @@ impl NodeKind for Tonemap {
             SHADER,
             "tonemap",
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-                (1, Bind::Texture(&tex)),
-                (2, Bind::Storage(&out)),
+                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("src", Bind::Texture(&tex)),
+                ("out_image", Bind::Storage(&out)),
             ],
             tex.width,
             tex.height,

@@ -59,16 +59,16 @@ pub fn downsample(gpu: &Gpu, src: &GpuTexture, factor: u32) -> Result<GpuTexture
         _pad2: 0,
     };
     let (entry, slot) = if src.format == TexFormat::R32F {
-        ("downsample_scalar", 2)
+        ("downsample_scalar", "out_scalar")
     } else {
-        ("downsample_image", 3)
+        ("downsample_image", "out_image")
     };
     gpu.dispatch(
         SHADER,
         entry,
         &[
-            (0, Bind::Uniform(bytemuck::bytes_of(&u))),
-            (1, Bind::Texture(src)),
+            ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("src", Bind::Texture(src)),
             (slot, Bind::Storage(&out)),
         ],
         w,

@@ -17,8 +17,8 @@ pub fn build(gpu: &Gpu, v: &GpuVolume) -> Result<(), GpuError> {
             SHADER,
             "mip",
             &[
-                (0, Bind::VolumeLevel(v, level)),
-                (1, Bind::VolumeLevelRead(v, level - 1)),
+                ("out_level", Bind::VolumeLevel(v, level)),
+                ("src_level", Bind::VolumeLevelRead(v, level - 1)),
             ],
             v.level_size(level),
         )?;

@@ -143,9 +143,9 @@ impl<'a> Resident<'a> {
         self.vector_pass(
             "mask_frozen",
             &[
-                (8, Bind::Buffer(x)),
-                (11, Bind::Buffer(s)),
-                (9, Bind::Buffer(p)),
+                ("vin", Bind::Buffer(x)),
+                ("vin2", Bind::Buffer(s)),
+                ("vout", Bind::Buffer(p)),
             ],
             VectorParams {
                 count: self.texels(),
@@ -188,12 +188,12 @@ impl<'a> Resident<'a> {
                 SHADER,
                 "forward_rows",
                 &[
-                    (0, Bind::Uniform(bytemuck::bytes_of(&p))),
-                    (1, Bind::Texture(self.shadow)),
-                    (2, Bind::Texture(&v.depth)),
-                    (8, Bind::Buffer(x)),
-                    (9, Bind::Buffer(out)),
-                    (10, Bind::Buffer(&v.pixels)),
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&p))),
+                    ("shadow", Bind::Texture(self.shadow)),
+                    ("depth", Bind::Texture(&v.depth)),
+                    ("vin", Bind::Buffer(x)),
+                    ("vout", Bind::Buffer(out)),
+                    ("pixels", Bind::Buffer(&v.pixels)),
                 ],
                 v.pixels.words,
                 1,
@@ -215,7 +215,7 @@ impl<'a> Resident<'a> {
         let scale = fixed_point_scale(mass);
         self.vector_pass(
             "clear",
-            &[(7, Bind::Buffer(&self.acc))],
+            &[("acc", Bind::Buffer(&self.acc))],
             VectorParams {
                 count: self.acc.words,
                 ..params()
@@ -227,12 +227,12 @@ impl<'a> Resident<'a> {
                 SHADER,
                 "adjoint_rows",
                 &[
-                    (0, Bind::Uniform(bytemuck::bytes_of(&p))),
-                    (1, Bind::Texture(self.shadow)),
-                    (2, Bind::Texture(&v.depth)),
-                    (7, Bind::Buffer(&self.acc)),
-                    (8, Bind::Buffer(r)),
-                    (10, Bind::Buffer(&v.pixels)),
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&p))),
+                    ("shadow", Bind::Texture(self.shadow)),
+                    ("depth", Bind::Texture(&v.depth)),
+                    ("acc", Bind::Buffer(&self.acc)),
+                    ("vin", Bind::Buffer(r)),
+                    ("pixels", Bind::Buffer(&v.pixels)),
                 ],
                 v.pixels.words,
                 1,
@@ -241,9 +241,9 @@ impl<'a> Resident<'a> {
         self.vector_pass(
             "decode",
             &[
-                (7, Bind::Buffer(&self.acc)),
-                (8, Bind::Buffer(x)),
-                (9, Bind::Buffer(out)),
+                ("acc", Bind::Buffer(&self.acc)),
+                ("vin", Bind::Buffer(x)),
+                ("vout", Bind::Buffer(out)),
             ],
             VectorParams {
                 scale: [scale[0], scale[1], scale[2], 0.0],
@@ -259,10 +259,10 @@ impl<'a> Resident<'a> {
     fn vector_pass(
         &self,
         entry: &str,
-        binds: &[(u32, Bind)],
+        binds: &[(&str, Bind)],
         p: VectorParams,
     ) -> Result<(), GpuError> {
-        let mut all = vec![(13, Bind::Uniform(bytemuck::bytes_of(&p)))];
+        let mut all = vec![("V", Bind::Uniform(bytemuck::bytes_of(&p)))];
         all.extend_from_slice(binds);
         let width = if entry == "reduce" {
             REDUCE_THREADS
@@ -284,9 +284,9 @@ impl<'a> Resident<'a> {
         self.vector_pass(
             "combine",
             &[
-                (8, Bind::Buffer(u)),
-                (11, Bind::Buffer(v)),
-                (9, Bind::Buffer(out)),
+                ("vin", Bind::Buffer(u)),
+                ("vin2", Bind::Buffer(v)),
+                ("vout", Bind::Buffer(out)),
             ],
             VectorParams {
                 count: u.words / 4,
@@ -334,9 +334,9 @@ impl<'a> Resident<'a> {
                 self.vector_pass(
                     "reduce",
                     &[
-                        (8, Bind::Buffer(u)),
-                        (11, Bind::Buffer(v)),
-                        (12, Bind::Buffer(&self.partials)),
+                        ("vin", Bind::Buffer(u)),
+                        ("vin2", Bind::Buffer(v)),
+                        ("partials", Bind::Buffer(&self.partials)),
                     ],
                     VectorParams {
                         count: u.words / 4,

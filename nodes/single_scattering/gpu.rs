@@ -31,9 +31,9 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
             MIN_MAX,
             "build_level",
             &[
-                (7, Bind::Uniform(bytemuck::bytes_of(&b))),
-                (8, Bind::Texture(source)),
-                (9, Bind::Storage(&back)),
+                ("B", Bind::Uniform(bytemuck::bytes_of(&b))),
+                ("build_src", Bind::Texture(source)),
+                ("build_dst", Bind::Storage(&back)),
             ],
             dst[2],
             dst[3],
@@ -55,7 +55,7 @@ pub(super) fn dispatch_epipolar(
     knobs: EpiKnobs,
     shadow: &GpuTexture,
     (w, h): (u32, u32),
-    binds: &[(u32, Bind)],
+    binds: &[(&str, Bind)],
 ) -> Result<(), NodeError> {
     let g = epipolar_geometry(u, (w, h), (shadow.width, shadow.height), knobs.slices);
     let table = gpu.upload(knobs.slices, 3, 4, &EpiParams::slice_texels(&g))?;
@@ -82,12 +82,12 @@ pub(super) fn dispatch_epipolar(
         ("LIGHT_MAP", 0.0),
         ("SOFT", 0.0),
     ];
-    let pass = |entry: &str, level: u32, extra: Option<(u32, Bind)>, size: (u32, u32)| {
+    let pass = |entry: &str, level: u32, extra: Option<(&str, Bind)>, size: (u32, u32)| {
         let e = EpiParams { level, ..base };
         let mut b = binds.to_vec();
-        b.push((16, Bind::Uniform(bytemuck::bytes_of(&e))));
-        b.push((17, Bind::Texture(&table)));
-        b.push((18, Bind::Buffer(&tree)));
+        b.push(("E", Bind::Uniform(bytemuck::bytes_of(&e))));
+        b.push(("slice_table", Bind::Texture(&table)));
+        b.push(("tree", Bind::Buffer(&tree)));
         b.extend(extra);
         gpu.dispatch_with(EPIPOLAR, entry, &b, size, &constants)
     };
@@ -99,7 +99,7 @@ pub(super) fn dispatch_epipolar(
     pass(
         "epi_sample",
         0,
-        Some((19, Bind::Storage(&samples))),
+        Some(("out_samples", Bind::Storage(&samples))),
         (knobs.samples, knobs.slices),
     )?;
     let list = gpu.buffer_zeroed(w * h)?;
@@ -107,11 +107,11 @@ pub(super) fn dispatch_epipolar(
     let with_list = |entry: &str, level: u32, size: (u32, u32)| {
         let e = EpiParams { level, ..base };
         let mut b = binds.to_vec();
-        b.push((16, Bind::Uniform(bytemuck::bytes_of(&e))));
-        b.push((17, Bind::Texture(&table)));
-        b.push((20, Bind::Texture(&samples)));
-        b.push((21, Bind::Buffer(&list)));
-        b.push((22, Bind::Buffer(&count)));
+        b.push(("E", Bind::Uniform(bytemuck::bytes_of(&e))));
+        b.push(("slice_table", Bind::Texture(&table)));
+        b.push(("samples_in", Bind::Texture(&samples)));
+        b.push(("fallback", Bind::Buffer(&list)));
+        b.push(("fallback_count", Bind::Buffer(&count)));
         gpu.dispatch_with(EPIPOLAR, entry, &b, size, &constants)
     };
     with_list("epi_gather", 0, (w, h))?;
@@ -185,15 +185,15 @@ pub(super) fn scatter(
             .to_cols_array_2d(),
     };
     let mut binds = vec![
-        (0, Bind::Uniform(bytemuck::bytes_of(u))),
-        (1, Bind::Texture(i.shadow)),
-        (2, Bind::Texture(i.depth)),
-        (3, Bind::Storage(&vis)),
-        (4, Bind::Storage(&ins)),
-        (5, Bind::Storage(&tr)),
-        (13, Bind::Texture(phase)),
-        (14, Bind::Volume(soft_volume)),
-        (15, Bind::Uniform(bytemuck::bytes_of(&sv))),
+        ("P", Bind::Uniform(bytemuck::bytes_of(u))),
+        ("shadow", Bind::Texture(i.shadow)),
+        ("depth", Bind::Texture(i.depth)),
+        ("out_vis", Bind::Storage(&vis)),
+        ("out_inscatter", Bind::Storage(&ins)),
+        ("out_transmittance", Bind::Storage(&tr)),
+        ("phase_table", Bind::Texture(phase)),
+        ("soft_volume", Bind::Volume(soft_volume)),
+        ("SV", Bind::Uniform(bytemuck::bytes_of(&sv))),
     ];
     // Pipeline constants: code for what is off is compiled away.
     let on = |b: bool| if b { 1.0 } else { 0.0 };
@@ -211,14 +211,15 @@ pub(super) fn scatter(
                 (&no_map, LightMapView::new(IDENTITY, 0))
             }
         };
-        binds.push((11, Bind::Texture(map)));
-        binds.push((12, Bind::Uniform(bytemuck::bytes_of(&lm))));
+        binds.push(("light_map", Bind::Texture(map)));
+        binds.push(("LM", Bind::Uniform(bytemuck::bytes_of(&lm))));
         gpu.dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
         return Ok([vis, ins, tr]);
     }
+    // MinMax traverses the pyramid; Epipolar's fall-back rays do too.
     let (levels, atlas) = build_pyramid(gpu, i.shadow)?;
-    binds.push((6, Bind::Texture(&atlas)));
-    binds.push((10, Bind::Uniform(bytemuck::bytes_of(&levels))));
+    binds.push(("atlas", Bind::Texture(&atlas)));
+    binds.push(("L", Bind::Uniform(bytemuck::bytes_of(&levels))));
     if p.method == Method::MinMax {
         gpu.dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
     } else {

@@ -5,29 +5,6 @@ use super::{ScatterParams, Vec3};
 
 use crate::algorithms::shader_lib::decay_integral;
 
-/// Medium and quality settings (the node's parameters).
-#[derive(Clone, Copy, Debug)]
-pub struct Medium {
-    /// σt.
-    pub sigma_t: f32,
-    /// ρ.
-    pub albedo: f32,
-    /// HG g.
-    pub g: f32,
-    /// Tint.
-    pub tint: [f32; 3],
-    /// Intensity.
-    pub intensity: f32,
-    /// Samples per ray.
-    pub steps: u32,
-    /// Jitter.
-    pub jitter: f32,
-    /// Bias.
-    pub bias: f32,
-    /// MinMax estimate level (0 = exact).
-    pub min_level: u32,
-}
-
 /// Result of one pixel: (V̄, in-scatter RGB, transmittance).
 pub type PixelResult = (f32, [f32; 3], f32);
 

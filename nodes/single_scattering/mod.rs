@@ -101,7 +101,7 @@ pub use epipolar::{
 };
 pub use gpu::build_pyramid;
 pub use map_ray::exact_ray;
-pub use medium::{medium_segment, weight, Medium, PixelResult};
+pub use medium::{medium_segment, weight, PixelResult};
 pub use params::{
     pyramid_layout, BuildParams, EpiParams, LevelsParams, LightMapView, ScatterParams, SoftView,
 };
@@ -194,23 +194,6 @@ const EPIPOLAR: Shader = crate::shader(
     "single_scattering/epipolar",
     include_str!("../../shaders/single_scattering/epipolar.wgsl"),
 );
-
-impl Params {
-    /// The medium and quality settings the references and uniforms take.
-    fn medium(&self) -> Medium {
-        Medium {
-            sigma_t: self.sigma_t,
-            albedo: self.albedo,
-            g: self.g,
-            tint: [self.tint[0], self.tint[1], self.tint[2]],
-            intensity: self.intensity,
-            steps: self.steps as u32,
-            jitter: self.jitter,
-            bias: self.bias,
-            min_level: self.min_level as u32,
-        }
-    }
-}
 
 /// The jitter's phase at frame `time` for `jitter_pattern = frame`: fract(φ·⌊time⌋) with φ the
 /// golden ratio's fractional part (a Kronecker sequence: any n consecutive frames' phases are
@@ -310,7 +293,7 @@ impl NodeKind for SingleScattering {
         check_method(p.method, soft.is_some(), light_map.is_some())?;
         let extinction = p.light_extinction == Extinction::On;
         let bounds = medium_bounds(ctx, &p, extinction)?;
-        let mut u = ScatterParams::new(&camera, &light, p.medium()).with_bounds(bounds, extinction);
+        let mut u = ScatterParams::new(&camera, &light, &p).with_bounds(bounds, extinction);
         u.phase_width = phase.as_ref().map_or(0, |t| t.width);
         if p.jitter_pattern == JitterPattern::Frame {
             u.jitter_phase = jitter_phase(ctx.time);

@@ -1,7 +1,7 @@
 //! SingleScattering's uniform structs (the WGSL `Params`, `SoftView`, `Levels`, `Build`,
 //! `LightMapView`, `Epi` of `shaders/single_scattering/`) and how they are filled.
 
-use super::{EpiGeometry, EpiKnobs, EpiSlice, Matrices, Medium, Vec3};
+use super::{EpiGeometry, EpiKnobs, EpiSlice, Matrices, Params, Vec3};
 
 tyndall_engine::uniforms! {
     /// Uniforms of `shaders/single_scattering/common.wgsl` (struct `Params`).
@@ -52,15 +52,16 @@ tyndall_engine::uniforms! {
 }
 
 impl ScatterParams {
-    /// Build the uniforms from the camera and light metadata.
-    pub fn new(camera: &Matrices, light: &Matrices, p: Medium) -> ScatterParams {
+    /// Build the uniforms from the camera and light metadata and the node's parameters (the
+    /// medium and quality ones; bounds come with [`ScatterParams::with_bounds`]).
+    pub fn new(camera: &Matrices, light: &Matrices, p: &Params) -> ScatterParams {
         let (vp, lvp) = (camera.view_proj(), light.view_proj());
         let (eye, to_sun) = (camera.eye(), light.backward());
         ScatterParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
             light_view_proj: lvp.to_cols_array_2d(),
             eye: eye.to_array(),
-            steps: p.steps,
+            steps: p.steps as u32,
             to_sun: to_sun.to_array(),
             sigma_t: p.sigma_t,
             radiance: [0, 1, 2].map(|i| light.radiance[i] * p.tint[i] * p.intensity),
@@ -68,7 +69,7 @@ impl ScatterParams {
             g: p.g,
             jitter: p.jitter,
             bias: p.bias,
-            min_level: p.min_level,
+            min_level: p.min_level as u32,
             box_min: [0.0; 3],
             bounded: 0,
             box_max: [0.0; 3],

@@ -221,9 +221,9 @@ pub fn bake_gpu(
             "bake_layer",
             (n, n),
             &[
-                (0, Bind::Uniform(bytemuck::bytes_of(&p))),
-                (1, Bind::Texture(&acc)),
-                (2, Bind::Texture(src.as_ref().unwrap_or(&dummy))),
+                ("L", Bind::Uniform(bytemuck::bytes_of(&p))),
+                ("a_tex", Bind::Texture(&acc)),
+                ("b_tex", Bind::Texture(src.as_ref().unwrap_or(&dummy))),
             ],
         )?;
     }

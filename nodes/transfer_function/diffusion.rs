@@ -77,11 +77,11 @@ pub(super) fn mg_pass(
     gpu: &Gpu,
     entry: &str,
     size: (u32, u32),
-    binds: &[(u32, Bind)],
+    binds: &[(&str, Bind)],
 ) -> Result<GpuTexture, GpuError> {
     let out = gpu.texture(size.0, size.1, TexFormat::Rgba32F)?;
-    let mut all: Vec<(u32, Bind)> = binds.to_vec();
-    all.push((3, Bind::Storage(&out)));
+    let mut all: Vec<(&str, Bind)> = binds.to_vec();
+    all.push(("out_tex", Bind::Storage(&out)));
     gpu.dispatch(SHADER, entry, &all, size.0, size.1)?;
     Ok(out)
 }
@@ -110,11 +110,11 @@ impl Multigrid<'_> {
             "mg_smooth",
             (l.level.w, l.level.h),
             &[
-                (1, Bind::Texture(u)),
-                (2, Bind::Texture(f)),
-                (4, Bind::Texture(&l.mask)),
-                (5, Bind::Texture(&self.values)),
-                (6, Bind::Uniform(bytemuck::bytes_of(&p))),
+                ("a_tex", Bind::Texture(u)),
+                ("b_tex", Bind::Texture(f)),
+                ("mask_tex", Bind::Texture(&l.mask)),
+                ("values_tex", Bind::Texture(&self.values)),
+                ("M", Bind::Uniform(bytemuck::bytes_of(&p))),
             ],
         )
     }
@@ -145,17 +145,17 @@ impl Multigrid<'_> {
             "mg_residual",
             (l.level.w, l.level.h),
             &[
-                (1, Bind::Texture(&u)),
-                (2, Bind::Texture(f)),
-                (4, Bind::Texture(&l.mask)),
-                (6, Bind::Uniform(bytemuck::bytes_of(&p))),
+                ("a_tex", Bind::Texture(&u)),
+                ("b_tex", Bind::Texture(f)),
+                ("mask_tex", Bind::Texture(&l.mask)),
+                ("M", Bind::Uniform(bytemuck::bytes_of(&p))),
             ],
         )?;
         let fc = mg_pass(
             gpu,
             "mg_restrict",
             (c.level.w, c.level.h),
-            &[(1, Bind::Texture(&r))],
+            &[("a_tex", Bind::Texture(&r))],
         )?;
         let zero = gpu.zeroed(c.level.w, c.level.h, TexFormat::Rgba32F)?;
         let e = self.vcycle(i + 1, zero, &fc)?;
@@ -164,9 +164,9 @@ impl Multigrid<'_> {
             "mg_prolong",
             (l.level.w, l.level.h),
             &[
-                (1, Bind::Texture(&u)),
-                (2, Bind::Texture(&e)),
-                (4, Bind::Texture(&l.mask)),
+                ("a_tex", Bind::Texture(&u)),
+                ("b_tex", Bind::Texture(&e)),
+                ("mask_tex", Bind::Texture(&l.mask)),
             ],
         )?;
         self.sweeps(i, u, f, SWEEPS)

@@ -368,11 +368,11 @@ impl NodeKind for TransferFunction {
                 "lookup",
                 (f.vis.width, f.vis.height),
                 &[
-                    (1, Bind::Texture(&lut)),
-                    (2, Bind::Texture(inscatter.as_deref().unwrap_or(&lut))),
-                    (7, Bind::Uniform(bytemuck::bytes_of(&k))),
-                    (8, Bind::Texture(&f.vis)),
-                    (9, Bind::Texture(&f.depth)),
+                    ("a_tex", Bind::Texture(&lut)),
+                    ("b_tex", Bind::Texture(inscatter.as_deref().unwrap_or(&lut))),
+                    ("K", Bind::Uniform(bytemuck::bytes_of(&k))),
+                    ("vis_tex", Bind::Texture(&f.vis)),
+                    ("depth_tex", Bind::Texture(&f.depth)),
                 ],
             )?;
             ctx.set("image", PortValue::Image(Arc::new(image)));

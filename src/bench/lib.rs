@@ -194,7 +194,7 @@ pub fn run(
     suite: &Suite,
     runs: usize,
     size: (u32, u32),
-    mut progress: impl FnMut(&str),
+    progress: impl FnMut(&str),
 ) -> Result<Vec<Row>, BenchError> {
     let graph_path: PathBuf = suite_path
         .parent()
@@ -231,6 +231,19 @@ pub fn run(
             progress,
         );
     }
+    quality(registry, gpu, &base, suite, runs, size, progress)
+}
+
+/// The quality suite: each setting's median time and its errors against its reference.
+fn quality(
+    registry: Arc<Registry>,
+    gpu: Arc<Gpu>,
+    base: &Graph,
+    suite: &Suite,
+    runs: usize,
+    size: (u32, u32),
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
     let mut ev = Evaluator::new(registry.clone(), gpu.clone());
     let opts = EvalOptions {
         size,
@@ -239,23 +252,24 @@ pub fn run(
     let read = |ev: &mut Evaluator, g: &Graph, node: &str, port: &str, timed: &[String]| {
         read_port(ev, &gpu, g, (node, port), timed, &opts)
     };
-    let output_of = |setting: &BTreeMap<String, String>| {
-        setting
-            .get("output")
-            .cloned()
-            .unwrap_or_else(|| suite.output.clone())
-    };
+    let output_of = |setting: &Setting| output_of(suite, setting);
     // References computed before their own row: (raster, time of the row's timed nodes).
-    let mut first_runs: BTreeMap<String, (Raster, f64)> = BTreeMap::new();
+    let mut first_runs = FirstRuns::new();
+    let reference_run = |ev: &mut Evaluator, spec: &Setting, runs: &mut FirstRuns| {
+        let mut g = base.clone();
+        let node = apply(&registry, &mut g, &suite.node, spec)?;
+        let timed = timed_of(spec, &node);
+        for t in &timed {
+            ev.invalidate(t);
+        }
+        let (r, ms) = read(ev, &g, &node, &output_of(spec), &timed)?;
+        runs.insert(describe(spec), (r.clone(), ms));
+        Ok::<_, BenchError>(r)
+    };
     let reference = match &suite.reference {
         Some(setting) => {
-            let mut g = base.clone();
-            let node = apply(&registry, &mut g, &suite.node, setting)?;
             progress(&format!("reference {}", describe(setting)));
-            let timed = timed_of(setting, &node);
-            let (r, ms) = read(&mut ev, &g, &node, &output_of(setting), &timed)?;
-            first_runs.insert(describe(setting), (r.clone(), ms));
-            Some(r)
+            Some(reference_run(&mut ev, setting, &mut first_runs)?)
         }
         None => None,
     };
@@ -265,18 +279,18 @@ pub fn run(
     let edge_mask = match &suite.edges {
         Some((port, threshold)) => {
             let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
-            let (d, _) = read(&mut ev, &base, n, p, &[])?;
+            let (d, _) = read(&mut ev, base, n, p, &[])?;
             Some(discontinuities(&d, *threshold))
         }
         None => None,
     };
     // References that are measured settings too: kept from their row instead of computed again.
-    let mut wanted = std::collections::BTreeSet::new();
-    for c in &suite.configs {
-        if let Some((name, _)) = own_reference(suite, c)? {
-            wanted.insert(name);
-        }
-    }
+    let wanted = suite
+        .configs
+        .iter()
+        .filter_map(|c| own_reference(suite, c).transpose())
+        .map(|r| r.map(|(name, _)| name))
+        .collect::<Result<std::collections::BTreeSet<_>, _>>()?;
     let mut rows: Vec<Row> = Vec::new();
     for (i, setting) in suite.configs.iter().enumerate() {
         progress(&format!(
@@ -291,15 +305,8 @@ pub fn run(
         let own = own_reference(suite, setting)?;
         if let Some((name, spec)) = &own {
             if !named.contains_key(name) {
-                let mut g = base.clone();
-                let node = apply(&registry, &mut g, &suite.node, spec)?;
                 progress(&format!("reference {name}: {}", describe(spec)));
-                let timed = timed_of(spec, &node);
-                for t in &timed {
-                    ev.invalidate(t);
-                }
-                let (r, ms) = read(&mut ev, &g, &node, &output_of(spec), &timed)?;
-                first_runs.insert(describe(spec), (r.clone(), ms));
+                let r = reference_run(&mut ev, spec, &mut first_runs)?;
                 named.insert(name.clone(), r);
             }
         }
@@ -313,35 +320,19 @@ pub fn run(
             .and_then(|r| r.parse::<usize>().ok())
             .unwrap_or(runs)
             .min(runs.max(1));
-        let mut times = Vec::new();
-        let mut last = None;
-        let as_reference: Setting = setting
-            .iter()
-            .filter(|(k, _)| !matches!(k.as_str(), "reference" | "runs"))
-            .map(|(k, v)| (k.clone(), v.clone()))
-            .collect();
-        // The reference's evaluation may include compiling the node's shaders: it stands in
-        // for a run when the median absorbs that (more runs follow) or when it is long enough
-        // (at least the row budget) for a compile to be noise.
-        if let Some((raster, ms)) = first_runs.remove(&describe(&as_reference)) {
-            if runs_here > 1 || ms >= suite.row_budget_ms {
+        let (times, last) = match first_run(&mut first_runs, setting, runs_here, suite) {
+            Some((raster, ms)) => {
                 progress("  (its first run: the reference's evaluation)");
-                times.push(ms);
-                last = Some(raster);
+                (vec![ms], Some(raster))
             }
-        }
-        while times.len() < runs_here.max(1)
-            && (times.is_empty() || times.iter().sum::<f64>() < suite.row_budget_ms)
-        {
+            None => (Vec::new(), None),
+        };
+        let (times, out) = repeat_runs(times, last, runs_here.max(1), suite.row_budget_ms, || {
             for t in &timed {
                 ev.invalidate(t);
             }
-            let (raster, ms) = read(&mut ev, &g, &node, &output, &timed)?;
-            times.push(ms);
-            last = Some(raster);
-        }
-        times.sort_by(f64::total_cmp);
-        let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
+            read(&mut ev, &g, &node, &output, &timed)
+        })?;
         let this = describe(setting);
         if wanted.contains(&this) && !named.contains_key(&this) {
             named.insert(this, out.clone());
@@ -350,65 +341,149 @@ pub fn run(
             Some((name, _)) => named.get(name),
             None => reference.as_ref(),
         };
-        let differ = match reference {
-            Some(r) if suite.differ && r.data.len() == out.data.len() => {
-                let n = out.data.iter().zip(&r.data).filter(|(a, b)| a != b).count();
-                n as f64 / out.data.len().max(1) as f64
-            }
-            _ => f64::NAN,
-        };
-        let (rmse, max_err) = reference.map_or((f64::NAN, f64::NAN), |r| errors(&out, r));
+        // Holes (connected components) before the node and after it.
         let holes = match &suite.holes {
             Some((before, threshold)) => {
                 let (n, p) =
                     split_endpoint(before).map_err(|e| BenchError::Input(e.to_string()))?;
                 let (b, _) = read(&mut ev, &g, n, p, &[])?;
-                Some((
-                    count_components(&b, *threshold),
-                    count_components(&out, *threshold),
-                ))
+                let count = |r: &Raster| count_components(r, *threshold);
+                Some((count(&b), count(&out)))
             }
             None => None,
         };
-        let convergence = suite.convergence.then(|| {
-            let first = out.data.first().copied().unwrap_or(0.0) as f64;
-            let last = out.data.last().copied().unwrap_or(0.0) as f64;
-            (
-                out.data.len().saturating_sub(1),
-                if first > 0.0 { last / first } else { f64::NAN },
-            )
-        });
-        let psnr = reference.map_or(f64::NAN, |r| {
-            let peak = r
-                .data
-                .iter()
-                .filter(|v| v.is_finite())
-                .fold(0.0f64, |m, v| m.max(v.abs() as f64));
-            20.0 * (peak / rmse).log10()
-        });
-        let edge_rmse = match (&edge_mask, reference) {
-            (Some(mask), Some(r)) => masked_rmse(&out, r, mask),
-            _ => f64::NAN,
-        };
+        let c = compare(&out, reference, suite, edge_mask.as_deref());
         // The median; of two runs, the faster.
         let median = times[(times.len() - 1) / 2];
-        let growth = kernel_growth(suite, &rows, setting, median);
-        let kind = g.node(&node).map(|n| n.kind.clone()).unwrap_or_default();
         rows.push(Row {
-            rmse,
-            max_err,
-            growth,
+            growth: kernel_growth(suite, &rows, setting, median),
             holes,
-            convergence,
-            psnr,
-            edge_rmse,
-            differ,
+            kind: g.node(&node).map(|n| n.kind.clone()).unwrap_or_default(),
             node,
-            kind,
-            ..Row::timed(setting, median, times[0])
+            ..c.row(Row::timed(setting, median, times[0]))
         });
     }
     Ok(rows)
+}
+
+/// References computed before their own row, by setting: (raster, time of the row's timed
+/// nodes).
+type FirstRuns = BTreeMap<String, (Raster, f64)>;
+
+/// The port a setting reads: its own `output`, else the suite's.
+fn output_of(suite: &Suite, setting: &Setting) -> String {
+    setting
+        .get("output")
+        .cloned()
+        .unwrap_or_else(|| suite.output.clone())
+}
+
+/// The reference's evaluation of `setting`, if one was made, as the row's first run. It may
+/// include compiling the node's shaders: it stands in for a run when the median absorbs that
+/// (more runs follow) or when it is long enough (at least the row budget) for a compile to be
+/// noise.
+fn first_run(
+    first_runs: &mut FirstRuns,
+    setting: &Setting,
+    runs_here: usize,
+    suite: &Suite,
+) -> Option<(Raster, f64)> {
+    let as_reference: Setting = setting
+        .iter()
+        .filter(|(k, _)| !matches!(k.as_str(), "reference" | "runs"))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    let (raster, ms) = first_runs.remove(&describe(&as_reference))?;
+    (runs_here > 1 || ms >= suite.row_budget_ms).then_some((raster, ms))
+}
+
+/// Evaluations of one row until it has `runs` times or its times reach `budget_ms` (at least
+/// one), after those it starts with: the sorted times and the last output.
+fn repeat_runs(
+    mut times: Vec<f64>,
+    mut last: Option<Raster>,
+    runs: usize,
+    budget_ms: f64,
+    mut run: impl FnMut() -> Result<(Raster, f64), BenchError>,
+) -> Result<(Vec<f64>, Raster), BenchError> {
+    while times.len() < runs && (times.is_empty() || times.iter().sum::<f64>() < budget_ms) {
+        let (raster, ms) = run()?;
+        times.push(ms);
+        last = Some(raster);
+    }
+    times.sort_by(f64::total_cmp);
+    let out = last.ok_or_else(|| BenchError::Input("no run".into()))?;
+    Ok((times, out))
+}
+
+/// A row's output against its reference.
+struct Compared {
+    differ: f64,
+    rmse: f64,
+    max_err: f64,
+    convergence: Option<(usize, f64)>,
+    psnr: f64,
+    edge_rmse: f64,
+}
+
+impl Compared {
+    /// `row` with these errors.
+    fn row(self, row: Row) -> Row {
+        Row {
+            rmse: self.rmse,
+            max_err: self.max_err,
+            convergence: self.convergence,
+            psnr: self.psnr,
+            edge_rmse: self.edge_rmse,
+            differ: self.differ,
+            ..row
+        }
+    }
+}
+
+/// The errors of `out` against `reference` (NaN without one) that `suite` asks for.
+fn compare(
+    out: &Raster,
+    reference: Option<&Raster>,
+    suite: &Suite,
+    edge_mask: Option<&[bool]>,
+) -> Compared {
+    let differ = match reference {
+        Some(r) if suite.differ && r.data.len() == out.data.len() => {
+            let n = out.data.iter().zip(&r.data).filter(|(a, b)| a != b).count();
+            n as f64 / out.data.len().max(1) as f64
+        }
+        _ => f64::NAN,
+    };
+    let (rmse, max_err) = reference.map_or((f64::NAN, f64::NAN), |r| errors(out, r));
+    let convergence = suite.convergence.then(|| {
+        let first = out.data.first().copied().unwrap_or(0.0) as f64;
+        let last = out.data.last().copied().unwrap_or(0.0) as f64;
+        (
+            out.data.len().saturating_sub(1),
+            if first > 0.0 { last / first } else { f64::NAN },
+        )
+    });
+    let psnr = reference.map_or(f64::NAN, |r| {
+        let peak = r
+            .data
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs() as f64));
+        20.0 * (peak / rmse).log10()
+    });
+    let edge_rmse = match (edge_mask, reference) {
+        (Some(mask), Some(r)) => masked_rmse(out, r, mask),
+        _ => f64::NAN,
+    };
+    Compared {
+        differ,
+        rmse,
+        max_err,
+        convergence,
+        psnr,
+        edge_rmse,
+    }
 }
 
 /// A row's time over that of the first row measured before it with equal settings but the

@@ -69,32 +69,7 @@ pub fn report(registry: &Registry, json: bool) -> String {
         let adapters: Vec<serde_json::Value> = survey
             .reports
             .iter()
-            .map(|r| {
-                let l = &r.caps.limits;
-                serde_json::json!({
-                    "index": r.index,
-                    "name": r.info.name,
-                    "backend": adapter::backend_name(r.info.backend),
-                    "device_type": adapter::device_type_name(r.info.device_type),
-                    "driver": r.info.driver,
-                    "driver_info": r.info.driver_info,
-                    "qualifies": r.qualifies(),
-                    "lacks": r.lacks,
-                    "substitutes": substitutes(r),
-                    "nodes_unavailable": unavailable_nodes(registry, r)
-                        .into_iter()
-                        .map(|(k, why)| serde_json::json!({"kind": k, "lacks": why}))
-                        .collect::<Vec<_>>(),
-                    "limits": {
-                        "max_texture_dimension_2d": l.max_texture_dimension_2d,
-                        "max_texture_dimension_3d": l.max_texture_dimension_3d,
-                        "max_buffer_size": l.max_buffer_size,
-                        "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
-                        "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
-                        "max_sampled_textures_per_shader_stage": l.max_sampled_textures_per_shader_stage,
-                    },
-                })
-            })
+            .map(|r| adapter_json(registry, r))
             .collect();
         let (used, why, error) = match &chosen {
             Ok((i, c)) => (Some(*i), Some(why_chosen(c)), None),
@@ -131,27 +106,7 @@ pub fn report(registry: &Registry, json: bool) -> String {
     }
     for r in &survey.reports {
         let used = matches!(&chosen, Ok((i, _)) if *i == r.index);
-        let _ = writeln!(
-            s,
-            "  [{}] {}{}",
-            r.index,
-            r.describe(),
-            if used { "  <- used" } else { "" }
-        );
-        let _ = writeln!(s, "      driver: {} {}", r.info.driver, r.info.driver_info);
-        if r.qualifies() {
-            let _ = writeln!(s, "      qualifies");
-        } else {
-            let _ = writeln!(s, "      does not qualify: lacks {}", r.lacks.join("; "));
-        }
-        for sub in substitutes(r) {
-            let _ = writeln!(s, "      substitute: {sub}");
-        }
-        if r.qualifies() {
-            for (kind, why) in unavailable_nodes(registry, r) {
-                let _ = writeln!(s, "      cannot run {kind}: lacks {why}");
-            }
-        }
+        adapter_text(&mut s, registry, r, used);
     }
     match &chosen {
         Ok((i, c)) => {
@@ -178,6 +133,59 @@ pub fn report(registry: &Registry, json: bool) -> String {
         }
     }
     s
+}
+
+/// One adapter of the survey, as JSON.
+fn adapter_json(registry: &Registry, r: &AdapterReport) -> serde_json::Value {
+    let l = &r.caps.limits;
+    serde_json::json!({
+        "index": r.index,
+        "name": r.info.name,
+        "backend": adapter::backend_name(r.info.backend),
+        "device_type": adapter::device_type_name(r.info.device_type),
+        "driver": r.info.driver,
+        "driver_info": r.info.driver_info,
+        "qualifies": r.qualifies(),
+        "lacks": r.lacks,
+        "substitutes": substitutes(r),
+        "nodes_unavailable": unavailable_nodes(registry, r)
+            .into_iter()
+            .map(|(k, why)| serde_json::json!({"kind": k, "lacks": why}))
+            .collect::<Vec<_>>(),
+        "limits": {
+            "max_texture_dimension_2d": l.max_texture_dimension_2d,
+            "max_texture_dimension_3d": l.max_texture_dimension_3d,
+            "max_buffer_size": l.max_buffer_size,
+            "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
+            "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
+            "max_sampled_textures_per_shader_stage": l.max_sampled_textures_per_shader_stage,
+        },
+    })
+}
+
+/// One adapter of the survey, as text lines (`used`: the one chosen).
+fn adapter_text(s: &mut String, registry: &Registry, r: &AdapterReport, used: bool) {
+    let _ = writeln!(
+        s,
+        "  [{}] {}{}",
+        r.index,
+        r.describe(),
+        if used { "  <- used" } else { "" }
+    );
+    let _ = writeln!(s, "      driver: {} {}", r.info.driver, r.info.driver_info);
+    if r.qualifies() {
+        let _ = writeln!(s, "      qualifies");
+    } else {
+        let _ = writeln!(s, "      does not qualify: lacks {}", r.lacks.join("; "));
+    }
+    for sub in substitutes(r) {
+        let _ = writeln!(s, "      substitute: {sub}");
+    }
+    if r.qualifies() {
+        for (kind, why) in unavailable_nodes(registry, r) {
+            let _ = writeln!(s, "      cannot run {kind}: lacks {why}");
+        }
+    }
 }
 
 fn why_chosen(c: &Chosen) -> String {

@@ -82,46 +82,12 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         )));
     }
     if let Some(o) = &a.output {
-        let [Target::Node(sink)] = targets.as_slice() else {
-            return Err(bad(format!(
-                "-o needs a graph with exactly one output node; this one has {}",
-                targets.len()
-            )));
-        };
-        // The first file the sink's kind declares it writes.
-        let param = g
-            .node(sink)
-            .and_then(|n| registry.get(&n.kind))
-            .and_then(|k| k.file_params(FileRole::Write).next())
-            .ok_or_else(|| bad(format!("-o: output node '{sink}' writes no file")))?;
-        g.set_param(
-            registry.catalog(),
-            sink,
-            param,
-            ParamValue::Text(o.to_string_lossy().into_owned()),
-        )
-        .map_err(bad)?;
+        write_to(&registry, &mut g, &targets, o)?;
     }
-    let all: Vec<Option<i64>> = match &a.frames {
-        Some(list) => list.0.iter().copied().map(Some).collect(),
-        None if a.chunk.is_some() => return Err(bad("--chunk needs --frames")),
-        None => vec![None],
-    };
-    let frames: Vec<Option<i64>> = match a.chunk {
-        Some(c) => {
-            let list: Vec<i64> = all.iter().flatten().copied().collect();
-            chunk_of(&list, c).iter().copied().map(Some).collect()
-        }
-        None => all,
-    };
+    let frames = frame_list(&a)?;
     let vars = variants(&registry, &g, &a.common)?;
     let total = frames.len() * vars.len();
-    use std::io::IsTerminal;
-    let mode = match a.progress {
-        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
-        ProgressMode::Auto => ProgressMode::Alf,
-        m => m,
-    };
+    let mode = progress_mode(a.progress);
     let bar = if mode == ProgressMode::Bar {
         progress(total as u64)
     } else {
@@ -187,25 +153,88 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         ev.keep_used_since(epoch);
     }
     bar.finish_and_clear();
-    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
-    let renders = match vars.len() {
-        1 => plural(frames.len(), "frame"),
-        n => format!(
-            "{} × {}",
-            plural(frames.len(), "frame"),
-            plural(n, "wedge value")
-        ),
-    };
-    println!(
-        "{} written for {renders}, {skipped} skipped (already there), {} failed, {:.1} s",
-        plural(written.len(), "file"),
-        failed.len(),
-        clock.elapsed().as_secs_f64()
+    print_summary(
+        (frames.len(), vars.len()),
+        (written.len(), skipped, failed.len()),
+        clock.elapsed().as_secs_f64(),
     );
     if !failed.is_empty() {
         return Err(CliError::Frames(failed));
     }
     Ok(())
+}
+
+/// `auto` progress: a bar on a terminal, ALF lines otherwise.
+fn progress_mode(asked: ProgressMode) -> ProgressMode {
+    use std::io::IsTerminal;
+    match asked {
+        ProgressMode::Auto if std::io::stderr().is_terminal() => ProgressMode::Bar,
+        ProgressMode::Auto => ProgressMode::Alf,
+        m => m,
+    }
+}
+
+/// The run's last line: files written, for how many frames (× wedge values), skipped, failed.
+fn print_summary(
+    (frames, wedges): (usize, usize),
+    (written, skipped, failed): (usize, usize, usize),
+    secs: f64,
+) {
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let renders = match wedges {
+        1 => plural(frames, "frame"),
+        n => format!("{} × {}", plural(frames, "frame"), plural(n, "wedge value")),
+    };
+    println!(
+        "{} written for {renders}, {skipped} skipped (already there), {failed} failed, {secs:.1} s",
+        plural(written, "file"),
+    );
+}
+
+/// `-o FILE`: the graph's one output node writes `o` (the first file its kind declares it
+/// writes).
+fn write_to(
+    registry: &Registry,
+    g: &mut Graph,
+    targets: &[Target],
+    o: &std::path::Path,
+) -> Result<(), CliError> {
+    let [Target::Node(sink)] = targets else {
+        return Err(bad(format!(
+            "-o needs a graph with exactly one output node; this one has {}",
+            targets.len()
+        )));
+    };
+    // The first file the sink's kind declares it writes.
+    let param = g
+        .node(sink)
+        .and_then(|n| registry.get(&n.kind))
+        .and_then(|k| k.file_params(FileRole::Write).next())
+        .ok_or_else(|| bad(format!("-o: output node '{sink}' writes no file")))?;
+    g.set_param(
+        registry.catalog(),
+        sink,
+        param,
+        ParamValue::Text(o.to_string_lossy().into_owned()),
+    )
+    .map_err(bad)?;
+    Ok(())
+}
+
+/// The frames this run renders: `--frames` (or the one still frame), `--chunk` of them.
+fn frame_list(a: &RenderArgs) -> Result<Vec<Option<i64>>, CliError> {
+    let all: Vec<Option<i64>> = match &a.frames {
+        Some(list) => list.0.iter().copied().map(Some).collect(),
+        None if a.chunk.is_some() => return Err(bad("--chunk needs --frames")),
+        None => vec![None],
+    };
+    Ok(match a.chunk {
+        Some(c) => {
+            let list: Vec<i64> = all.iter().flatten().copied().collect();
+            chunk_of(&list, c).iter().copied().map(Some).collect()
+        }
+        None => all,
+    })
 }
 
 pub(super) fn frame_label(f: Option<i64>) -> String {

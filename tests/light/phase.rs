@@ -454,18 +454,13 @@ fn scattering_reads_a_connected_phase_per_channel() {
         dl("scatter", "visibility"),
         dl("scatter", "inscatter"),
     );
-    let medium = tyndall::nodes::single_scattering::Medium {
-        sigma_t: 0.08,
-        albedo: 0.9,
-        g: 0.5,
-        tint: [1.0; 3],
-        intensity: 1.0,
-        steps: 24,
-        jitter: 0.0,
-        bias: 0.002,
-        min_level: 0,
-    };
-    let mut params = tyndall::nodes::single_scattering::ScatterParams::new(&camera, &light, medium);
+    let medium = tyndall::nodes::single_scattering::Params::with_overrides(&[
+        ("steps", ParamValue::Int(24)),
+        ("jitter", ParamValue::Float(0.0)),
+    ])
+    .expect("declared parameters");
+    let mut params =
+        tyndall::nodes::single_scattering::ScatterParams::new(&camera, &light, &medium);
     params.phase_width = table.width() as u32;
     let mut compared = 0;
     for y in 0..h {

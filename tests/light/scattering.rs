@@ -11,7 +11,7 @@ use tyndall::graph::{Graph, ParamValue};
 use tyndall::io::Raster;
 use tyndall::nodes::algorithms::shader_lib::{decay_integral, henyey_greenstein};
 use tyndall::nodes::single_scattering::{
-    epipolar_reference, reference_pixel, EpiKnobs, Medium, ScatterParams,
+    epipolar_reference, reference_pixel, EpiKnobs, Params as ScatteringParams, ScatterParams,
 };
 
 /// What a scattering evaluation produced, read back.
@@ -122,18 +122,14 @@ fn run_scene(
     }
 }
 
-fn medium(steps: u32, jitter: f32) -> Medium {
-    Medium {
-        sigma_t: 0.08,
-        albedo: 0.9,
-        g: 0.5,
-        tint: [1.0; 3],
-        intensity: 1.0,
-        steps,
-        jitter,
-        bias: 0.002,
-        min_level: 0,
-    }
+/// The node's defaults (σt 0.08, ρ 0.9, g 0.5, bias 0.002, exact MinMax) with `steps` samples
+/// per ray and `jitter`, as a run of the node would read them.
+fn medium(steps: u32, jitter: f32) -> ScatteringParams {
+    ScatteringParams::with_overrides(&[
+        ("steps", ParamValue::Int(steps.into())),
+        ("jitter", ParamValue::Float(jitter.into())),
+    ])
+    .expect("declared parameters")
 }
 
 fn assert_finite(r: &Run, what: &str) {
@@ -208,7 +204,7 @@ fn brute_force_matches_cpu_reference() {
         (64, 36),
         &[("steps", ParamValue::Int(steps)), ("jitter", p(0.5))],
     );
-    let params = ScatterParams::new(&r.camera, &r.light, medium(steps as u32, 0.5));
+    let params = ScatterParams::new(&r.camera, &r.light, &medium(steps as u32, 0.5));
     let (w, h) = (r.depth.width, r.depth.height);
     let (differing, _) = compare_brute_force(&r, &params, steps, |_, _| 0.0);
     assert!(
@@ -234,7 +230,7 @@ fn min_max_matches_dense_cpu_reference() {
         (48, 27),
         &[("method", ParamValue::Enum("MinMax".into()))],
     );
-    let params = ScatterParams::new(&r.camera, &r.light, medium(8192, 0.0));
+    let params = ScatterParams::new(&r.camera, &r.light, &medium(8192, 0.0));
     let (w, h) = (r.depth.width, r.depth.height);
     let mut sum = 0.0;
     for y in 0..h {
@@ -859,7 +855,7 @@ fn bounded_medium_with_light_extinction_matches_cpu_reference() {
         (64, 36),
         &bounded(&[("steps", ParamValue::Int(steps)), ("jitter", p(0.5))]),
     );
-    let params = ScatterParams::new(&r.camera, &r.light, medium(steps as u32, 0.5))
+    let params = ScatterParams::new(&r.camera, &r.light, &medium(steps as u32, 0.5))
         .with_bounds(tree_box(), true);
     let (w, h) = (r.depth.width, r.depth.height);
     let slack = |c: usize, depth: f32| match c {
@@ -899,7 +895,7 @@ fn bounded_min_max_matches_dense_cpu_reference() {
         &bounded(&[("method", en("MinMax"))]),
     );
     let params =
-        ScatterParams::new(&r.camera, &r.light, medium(8192, 0.0)).with_bounds(tree_box(), true);
+        ScatterParams::new(&r.camera, &r.light, &medium(8192, 0.0)).with_bounds(tree_box(), true);
     let (w, h) = (r.depth.width, r.depth.height);
     let peak = r.inscatter.data.iter().cloned().fold(0.0f32, f32::max);
     assert!(peak > 0.0);
@@ -1290,7 +1286,7 @@ fn epipolar_matches_its_cpu_reference() {
             tree_level,
         };
         let r = run_scene(&gpu, &scene, 256, (64, 36), &epipolar(knobs));
-        let params = ScatterParams::new(&r.camera, &r.light, medium(1, 0.0));
+        let params = ScatterParams::new(&r.camera, &r.light, &medium(1, 0.0));
         let cpu = epipolar_reference(&params, &r.shadow, &r.depth, knobs);
         let diffs: Vec<f32> = r
             .vis

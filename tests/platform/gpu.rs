@@ -72,17 +72,18 @@ fn wgpu_validation_errors_surface_as_errors() {
     // validation refuses the layout (Tyndall's own binding check passes: same kind).
     let wide = gpu.texture(4, 4, TexFormat::Rgba32F).expect("tex");
     let err = gpu
-        .dispatch(shader, "main", &[(0, Bind::Storage(&wide))], 4, 4)
+        .dispatch(shader, "main", &[("o", Bind::Storage(&wide))], 4, 4)
         .expect_err("invalid pipeline");
     assert!(err.to_string().contains("GPU error"), "{err}");
     // The context is usable afterwards and the error was consumed.
-    gpu.dispatch(shader, "main", &[(0, Bind::Storage(&t))], 4, 4)
+    gpu.dispatch(shader, "main", &[("o", Bind::Storage(&t))], 4, 4)
         .expect("valid dispatch");
     assert_eq!(gpu.read_texture(&t).expect("read"), vec![1.0; 16]);
 }
 
-/// The binding table is checked against what the entry point uses (a binding it uses that is
-/// missing or of another kind is refused, naming it), and the workgroup count comes from the
+/// Bindings are named by WGSL variable and checked against what the entry point uses (a name
+/// the shader does not declare, or a binding it uses that is missing or of another kind, is
+/// refused, naming it), and the workgroup count comes from the
 /// entry point's own `@workgroup_size`, not an assumed 8 × 8.
 #[test]
 fn dispatches_check_bindings_and_read_the_workgroup_size() {
@@ -104,7 +105,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     let out = gpu.texture(7, 11, TexFormat::R32F).expect("tex");
     let input = gpu.upload(7, 11, 1, &vec![2.0; 77]).expect("upload");
     let missing = gpu
-        .dispatch(shader, "copy", &[(0, Bind::Storage(&out))], 7, 11)
+        .dispatch(shader, "copy", &[("o", Bind::Storage(&out))], 7, 11)
         .expect_err("binding 1 missing");
     assert!(
         missing
@@ -116,7 +117,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
         .dispatch(
             shader,
             "copy",
-            &[(0, Bind::Storage(&out)), (1, Bind::Storage(&input))],
+            &[("o", Bind::Storage(&out)), ("i", Bind::Storage(&input))],
             7,
             11,
         )
@@ -127,8 +128,23 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
             .contains("is a 2D texture but was given a 2D storage texture"),
         "{wrong}"
     );
+    let misnamed = gpu
+        .dispatch(
+            shader,
+            "copy",
+            &[("o", Bind::Storage(&out)), ("in", Bind::Texture(&input))],
+            7,
+            11,
+        )
+        .expect_err("no binding named `in`");
+    assert!(
+        misnamed
+            .to_string()
+            .contains("has no binding `in` (it has `o`, `i`)"),
+        "{misnamed}"
+    );
     let unknown = gpu
-        .dispatch(shader, "nope", &[(0, Bind::Storage(&out))], 7, 11)
+        .dispatch(shader, "nope", &[("o", Bind::Storage(&out))], 7, 11)
         .expect_err("no such entry point");
     assert!(
         unknown.to_string().contains("no entry point `nope`"),
@@ -139,13 +155,13 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     gpu.dispatch(
         shader,
         "copy",
-        &[(0, Bind::Storage(&out)), (1, Bind::Texture(&input))],
+        &[("o", Bind::Storage(&out)), ("i", Bind::Texture(&input))],
         7,
         11,
     )
     .expect("copy");
     assert_eq!(gpu.read_texture(&out).expect("read"), vec![3.0; 77]);
-    gpu.dispatch(shader, "one", &[(0, Bind::Storage(&out))], 2, 3)
+    gpu.dispatch(shader, "one", &[("o", Bind::Storage(&out))], 2, 3)
         .expect("one");
     let got = gpu.read_texture(&out).expect("read");
     let sevens = got.iter().filter(|v| **v == 7.0).count();

@@ -78,7 +78,10 @@ fn the_wgsl_library_matches_its_cpu_twins_and_f64() {
     gpu.dispatch(
         shader,
         "main",
-        &[(0, Bind::Texture(&input)), (1, Bind::Storage(&out))],
+        &[
+            ("cases", Bind::Texture(&input)),
+            ("out", Bind::Storage(&out)),
+        ],
         n,
         1,
     )

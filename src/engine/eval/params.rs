@@ -228,6 +228,28 @@ macro_rules! params {
                     })?, )+
                 })
             }
+
+            /// Every parameter at its declared default but those in `overrides` (a CPU
+            /// reference's settings, a test's case): the same checks as a node's run.
+            pub fn with_overrides(
+                overrides: &[(&str, $crate::graph::ParamValue)],
+            ) -> Result<Self, $crate::eval::NodeError> {
+                let mut params: ::std::collections::BTreeMap<String, $crate::graph::ParamValue> =
+                    Self::SPECS
+                        .iter()
+                        .map(|s| (s.name.to_string(), s.default.value()))
+                        .collect();
+                for (name, value) in overrides {
+                    if !params.contains_key(*name) {
+                        return Err($crate::eval::NodeError::Param {
+                            param: name.to_string(),
+                            message: "not declared by this node".into(),
+                        });
+                    }
+                    params.insert(name.to_string(), value.clone());
+                }
+                Self::from_params(&params)
+            }
         }
     };
 }

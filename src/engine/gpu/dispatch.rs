@@ -37,6 +37,31 @@ impl Gpu {
         Ok(EntryRef { needs, index })
     }
 
+    /// `binds` with each WGSL variable name replaced by its binding number in `shader`.
+    fn numbered<'a>(
+        &self,
+        shader: Shader,
+        binds: &[(&str, Bind<'a>)],
+    ) -> Result<Vec<(u32, Bind<'a>)>, GpuError> {
+        let needs = self.needs(shader)?;
+        binds
+            .iter()
+            .map(|(name, b)| match needs.binding(name) {
+                Some(n) => Ok((n, *b)),
+                None => Err(GpuError::Validation(format!(
+                    "shader {}.wgsl has no binding `{name}` (it has {})",
+                    shader.stem,
+                    needs
+                        .names
+                        .iter()
+                        .map(|(n, _)| format!("`{n}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))),
+            })
+            .collect()
+    }
+
     fn pipeline(
         &self,
         shader: Shader,
@@ -45,29 +70,7 @@ impl Gpu {
         constants: &[(&str, f64)],
         params_in_storage: bool,
     ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
-        let mut key = format!("{}:{entry}", shader.stem);
-        if params_in_storage {
-            key.push_str(":params-storage");
-        }
-        for (name, value) in constants {
-            key.push_str(&format!(":{name}={value}"));
-        }
-        for (n, b) in binds {
-            key.push_str(&format!(":{n}"));
-            key.push_str(match b {
-                Bind::Uniform(_) => ":u",
-                Bind::Texture(_) => ":t",
-                Bind::Storage(t) => match t.stored_channels() {
-                    1 => ":s1",
-                    2 => ":s2",
-                    _ => ":s4",
-                },
-                Bind::Buffer(_) => ":b",
-                Bind::Volume(_) => ":v",
-                Bind::VolumeLevel(..) => ":vs",
-                Bind::VolumeLevelRead(..) => ":v",
-            });
-        }
+        let key = pipeline_key(shader, entry, binds, constants, params_in_storage);
         let mut cache = match self.pipelines.lock() {
             Ok(c) => c,
             Err(p) => p.into_inner(),
@@ -84,51 +87,7 @@ impl Gpu {
                     .map(|(i, b)| wgpu::BindGroupLayoutEntry {
                         binding: *i,
                         visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: match b {
-                            Bind::Uniform(_) => wgpu::BindingType::Buffer {
-                                ty: adapter::Capabilities::params_binding(params_in_storage),
-                                has_dynamic_offset: false,
-                                min_binding_size: None,
-                            },
-                            Bind::Texture(_) => wgpu::BindingType::Texture {
-                                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                                multisampled: false,
-                            },
-                            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
-                                access: wgpu::StorageTextureAccess::WriteOnly,
-                                format: t.stored(),
-                                view_dimension: wgpu::TextureViewDimension::D2,
-                            },
-                            Bind::Buffer(_) => wgpu::BindingType::Buffer {
-                                ty: wgpu::BufferBindingType::Storage { read_only: false },
-                                has_dynamic_offset: false,
-                                min_binding_size: None,
-                            },
-                            Bind::Volume(_) | Bind::VolumeLevelRead(..) => {
-                                wgpu::BindingType::Texture {
-                                    sample_type: wgpu::TextureSampleType::Float {
-                                        filterable: false,
-                                    },
-                                    view_dimension: wgpu::TextureViewDimension::D3,
-                                    multisampled: false,
-                                }
-                            }
-                            // Written through its row buffer where the adapter cannot write
-                            // every slice of a 3D storage texture (see volume.rs).
-                            Bind::VolumeLevel(..) if self.caps.volume_rows() => {
-                                wgpu::BindingType::Buffer {
-                                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                                    has_dynamic_offset: false,
-                                    min_binding_size: None,
-                                }
-                            }
-                            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
-                                access: wgpu::StorageTextureAccess::WriteOnly,
-                                format: wgpu::TextureFormat::R32Float,
-                                view_dimension: wgpu::TextureViewDimension::D3,
-                            },
-                        },
+                        ty: self.binding_type(b, params_in_storage),
                         count: None,
                     })
                     .collect();
@@ -178,15 +137,54 @@ impl Gpu {
         Ok(p)
     }
 
+    /// The layout type of one binding: what `b` is, on this adapter.
+    fn binding_type(&self, b: &Bind, params_in_storage: bool) -> wgpu::BindingType {
+        let storage_buffer = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: false },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let texture = |view_dimension| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension,
+            multisampled: false,
+        };
+        match b {
+            Bind::Uniform(_) => wgpu::BindingType::Buffer {
+                ty: adapter::Capabilities::params_binding(params_in_storage),
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            Bind::Texture(_) => texture(wgpu::TextureViewDimension::D2),
+            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format: t.stored(),
+                view_dimension: wgpu::TextureViewDimension::D2,
+            },
+            Bind::Buffer(_) => storage_buffer,
+            Bind::Volume(_) | Bind::VolumeLevelRead(..) => texture(wgpu::TextureViewDimension::D3),
+            // Written through its row buffer where the adapter cannot write every slice of a
+            // 3D storage texture (see volume.rs).
+            Bind::VolumeLevel(..) if self.caps.volume_rows() => storage_buffer,
+            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format: wgpu::TextureFormat::R32Float,
+                view_dimension: wgpu::TextureViewDimension::D3,
+            },
+        }
+    }
+
     /// Run one compute entry point over (at least) `width × height` invocations, in workgroups
     /// of the entry point's own `@workgroup_size` (read from the WGSL). Bindings are
-    /// `(binding number, resource)` in group 0, checked against what the entry point uses.
-    /// Pipelines are cached by (shader stem, entry point, binding signature).
+    /// `(WGSL variable name, resource)` in group 0: the number is the shader's own (reflected
+    /// with naga), a name the shader does not declare is an error, and every binding the entry
+    /// point uses must be given as a resource of its kind. Pipelines are cached by (shader stem,
+    /// entry point, binding signature).
     pub fn dispatch(
         &self,
         shader: Shader,
         entry: &str,
-        binds: &[(u32, Bind)],
+        binds: &[(&str, Bind)],
         width: u32,
         height: u32,
     ) -> Result<(), GpuError> {
@@ -202,10 +200,11 @@ impl Gpu {
         &self,
         shader: Shader,
         entry: &str,
-        binds: &[(u32, Bind)],
+        binds: &[(&str, Bind)],
         (width, height): (u32, u32),
         constants: &[(&str, f64)],
     ) -> Result<(), GpuError> {
+        let binds = &self.numbered(shader, binds)?;
         let storage = self
             .caps
             .params_in_storage(u64::from(width) * u64::from(height));
@@ -233,9 +232,10 @@ impl Gpu {
         &self,
         shader: Shader,
         entry: &str,
-        binds: &[(u32, Bind)],
+        binds: &[(&str, Bind)],
         size: [u32; 3],
     ) -> Result<(), GpuError> {
+        let binds = &self.numbered(shader, binds)?;
         let storage = self
             .caps
             .params_in_storage(size.iter().map(|n| u64::from(*n)).product());
@@ -355,6 +355,41 @@ impl std::ops::Deref for EntryRef {
     fn deref(&self) -> &adapter::EntryNeeds {
         &self.needs.entries[self.index]
     }
+}
+
+/// The pipeline cache's key: shader, entry point, where the parameter block lives, the
+/// constants' values and the binding signature (numbers, kinds, storage channels).
+fn pipeline_key(
+    shader: Shader,
+    entry: &str,
+    binds: &[(u32, Bind)],
+    constants: &[(&str, f64)],
+    params_in_storage: bool,
+) -> String {
+    let mut key = format!("{}:{entry}", shader.stem);
+    if params_in_storage {
+        key.push_str(":params-storage");
+    }
+    for (name, value) in constants {
+        key.push_str(&format!(":{name}={value}"));
+    }
+    for (n, b) in binds {
+        key.push_str(&format!(":{n}"));
+        key.push_str(match b {
+            Bind::Uniform(_) => ":u",
+            Bind::Texture(_) => ":t",
+            Bind::Storage(t) => match t.stored_channels() {
+                1 => ":s1",
+                2 => ":s2",
+                _ => ":s4",
+            },
+            Bind::Buffer(_) => ":b",
+            Bind::Volume(_) => ":v",
+            Bind::VolumeLevel(..) => ":vs",
+            Bind::VolumeLevelRead(..) => ":v",
+        });
+    }
+    key
 }
 
 /// The kind of binding a resource fills.

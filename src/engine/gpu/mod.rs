@@ -112,7 +112,7 @@ fn tracing() -> bool {
     *ON.get_or_init(|| std::env::var_os("TYNDALL_TRACE_PASSES").is_some_and(|v| v != "0"))
 }
 
-/// One binding of a compute dispatch (paired with its binding number in group 0).
+/// One binding of a compute dispatch (paired with its WGSL variable name in group 0).
 #[derive(Clone, Copy)]
 pub enum Bind<'a> {
     /// A uniform buffer with these bytes.

@@ -172,17 +172,7 @@ impl Gpu {
             .ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
         let (w, h) = (first.texture.width, first.texture.height);
         let stored: Vec<wgpu::TextureFormat> = targets.iter().map(|t| t.texture.stored()).collect();
-        let formats = stored
-            .iter()
-            .map(|f| {
-                self.caps
-                    .render_format(*f)
-                    .ok_or_else(|| GpuError::Unsupported {
-                        adapter: self.describe(),
-                        lacks: format!("a render target for {f:?} values"),
-                    })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let formats = self.render_formats(&stored)?;
         let bits = formats != stored;
         let storage = self.caps.params_in_storage(u64::from(w) * u64::from(h));
         let pipeline = self.raster_pipeline(shader, &formats, bits, storage)?;
@@ -213,45 +203,8 @@ impl Gpu {
                 wgpu::TextureUsages::RENDER_ATTACHMENT,
             );
             let depth_view = depth.create_view(&Default::default());
-            let mut padded = uniform.to_vec();
-            padded.resize(uniform.len().div_ceil(16).max(1) * 16, 0);
-            let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("raster uniform"),
-                size: padded.len() as u64,
-                usage: super::adapter::Capabilities::params_usage(storage),
-                mapped_at_creation: false,
-            });
-            self.queue.write_buffer(&buf, 0, &padded);
-            let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(shader.stem),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buf.as_entire_binding(),
-                }],
-            });
-            // Integer targets are cleared to the bit patterns of the float clear values.
-            let clear = |v: f64| if bits { (v as f32).to_bits() as f64 } else { v };
-            let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = targets
-                .iter()
-                .enumerate()
-                .map(|(i, t)| {
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: temps.get(i).map_or(t.texture.view(), |(_, v)| v),
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color {
-                                r: clear(t.clear[0]),
-                                g: clear(t.clear[1]),
-                                b: clear(t.clear[2]),
-                                a: clear(t.clear[3]),
-                            }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })
-                })
-                .collect();
+            let group = self.uniform_group(shader, &pipeline, uniform, storage);
+            let attachments = color_attachments(targets, &temps, bits);
             // Into this thread's batch (see batch.rs); timed, with its timestamps resolved in it.
             let record = |enc: &mut wgpu::CommandEncoder,
                           timer: Option<&super::PassTimer>|
@@ -302,6 +255,52 @@ impl Gpu {
                 }
             }
         })?
+    }
+
+    /// The render-target format of each stored format: itself where the adapter renders to it,
+    /// else the integer format its bit patterns go through.
+    fn render_formats(
+        &self,
+        stored: &[wgpu::TextureFormat],
+    ) -> Result<Vec<wgpu::TextureFormat>, GpuError> {
+        stored
+            .iter()
+            .map(|f| {
+                self.caps
+                    .render_format(*f)
+                    .ok_or_else(|| GpuError::Unsupported {
+                        adapter: self.describe(),
+                        lacks: format!("a render target for {f:?} values"),
+                    })
+            })
+            .collect()
+    }
+
+    /// The bind group of a raster pass: its uniform bytes at binding 0 (padded to 16 bytes).
+    fn uniform_group(
+        &self,
+        shader: Shader,
+        pipeline: &wgpu::RenderPipeline,
+        uniform: &[u8],
+        params_in_storage: bool,
+    ) -> wgpu::BindGroup {
+        let mut padded = uniform.to_vec();
+        padded.resize(uniform.len().div_ceil(16).max(1) * 16, 0);
+        let buf = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("raster uniform"),
+            size: padded.len() as u64,
+            usage: super::adapter::Capabilities::params_usage(params_in_storage),
+            mapped_at_creation: false,
+        });
+        self.queue.write_buffer(&buf, 0, &padded);
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(shader.stem),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: buf.as_entire_binding(),
+            }],
+        })
     }
 
     /// A single-level 2D texture of a raster pass (depth buffer, bit-pattern target).
@@ -376,13 +375,42 @@ impl Gpu {
     }
 }
 
+/// The colour attachments of a raster pass: each target (or its bit-pattern stand-in),
+/// cleared to its clear value.
+fn color_attachments<'a>(
+    targets: &'a [RasterTarget],
+    temps: &'a [(wgpu::Texture, wgpu::TextureView)],
+    bits: bool,
+) -> Vec<Option<wgpu::RenderPassColorAttachment<'a>>> {
+    // Integer targets are cleared to the bit patterns of the float clear values.
+    let clear = |v: f64| if bits { (v as f32).to_bits() as f64 } else { v };
+    targets
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            Some(wgpu::RenderPassColorAttachment {
+                view: temps.get(i).map_or(t.texture.view(), |(_, v)| v),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: clear(t.clear[0]),
+                        g: clear(t.clear[1]),
+                        b: clear(t.clear[2]),
+                        a: clear(t.clear[3]),
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        })
+        .collect()
+}
+
 /// `source` with a fragment entry point `fs_bits` beside `fs`: it calls `fs` (made a plain
 /// function) and returns each of its `vec4<f32>` outputs bit-cast to `vec4<u32>` at the same
 /// location, for integer render targets.
 pub fn bits_module(source: &str) -> Result<naga::Module, String> {
-    use naga::{
-        Binding, Expression, FunctionResult, Span, Statement, StructMember, Type, TypeInner,
-    };
+    use naga::{FunctionResult, Span};
     let mut m = naga::front::wgsl::parse_str(source).map_err(|e| e.message().to_string())?;
     let ep = m
         .entry_points
@@ -391,12 +419,44 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
         .cloned()
         .ok_or("no fragment entry point `fs`")?;
     let result = ep.function.result.clone().ok_or("`fs` returns nothing")?;
+    let outputs = fs_outputs(&m, &result)?;
+    let mut inner = ep.function.clone();
+    inner.name = Some("tyndall_fs_inner".into());
+    for a in &mut inner.arguments {
+        a.binding = None;
+    }
+    inner.result = Some(FunctionResult {
+        ty: result.ty,
+        binding: None,
+    });
+    let inner = m.functions.append(inner, Span::UNDEFINED);
+    let out = bits_struct(&mut m, &outputs);
+    let f = bits_function(&ep.function.arguments, inner, out, &outputs);
+    let mut bits = ep;
+    bits.name = BITS_ENTRY.into();
+    bits.function = f;
+    m.entry_points.push(bits);
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&m)
+    .map_err(|e| format!("generated {BITS_ENTRY}: {}", e.as_inner()))?;
+    Ok(m)
+}
+
+/// A fragment result's `vec4<f32>` outputs: (location, member index of a struct result, or
+/// `None` for a bare vec4).
+fn fs_outputs(
+    m: &naga::Module,
+    result: &naga::FunctionResult,
+) -> Result<Vec<(u32, Option<u32>)>, String> {
+    use naga::{Binding, TypeInner};
     let f4 = TypeInner::Vector {
         size: naga::VectorSize::Quad,
         scalar: naga::Scalar::F32,
     };
-    // (location, member index of a struct result or None for a bare vec4)
-    let outputs: Vec<(u32, Option<u32>)> = match (&result.binding, &m.types[result.ty].inner) {
+    Ok(match (&result.binding, &m.types[result.ty].inner) {
         (Some(Binding::Location { location, .. }), inner) if *inner == f4 => {
             vec![(*location, None)]
         }
@@ -414,17 +474,12 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
             })
             .collect::<Result<_, _>>()?,
         _ => return Err("`fs` must return vec4<f32> outputs at @locations".into()),
-    };
-    let mut inner = ep.function.clone();
-    inner.name = Some("tyndall_fs_inner".into());
-    for a in &mut inner.arguments {
-        a.binding = None;
-    }
-    inner.result = Some(FunctionResult {
-        ty: result.ty,
-        binding: None,
-    });
-    let inner = m.functions.append(inner, Span::UNDEFINED);
+    })
+}
+
+/// The struct `fs_bits` returns: one `vec4<u32>` per output, at its location.
+fn bits_struct(m: &mut naga::Module, outputs: &[(u32, Option<u32>)]) -> naga::Handle<naga::Type> {
+    use naga::{Binding, Span, StructMember, Type, TypeInner};
     let u4 = m.types.insert(
         Type {
             name: None,
@@ -435,7 +490,7 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
         },
         Span::UNDEFINED,
     );
-    let out = m.types.insert(
+    m.types.insert(
         Type {
             name: Some("TyndallBits".into()),
             inner: TypeInner::Struct {
@@ -459,10 +514,21 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
             },
         },
         Span::UNDEFINED,
-    );
+    )
+}
+
+/// The body of `fs_bits`: call `inner` (the original `fs`) with the same arguments and return
+/// each output bit-cast to `vec4<u32>` in the struct `out`.
+fn bits_function(
+    arguments: &[naga::FunctionArgument],
+    inner: naga::Handle<naga::Function>,
+    out: naga::Handle<naga::Type>,
+    outputs: &[(u32, Option<u32>)],
+) -> naga::Function {
+    use naga::{Expression, FunctionResult, Span, Statement};
     let mut f = naga::Function {
         name: Some(BITS_ENTRY.into()),
-        arguments: ep.function.arguments.clone(),
+        arguments: arguments.to_vec(),
         result: Some(FunctionResult {
             ty: out,
             binding: None,
@@ -521,15 +587,5 @@ pub fn bits_module(source: &str) -> Result<naga::Module, String> {
         },
         sp,
     );
-    let mut bits = ep;
-    bits.name = BITS_ENTRY.into();
-    bits.function = f;
-    m.entry_points.push(bits);
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&m)
-    .map_err(|e| format!("generated {BITS_ENTRY}: {}", e.as_inner()))?;
-    Ok(m)
+    f
 }

@@ -74,6 +74,16 @@ impl EntryNeeds {
 pub struct ShaderNeeds {
     /// One row per entry point.
     pub entries: Vec<EntryNeeds>,
+    /// Every `@group(0)` binding the module declares: (variable name, number). Dispatches
+    /// name their resources by variable name; this is where the number comes from.
+    pub names: Vec<(String, u32)>,
+}
+
+impl ShaderNeeds {
+    /// The binding number of the `@group(0)` variable `name`, if the module declares one.
+    pub fn binding(&self, name: &str) -> Option<u32> {
+        self.names.iter().find(|(n, _)| n == name).map(|(_, b)| *b)
+    }
 }
 
 impl ShaderNeeds {
@@ -86,6 +96,14 @@ impl ShaderNeeds {
         )
         .validate(&module)
         .map_err(|e| e.as_inner().to_string())?;
+        let names = module
+            .global_variables
+            .iter()
+            .filter_map(|(_, gv)| {
+                let b = gv.binding.as_ref().filter(|b| b.group == 0)?;
+                Some((gv.name.clone()?, b.binding))
+            })
+            .collect();
         let mut entries = Vec::new();
         for (i, ep) in module.entry_points.iter().enumerate() {
             let uses = info.get_entry_point(i);
@@ -142,7 +160,7 @@ impl ShaderNeeds {
             }
             entries.push(e);
         }
-        Ok(ShaderNeeds { entries })
+        Ok(ShaderNeeds { entries, names })
     }
 }
 

@@ -355,22 +355,7 @@ pub(super) fn build(
         }
     }
     let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
-    let mut key_tracks: BTreeMap<String, BTreeMap<String, Vec<Key>>> = BTreeMap::new();
-    for (target, keys) in &f.keys {
-        let (node, param) = split_endpoint(target).map_err(|e| (loc.key(target), e))?;
-        let keys = keys
-            .iter()
-            .map(|(t, v, interp)| Key {
-                t: *t,
-                v: *v,
-                interp: *interp,
-            })
-            .collect();
-        key_tracks
-            .entry(node.to_string())
-            .or_default()
-            .insert(param.to_string(), keys);
-    }
+    let mut key_tracks = key_tracks(&f, loc)?;
     for (id, fnode) in &f.nodes {
         let count = seen.entry(id.as_str()).or_insert(0);
         if *count > 0 {
@@ -380,30 +365,10 @@ pub(super) fn build(
             ));
         }
         *count += 1;
-        let mut params = BTreeMap::new();
-        for (name, v) in &fnode.params {
-            let pv = value_to_param(v).map_err(|found| {
-                let expected = catalog
-                    .get(&fnode.kind)
-                    .and_then(|s| s.param(name))
-                    .map(|p| p.expected())
-                    .unwrap_or_else(|| "a parameter value".into());
-                (
-                    loc.param(id, name),
-                    GraphError::WrongParamType {
-                        node: id.clone(),
-                        param: name.clone(),
-                        expected,
-                        found,
-                    },
-                )
-            })?;
-            params.insert(name.clone(), pv);
-        }
         let node = Node {
             id: id.clone(),
             kind: fnode.kind.clone(),
-            params,
+            params: file_params(id, fnode, loc, catalog)?,
             keys: key_tracks.remove(id).unwrap_or_default(),
             pos: fnode.pos.map(|(x, y)| [x, y]),
             data: fnode.data.clone(),
@@ -475,6 +440,61 @@ pub(super) fn build(
         flat.check_known_types(catalog).map_err(|e| (None, e))?;
     }
     Ok(g)
+}
+
+/// Key tracks by node, then parameter.
+type KeyTracks = BTreeMap<String, BTreeMap<String, Vec<Key>>>;
+
+/// The file's key tracks by node, then parameter.
+fn key_tracks(f: &FileGraph, loc: &Locator) -> Result<KeyTracks, (Option<usize>, GraphError)> {
+    let mut key_tracks = KeyTracks::new();
+    for (target, keys) in &f.keys {
+        let (node, param) = split_endpoint(target).map_err(|e| (loc.key(target), e))?;
+        let keys = keys
+            .iter()
+            .map(|(t, v, interp)| Key {
+                t: *t,
+                v: *v,
+                interp: *interp,
+            })
+            .collect();
+        key_tracks
+            .entry(node.to_string())
+            .or_default()
+            .insert(param.to_string(), keys);
+    }
+    Ok(key_tracks)
+}
+
+/// Node `id`'s parameter values as written (a value of no parameter type names what its
+/// parameter expects).
+fn file_params(
+    id: &str,
+    fnode: &FileNode,
+    loc: &Locator,
+    catalog: &Catalog,
+) -> Result<BTreeMap<String, ParamValue>, (Option<usize>, GraphError)> {
+    let mut params = BTreeMap::new();
+    for (name, v) in &fnode.params {
+        let pv = value_to_param(v).map_err(|found| {
+            let expected = catalog
+                .get(&fnode.kind)
+                .and_then(|s| s.param(name))
+                .map(|p| p.expected())
+                .unwrap_or_else(|| "a parameter value".into());
+            (
+                loc.param(id, name),
+                GraphError::WrongParamType {
+                    node: id.to_string(),
+                    param: name.clone(),
+                    expected,
+                    found,
+                },
+            )
+        })?;
+        params.insert(name.clone(), pv);
+    }
+    Ok(params)
 }
 
 /// A graph as its file's parts (without groups): nodes by id, edges by destination, key tracks.
