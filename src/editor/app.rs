@@ -132,6 +132,8 @@ pub struct EditorApp {
     pub confirm_quit: bool,
     /// The tools offered for the nodes that name them (see [`crate::tool`]), with their state.
     pub tools: Tools,
+    /// The tools' jobs for the worker (asked while drawing, sent at the end of the frame).
+    jobs: crate::Jobs,
     /// The node kinds.
     registry: Arc<Registry>,
     /// The newest progress report of a long-running node (shown while the worker is busy).
@@ -219,6 +221,7 @@ impl EditorApp {
             confirm_quit: false,
             allow_close: false,
             tools: Tools::new(),
+            jobs: crate::Jobs::default(),
             registry,
             progress: None,
             device_restarts: 0,
@@ -310,9 +313,9 @@ impl EditorApp {
         self.thumbs.contains_key(id)
     }
 
-    /// Every evaluation asked for has landed (or there is no GPU).
+    /// Every evaluation and tool job asked for has landed (or there is no GPU).
     pub fn idle(&self) -> bool {
-        self.worker.as_ref().is_none_or(|w| w.idle())
+        self.worker.as_ref().is_none_or(|w| w.idle()) && !self.jobs.waiting()
     }
 
     /// Rebuild the canvas from the document when the document changed.
@@ -377,17 +380,10 @@ impl EditorApp {
     }
 }
 
-impl eframe::App for EditorApp {
-    fn ui(&mut self, root: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        let ctx = root.ctx().clone();
-        self.dialogs(&ctx);
-        self.shortcuts(&ctx);
-        self.sync();
-        self.play(&ctx);
-        self.pump(&ctx);
-        if let Err(e) = self.state.tick_autosave(Instant::now()) {
-            self.status = e.to_string();
-        }
+impl EditorApp {
+    /// The bar along the top: the document's name, undo/redo, save, framing, the worker's
+    /// progress and the status line.
+    fn top_bar(&mut self, root: &mut egui::Ui) {
         egui::Panel::top("bar").show(root, |ui| {
             ui.horizontal(|ui| {
                 let title = self
@@ -438,26 +434,11 @@ impl eframe::App for EditorApp {
                 ui.label(&self.status);
             });
         });
-        egui::Panel::bottom("timeline").show(root, |ui| self.timeline(ui));
-        egui::Panel::left("library")
-            .default_size(230.0)
-            .show(root, |ui| {
-                egui::ScrollArea::vertical()
-                    .id_salt("catalog")
-                    .max_height(ui.available_height() * 0.45)
-                    .show(ui, |ui| self.catalog(ui));
-                ui.separator();
-                self.presets_panel(ui);
-            });
-        egui::Panel::right("params")
-            .default_size(380.0)
-            .show(root, |ui| {
-                self.viewer(ui);
-                ui.separator();
-                egui::ScrollArea::vertical()
-                    .id_salt("parameters")
-                    .show(ui, |ui| self.parameters(ui));
-            });
+    }
+
+    /// The node canvas: framing on request, the document's nodes, selection and node moves
+    /// (one undoable change when the drag ends).
+    fn canvas_panel(&mut self, root: &mut egui::Ui) {
         egui::CentralPanel::default().show(root, |ui| {
             self.breadcrumb(ui);
             let canvas = self.canvas_id();
@@ -526,6 +507,43 @@ impl eframe::App for EditorApp {
                 }
             }
         });
+    }
+}
+
+impl eframe::App for EditorApp {
+    fn ui(&mut self, root: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = root.ctx().clone();
+        self.dialogs(&ctx);
+        self.shortcuts(&ctx);
+        self.sync();
+        self.play(&ctx);
+        self.pump(&ctx);
+        if let Err(e) = self.state.tick_autosave(Instant::now()) {
+            self.status = e.to_string();
+        }
+        self.top_bar(root);
+        egui::Panel::bottom("timeline").show(root, |ui| self.timeline(ui));
+        egui::Panel::left("library")
+            .default_size(230.0)
+            .show(root, |ui| {
+                egui::ScrollArea::vertical()
+                    .id_salt("catalog")
+                    .max_height(ui.available_height() * 0.45)
+                    .show(ui, |ui| self.catalog(ui));
+                ui.separator();
+                self.presets_panel(ui);
+            });
+        egui::Panel::right("params")
+            .default_size(380.0)
+            .show(root, |ui| {
+                self.viewer(ui);
+                ui.separator();
+                egui::ScrollArea::vertical()
+                    .id_salt("parameters")
+                    .show(ui, |ui| self.parameters(ui));
+            });
+        self.canvas_panel(root);
+        self.exchange_jobs(&ctx);
     }
 }
 

@@ -24,4 +24,4 @@ pub use state::{
     autosave_path, list_presets, preset_thumbnail, EditorError, EditorState, PresetEntry,
     UNDO_LIMIT,
 };
-pub use tool::{stroke_points, Tool, ToolContext, Tools};
+pub use tool::{stroke_points, Jobs, Tool, ToolContext, Tools};

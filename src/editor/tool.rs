@@ -10,12 +10,14 @@
 //! document ([`EditorState`]), so it is one undoable step like any other.
 
 use std::any::Any;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use eframe::egui;
 
 use tyndall_engine::eval::Registry;
 
+use crate::worker::{Answer, Job, Worker};
 use crate::EditorState;
 
 /// What a tool sees while it draws: the document, the node kinds, the node it edits, the
@@ -33,6 +35,101 @@ pub struct ToolContext<'a> {
     pub time: f64,
     /// The size in pixels of the pictures the viewer requests.
     pub view_size: (u32, u32),
+    /// Evaluations the tool needs beyond the document's pictures (a scene's depth, a pick
+    /// under the pointer): asked here, run by the editor's evaluation worker with its cache,
+    /// answered on a later frame.
+    pub jobs: &'a mut Jobs,
+}
+
+/// The tools' jobs for the evaluation worker, by key (one open job per key: asking again
+/// under the same key drops the older job's answer). The window sends what was asked at the
+/// end of each frame and files the answers; a tool takes its answer with [`Jobs::take`] when
+/// it next draws. The window is not idle while a job is open.
+#[derive(Default)]
+pub struct Jobs {
+    /// Asked this frame, not sent yet.
+    outbox: Vec<(String, Job)>,
+    /// Sent: the number of the newest job of each key.
+    open: BTreeMap<String, u64>,
+    /// Answered, not taken yet.
+    answers: BTreeMap<String, Answer>,
+}
+
+impl Jobs {
+    /// Ask the worker to run `job` with its evaluator, under `key` (by convention
+    /// `tool_id/what`): replaces an open job of the same key and any answer not taken.
+    pub fn ask(&mut self, key: &str, job: Job) {
+        self.outbox.retain(|(k, _)| k != key);
+        self.open.remove(key);
+        self.answers.remove(key);
+        self.outbox.push((key.to_string(), job));
+    }
+
+    /// A job is asked under `key` and not answered yet.
+    pub fn waiting_for(&self, key: &str) -> bool {
+        self.open.contains_key(key) || self.outbox.iter().any(|(k, _)| k == key)
+    }
+
+    /// Some job is asked and not answered yet.
+    pub fn waiting(&self) -> bool {
+        !self.open.is_empty() || !self.outbox.is_empty()
+    }
+
+    /// The answer to the job asked under `key`, once, as the `T` the job returned.
+    pub fn take<T: Any>(&mut self, key: &str) -> Option<Result<T, String>> {
+        let answer = self.answers.remove(key)?;
+        Some(answer.and_then(|b| {
+            b.downcast::<T>()
+                .map(|t| *t)
+                .map_err(|_| format!("the answer to {key} is not of the type asked for"))
+        }))
+    }
+
+    /// Send what was asked to `worker` (with none, every job is answered with an error: the
+    /// editor runs without a GPU) and file the worker's answers. Returns whether an answer was
+    /// filed.
+    pub fn exchange(&mut self, worker: Option<&mut Worker>) -> bool {
+        let filed = self.answers.len();
+        let Some(worker) = worker else {
+            for (key, _) in self.outbox.drain(..) {
+                self.answers
+                    .insert(key, Err("no GPU: the editor evaluates nothing".into()));
+            }
+            self.open.clear();
+            return self.answers.len() > filed;
+        };
+        for (key, job) in self.outbox.drain(..) {
+            match worker.job(job) {
+                Some(n) => {
+                    self.open.insert(key, n);
+                }
+                None => {
+                    self.answers
+                        .insert(key, Err("the evaluation worker has stopped".into()));
+                }
+            }
+        }
+        for (n, answer) in worker.answers() {
+            let key = self
+                .open
+                .iter()
+                .find_map(|(k, m)| (*m == n).then(|| k.clone()));
+            // An answer no key waits for was superseded by a newer ask: dropped.
+            if let Some(key) = key {
+                self.open.remove(&key);
+                self.answers.insert(key, answer);
+            }
+        }
+        self.answers.len() > filed
+    }
+
+    /// Forget every open job and answer (the worker was replaced: its jobs will never be
+    /// answered); tools ask again when they next need them.
+    pub fn reset(&mut self) {
+        self.outbox.clear();
+        self.open.clear();
+        self.answers.clear();
+    }
 }
 
 /// One editor tool (see the module doc). `id` is what nodes name in `NodeDecl::tools`; a

@@ -4,6 +4,7 @@
 //! inputs or parameters changed run again (the evaluator's cache), so dragging a slider
 //! re-runs the chain below it while the window keeps drawing.
 
+use std::any::Any;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
@@ -95,10 +96,30 @@ pub struct Outcome {
     pub cancelled: bool,
 }
 
+/// Work an editor tool asks of the worker's evaluator (the same one, with its cache, that
+/// evaluates the document): render what the tool needs — a scene's depth, a pick under the
+/// pointer — and return it as `Any`. Jobs run in the order asked, before the next document
+/// evaluation; an evaluation under way is finished (or cancelled by a newer request) first.
+pub type Job = Box<dyn FnOnce(&mut Evaluator) -> Answer + Send>;
+
+/// What a [`Job`] returns: its result, or why it failed (for the status bar).
+pub type Answer = Result<Box<dyn Any + Send>, String>;
+
+/// What the window sends the thread.
+enum Message {
+    Evaluate(Request),
+    Job(u64, Job),
+}
+
 /// The evaluation thread and its channels.
 pub struct Worker {
-    tx: Option<Sender<Request>>,
+    tx: Option<Sender<Message>>,
     rx: Receiver<Outcome>,
+    answers: Receiver<(u64, Answer)>,
+    /// Number of the last job sent.
+    jobs_sent: u64,
+    /// Jobs sent and not answered yet.
+    jobs_open: BTreeSet<u64>,
     progress: Receiver<tyndall_engine::eval::Progress>,
     thread: Option<JoinHandle<()>>,
     /// Generation of the newest request sent.
@@ -113,8 +134,9 @@ pub struct Worker {
 impl Worker {
     /// Start a worker evaluating with `registry` on `gpu`.
     pub fn start(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
-        let (tx, requests) = channel::<Request>();
+        let (tx, messages) = channel::<Message>();
         let (results, rx) = channel::<Outcome>();
+        let (answer_tx, answers) = channel::<(u64, Answer)>();
         let (progress_tx, progress) = channel::<tyndall_engine::eval::Progress>();
         let newest = Arc::new(AtomicU64::new(0));
         let newest_seen = newest.clone();
@@ -129,15 +151,33 @@ impl Worker {
                         let _ = tx.send(p.clone());
                     }
                 }));
-                while let Ok(mut req) = requests.recv() {
-                    // Only the newest request matters.
+                let mut request: Option<Request> = None;
+                let mut jobs = VecDeque::new();
+                loop {
+                    if request.is_none() && jobs.is_empty() {
+                        match messages.recv() {
+                            Ok(m) => take(m, &mut request, &mut jobs),
+                            Err(_) => return,
+                        }
+                    }
+                    // Every job waiting, but only the newest request.
                     loop {
-                        match requests.try_recv() {
-                            Ok(newer) => req = newer,
+                        match messages.try_recv() {
+                            Ok(m) => take(m, &mut request, &mut jobs),
                             Err(TryRecvError::Empty) => break,
                             Err(TryRecvError::Disconnected) => return,
                         }
                     }
+                    if let Some((n, job)) = jobs.pop_front() {
+                        let answer: Answer = job(&mut ev);
+                        if answer_tx.send((n, answer)).is_err() {
+                            return;
+                        }
+                        continue;
+                    }
+                    let Some(req) = request.take() else {
+                        continue;
+                    };
                     let generation = req.generation;
                     let seen = newest_seen.clone();
                     let cancel = tyndall_engine::eval::CancelCheck(Arc::new(move || {
@@ -163,6 +203,9 @@ impl Worker {
         Self {
             tx: thread.as_ref().map(|_| tx),
             rx,
+            answers,
+            jobs_sent: 0,
+            jobs_open: BTreeSet::new(),
             progress,
             thread,
             sent: 0,
@@ -177,11 +220,38 @@ impl Worker {
         req.generation = self.sent;
         self.newest.store(self.sent, Ordering::Release);
         if let Some(tx) = &self.tx {
-            if tx.send(req).is_err() {
+            if tx.send(Message::Evaluate(req)).is_err() {
                 self.tx = None;
             }
         }
         self.sent
+    }
+
+    /// Ask for a tool's job; returns its number, which its answer carries ([`Worker::answers`]),
+    /// or `None` when the thread is gone (the job will never run).
+    pub fn job(&mut self, job: Job) -> Option<u64> {
+        self.jobs_sent += 1;
+        let n = self.jobs_sent;
+        let sent = self
+            .tx
+            .as_ref()
+            .is_some_and(|tx| tx.send(Message::Job(n, job)).is_ok());
+        if !sent {
+            self.tx = None;
+            return None;
+        }
+        self.jobs_open.insert(n);
+        Some(n)
+    }
+
+    /// Every job answered since the last call, by number, oldest first.
+    pub fn answers(&mut self) -> Vec<(u64, Answer)> {
+        let mut out = Vec::new();
+        while let Ok((n, a)) = self.answers.try_recv() {
+            self.jobs_open.remove(&n);
+            out.push((n, a));
+        }
+        out
     }
 
     /// Every outcome finished since the last call, oldest first. All of them, not only the
@@ -212,10 +282,18 @@ impl Worker {
         drop(self.thread.take());
     }
 
-    /// Every request sent has its outcome (or the worker is gone). A superseded request has
-    /// none: the newest one's outcome counts for it.
+    /// Every request sent has its outcome and every job its answer (or the worker is gone). A
+    /// superseded request has none: the newest one's outcome counts for it.
     pub fn idle(&self) -> bool {
-        self.tx.is_none() || self.done >= self.sent
+        self.tx.is_none() || (self.done >= self.sent && self.jobs_open.is_empty())
+    }
+}
+
+/// File a message from the window: a job joins the queue, a request replaces the older one.
+fn take(m: Message, request: &mut Option<Request>, jobs: &mut VecDeque<(u64, Job)>) {
+    match m {
+        Message::Evaluate(r) => *request = Some(r),
+        Message::Job(n, job) => jobs.push_back((n, job)),
     }
 }
 

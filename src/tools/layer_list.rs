@@ -3,7 +3,7 @@
 //! the layer list (add, remove, reorder, blend, opacity, colours), the TF square (a preview of
 //! the baked table; a click adds a diffusion constraint, a drag moves one), key-frames of the
 //! layer stack, and the arming of 3D constraints (a click in the viewer adds a constraint
-//! anchored to the surface under that pixel). Every edit is one undoable step on the node's data
+//! anchored to the surface under that pixel, picked by the editor's evaluation worker). Every edit is one undoable step on the node's data
 //! block; a drag is one step.
 
 use std::any::Any;
@@ -11,9 +11,8 @@ use std::any::Any;
 use eframe::egui;
 
 use tyndall_editor::{panel, EditorState, Tool, ToolContext};
-use tyndall_engine::eval::pick::pick;
-use tyndall_engine::eval::{EvalOptions, Evaluator};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::eval::pick::{pick, Pick};
+use tyndall_engine::eval::EvalOptions;
 use tyndall_nodes::transfer_function::{
     bake_reference, layer_name, Anchor, Blend, Constraint, Layer, LayerEntry, TfData, TfKey,
 };
@@ -31,6 +30,9 @@ pub struct TfPanel {
     pub brush: [f32; 4],
     /// A click in the viewer adds an anchored 3D constraint.
     pub arm_3d: bool,
+    /// The node (id of the graph shown) and time a 3D constraint is being picked for, while
+    /// the worker evaluates the pick.
+    picking: Option<(String, f64)>,
     dragging: Option<usize>,
     preview: Option<(String, egui::TextureHandle)>,
 }
@@ -41,6 +43,7 @@ impl Default for TfPanel {
             layer: 0,
             brush: [1.0, 0.5, 0.1, 1.0],
             arm_3d: false,
+            picking: None,
             dragging: None,
             preview: None,
         }
@@ -64,6 +67,11 @@ impl Tool for TfPanel {
         size: (u32, u32),
         cx: &mut ToolContext,
     ) -> Option<String> {
+        if let Some(answer) = cx.jobs.take::<Pick>(PICK_JOB) {
+            let picked = answer.and_then(|p| add_3d_constraint(cx, self, &p));
+            self.picking = None;
+            return Some(picked.unwrap_or_else(|e| e));
+        }
         if !self.arm_3d {
             return None;
         }
@@ -72,7 +80,9 @@ impl Tool for TfPanel {
         };
         let [x, y] = tyndall_editor::tool::picture_pixel(response, size, p);
         let px = ((x as u32).min(size.0 - 1), (y as u32).min(size.1 - 1));
-        Some(add_3d_constraint(cx, self, px, size).unwrap_or_else(|e| e))
+        ask_pick(cx, px, size);
+        self.picking = Some((cx.node.to_string(), cx.time));
+        Some(format!("picking the surface under pixel {px:?}…"))
     }
 
     fn as_any(&self) -> &dyn Any {
@@ -84,37 +94,47 @@ impl Tool for TfPanel {
     }
 }
 
-/// A click in the viewer while 3D constraints are armed: pick the surface under `pixel` of a
-/// `size` picture (an evaluation on this thread) and add a constraint anchored to it, in the
-/// brush colour, to the panel's layer. Returns what was added.
-pub fn add_3d_constraint(
-    cx: &mut ToolContext,
-    panel: &mut TfPanel,
-    pixel: (u32, u32),
-    size: (u32, u32),
-) -> Result<String, String> {
-    let id = cx.node;
-    let gpu = Gpu::shared().map_err(|e| e.to_string())?;
-    let mut ev = Evaluator::new(cx.registry.clone(), gpu);
+/// The key of the 3D constraint's pick job.
+const PICK_JOB: &str = "layer_list/pick";
+
+/// A click in the viewer while 3D constraints are armed: ask the evaluation worker to pick
+/// the surface under `pixel` of a `size` picture, reading the node `cx.node`'s inputs.
+fn ask_pick(cx: &mut ToolContext, pixel: (u32, u32), size: (u32, u32)) {
+    let graph = cx.state.root().clone();
+    let node = cx.state.full_id(cx.node);
     let opts = EvalOptions {
         time: cx.time,
         size,
         ..Default::default()
     };
-    let p = pick(
-        &mut ev,
-        cx.state.root(),
-        Some(&cx.state.full_id(id)),
-        pixel,
-        &opts,
-    )
-    .map_err(|e| e.to_string())?;
+    cx.jobs.ask(
+        PICK_JOB,
+        Box::new(move |ev| {
+            pick(ev, &graph, Some(&node), pixel, &opts)
+                .map(|p| Box::new(p) as Box<dyn Any + Send>)
+                .map_err(|e| e.to_string())
+        }),
+    );
+}
+
+/// The pick `p` answered: add a constraint anchored to its surface point, in the brush colour,
+/// to the panel's layer of the node the pick was asked for. Returns what was added.
+pub fn add_3d_constraint(
+    cx: &mut ToolContext,
+    panel: &mut TfPanel,
+    p: &Pick,
+) -> Result<String, String> {
+    let (id, time) = panel
+        .picking
+        .clone()
+        .unwrap_or_else(|| (cx.node.to_string(), cx.time));
     let s = p
         .surface
+        .as_ref()
         .ok_or("no surface under this pixel (sky): nothing to anchor to")?;
-    let tf = p.tf.ok_or("not a TransferFunction")?;
-    let mut data = cx.state.node_data::<TfData>(id)?;
-    let stack = editable(&mut data, cx.time).ok_or("add a key at this frame to edit the stack")?;
+    let tf = p.tf.as_ref().ok_or("not a TransferFunction")?;
+    let mut data = cx.state.node_data::<TfData>(&id)?;
+    let stack = editable(&mut data, time).ok_or("add a key at this frame to edit the stack")?;
     let c = Constraint {
         at: [tf.u, tf.v],
         colour: panel.brush,
@@ -125,7 +145,7 @@ pub fn add_3d_constraint(
         }),
     };
     panel.layer = add_constraint(stack, panel.layer, c);
-    cx.state.store_node_data(id, &data, None)?;
+    cx.state.store_node_data(&id, &data, None)?;
     Ok(format!(
         "3D constraint on {:?} triangle {} at V̄ {:.3}, depth {:.2} m",
         s.object, s.triangle, p.visibility, p.depth

@@ -16,10 +16,10 @@
 //! The camera is the scene's (the one feeding the volume's `scene` input, else the graph's
 //! first `Scene`) at the viewer picture's aspect; the tint needs that scene's depth, rendered
 //! once per scene and picture size by the kind that renders a scene's depth (found by its
-//! ports: the G-buffer) evaluated on this thread.
+//! ports: the G-buffer), as a job of the editor's evaluation worker (the brush paints once the
+//! depth has arrived).
 
 use std::any::Any;
-use std::sync::Arc;
 
 use eframe::egui;
 use glam::{Mat4, Quat, Vec3, Vec4};
@@ -27,7 +27,6 @@ use glam::{Mat4, Quat, Vec3, Vec4};
 use tyndall_editor::tool::{picture_pixel, stroke_points};
 use tyndall_editor::{panel as panels, EditorState, Tool, ToolContext};
 use tyndall_engine::eval::{EvalOptions, Evaluator, Matrices, PortValue, Registry, Target};
-use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::{Graph, PortType};
 use tyndall_nodes::blend_volume::{BlendData, Role, Splat};
 
@@ -55,6 +54,10 @@ pub struct BrushPanel {
     /// The pointer over the viewer, in picture pixels (for the outline).
     pub hover: Option<[f32; 2]>,
     view: Option<BrushView>,
+    /// The key of the view asked of the worker, until its answer is taken.
+    asked: Option<String>,
+    /// The key of a view that failed to render, and why (not asked again until it changes).
+    failed: Option<(String, String)>,
     last: Option<Vec3>,
     /// The painting plane's tint over the viewer, by (picture size, plane depth).
     tint: Option<(String, egui::TextureHandle)>,
@@ -74,6 +77,8 @@ impl Default for BrushPanel {
             armed: false,
             hover: None,
             view: None,
+            asked: None,
+            failed: None,
             last: None,
             tint: None,
         }
@@ -131,7 +136,10 @@ fn in_viewer(
         .flatten(cx.registry.catalog())
         .map_err(|e| e.to_string())?;
     let full = cx.state.full_id(&target);
-    let view = brush.view_for(cx.registry, &flat, &full, size)?.clone();
+    let Some(view) = brush.view_for(cx, &flat, &full, size)?.cloned() else {
+        // The worker renders the scene's depth; the brush paints once it has it.
+        return Ok(());
+    };
     let r = response.rect;
     // The plane: pixels whose surface lies behind it are tinted.
     let key = format!("{}@{}", view.key, brush.depth);
@@ -287,28 +295,37 @@ fn depth_renderer(registry: &Registry) -> Option<(&'static str, &'static str, &'
     })
 }
 
-/// Render the scene's depth for the brush: a `GBuffer` fed by the scene source, evaluated at
-/// `size` on this thread.
+/// What a brush view of `target` at `size` depends on: the scene node feeding it (its
+/// parameters included), its port and the size.
+fn view_key(registry: &Registry, graph: &Graph, target: &str, size: (u32, u32)) -> String {
+    scene_source(registry, graph, target)
+        .map(|(s, p)| format!("{:?}/{p}@{size:?}", graph.node(&s)))
+        .unwrap_or_default()
+}
+
+/// Render the scene's depth for the brush with `ev` (the editor worker's evaluator, as a
+/// tool job): a `GBuffer` fed by the scene source, evaluated at `size` and `time`.
 pub fn render_view(
-    registry: &Arc<Registry>,
+    ev: &mut Evaluator,
     graph: &Graph,
     target: &str,
     size: (u32, u32),
+    time: f64,
 ) -> Result<BrushView, String> {
-    let (scene, port) = scene_source(registry, graph, target)
+    let registry = ev.registry().clone();
+    let (scene, port) = scene_source(&registry, graph, target)
         .ok_or("the graph has no Scene: the brush needs a camera to paint from")?;
     let (kind, scene_in, depth_out) =
-        depth_renderer(registry).ok_or("no node kind renders a scene's depth")?;
-    let key = format!("{:?}/{port}@{size:?}", graph.node(&scene));
+        depth_renderer(&registry).ok_or("no node kind renders a scene's depth")?;
+    let key = view_key(&registry, graph, target, size);
     let mut g = graph.clone();
     let cat = registry.catalog();
     let gb = g.add_node(cat, kind).map_err(|e| e.to_string())?;
     g.connect(cat, &format!("{scene}.{port}"), &format!("{gb}.{scene_in}"))
         .map_err(|e| e.to_string())?;
-    let gpu = Gpu::shared().map_err(|e| e.to_string())?;
-    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
     let opts = EvalOptions {
         size,
+        time,
         ..Default::default()
     };
     let r = ev
@@ -322,7 +339,7 @@ pub fn render_view(
         return Err("the GBuffer's depth is not a Depth value".into());
     };
     let camera = *camera;
-    let depth = tyndall_engine::eval::download(&gpu, value).map_err(|e| e.to_string())?;
+    let depth = tyndall_engine::eval::download(ev.gpu(), value).map_err(|e| e.to_string())?;
     Ok(BrushView {
         key,
         size: (depth.width, depth.height),
@@ -331,24 +348,48 @@ pub fn render_view(
     })
 }
 
+/// The key of the brush's view job.
+const VIEW_JOB: &str = "splat_brush/view";
+
 impl BrushPanel {
-    /// The brush's view of the scene for `target` at `size`, rendered when the scene or the
-    /// size changed since the last call.
+    /// The brush's view of the scene for `target` at `size` and `time`: `None` while the
+    /// evaluation worker renders it (asked here when the scene or the size changed since the
+    /// view shown), the reason when rendering it failed.
     pub fn view_for(
         &mut self,
-        registry: &Arc<Registry>,
+        cx: &mut ToolContext,
         graph: &Graph,
         target: &str,
         size: (u32, u32),
-    ) -> Result<&BrushView, String> {
-        let key = scene_source(registry, graph, target)
-            .map(|(s, p)| format!("{:?}/{p}@{size:?}", graph.node(&s)))
-            .unwrap_or_default();
-        if self.view.as_ref().is_none_or(|v| v.key != key) {
-            self.view = None;
-            self.view = Some(render_view(registry, graph, target, size)?);
+    ) -> Result<Option<&BrushView>, String> {
+        let key = view_key(cx.registry, graph, target, size);
+        if let Some(answer) = cx.jobs.take::<BrushView>(VIEW_JOB) {
+            let asked = self.asked.take().unwrap_or_default();
+            match answer {
+                Ok(view) => self.view = Some(view),
+                Err(e) => self.failed = Some((asked, e)),
+            }
         }
-        self.view.as_ref().ok_or_else(|| "no view".to_string())
+        if self.view.as_ref().is_some_and(|v| v.key == key) {
+            return Ok(self.view.as_ref());
+        }
+        if let Some((k, e)) = &self.failed {
+            if *k == key {
+                return Err(e.clone());
+            }
+        }
+        if self.asked.as_deref() != Some(key.as_str()) || !cx.jobs.waiting_for(VIEW_JOB) {
+            let (graph, target, time) = (graph.clone(), target.to_string(), cx.time);
+            cx.jobs.ask(
+                VIEW_JOB,
+                Box::new(move |ev| {
+                    render_view(ev, &graph, &target, size, time)
+                        .map(|v| Box::new(v) as Box<dyn Any + Send>)
+                }),
+            );
+            self.asked = Some(key);
+        }
+        Ok(None)
     }
 
     /// The view of the scene last rendered for the brush, if any.

@@ -59,7 +59,8 @@ fn brush_drags_leave_splats_on_the_plane_in_one_undo_step() {
         b.hardness = 0.25;
     }
     h.get_by_label("Paint").click();
-    h.run_steps(3);
+    // Armed, the brush asks the worker for the scene's depth; it paints once that arrived.
+    settle(&mut h);
     let before = splats(&h, "painted_alpha").splats.len();
     let steps = h.state().state.undo_depth();
     let rect = h.get_by_label("viewer picture").rect();
@@ -152,7 +153,8 @@ fn the_brush_paints_into_the_chosen_volume() {
     settle(&mut h);
     // From Heterogeneity, the default volume is the one feeding it.
     h.get_by_label("Paint").click();
-    h.run_steps(3);
+    // Armed, the brush asks the worker for the scene's depth; it paints once that arrived.
+    settle(&mut h);
     let default = tyndall::tools::splat_brush::target_for(
         &tyndall::nodes::registry(),
         h.state().state.graph(),
@@ -161,7 +163,7 @@ fn the_brush_paints_into_the_chosen_volume() {
     );
     assert_eq!(default.as_deref(), Some("painted_alpha"));
     brush_mut(&mut h).target = Some(other.clone());
-    h.run_steps(2);
+    settle(&mut h);
     let before = splats(&h, "painted_alpha").splats.len();
     let rect = h.get_by_label("viewer picture").rect();
     drag(&mut h, rect.center(), egui::vec2(30.0, 0.0), 3);

@@ -209,7 +209,8 @@ fn viewer_click_adds_an_anchored_3d_constraint() {
     assert!(h.state().tool::<TfPanel>().expect("the layer list").arm_3d);
     // The centre of the viewer's 480×270 picture: the tree's trunk.
     h.get_by_label("viewer picture").click();
-    h.run_steps(3);
+    // The worker picks the surface; the constraint lands when its answer is taken.
+    settle(&mut h);
     let d = tf_data(&h, "tf");
     let Layer::Diffusion { constraints } = &d.layers[0].layer else {
         panic!("diffusion layer");

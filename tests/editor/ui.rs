@@ -1012,3 +1012,81 @@ fn dragging_a_knob_shows_a_proxy_then_the_full_picture() {
         direct(&gpu, &doc, tyndall::editor::VIEW_SIZE).data
     );
 }
+
+#[test]
+fn tool_jobs_run_on_the_worker_evaluator_with_its_cache_and_the_newest_ask_wins() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    use tyndall::editor::worker::{Request, Worker};
+    use tyndall::editor::Jobs;
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let g = tyndall::graph::load_file(&path, &cat).expect("load");
+    let mut w = Worker::start(registry.clone(), gpu.clone());
+    let size = (96, 54);
+    w.request(Request {
+        generation: 0,
+        graph: g.clone(),
+        time: 0.0,
+        size,
+        view: Some("tonemap".into()),
+        compare: None,
+        proxy: 1,
+    });
+    outcomes(&mut w);
+    // Two asks under one key: the first one's answer is dropped, the second's is the tonemap
+    // picture evaluated by the worker's own evaluator, reusing the document's evaluation.
+    let mut jobs = Jobs::default();
+    jobs.ask("test/first", Box::new(|_| Ok(Box::new(1u32))));
+    jobs.ask("test/first", Box::new(|_| Ok(Box::new(2u32))));
+    let graph = g.clone();
+    jobs.ask(
+        "test/tonemap",
+        Box::new(move |ev| {
+            let opts = tyndall::eval::EvalOptions {
+                size,
+                ..Default::default()
+            };
+            let target = tyndall::eval::Target::Port("tonemap".into(), "out".into());
+            let r = ev
+                .evaluate(&graph, &[target], &opts)
+                .map_err(|e| e.to_string())?;
+            let status = r.stats.status("tonemap");
+            let picture =
+                tyndall::eval::download(ev.gpu(), &r.outputs[&("tonemap".into(), "out".into())])
+                    .map_err(|e| e.to_string())?;
+            Ok(Box::new((status, picture.data)))
+        }),
+    );
+    assert!(jobs.waiting_for("test/tonemap"));
+    for _ in 0..6000 {
+        jobs.exchange(Some(&mut w));
+        if !jobs.waiting() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    assert!(!jobs.waiting() && w.idle(), "every job answered");
+    assert_eq!(jobs.take::<u32>("test/first"), Some(Ok(2)));
+    let (status, data) = jobs
+        .take::<(Option<tyndall::eval::Status>, Vec<f32>)>("test/tonemap")
+        .expect("answered")
+        .expect("evaluated");
+    assert_eq!(
+        status,
+        Some(tyndall::eval::Status::Reused),
+        "the worker's cache"
+    );
+    assert_eq!(data, direct(&gpu, &g, size).data);
+    assert!(jobs.take::<u32>("test/tonemap").is_none(), "taken once");
+    // Without a worker every job fails with a reason.
+    jobs.ask("test/none", Box::new(|_| Ok(Box::new(3u32))));
+    jobs.exchange(None);
+    let err = jobs
+        .take::<u32>("test/none")
+        .expect("answered")
+        .expect_err("no GPU");
+    assert!(err.contains("no GPU"), "{err}");
+}

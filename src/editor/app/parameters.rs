@@ -175,6 +175,7 @@ impl EditorApp {
                 node: &id,
                 time: self.time,
                 view_size: VIEW_SIZE,
+                jobs: &mut self.jobs,
             };
             if let Some(m) = tool.panel(ui, &mut cx) {
                 self.status = m;

@@ -99,6 +99,18 @@ impl EditorApp {
         }
     }
 
+    /// Send the jobs the tools asked for this frame and file the answers; draw again soon while
+    /// one is open (its tool takes the answer when it next draws).
+    pub(super) fn exchange_jobs(&mut self, ctx: &egui::Context) {
+        let answered = self.jobs.exchange(self.worker.as_mut());
+        if answered {
+            // Taken by its tool on the next frame.
+            ctx.request_repaint();
+        } else if self.jobs.waiting() {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
     /// The worker's device was lost: drop the worker (and its cache, which lived on that
     /// device), start a new one on a new device and ask for the whole evaluation again.
     fn restart_after_loss(&mut self, reason: &str) {
@@ -107,6 +119,7 @@ impl EditorApp {
         }
         self.requested.clear();
         self.progress = None;
+        self.jobs.reset();
         match Gpu::shared() {
             Ok(gpu) => {
                 self.worker = Some(Worker::start(self.registry.clone(), gpu));

@@ -238,6 +238,7 @@ impl EditorApp {
                     node: &id,
                     time: self.time,
                     view_size: VIEW_SIZE,
+                    jobs: &mut self.jobs,
                 };
                 if let Some(m) = tool.viewer(ui, &response, size, &mut cx) {
                     self.status = m;
