@@ -14,15 +14,11 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
 
-use tyndall_engine::eval::{
-    resolve_files, EvalOptions, Evaluator, PathPolicy, Registry, Status, Target,
-};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::eval::{resolve_files, EvalOptions, Evaluator, PathPolicy, Status, Target};
 use tyndall_engine::graph::{split_endpoint, Graph};
 
-use super::{apply, BenchError, Row, Suite};
+use super::{apply, BenchError, Row, SuiteRun};
 
 /// One node in one chain step.
 #[derive(Debug, Clone)]
@@ -81,15 +77,13 @@ fn median(v: &mut [f64]) -> f64 {
 /// Run a chain suite (see the module documentation); one row per step.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
-    registry: Arc<Registry>,
-    gpu: Arc<Gpu>,
+    run: &SuiteRun,
     graph_path: &Path,
     base: &Graph,
-    suite: &Suite,
-    runs: usize,
-    size: (u32, u32),
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>, BenchError> {
+    let (registry, gpu, suite, runs, size) =
+        (&run.registry, &run.gpu, run.suite, run.runs, run.size);
     let scratch = std::env::temp_dir().join(format!("tyndall-bench-{}", std::process::id()));
     std::fs::create_dir_all(&scratch)
         .map_err(|e| BenchError::Input(format!("{}: {e}", scratch.display())))?;
@@ -127,8 +121,8 @@ pub fn run(
                     .filter(|(k, _)| *k != "cold" && *k != "target")
                     .map(|(k, v)| (k.clone(), v.clone()))
                     .collect();
-                apply(&registry, &mut g, "", &params)?;
-                let resolved = resolve_files(&registry, &g, &policy)
+                apply(registry, &mut g, "", &params)?;
+                let resolved = resolve_files(registry, &g, &policy)
                     .map_err(|e| BenchError::Input(e.to_string()))?;
                 let targets = targets_of(&ev, &resolved, step.get("target"));
                 let r = ev.evaluate(&resolved, &targets, &opts).map_err(Box::new)?;

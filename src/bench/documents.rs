@@ -18,14 +18,12 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
-use tyndall_engine::eval::{EvalOptions, Evaluator, Registry, Target};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::eval::{EvalOptions, Evaluator, Target};
 use tyndall_engine::graph::load_str;
 
-use super::{BenchError, Row, Suite};
+use super::{BenchError, Row, SuiteRun};
 
 /// A chain of `n` Math nodes (`m0` … `m{n-1}`, each adding 0.001) after a Constant `c`; with
 /// `grid`, canvas positions in rows of 40 nodes (220 × 140 points apart).
@@ -67,14 +65,9 @@ fn setting_value<'a>(
 }
 
 /// Run a documents suite (see the module docs); `progress` gets a line per setting.
-pub fn run(
-    registry: Arc<Registry>,
-    gpu: Arc<Gpu>,
-    suite: &Suite,
-    runs: usize,
-    size: (u32, u32),
-    mut progress: impl FnMut(&str),
-) -> Result<Vec<Row>, BenchError> {
+pub fn run(run: &SuiteRun, mut progress: impl FnMut(&str)) -> Result<Vec<Row>, BenchError> {
+    let (registry, gpu, suite, runs, size) =
+        (&run.registry, &run.gpu, run.suite, run.runs, run.size);
     let mut rows = Vec::new();
     // The evaluator of the last `evaluate` setting, with its chain's length: a `replan` of the
     // same length right after it starts from its cache instead of a cold evaluation of its own.

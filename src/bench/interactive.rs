@@ -11,15 +11,14 @@
 //! the time over the full-size row's).
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 use std::time::Instant;
 
 use tyndall_engine::eval::proxy::{proxy_graph, proxy_size};
-use tyndall_engine::eval::{download, EvalOptions, Evaluator, Registry, Target};
+use tyndall_engine::eval::{download, EvalOptions, Evaluator, Target};
 use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::Graph;
 
-use super::{apply, describe, BenchError, Row, Suite};
+use super::{apply, describe, BenchError, Row, SuiteRun};
 
 /// One evaluation of `g` at `size` with the viewed port read back: the wall-clock time, ms.
 fn picture(
@@ -50,21 +49,19 @@ fn picture(
 
 /// Run an interactive suite (see the module docs); `progress` gets a line per measurement.
 pub fn run(
-    registry: Arc<Registry>,
-    gpu: Arc<Gpu>,
+    run: &SuiteRun,
     base: &Graph,
-    suite: &Suite,
-    runs: usize,
-    size: (u32, u32),
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>, BenchError> {
+    let (registry, gpu, suite, runs, size) =
+        (&run.registry, &run.gpu, run.suite, run.runs, run.size);
     let cat = registry.catalog().clone();
     let target = Target::Port(suite.node.clone(), suite.output.clone());
     let mut ev = Evaluator::new(registry.clone(), gpu.clone());
     let mut rows: Vec<Row> = Vec::new();
     for (i, change) in suite.configs.iter().enumerate() {
         let mut changed = base.clone();
-        apply(&registry, &mut changed, &suite.node, change)?;
+        apply(registry, &mut changed, &suite.node, change)?;
         let mut full_ms = f64::NAN;
         for &factor in &suite.proxies {
             let f = factor.max(1);
@@ -80,11 +77,11 @@ pub fn run(
             let (before, after) = (proxy_graph(base, &cat, f), proxy_graph(&changed, &cat, f));
             let mut times = Vec::new();
             for _ in 0..runs.max(1) {
-                picture(&mut ev, &gpu, &before, &target, at)?;
+                picture(&mut ev, gpu, &before, &target, at)?;
                 // The cache keeps several keys per node: without this the changed graph's
                 // results from the previous run would be found, not computed.
                 ev.keep_latest();
-                times.push(picture(&mut ev, &gpu, &after, &target, at)?);
+                times.push(picture(&mut ev, gpu, &after, &target, at)?);
             }
             times.sort_by(f64::total_cmp);
             let median = times[times.len() / 2];

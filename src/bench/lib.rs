@@ -187,6 +187,21 @@ pub fn load_suite(path: &Path) -> Result<Suite, BenchError> {
     Ok(suite)
 }
 
+/// What every kind of suite runs with: the node kinds, the GPU, the suite, the timed runs per
+/// setting (a setting's own `runs` may lower it) and the evaluation size (pixels).
+pub struct SuiteRun<'a> {
+    /// The node kinds.
+    pub registry: Arc<Registry>,
+    /// The GPU evaluated on.
+    pub gpu: Arc<Gpu>,
+    /// The suite.
+    pub suite: &'a Suite,
+    /// Timed runs per setting (≥ 1 is used).
+    pub runs: usize,
+    /// Evaluation size, pixels.
+    pub size: (u32, u32),
+}
+
 /// Run a suite; `progress` is called with a line before each setting.
 pub fn run(
     registry: Arc<Registry>,
@@ -201,13 +216,20 @@ pub fn run(
         .parent()
         .unwrap_or(Path::new("."))
         .join(&suite.graph);
+    let run = SuiteRun {
+        registry: registry.clone(),
+        gpu,
+        suite,
+        runs,
+        size,
+    };
     if suite.documents {
-        return documents::run(registry, gpu, suite, runs, size, progress);
+        return documents::run(&run, progress);
     }
     let base =
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
     if !suite.proxies.is_empty() {
-        return interactive::run(registry, gpu, &base, suite, runs, size, progress);
+        return interactive::run(&run, &base, progress);
     }
     if !suite.frames.is_empty() {
         // The graph names its input files (the animated glTF shot) relative to its folder.
@@ -218,21 +240,12 @@ pub fn run(
         };
         let base = resolve_files(&registry, &base, &policy)
             .map_err(|e| BenchError::Input(e.to_string()))?;
-        return temporal::run(registry, gpu, &base, suite, size, progress);
+        return temporal::run(&run, &base, progress);
     }
     if suite.chain {
-        return chain::run(
-            registry,
-            gpu,
-            &graph_path,
-            &base,
-            suite,
-            runs,
-            size,
-            progress,
-        );
+        return chain::run(&run, &graph_path, &base, progress);
     }
-    quality::run(registry, gpu, &base, suite, runs, size, progress)
+    quality::run(&run, &base, progress)
 }
 
 /// A row's time over that of the first row measured before it with equal settings but the

@@ -3,63 +3,110 @@
 
 use super::*;
 
-/// The quality suite: each setting's median time and its errors against its reference.
-pub(crate) fn run(
-    registry: Arc<Registry>,
-    gpu: Arc<Gpu>,
-    base: &Graph,
-    suite: &Suite,
-    runs: usize,
-    size: (u32, u32),
-    mut progress: impl FnMut(&str),
-) -> Result<Vec<Row>, BenchError> {
-    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
-    let opts = EvalOptions {
-        size,
-        ..Default::default()
-    };
-    let read = |ev: &mut Evaluator, g: &Graph, node: &str, port: &str, timed: &[String]| {
-        read_port(ev, &gpu, g, (node, port), timed, &opts)
-    };
-    let output_of = |setting: &Setting| output_of(suite, setting);
-    // References computed before their own row: (raster, time of the row's timed nodes).
-    let mut first_runs = FirstRuns::new();
-    let reference_run = |ev: &mut Evaluator, spec: &Setting, runs: &mut FirstRuns| {
-        let mut g = base.clone();
-        let node = apply(&registry, &mut g, &suite.node, spec)?;
+/// What the quality suite's steps share: the suite, its base graph and the evaluation options.
+struct Quality<'a> {
+    run: &'a SuiteRun<'a>,
+    base: &'a Graph,
+    opts: EvalOptions,
+}
+
+impl Quality<'_> {
+    /// Port `node.port` of `g` read back, with the time of the `timed` nodes (ms).
+    fn read(
+        &self,
+        ev: &mut Evaluator,
+        g: &Graph,
+        (node, port): (&str, &str),
+        timed: &[String],
+    ) -> Result<(Raster, f64), BenchError> {
+        read_port(ev, &self.run.gpu, g, (node, port), timed, &self.opts)
+    }
+
+    /// The base graph with `setting` applied: (graph, measured node).
+    fn graph_of(&self, setting: &Setting) -> Result<(Graph, String), BenchError> {
+        let mut g = self.base.clone();
+        let node = apply(&self.run.registry, &mut g, &self.run.suite.node, setting)?;
+        Ok((g, node))
+    }
+
+    /// A reference's evaluation of `spec` (its timed nodes run again), kept in `runs` as that
+    /// setting's first run.
+    fn reference(
+        &self,
+        ev: &mut Evaluator,
+        spec: &Setting,
+        runs: &mut FirstRuns,
+    ) -> Result<Raster, BenchError> {
+        let (g, node) = self.graph_of(spec)?;
         let timed = timed_of(spec, &node);
         for t in &timed {
             ev.invalidate(t);
         }
-        let (r, ms) = read(ev, &g, &node, &output_of(spec), &timed)?;
+        let (r, ms) = self.read(ev, &g, (&node, &output_of(self.run.suite, spec)), &timed)?;
         runs.insert(describe(spec), (r.clone(), ms));
-        Ok::<_, BenchError>(r)
+        Ok(r)
+    }
+
+    /// The suite's `edges` mask: depth discontinuities of the named port of the base graph.
+    fn edge_mask(&self, ev: &mut Evaluator) -> Result<Option<Vec<bool>>, BenchError> {
+        let Some((port, threshold)) = &self.run.suite.edges else {
+            return Ok(None);
+        };
+        let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
+        let (d, _) = self.read(ev, self.base, (n, p), &[])?;
+        Ok(Some(discontinuities(&d, *threshold)))
+    }
+
+    /// The suite's `holes`: connected components of the named port of `g` (before the node)
+    /// and of the node's output `out`.
+    fn holes(
+        &self,
+        ev: &mut Evaluator,
+        g: &Graph,
+        out: &Raster,
+    ) -> Result<Option<(usize, usize)>, BenchError> {
+        let Some((before, threshold)) = &self.run.suite.holes else {
+            return Ok(None);
+        };
+        let (n, p) = split_endpoint(before).map_err(|e| BenchError::Input(e.to_string()))?;
+        let (b, _) = self.read(ev, g, (n, p), &[])?;
+        Ok(Some((
+            count_components(&b, *threshold),
+            count_components(out, *threshold),
+        )))
+    }
+}
+
+/// The quality suite: each setting's median time and its errors against its reference.
+pub(crate) fn run(
+    run: &SuiteRun,
+    base: &Graph,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
+    let suite = run.suite;
+    let q = Quality {
+        run,
+        base,
+        opts: EvalOptions {
+            size: run.size,
+            ..Default::default()
+        },
     };
+    let mut ev = Evaluator::new(run.registry.clone(), run.gpu.clone());
+    // References computed before their own row: (raster, time of the row's timed nodes).
+    let mut first_runs = FirstRuns::new();
     let reference = match &suite.reference {
         Some(setting) => {
             progress(&format!("reference {}", describe(setting)));
-            Some(reference_run(&mut ev, setting, &mut first_runs)?)
+            Some(q.reference(&mut ev, setting, &mut first_runs)?)
         }
         None => None,
     };
     // Named references are computed when a setting first asks for one (a reduced run may
     // need none of them).
     let mut named: BTreeMap<String, Raster> = BTreeMap::new();
-    let edge_mask = match &suite.edges {
-        Some((port, threshold)) => {
-            let (n, p) = split_endpoint(port).map_err(|e| BenchError::Input(e.to_string()))?;
-            let (d, _) = read(&mut ev, base, n, p, &[])?;
-            Some(discontinuities(&d, *threshold))
-        }
-        None => None,
-    };
-    // References that are measured settings too: kept from their row instead of computed again.
-    let wanted = suite
-        .configs
-        .iter()
-        .filter_map(|c| own_reference(suite, c).transpose())
-        .map(|r| r.map(|(name, _)| name))
-        .collect::<Result<std::collections::BTreeSet<_>, _>>()?;
+    let edge_mask = q.edge_mask(&mut ev)?;
+    let wanted = measured_references(suite)?;
     let mut rows: Vec<Row> = Vec::new();
     for (i, setting) in suite.configs.iter().enumerate() {
         progress(&format!(
@@ -75,20 +122,14 @@ pub(crate) fn run(
         if let Some((name, spec)) = &own {
             if !named.contains_key(name) {
                 progress(&format!("reference {name}: {}", describe(spec)));
-                let r = reference_run(&mut ev, spec, &mut first_runs)?;
+                let r = q.reference(&mut ev, spec, &mut first_runs)?;
                 named.insert(name.clone(), r);
             }
         }
-        let mut g = base.clone();
-        let node = apply(&registry, &mut g, &suite.node, setting)?;
-        let output = output_of(setting);
+        let (g, node) = q.graph_of(setting)?;
+        let output = output_of(suite, setting);
         let timed = timed_of(setting, &node);
-        // A setting's own `runs` (e.g. 1 for a slow high-quality row) overrides the suite's.
-        let runs_here = setting
-            .get("runs")
-            .and_then(|r| r.parse::<usize>().ok())
-            .unwrap_or(runs)
-            .min(runs.max(1));
+        let runs_here = runs_for(setting, run.runs);
         let (times, last) = match first_run(&mut first_runs, setting, runs_here, suite) {
             Some((raster, ms)) => {
                 progress("  (its first run: the reference's evaluation)");
@@ -100,7 +141,7 @@ pub(crate) fn run(
             for t in &timed {
                 ev.invalidate(t);
             }
-            read(&mut ev, &g, &node, &output, &timed)
+            q.read(&mut ev, &g, (&node, &output), &timed)
         })?;
         let this = describe(setting);
         if wanted.contains(&this) && !named.contains_key(&this) {
@@ -111,16 +152,7 @@ pub(crate) fn run(
             None => reference.as_ref(),
         };
         // Holes (connected components) before the node and after it.
-        let holes = match &suite.holes {
-            Some((before, threshold)) => {
-                let (n, p) =
-                    split_endpoint(before).map_err(|e| BenchError::Input(e.to_string()))?;
-                let (b, _) = read(&mut ev, &g, n, p, &[])?;
-                let count = |r: &Raster| count_components(r, *threshold);
-                Some((count(&b), count(&out)))
-            }
-            None => None,
-        };
+        let holes = q.holes(&mut ev, &g, &out)?;
         let c = compare(&out, reference, suite, edge_mask.as_deref());
         // The median; of two runs, the faster.
         let median = times[(times.len() - 1) / 2];
@@ -133,6 +165,27 @@ pub(crate) fn run(
         });
     }
     Ok(rows)
+}
+
+/// The timed runs of `setting`: its own `runs` (e.g. 1 for a slow high-quality row) where it
+/// has one, at most the suite's `runs` (≥ 1).
+fn runs_for(setting: &Setting, runs: usize) -> usize {
+    setting
+        .get("runs")
+        .and_then(|r| r.parse::<usize>().ok())
+        .unwrap_or(runs)
+        .min(runs.max(1))
+}
+
+/// References that are measured settings too (by description): kept from their row instead of
+/// computed again.
+fn measured_references(suite: &Suite) -> Result<std::collections::BTreeSet<String>, BenchError> {
+    suite
+        .configs
+        .iter()
+        .filter_map(|c| own_reference(suite, c).transpose())
+        .map(|r| r.map(|(name, _)| name))
+        .collect()
 }
 
 /// References computed before their own row, by setting: (raster, time of the row's timed

@@ -20,15 +20,13 @@
 //! - `ref change`: the reference's own mean |rₖ − rₖ₋₁|, the scale a flicker is read against.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
-use tyndall_engine::eval::{EvalOptions, Evaluator, Registry};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::eval::{EvalOptions, Evaluator};
 use tyndall_engine::graph::Graph;
 use tyndall_engine::io::Raster;
 
 use super::metrics::errors;
-use super::{apply, read_port, timed_of, BenchError, Row, Suite};
+use super::{apply, read_port, timed_of, BenchError, Row, SuiteRun};
 
 /// A setting's running sums over the frames.
 #[derive(Default)]
@@ -75,13 +73,11 @@ fn mean_abs_change(a: &Raster, b: &Raster) -> f64 {
 
 /// Run a temporal suite (see the module docs); `progress` gets a line per frame.
 pub fn run(
-    registry: Arc<Registry>,
-    gpu: Arc<Gpu>,
+    run: &SuiteRun,
     base: &Graph,
-    suite: &Suite,
-    size: (u32, u32),
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>, BenchError> {
+    let (registry, gpu, suite, size) = (&run.registry, &run.gpu, run.suite, run.size);
     let reference = suite
         .reference
         .as_ref()
@@ -91,7 +87,7 @@ pub fn run(
     let mut graphs = Vec::new();
     for setting in std::iter::once(reference).chain(&suite.configs) {
         let mut g = base.clone();
-        let node = apply(&registry, &mut g, &suite.node, setting)?;
+        let node = apply(registry, &mut g, &suite.node, setting)?;
         let output = setting
             .get("output")
             .cloned()
@@ -106,7 +102,7 @@ pub fn run(
             time,
             ..Default::default()
         };
-        read_port(ev, &gpu, g, (node, output), timed, &opts)
+        read_port(ev, gpu, g, (node, output), timed, &opts)
     };
     let mut tracks: Vec<Track> = suite.configs.iter().map(|_| Track::default()).collect();
     let mut ref_previous: Option<Raster> = None;

@@ -286,16 +286,31 @@ fn plot<'a>(
     ui.small(format!(
         "{suite}: median time (across, log) against RMSE (up, log); {adapter}"
     ));
+    if let Some(m) = current_setting(ui, rows, &agreements, current) {
+        picked = Some(m);
+    }
+    picked
+}
+
+/// Under the plot: the node's current setting where it was measured (in `current`'s colour),
+/// else the closest measured one with a button to use it (returned when clicked).
+fn current_setting<'a>(
+    ui: &mut egui::Ui,
+    rows: &[&'a Measured],
+    agreements: &[(usize, usize)],
+    current: egui::Color32,
+) -> Option<&'a Measured> {
+    let mut picked = None;
     let matched: Vec<&&Measured> = rows
         .iter()
-        .zip(&agreements)
+        .zip(agreements)
         .filter(|(_, (eq, all))| *all > 0 && eq == all)
         .map(|(m, _)| m)
         .collect();
     if matched.is_empty() {
         let best = rows
             .iter()
-            .zip(&agreements)
+            .zip(agreements)
             .max_by_key(|(_, (eq, _))| *eq)
             .map(|(m, _)| *m);
         if let Some(m) = best {

@@ -12,12 +12,15 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use tyndall_engine::eval::{
-    download, EvalError, EvalOptions, Evaluator, PortValue, Registry, Status, Target,
-};
+use tyndall_engine::eval::{Evaluator, Registry, Status};
 use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::{Graph, PortType};
 use tyndall_engine::io::Raster;
+
+mod evaluate;
+
+use evaluate::evaluate;
+pub use evaluate::shrink;
 
 /// Longest side of a node's thumbnail on the canvas, in pixels.
 pub const THUMB: u32 = 96;
@@ -336,197 +339,6 @@ pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String
         .collect()
 }
 
-/// A picture a shown id reads: (the port name shown, the flattened node, its port).
-type Shown = (String, String, String);
-
-fn evaluate(
-    ev: &mut Evaluator,
-    req: &Request,
-    thumbed: &mut BTreeSet<String>,
-    sink: &tyndall_engine::eval::ProgressSink,
-    cancel: tyndall_engine::eval::CancelCheck,
-) -> Outcome {
-    let start = std::time::Instant::now();
-    let proxy = req.proxy.max(1);
-    let opts = EvalOptions {
-        time: req.time,
-        size: tyndall_engine::eval::proxy::proxy_size(req.size, proxy),
-        progress: Some(sink.clone()),
-        cancel: Some(cancel),
-        ..Default::default()
-    };
-    let registry = ev.registry().clone();
-    // Flattened once: every id below is a flattened one (`group/inner`).
-    let (graph, ports) = match req.graph.flatten_ports(registry.catalog()) {
-        Ok(f) => f,
-        Err(e) => return failed(req, &e.to_string(), start),
-    };
-    // A full request evaluates the flattened document itself (no second copy).
-    let graph = if proxy > 1 {
-        tyndall_engine::eval::proxy::proxy_graph(&graph, registry.catalog(), proxy)
-    } else {
-        graph
-    };
-    let mut nodes: BTreeMap<String, NodeReport> = graph
-        .nodes()
-        .map(|n| (n.id.clone(), NodeReport::default()))
-        .collect();
-    let mut aliases = BTreeMap::new();
-    for ((inst, _), (n, _)) in &ports {
-        aliases.entry(inst.clone()).or_insert_with(|| n.clone());
-    }
-    // What a shown id reads: (port shown, flattened node, its port) — a node's picture
-    // outputs, or a group instance's outputs that are pictures.
-    let shown = |id: &str| -> Vec<Shown> {
-        if graph.node(id).is_some() {
-            return picture_ports(&graph, &registry, id)
-                .into_iter()
-                .map(|p| (p.clone(), id.to_string(), p))
-                .collect();
-        }
-        ports
-            .iter()
-            .filter(|((inst, _), (n, p))| {
-                inst == id && picture_ports(&graph, &registry, n).contains(p)
-            })
-            .map(|((_, port), (n, p))| (port.clone(), n.clone(), p.clone()))
-            .collect()
-    };
-    // The viewed node first (what the artist waits for), then every node's thumbnail; the
-    // cache makes the later calls cheap.
-    // (node, ports, read back in full: 1 the view, 2 the wipe's comparison, 0 a thumbnail)
-    let mut jobs: Vec<(String, Vec<Shown>, u8)> = Vec::new();
-    if let Some(id) = &req.view {
-        jobs.push((id.clone(), shown(id), 1));
-    }
-    if let Some(id) = &req.compare {
-        jobs.push((id.clone(), shown(id), 2));
-    }
-    // A proxy shows the viewer only: thumbnails wait for the full-resolution request.
-    for id in graph.topo_order().into_iter().filter(|_| proxy == 1) {
-        if let Some(first) = shown(&id).into_iter().next() {
-            jobs.push((id, vec![first], 0));
-        }
-    }
-    let (mut view, mut compare) = (None, None);
-    let mut device_lost = None;
-    let mut cancelled = false;
-    for (id, ports, full) in jobs {
-        if ports.is_empty() || nodes.get(&id).is_some_and(|r| r.error.is_some()) {
-            continue;
-        }
-        let targets: Vec<Target> = ports
-            .iter()
-            .map(|(_, n, p)| Target::Port(n.clone(), p.clone()))
-            .collect();
-        match ev.evaluate(&graph, &targets, &opts) {
-            Ok(r) => {
-                for s in &r.stats.nodes {
-                    let Some(rep) = nodes.get_mut(&s.id) else {
-                        continue;
-                    };
-                    if s.status.ran() {
-                        rep.status = s.status;
-                        rep.time = s.time;
-                        thumbed.remove(&s.id);
-                    } else if s.status == Status::Reused && !rep.status.ran() {
-                        rep.status = Status::Reused;
-                    }
-                }
-                if full > 0 {
-                    let pictures = ports
-                        .iter()
-                        .filter_map(|(shown, n, p)| {
-                            let v = r.outputs.get(&(n.clone(), p.clone()))?;
-                            Some((shown.clone(), download(ev.gpu(), v).ok()?))
-                        })
-                        .collect();
-                    if full == 1 {
-                        view = Some((id.clone(), pictures));
-                    } else {
-                        compare = Some((id.clone(), pictures));
-                    }
-                } else if !thumbed.contains(&id) {
-                    if let (Some(v), Some(rep)) = (
-                        r.outputs.get(&(ports[0].1.clone(), ports[0].2.clone())),
-                        nodes.get_mut(&id),
-                    ) {
-                        rep.thumb = thumbnail(ev.gpu(), v);
-                        thumbed.insert(id.clone());
-                    }
-                }
-            }
-            Err(EvalError::Cancelled { .. }) => {
-                cancelled = true;
-                break;
-            }
-            Err(e) => {
-                let lost = e.device_lost();
-                let culprit = match &e {
-                    EvalError::Node { node, .. } => node.clone(),
-                    _ => id.clone(),
-                };
-                thumbed.remove(&culprit);
-                if let Some(rep) = nodes.get_mut(&culprit) {
-                    rep.error = Some(e.to_string());
-                }
-                if culprit != id {
-                    if let Some(rep) = nodes.get_mut(&id) {
-                        rep.error = Some(format!("input failed: node '{culprit}'"));
-                    }
-                }
-                if lost {
-                    // Every later job would fail the same way.
-                    device_lost = Some(e.to_string());
-                    break;
-                }
-            }
-        }
-    }
-    Outcome {
-        generation: req.generation,
-        nodes,
-        aliases,
-        view,
-        compare,
-        elapsed: start.elapsed(),
-        device_lost,
-        proxy,
-        size: opts.size,
-        cancelled,
-    }
-}
-
-/// The outcome of a request whose graph cannot be flattened: every node carries the reason.
-fn failed(req: &Request, reason: &str, start: std::time::Instant) -> Outcome {
-    let nodes = req
-        .graph
-        .nodes()
-        .map(|n| {
-            let error = Some(reason.to_string());
-            (
-                n.id.clone(),
-                NodeReport {
-                    error,
-                    ..NodeReport::default()
-                },
-            )
-        })
-        .collect();
-    Outcome {
-        generation: req.generation,
-        nodes,
-        aliases: BTreeMap::new(),
-        view: None,
-        compare: None,
-        elapsed: start.elapsed(),
-        device_lost: None,
-        proxy: req.proxy.max(1),
-        size: req.size,
-        cancelled: false,
-    }
-}
-
 /// The report a group instance `path` (flattened) shows: its inner nodes' together — ran when
 /// one ran (their times added), reused when all that were needed were, their first error.
 pub fn group_report(reports: &BTreeMap<String, NodeReport>, path: &str) -> Option<NodeReport> {
@@ -551,58 +363,6 @@ pub fn group_report(reports: &BTreeMap<String, NodeReport>, path: &str) -> Optio
         error: inner.iter().find_map(|r| r.error.clone()),
         thumb: None,
     })
-}
-
-/// A picture-like value read back and shrunk (box filter) to at most [`THUMB`] pixels wide or
-/// high; `None` for values that are not 2D pictures.
-/// One-channel values beyond 1 (depths in metres) are divided by their largest finite value so
-/// the thumbnail shows their shape instead of white.
-fn thumbnail(gpu: &Gpu, value: &PortValue) -> Option<Raster> {
-    let mut r = shrink(&download(gpu, value).ok()?, THUMB);
-    if r.channels == 1 {
-        let top = r
-            .data
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f32, |a, v| a.max(*v));
-        if top > 1.0 {
-            r.data.iter_mut().for_each(|v| *v /= top);
-        }
-    }
-    Some(r)
-}
-
-/// Shrink `r` by an integer box filter so its longer side is at most `side` pixels.
-pub fn shrink(r: &Raster, side: u32) -> Raster {
-    let f = r.width.max(r.height).div_ceil(side.max(1)).max(1);
-    let (w, h) = (r.width.div_ceil(f), r.height.div_ceil(f));
-    let c = r.channels as usize;
-    let mut data = vec![0.0f32; (w * h) as usize * c];
-    for y in 0..h {
-        for x in 0..w {
-            let mut n = 0.0f32;
-            let mut acc = [0.0f32; 4];
-            for sy in y * f..((y + 1) * f).min(r.height) {
-                for sx in x * f..((x + 1) * f).min(r.width) {
-                    let i = (sy * r.width + sx) as usize * c;
-                    for (a, v) in acc.iter_mut().zip(&r.data[i..i + c]) {
-                        *a += v;
-                    }
-                    n += 1.0;
-                }
-            }
-            let o = (y * w + x) as usize * c;
-            for (d, a) in data[o..o + c].iter_mut().zip(acc) {
-                *d = a / n.max(1.0);
-            }
-        }
-    }
-    Raster {
-        width: w,
-        height: h,
-        channels: r.channels,
-        data,
-    }
 }
 
 /// The document with its input files (file parameters, files inside data blocks) resolved

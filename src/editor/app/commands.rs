@@ -15,31 +15,9 @@ impl EditorApp {
     pub(super) fn shortcuts(&mut self, ctx: &egui::Context) {
         // Only a text field takes the keys (a focused button or node frame does not).
         let typing = ctx.text_edit_focused();
-        let events = ctx.input(|i| i.events.clone());
         let selection = self.selection(ctx);
-        for e in &events {
-            match e {
-                egui::Event::Copy | egui::Event::Cut if !typing && !selection.is_empty() => {
-                    self.clipboard = self.state.copy(&selection);
-                    ctx.copy_text(self.clipboard.clone());
-                    if matches!(e, egui::Event::Cut) {
-                        let _ = self.state.delete(&selection);
-                    }
-                    self.status = format!("copied {} node(s)", selection.len());
-                }
-                egui::Event::Paste(text) if !typing => {
-                    let text = if text.trim_start().starts_with('(') {
-                        text.clone()
-                    } else {
-                        self.clipboard.clone()
-                    };
-                    self.status = match self.state.paste(&text, [40.0, 40.0]) {
-                        Ok(ids) => format!("pasted {} node(s)", ids.len()),
-                        Err(e) => format!("nothing to paste: {e}"),
-                    };
-                }
-                _ => {}
-            }
+        if !typing {
+            self.clipboard_events(ctx, &selection);
         }
         let (undo, redo, save) = ctx.input(|i| {
             let cmd = i.modifiers.command;
@@ -62,35 +40,9 @@ impl EditorApp {
         if typing {
             return;
         }
-        let keys = [
-            egui::Key::Num1,
-            egui::Key::Num2,
-            egui::Key::Num3,
-            egui::Key::Num4,
-            egui::Key::Num5,
-            egui::Key::Num6,
-            egui::Key::Num7,
-            egui::Key::Num8,
-            egui::Key::Num9,
-        ];
         let mut enter_or_leave = false;
         ctx.input(|i| {
-            for (slot, k) in keys.iter().enumerate() {
-                if i.key_pressed(*k) && !i.modifiers.command {
-                    if i.modifiers.shift {
-                        if let Some(id) = self.selected.clone() {
-                            self.pins[slot] = Some(self.state.full_id(&id));
-                            self.active_pin = Some(slot);
-                        }
-                    } else if self.pins[slot].is_some() {
-                        self.active_pin = if self.active_pin == Some(slot) {
-                            None
-                        } else {
-                            Some(slot)
-                        };
-                    }
-                }
-            }
+            self.pin_keys(i);
             if i.key_pressed(egui::Key::F) && !i.modifiers.command {
                 self.frame_all = true;
             }
@@ -106,24 +58,8 @@ impl EditorApp {
             if i.key_pressed(egui::Key::D) && i.modifiers.command && !selection.is_empty() {
                 let _ = self.state.duplicate(&selection);
             }
-            // Ctrl+G groups the selection; Ctrl+Shift+G ungroups the selected group node.
             if i.key_pressed(egui::Key::G) && i.modifiers.command {
-                if i.modifiers.shift {
-                    if let Some(id) = self.selected.clone() {
-                        self.status = match self.state.ungroup(&id) {
-                            Ok(()) => format!("{id}: ungrouped"),
-                            Err(e) => e.to_string(),
-                        };
-                    }
-                } else if !selection.is_empty() {
-                    self.status = match self.state.group(&selection) {
-                        Ok(g) => {
-                            self.selected = Some(g.clone());
-                            format!("grouped {} node(s) into {g}", selection.len())
-                        }
-                        Err(e) => e.to_string(),
-                    };
-                }
+                self.group_key(i.modifiers.shift, &selection);
             }
             if (i.key_pressed(egui::Key::Delete) || i.key_pressed(egui::Key::Backspace))
                 && !selection.is_empty()
@@ -135,6 +71,86 @@ impl EditorApp {
             // Tab is ours here, not egui's move to the next widget.
             ctx.memory_mut(|m| m.move_focus(egui::FocusDirection::None));
             self.enter_or_leave();
+        }
+    }
+
+    /// Copy, cut and paste events (the keyboard's or the menu's), outside text fields.
+    fn clipboard_events(&mut self, ctx: &egui::Context, selection: &[String]) {
+        let events = ctx.input(|i| i.events.clone());
+        for e in &events {
+            match e {
+                egui::Event::Copy | egui::Event::Cut if !selection.is_empty() => {
+                    self.clipboard = self.state.copy(selection);
+                    ctx.copy_text(self.clipboard.clone());
+                    if matches!(e, egui::Event::Cut) {
+                        let _ = self.state.delete(selection);
+                    }
+                    self.status = format!("copied {} node(s)", selection.len());
+                }
+                egui::Event::Paste(text) => {
+                    let text = if text.trim_start().starts_with('(') {
+                        text.clone()
+                    } else {
+                        self.clipboard.clone()
+                    };
+                    self.status = match self.state.paste(&text, [40.0, 40.0]) {
+                        Ok(ids) => format!("pasted {} node(s)", ids.len()),
+                        Err(e) => format!("nothing to paste: {e}"),
+                    };
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// Keys 1–9 show pin 1–9 (again: the selection); Shift+1–9 pins the selected node.
+    fn pin_keys(&mut self, i: &egui::InputState) {
+        let keys = [
+            egui::Key::Num1,
+            egui::Key::Num2,
+            egui::Key::Num3,
+            egui::Key::Num4,
+            egui::Key::Num5,
+            egui::Key::Num6,
+            egui::Key::Num7,
+            egui::Key::Num8,
+            egui::Key::Num9,
+        ];
+        for (slot, k) in keys.iter().enumerate() {
+            if i.key_pressed(*k) && !i.modifiers.command {
+                if i.modifiers.shift {
+                    if let Some(id) = self.selected.clone() {
+                        self.pins[slot] = Some(self.state.full_id(&id));
+                        self.active_pin = Some(slot);
+                    }
+                } else if self.pins[slot].is_some() {
+                    self.active_pin = if self.active_pin == Some(slot) {
+                        None
+                    } else {
+                        Some(slot)
+                    };
+                }
+            }
+        }
+    }
+
+    /// Ctrl+G groups the selection; Ctrl+Shift+G (`shift`) ungroups the selected group node.
+    fn group_key(&mut self, shift: bool, selection: &[String]) {
+        if shift {
+            if let Some(id) = self.selected.clone() {
+                self.status = match self.state.ungroup(&id) {
+                    Ok(()) => format!("{id}: ungrouped"),
+                    Err(e) => e.to_string(),
+                };
+            }
+        } else if !selection.is_empty() {
+            self.status = match self.state.group(selection) {
+                Ok(g) => {
+                    self.selected = Some(g.clone());
+                    format!("grouped {} node(s) into {g}", selection.len())
+                }
+                Err(e) => e.to_string(),
+            };
         }
     }
 

@@ -2,7 +2,6 @@
 //! measured settings, then the editor tools its declaration names.
 
 use super::*;
-use crate::ToolContext;
 use tyndall_engine::graph::ParamSpec;
 
 impl EditorApp {
@@ -159,28 +158,7 @@ impl EditorApp {
         if let Some(setting) = self.bench.show(ui, &node.kind, &current) {
             self.use_measured(&id, &setting);
         }
-        // The tools the node's declaration names, in its order (an id no offered tool answers
-        // to, such as a tag another tool reads, shows nothing).
-        let tools = self
-            .registry
-            .get(&node.kind)
-            .map_or(&[][..], |k| k.decl().tools);
-        for tool_id in tools {
-            let Some(tool) = self.tools.by_id_mut(tool_id) else {
-                continue;
-            };
-            let mut cx = ToolContext {
-                state: &mut self.state,
-                registry: &self.registry,
-                node: &id,
-                time: self.time,
-                view_size: VIEW_SIZE,
-                jobs: &mut self.jobs,
-            };
-            if let Some(m) = tool.panel(ui, &mut cx) {
-                self.status = m;
-            }
-        }
+        self.each_tool(&id, |tool, cx| tool.panel(ui, cx));
     }
 
     /// One parameter's row: its widget (greyed out, with the reason, while the parameter is
@@ -227,22 +205,7 @@ impl EditorApp {
                 }
                 None => {}
             }
-            if matches!(p.kind, ParamKind::Float | ParamKind::Int) {
-                let keys = node.keys.get(p.name);
-                let here = keys.is_some_and(|k| k.iter().any(|k| k.t == self.time));
-                let (mark, tip) = match (keys.is_some(), here) {
-                    (_, true) => ("◆", "key at this frame: click to remove it"),
-                    (true, false) => ("◇", "animated: click to add a key at this frame"),
-                    (false, _) => ("○", "click to key this parameter at this frame"),
-                };
-                if ui
-                    .add(egui::Button::new(mark).small())
-                    .on_hover_text(tip)
-                    .clicked()
-                {
-                    toggle_key = true;
-                }
-            }
+            toggle_key = key_button(ui, node, p, self.time);
         });
         if expose {
             self.status = match self.state.expose_here(id, p.name) {
@@ -382,4 +345,27 @@ fn snake(name: &str) -> String {
         out.extend(c.to_lowercase());
     }
     out
+}
+
+/// The key-frame button after a numeric parameter's widget (◆ key at `time`, ◇ animated, ○
+/// not keyed); returns whether it was clicked (add or remove the key at `time`).
+fn key_button(
+    ui: &mut egui::Ui,
+    node: &tyndall_engine::graph::Node,
+    p: &ParamSpec,
+    time: f64,
+) -> bool {
+    if !matches!(p.kind, ParamKind::Float | ParamKind::Int) {
+        return false;
+    }
+    let keys = node.keys.get(p.name);
+    let here = keys.is_some_and(|k| k.iter().any(|k| k.t == time));
+    let (mark, tip) = match (keys.is_some(), here) {
+        (_, true) => ("◆", "key at this frame: click to remove it"),
+        (true, false) => ("◇", "animated: click to add a key at this frame"),
+        (false, _) => ("○", "click to key this parameter at this frame"),
+    };
+    ui.add(egui::Button::new(mark).small())
+        .on_hover_text(tip)
+        .clicked()
 }

@@ -222,28 +222,8 @@ impl EditorApp {
         }
         let size = (raster.width, raster.height);
         // The selected node's tools take the pointer over the picture and draw over it.
-        let selected = self
-            .selected
-            .as_ref()
-            .and_then(|id| self.state.graph().node(id))
-            .and_then(|n| Some((n.id.clone(), self.registry.get(&n.kind)?.decl().tools)));
-        if let Some((id, tool_ids)) = selected {
-            for tool_id in tool_ids {
-                let Some(tool) = self.tools.by_id_mut(tool_id) else {
-                    continue;
-                };
-                let mut cx = crate::ToolContext {
-                    state: &mut self.state,
-                    registry: &self.registry,
-                    node: &id,
-                    time: self.time,
-                    view_size: VIEW_SIZE,
-                    jobs: &mut self.jobs,
-                };
-                if let Some(m) = tool.viewer(ui, &response, size, &mut cx) {
-                    self.status = m;
-                }
-            }
+        if let Some(id) = self.selected.clone() {
+            self.each_tool(&id, |tool, cx| tool.viewer(ui, &response, size, cx));
         }
         ui.label(egui::RichText::new(&self.probe).monospace().small());
     }

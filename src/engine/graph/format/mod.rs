@@ -15,7 +15,6 @@
 //! Saving orders nodes by id, parameters by name, edges by destination, so save → load → save is
 //! byte-identical. Older versions are read and migrated by [`MIGRATIONS`].
 
-use std::collections::BTreeMap;
 use std::fmt;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -25,10 +24,10 @@ use serde::de::{MapAccess, Visitor};
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::document::{split_endpoint, Graph, Node};
+use super::document::Graph;
 use super::error::{GraphError, LoadError, Location};
 use super::schema::Catalog;
-use super::types::{Interp, Key, ParamValue};
+use super::types::{Interp, ParamValue};
 
 /// The format version this build writes and the newest it reads. Version 3 added `groups`
 /// (node groups, embedded or referenced from a library file: [`crate::graph::GroupDef`]).
@@ -45,7 +44,10 @@ pub type Migration = fn(&str) -> Result<FileGraph, ron::error::SpannedError>;
 /// steps (`migrate_v1_to_v2`, `migrate_v2_to_v3`).
 pub const MIGRATIONS: &[Migration] = &[migrate::read_v1, migrate::read_v2];
 
+mod build;
 mod migrate;
+
+pub(super) use build::build;
 
 /// The current file shape (version [`FORMAT_VERSION`]).
 #[derive(Serialize, Deserialize)]
@@ -337,164 +339,6 @@ pub fn load_str(text: &str, file: &Path, catalog: &Catalog) -> Result<Graph, Loa
         .resolve_table(&parsed.groups, catalog)
         .map_err(|e| err(None, e))?;
     build(parsed, &loc, catalog, &groups, false).map_err(|(b, e)| err(b.map(|b| loc.at(b)), e))
-}
-
-/// Build a graph from its parsed file, with `groups` (resolved definitions) available to its
-/// nodes; the graph keeps those its nodes use.
-pub(super) fn build(
-    f: FileGraph,
-    loc: &Locator,
-    catalog: &Catalog,
-    groups: &BTreeMap<String, std::sync::Arc<super::GroupDef>>,
-    inner: bool,
-) -> Result<Graph, (Option<usize>, GraphError)> {
-    let mut g = Graph::new();
-    for (_, fnode) in &f.nodes {
-        if let Some(def) = groups.get(&fnode.kind) {
-            g.add_group(def.clone());
-        }
-    }
-    let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
-    let mut key_tracks = key_tracks(&f, loc)?;
-    for (id, fnode) in &f.nodes {
-        let count = seen.entry(id.as_str()).or_insert(0);
-        if *count > 0 {
-            return Err((
-                loc.node(id, *count),
-                GraphError::DuplicateNode { node: id.clone() },
-            ));
-        }
-        *count += 1;
-        let node = Node {
-            id: id.clone(),
-            kind: fnode.kind.clone(),
-            params: file_params(id, fnode, loc, catalog)?,
-            keys: key_tracks.remove(id).unwrap_or_default(),
-            pos: fnode.pos.map(|(x, y)| [x, y]),
-            data: fnode.data.clone(),
-        };
-        g.insert_node(catalog, node).map_err(|e| {
-            let at = match &e {
-                GraphError::UnknownParam { param, .. }
-                | GraphError::WrongParamType { param, .. }
-                | GraphError::OutOfRange { param, .. } => loc
-                    .param(id, param)
-                    .or_else(|| loc.key(&format!("{id}.{param}"))),
-                GraphError::BadKeys { target, .. } => loc.key(target),
-                _ => loc.node(id, 0),
-            };
-            (at, e)
-        })?;
-    }
-    if let Some((node, tracks)) = key_tracks.into_iter().next() {
-        let target = format!(
-            "{node}.{}",
-            tracks.keys().next().map(String::as_str).unwrap_or("")
-        );
-        return Err((
-            loc.key(&target),
-            GraphError::BadKeys {
-                reason: format!("no node '{node}'"),
-                target,
-            },
-        ));
-    }
-    for (from, to) in &f.edges {
-        g.connect_loading(catalog, from, to).map_err(|e| {
-            let at = match &e {
-                GraphError::EdgeMissingNode { node, .. }
-                | GraphError::EdgeMissingPort { node, .. }
-                    if to.starts_with(&format!("{node}.")) =>
-                {
-                    loc.edge(to)
-                }
-                _ => loc.edge(from),
-            };
-            (at, e)
-        })?;
-    }
-    if let Err(e) = g.check_acyclic() {
-        // Named by the edge that closes it in file order (only a file with a cycle pays).
-        return Err(match g.first_cycle_edge(catalog, &f.edges) {
-            Some((i, e)) => (loc.edge(&f.edges[i].0), e),
-            None => (None, e),
-        });
-    }
-    if inner {
-        // A group's inner types depend on what reaches its inputs: they are checked in the
-        // flattened graph of the document that instantiates it (below).
-        return Ok(g);
-    }
-    // Types last: polymorphic outputs take their type from edges that may come later. Edges to
-    // and from groups first against the groups' ports, then the flattened graph (what the
-    // groups' insides make of what reaches them).
-    g.check_all_types(catalog).map_err(|e| {
-        let at = match &e {
-            GraphError::TypeMismatch { from, .. } => loc.edge(from),
-            _ => None,
-        };
-        (at, e)
-    })?;
-    if g.has_group_nodes() {
-        let flat = g.flatten(catalog).map_err(|e| (None, e))?;
-        flat.check_known_types(catalog).map_err(|e| (None, e))?;
-    }
-    Ok(g)
-}
-
-/// Key tracks by node, then parameter.
-type KeyTracks = BTreeMap<String, BTreeMap<String, Vec<Key>>>;
-
-/// The file's key tracks by node, then parameter.
-fn key_tracks(f: &FileGraph, loc: &Locator) -> Result<KeyTracks, (Option<usize>, GraphError)> {
-    let mut key_tracks = KeyTracks::new();
-    for (target, keys) in &f.keys {
-        let (node, param) = split_endpoint(target).map_err(|e| (loc.key(target), e))?;
-        let keys = keys
-            .iter()
-            .map(|(t, v, interp)| Key {
-                t: *t,
-                v: *v,
-                interp: *interp,
-            })
-            .collect();
-        key_tracks
-            .entry(node.to_string())
-            .or_default()
-            .insert(param.to_string(), keys);
-    }
-    Ok(key_tracks)
-}
-
-/// Node `id`'s parameter values as written (a value of no parameter type names what its
-/// parameter expects).
-fn file_params(
-    id: &str,
-    fnode: &FileNode,
-    loc: &Locator,
-    catalog: &Catalog,
-) -> Result<BTreeMap<String, ParamValue>, (Option<usize>, GraphError)> {
-    let mut params = BTreeMap::new();
-    for (name, v) in &fnode.params {
-        let pv = value_to_param(v).map_err(|found| {
-            let expected = catalog
-                .get(&fnode.kind)
-                .and_then(|s| s.param(name))
-                .map(|p| p.expected())
-                .unwrap_or_else(|| "a parameter value".into());
-            (
-                loc.param(id, name),
-                GraphError::WrongParamType {
-                    node: id.to_string(),
-                    param: name.clone(),
-                    expected,
-                    found,
-                },
-            )
-        })?;
-        params.insert(name.clone(), pv);
-    }
-    Ok(params)
 }
 
 /// A graph as its file's parts (without groups): nodes by id, edges by destination, key tracks.
