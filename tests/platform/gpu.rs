@@ -17,6 +17,25 @@ fn readback_strips_row_padding_for_odd_widths() {
     }
 }
 
+/// A channel count `upload` has no format for, or data of the wrong length, is an error naming
+/// both — not a texture of another layout (2 channels used to become RGBA with half the data).
+#[test]
+fn uploads_of_the_wrong_shape_are_refused() {
+    let gpu = require_gpu!();
+    for (w, h, c, n) in [(4, 1, 2, 8), (4, 1, 3, 12), (4, 1, 4, 8), (3, 3, 1, 10)] {
+        let e = gpu
+            .upload(w, h, c, &vec![0.5; n])
+            .err()
+            .unwrap_or_else(|| panic!("{w}x{h}x{c} with {n} values was accepted"));
+        let text = e.to_string();
+        assert!(
+            matches!(e, tyndall::gpu::GpuError::BadData(_))
+                && text.contains(&format!("{n} values")),
+            "{text}"
+        );
+    }
+}
+
 #[test]
 fn pool_recycles_textures_of_same_size_and_format() {
     let gpu = require_gpu!();

@@ -61,6 +61,10 @@ pub enum GpuError {
     /// Reading a texture back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// Samples handed to the GPU do not fit the texture asked for (a channel count other than
+    /// 1 or 4, or a length other than width × height × channels).
+    #[error("texture data: {0}")]
+    BadData(String),
     /// The device was lost (driver reset, GPU removed, or destroyed): nothing more can run on it.
     #[error("the GPU device was lost ({0}); this run cannot continue")]
     Lost(String),
@@ -400,7 +404,9 @@ impl Gpu {
         Ok(tex)
     }
 
-    /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`) into a new texture.
+    /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`; pad two or three
+    /// values per texel to four) into a new texture. Any other channel count, or `data` not
+    /// `width × height × channels` long, is [`GpuError::BadData`].
     pub fn upload(
         &self,
         width: u32,
@@ -408,6 +414,14 @@ impl Gpu {
         channels: u32,
         data: &[f32],
     ) -> Result<GpuTexture, GpuError> {
+        let want = width as usize * height as usize * channels as usize;
+        if !matches!(channels, 1 | 4) || data.len() != want {
+            return Err(GpuError::BadData(format!(
+                "{} values for a {width}×{height} texture of {channels} channel(s) \
+                 (1 or 4 channels, {want} values expected)",
+                data.len()
+            )));
+        }
         let format = if channels == 1 {
             TexFormat::R32F
         } else {
