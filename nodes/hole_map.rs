@@ -4,9 +4,11 @@
 //! With `calibrated` off, `h` is used as the threshold directly, so the hole fraction depends on
 //! the noise's distribution (Perlin noise clusters around 0.5: h = 0.3 gives far fewer than 30 %
 //! holes). With `calibrated` on, the threshold is the h-quantile of the input's values, so the
-//! fraction of hole texels is h (up to ties): "hole probability" then means what it says. To
-//! find the quantile the node reads its input back once (a one-channel map, sorted on the CPU);
-//! the thresholding itself runs on the GPU.
+//! fraction of hole texels is h (up to ties): "hole probability" then means what it says. The
+//! quantile is the k-th smallest finite value, k = ⌊h_q·n / 2³²⌋ with h_q = ⌊h·2³²⌋ (n finite
+//! values; within one rank of ⌊h·n⌋), found on the GPU by radix select — four histogram passes
+//! of 8 bits over order-preserving keys of the values' bits — so nothing is read back and the
+//! threshold is the CPU reference's bit for bit.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -20,7 +22,7 @@
 
 use std::sync::Arc;
 
-use tyndall_engine::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
@@ -54,31 +56,37 @@ const SHADER: Shader = crate::shader("hole_map", include_str!("../shaders/hole_m
 tyndall_engine::uniforms! {
     /// Uniforms of `shaders/hole_map.wgsl` (struct `Params`).
     pub struct HoleParams as "Params" {
-        /// Values below this are holes.
+        /// Values below this are holes (the `threshold` pass).
         pub threshold: f32,
+        /// h_q = ⌊h·2³²⌋: the rank selected is ⌊h_q·n / 2³²⌋.
+        pub hq: u32,
+        /// The digit of a `histogram` or `pick` pass: 24, 16, 8, 0.
+        pub shift: u32,
         /// Padding.
         pub _pad0: u32,
-        /// Padding.
-        pub _pad1: u32,
-        /// Padding.
-        pub _pad2: u32,
     }
 }
 
-/// The threshold giving a hole fraction of `h` on these values: with values sorted, the
-/// ⌊h·n⌋-th smallest (so exactly ⌊h·n⌋ values lie below it when values are distinct); h = 0
-/// gives −∞ (no holes), h = 1 gives +∞ (all holes).
+/// h as the 32-bit fraction h_q = ⌊h·2³²⌋ (0 < h < 1).
+pub fn fraction_bits(h: f64) -> u32 {
+    (h * 4_294_967_296.0).floor().clamp(0.0, u32::MAX as f64) as u32
+}
+
+/// The threshold giving a hole fraction of `h` on these values: of the n finite values sorted
+/// (`f32::total_cmp`), the k-th smallest, k = ⌊h_q·n / 2³²⌋ ([`fraction_bits`]; so k values lie
+/// below it when values are distinct); h = 0 or no finite value gives −∞ (no holes), h = 1
+/// gives +∞ (all holes).
 pub fn calibrated_threshold(values: &[f32], h: f64) -> f32 {
-    if h <= 0.0 || values.is_empty() {
-        return f32::NEG_INFINITY;
-    }
     if h >= 1.0 {
         return f32::INFINITY;
     }
     let mut v: Vec<f32> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if h <= 0.0 || v.is_empty() {
+        return f32::NEG_INFINITY;
+    }
     v.sort_by(f32::total_cmp);
-    let k = ((h * v.len() as f64).floor() as usize).min(v.len() - 1);
-    v[k]
+    let k = ((fraction_bits(h) as u64 * v.len() as u64) >> 32) as usize;
+    v[k.min(v.len() - 1)]
 }
 
 /// CPU reference of the thresholding.
@@ -97,33 +105,63 @@ impl NodeKind for HoleMap {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let input = ctx.require("noise")?.clone();
         let tex = ctx.require_texture("noise")?;
         let h = p.probability;
-        let threshold = if p.calibrated {
-            calibrated_threshold(&download(ctx.gpu, &input)?.data, h)
-        } else {
-            h as f32
-        };
-        // ±∞ thresholds as the largest finite values keep the uniform finite.
-        let u = HoleParams {
-            threshold: threshold.clamp(f32::MIN, f32::MAX),
-            _pad0: 0,
-            _pad1: 0,
-            _pad2: 0,
-        };
         let out = ctx.gpu.texture(tex.width, tex.height, TexFormat::R32F)?;
-        ctx.gpu.dispatch(
-            SHADER,
-            "threshold",
-            &[
-                ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
-                ("noise", Bind::Texture(&tex)),
-                ("out_holes", Bind::Storage(&out)),
-            ],
-            tex.width,
-            tex.height,
-        )?;
+        let uniforms = |threshold: f32, shift: u32| HoleParams {
+            // ±∞ thresholds as the largest finite values keep the uniform finite.
+            threshold: threshold.clamp(f32::MIN, f32::MAX),
+            hq: fraction_bits(h),
+            shift,
+            _pad0: 0,
+        };
+        if !p.calibrated || h <= 0.0 || h >= 1.0 {
+            let threshold = match (p.calibrated, h >= 1.0) {
+                (false, _) => h as f32,
+                (true, true) => f32::INFINITY,
+                (true, false) => f32::NEG_INFINITY,
+            };
+            let u = uniforms(threshold, 0);
+            ctx.gpu.dispatch(
+                SHADER,
+                "threshold",
+                &[
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                    ("noise", Bind::Texture(&tex)),
+                    ("out_holes", Bind::Storage(&out)),
+                ],
+                tex.width,
+                tex.height,
+            )?;
+        } else {
+            // Radix select: 256 bins, then n, k and the prefix (see the shader).
+            let sel = ctx.gpu.buffer_zeroed(259)?;
+            for shift in [24, 16, 8, 0] {
+                let u = uniforms(0.0, shift);
+                let binds = [
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                    ("noise", Bind::Texture(&tex)),
+                    ("sel", Bind::Buffer(&sel)),
+                ];
+                ctx.gpu
+                    .dispatch(SHADER, "histogram", &binds, tex.width, tex.height)?;
+                ctx.gpu
+                    .dispatch(SHADER, "pick", &[binds[0], binds[2]], 1, 1)?;
+            }
+            let u = uniforms(0.0, 0);
+            ctx.gpu.dispatch(
+                SHADER,
+                "threshold_selected",
+                &[
+                    ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                    ("noise", Bind::Texture(&tex)),
+                    ("out_holes", Bind::Storage(&out)),
+                    ("sel", Bind::Buffer(&sel)),
+                ],
+                tex.width,
+                tex.height,
+            )?;
+        }
         ctx.set("holes", PortValue::Scalar(Arc::new(out)));
         Ok(())
     }

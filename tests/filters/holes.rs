@@ -142,6 +142,55 @@ fn calibrated_hole_fraction_is_h() {
     }
 }
 
+/// The calibrated threshold is selected on the GPU (radix select): on values with negatives,
+/// ties, ±0, NaN and ±∞, at odd sizes and every kind of h, the map equals the CPU reference's
+/// (sort, k-th finite value) exactly, and evaluating the node reads nothing back.
+#[test]
+fn calibrated_threshold_is_selected_on_the_gpu_bit_for_bit_without_readback() {
+    let gpu = require_gpu!();
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    for (w, h, seed) in [(1, 1, 1), (37, 5, 2), (64, 61, 3), (255, 3, 4)] {
+        let mut n = common::random_raster(w, h, 1, -3.0, 3.0, seed);
+        for (i, v) in n.data.iter_mut().enumerate() {
+            match i % 23 {
+                3 => *v = f32::NAN,
+                5 => *v = f32::INFINITY,
+                7 => *v = f32::NEG_INFINITY,
+                11 => *v = 0.0,
+                13 => *v = -0.0,
+                17 => *v = 1.5, // ties
+                _ => {}
+            }
+        }
+        for prob in [1e-9, 0.01, 0.3, 0.5, 0.77, 0.999_999] {
+            let mut g = tyndall::graph::Graph::new();
+            let id = g.add_node(&cat, "HoleMap").expect("add");
+            g.set_param(&cat, &id, "probability", ParamValue::Float(prob))
+                .expect("probability");
+            let mut opts = tyndall::eval::EvalOptions::default();
+            opts.inject.insert(
+                (id.clone(), "noise".into()),
+                (common::upload(&gpu, &n, PortType::Scalar), 1),
+            );
+            let target = tyndall::eval::Target::Port(id.clone(), "holes".into());
+            let before = gpu.thread_readbacks();
+            let r = tyndall::eval::Evaluator::new(registry.clone(), gpu.clone())
+                .evaluate(&g, &[target], &opts)
+                .expect("evaluate");
+            assert_eq!(
+                gpu.thread_readbacks(),
+                before,
+                "{w}x{h} h={prob}: a read-back"
+            );
+            let out =
+                tyndall::eval::download(&gpu, &r.outputs[&(id, "holes".into())]).expect("download");
+            let want = hole_map::reference(&n, hole_map::calibrated_threshold(&n.data, prob));
+            assert_eq!(out, want, "{w}x{h} h={prob}");
+        }
+    }
+}
+
 #[test]
 fn hole_composite_matches_reference() {
     let gpu = require_gpu!();

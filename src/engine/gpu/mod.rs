@@ -167,6 +167,8 @@ pub struct Gpu {
     shader_needs: Mutex<HashMap<&'static str, Arc<adapter::ShaderNeeds>>>,
     /// Command buffers submitted so far ([`Gpu::submit_count`]).
     submits: std::sync::atomic::AtomicU64,
+    /// Read-backs so far and their bytes ([`Gpu::readbacks`]).
+    readbacks: [std::sync::atomic::AtomicU64; 2],
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
@@ -257,6 +259,7 @@ impl Gpu {
             shader_lacks: Mutex::new(HashMap::new()),
             shader_needs: Mutex::new(HashMap::new()),
             submits: std::sync::atomic::AtomicU64::new(0),
+            readbacks: Default::default(),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             errors,

@@ -3,6 +3,11 @@
 
 use super::*;
 
+thread_local! {
+    /// Read-backs made by this thread and their bytes ([`Gpu::thread_readbacks`]).
+    static THREAD_READBACKS: std::cell::Cell<(u64, u64)> = const { std::cell::Cell::new((0, 0)) };
+}
+
 impl Gpu {
     /// Read a storage buffer back as i32 words.
     pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
@@ -35,7 +40,31 @@ impl Gpu {
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .to_vec();
         buffer.unmap();
+        let [count, total] = &self.readbacks;
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        total.fetch_add(bytes.len() as u64, std::sync::atomic::Ordering::Relaxed);
+        THREAD_READBACKS.with(|c| {
+            let (n, b) = c.get();
+            c.set((n + 1, b + bytes.len() as u64));
+        });
         Ok(bytes)
+    }
+
+    /// Read-backs made by this thread so far (to any context), and their bytes: what one
+    /// evaluation on this thread read back is the difference across it, whatever other threads
+    /// read meanwhile.
+    pub fn thread_readbacks(&self) -> (u64, u64) {
+        THREAD_READBACKS.with(std::cell::Cell::get)
+    }
+
+    /// Read-backs made through this context so far (all threads), and their bytes (as mapped,
+    /// row padding included).
+    pub fn readbacks(&self) -> (u64, u64) {
+        let [count, total] = &self.readbacks;
+        (
+            count.load(std::sync::atomic::Ordering::Relaxed),
+            total.load(std::sync::atomic::Ordering::Relaxed),
+        )
     }
 
     /// Read a texture back to the CPU. Returns `width * height * channels` interleaved floats,
