@@ -19,6 +19,7 @@ use std::sync::Arc;
 use super::util::size_or_default;
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
+use tyndall_engine::scene::ScenePart;
 
 use crate::algorithms::g_buffer;
 
@@ -48,7 +49,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 })
 .shaders(&[g_buffer::SHADER])
-.uniforms(&[g_buffer::GBufferParams::LAYOUT]);
+.uniforms(&[g_buffer::GBufferParams::LAYOUT])
+.scene_parts(&[ScenePart::Camera, ScenePart::Geometry]);
 
 impl NodeKind for GBufferNode {
     fn decl(&self) -> &'static NodeDecl {

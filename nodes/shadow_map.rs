@@ -22,6 +22,7 @@ use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, R
 use tyndall_engine::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::fit_light;
+use tyndall_engine::scene::ScenePart;
 
 /// The `ShadowMap` node kind.
 pub struct ShadowMapNode;
@@ -46,7 +47,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 })
 .shaders(&[SHADER])
-.uniforms(&[ShadowMapParams::LAYOUT]);
+.uniforms(&[ShadowMapParams::LAYOUT])
+.scene_parts(&[ScenePart::Sun, ScenePart::Geometry]);
 
 const SHADER: Shader = crate::shader("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
 

@@ -60,6 +60,58 @@ fn only_changed_node_and_downstream_rerun() {
     assert!(one.data.iter().all(|v| *v == 8.0), "m1 = 2 · 4");
 }
 
+/// A node keyed on the parts of the scene it reads: a sun change re-runs the shadow map, not the
+/// G-buffer (camera and geometry); a camera change the reverse; other geometry (another built-in
+/// scene) both.
+#[test]
+fn a_sun_change_leaves_the_g_buffer_reused() {
+    let gpu = require_gpu!();
+    let cat = tyndall::nodes::registry().catalog().clone();
+    let mut g = load_str(
+        r#"(version: 3, nodes: {
+            "scene": (kind: "Scene", params: {"light": "custom", "camera": "custom"}),
+            "gb": (kind: "GBuffer"),
+            "sm": (kind: "ShadowMap"),
+        }, edges: [("scene.scene", "gb.scene"), ("scene.scene", "sm.scene")])"#,
+        std::path::Path::new("g.ron"),
+        &cat,
+    )
+    .expect("graph");
+    let mut ev = evaluator(gpu);
+    let targets = [
+        Target::Port("gb".into(), "depth".into()),
+        Target::Port("sm".into(), "map".into()),
+    ];
+    let opts = EvalOptions {
+        size: (64, 36),
+        ..Default::default()
+    };
+    let mut step = |g: &Graph, ran: &[&str], reused: &[&str]| {
+        let r = ev.evaluate(g, &targets, &opts).expect("evaluate");
+        for id in ran {
+            assert_eq!(r.stats.status(id), Some(Status::Ran), "{id}: {}", r.stats);
+        }
+        for id in reused {
+            assert_eq!(
+                r.stats.status(id),
+                Some(Status::Reused),
+                "{id}: {}",
+                r.stats
+            );
+        }
+    };
+    step(&g, &["scene", "gb", "sm"], &[]);
+    g.set_param(&cat, "scene", "sun_elevation", ParamValue::Float(20.0))
+        .expect("sun");
+    step(&g, &["scene", "sm"], &["gb"]);
+    g.set_param(&cat, "scene", "cam_x", ParamValue::Float(5.0))
+        .expect("camera");
+    step(&g, &["scene", "gb"], &["sm"]);
+    g.set_param(&cat, "scene", "name", ParamValue::Enum("tree".into()))
+        .expect("geometry");
+    step(&g, &["scene", "gb", "sm"], &[]);
+}
+
 #[test]
 fn output_paths_do_not_invalidate_but_are_still_written() {
     let gpu = require_gpu!();

@@ -554,7 +554,6 @@ fn key_and_inputs(
     let mut inputs = BTreeMap::new();
     for input in k.schema().inputs {
         if let Some((src, sport)) = graph.source_of(id, input.name) {
-            (input.name, done.keys.get(src), sport).hash(&mut h);
             let v = done
                 .results
                 .get(src)
@@ -564,6 +563,14 @@ fn key_and_inputs(
                     port: input.name.to_string(),
                     message: format!("upstream {src}.{sport} produced no value"),
                 })?;
+            // A scene is keyed by the parts the node reads, where it declares them; any other
+            // input by its upstream node's key.
+            match (k.decl().scene_parts, v.payload::<crate::scene::GpuScene>()) {
+                (Some(parts), Some(scene)) => {
+                    (input.name, "scene", scene.parts.select(parts)).hash(&mut h)
+                }
+                _ => (input.name, done.keys.get(src), sport).hash(&mut h),
+            }
             inputs.insert(input.name.to_string(), v);
         } else if let Some((v, vkey)) = opts.inject.get(&(id.to_string(), input.name.to_string())) {
             (input.name, "inject", vkey).hash(&mut h);

@@ -299,6 +299,11 @@ pub struct NodeDecl {
     /// brush shown with this node) and `splat_volume` (no panel of its own: marks a volume the
     /// splat brush paints into, `BlendVolume`-shaped).
     pub tools: &'static [&'static str],
+    /// The parts of its scene inputs the node reads (`None`: all of them). Its cache key then
+    /// covers only those parts of an incoming scene, not the scene node's whole key: a
+    /// G-buffer (camera and geometry) is reused when only the sun changed. Declare only parts
+    /// the node's outputs cannot depend on the others of.
+    pub scene_parts: Option<&'static [crate::scene::ScenePart]>,
 }
 
 /// How a node uses a file named by a text parameter.
@@ -322,6 +327,7 @@ impl NodeDecl {
             sink: false,
             files: &[],
             tools: &[],
+            scene_parts: None,
         }
     }
 
@@ -353,6 +359,14 @@ impl NodeDecl {
     /// Declare the editor tools that edit the node's data block.
     pub const fn tools(self, tools: &'static [&'static str]) -> Self {
         Self { tools, ..self }
+    }
+
+    /// Set the parts of its scene inputs the node reads (see [`NodeDecl::scene_parts`]).
+    pub const fn scene_parts(self, parts: &'static [crate::scene::ScenePart]) -> Self {
+        Self {
+            scene_parts: Some(parts),
+            ..self
+        }
     }
 }
 

@@ -17,6 +17,8 @@ pub struct GpuScene {
     pub indices: wgpu::Buffer,
     /// Index range of each object, in `scene.objects` order.
     pub ranges: Vec<Range<u32>>,
+    /// A content key per part of `scene` (what a node declaring the parts it reads is keyed on).
+    pub parts: super::PartKeys,
 }
 
 impl std::fmt::Debug for GpuScene {
@@ -84,6 +86,7 @@ impl GpuScene {
             )
         })?;
         Ok(GpuScene {
+            parts: super::PartKeys::of(&scene),
             scene,
             vertices,
             indices,

@@ -4,6 +4,7 @@
 mod builtin;
 mod gltf;
 mod gpu;
+mod parts;
 
 use glam::{Mat4, Vec3};
 use thiserror::Error;
@@ -14,6 +15,7 @@ pub use gltf::{
     MEDIUM_TAG,
 };
 pub use gpu::{GpuScene, MeshVertex};
+pub use parts::{PartKeys, ScenePart};
 
 /// Errors building or loading a scene.
 #[derive(Debug, Error, Clone)]

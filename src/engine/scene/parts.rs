@@ -1,0 +1,100 @@
+//! The parts of a scene a node can read — camera, sun, geometry, medium bounds — and a content
+//! key for each, so that a node declaring the parts it reads (`NodeDecl::scene_parts`) is keyed
+//! on those alone: a sun change re-runs the shadow map but reuses the G-buffer.
+
+use std::hash::{DefaultHasher, Hash, Hasher};
+
+use super::Scene;
+
+/// One part of a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScenePart {
+    /// The camera: position, target, field of view, near and far.
+    Camera,
+    /// The sun: direction, colour and intensity.
+    Sun,
+    /// The objects: names, vertices, normals, indices, colours and tags.
+    Geometry,
+    /// The bounds of the objects tagged `medium`.
+    Medium,
+}
+
+/// A content key per part of a scene (equal keys: equal parts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct PartKeys {
+    /// Of [`ScenePart::Camera`].
+    pub camera: u64,
+    /// Of [`ScenePart::Sun`].
+    pub sun: u64,
+    /// Of [`ScenePart::Geometry`].
+    pub geometry: u64,
+    /// Of [`ScenePart::Medium`].
+    pub medium: u64,
+}
+
+impl PartKeys {
+    /// The keys of `scene`'s parts (the geometry's costs one pass over its vertices).
+    pub fn of(scene: &Scene) -> Self {
+        let key = |f: &dyn Fn(&mut DefaultHasher)| {
+            let mut h = DefaultHasher::new();
+            f(&mut h);
+            h.finish()
+        };
+        let bits = |v: &[f32], h: &mut DefaultHasher| v.iter().for_each(|x| x.to_bits().hash(h));
+        let c = &scene.camera;
+        let s = &scene.sun;
+        Self {
+            camera: key(&|h| {
+                bits(&c.position.to_array(), h);
+                bits(&c.target.to_array(), h);
+                bits(&[c.fov_y, c.near, c.far], h);
+            }),
+            sun: key(&|h| {
+                bits(
+                    &[
+                        s.azimuth,
+                        s.elevation,
+                        s.intensity,
+                        s.colour[0],
+                        s.colour[1],
+                        s.colour[2],
+                    ],
+                    h,
+                )
+            }),
+            geometry: key(&|h| {
+                for o in &scene.objects {
+                    (&o.name, &o.tags, &o.indices).hash(h);
+                    bits(&o.colour, h);
+                    for (p, n) in o.positions.iter().zip(&o.normals) {
+                        bits(&p.to_array(), h);
+                        bits(&n.to_array(), h);
+                    }
+                    (o.positions.len(), o.normals.len()).hash(h);
+                }
+            }),
+            medium: key(&|h| {
+                if let Some((lo, hi)) = &scene.medium {
+                    bits(&lo.to_array(), h);
+                    bits(&hi.to_array(), h);
+                }
+                scene.medium.is_some().hash(h);
+            }),
+        }
+    }
+
+    /// One key of the parts `parts` (in that order).
+    pub fn select(&self, parts: &[ScenePart]) -> u64 {
+        let mut h = DefaultHasher::new();
+        for p in parts {
+            match p {
+                ScenePart::Camera => self.camera,
+                ScenePart::Sun => self.sun,
+                ScenePart::Geometry => self.geometry,
+                ScenePart::Medium => self.medium,
+            }
+            .hash(&mut h);
+        }
+        h.finish()
+    }
+}
