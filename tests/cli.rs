@@ -1351,3 +1351,81 @@ fn render_proxy_divides_the_size_and_the_light_space() {
     assert_eq!((s.width, s.height), (32, 18));
     assert_ne!(p.data, s.data, "the proxy's shadow map is not the full one");
 }
+
+/// Pipelines compiled once per machine: a second process rendering the same graph compiles none
+/// (`--stats`), a corrupt cache file is ignored with a warning and rebuilt. On an adapter without
+/// a pipeline cache (wgpu's GL backend) no file is written and every process compiles.
+#[test]
+fn a_second_render_compiles_no_pipeline_and_a_corrupt_cache_is_ignored() {
+    if !gpu_available() {
+        return;
+    }
+    let cache = tempfile::tempdir().expect("tempdir");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let render = || {
+        let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+            .env("TYNDALL_CACHE_DIR", cache.path())
+            .args([
+                "render",
+                "graphs/physical/window.ron",
+                "-o",
+                &dir.path().join("w.png").display().to_string(),
+                "--size",
+                "64x36",
+                "--stats",
+            ])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("run tyndall");
+        let (out, err) = (
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        );
+        assert!(o.status.success(), "{err}");
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("pipelines: "))
+            .unwrap_or_else(|| panic!("no pipelines line in {out}"))
+            .to_string();
+        let n = |what: &str| -> u64 {
+            line.split(", ")
+                .find(|p| p.contains(what))
+                .and_then(|p| p.split_whitespace().find_map(|w| w.parse().ok()))
+                .unwrap_or_else(|| panic!("{line}"))
+        };
+        (n("compiled"), n("from the cache"), err)
+    };
+    let (compiled, cached, _) = render();
+    assert!(compiled > 0 && cached == 0, "first: {compiled}, {cached}");
+    let files: Vec<_> = std::fs::read_dir(cache.path())
+        .expect("cache dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    if files.is_empty() {
+        // No pipeline cache on this adapter: the next process compiles them all again.
+        assert_eq!(
+            render().0,
+            compiled,
+            "without a cache every process compiles"
+        );
+        return;
+    }
+    assert_eq!(files.len(), 1, "{files:?}");
+    let (second, from_cache, err) = render();
+    assert_eq!((second, from_cache), (0, compiled), "second process: {err}");
+    // A corrupt file (one byte flipped): a warning, everything compiled, the file rebuilt.
+    let mut bytes = std::fs::read(&files[0]).expect("read cache");
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x55;
+    std::fs::write(&files[0], &bytes).expect("corrupt");
+    let (again, from_cache, err) = render();
+    assert_eq!((again, from_cache), (compiled, 0), "{err}");
+    assert!(err.contains("ignoring the pipeline cache"), "{err}");
+    let (after, cached_after, err) = render();
+    assert_eq!((after, cached_after), (0, compiled), "rebuilt: {err}");
+    // A foreign file (another program's bytes under the same name): the same.
+    std::fs::write(&files[0], b"not a pipeline cache").expect("foreign");
+    let (foreign, _, err) = render();
+    assert_eq!(foreign, compiled);
+    assert!(err.contains("not a Tyndall pipeline cache"), "{err}");
+}

@@ -166,6 +166,8 @@ pub struct Evaluator {
     cache: cache::Cache,
     /// Node runs for earlier frames in the current evaluation (see [`Stats::earlier_runs`]).
     earlier_runs: usize,
+    /// The pipeline cache could not be saved, and that was said once.
+    cache_warned: bool,
 }
 
 /// Default cache budget: 1 GiB of GPU memory.
@@ -179,6 +181,7 @@ impl Evaluator {
             gpu,
             cache: cache::Cache::new(DEFAULT_CACHE_BUDGET),
             earlier_runs: 0,
+            cache_warned: false,
         }
     }
 
@@ -288,10 +291,22 @@ impl Evaluator {
         let plan = self.plan(graph, targets)?;
         let order = graph.topo_order();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
+        let pipelines = self.gpu.pipeline_counts();
         let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
         self.cache.evict();
+        // The pipelines compiled by this evaluation go to the cache on disk for the next
+        // process; a cache that cannot be written only costs that process the compilation.
+        if let Err(e) = self.gpu.save_pipeline_cache() {
+            if !self.cache_warned {
+                self.cache_warned = true;
+                eprintln!("warning: the pipeline cache was not saved: {e}");
+            }
+        }
+        let (compiled, cached) = self.gpu.pipeline_counts();
         let runs = self.earlier_runs;
-        Ok(report(graph, targets, &order, &done?.results, &stats, runs))
+        let mut r = report(graph, targets, &order, &done?.results, &stats, runs);
+        r.stats.pipelines = (compiled - pipelines.0, cached - pipelines.1);
+        Ok(r)
     }
 
     /// Steps 2–4 for every node of `plan`, in `order`; `depth` counts the histories this

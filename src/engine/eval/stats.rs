@@ -73,6 +73,9 @@ pub struct Stats {
     /// Node runs made for earlier frames of nodes with a history (`NodeKind::history`): 0 when
     /// every earlier frame was in the cache, as in a sequential render after its first frames.
     pub earlier_runs: usize,
+    /// Pipelines created during the evaluation: (compiled, taken from the pipeline cache on
+    /// disk) — counted over the whole GPU context.
+    pub pipelines: (u64, u64),
 }
 
 impl Stats {
@@ -131,6 +134,11 @@ impl fmt::Display for Stats {
         }
         let submits: u64 = self.nodes.iter().map(|n| n.submits).sum();
         writeln!(f, "GPU submissions: {submits}")?;
+        writeln!(
+            f,
+            "pipelines: {} compiled, {} from the cache",
+            self.pipelines.0, self.pipelines.1
+        )?;
         if self.earlier_runs > 0 {
             writeln!(
                 f,
@@ -222,6 +230,7 @@ pub(super) fn report(
         stats: Stats {
             nodes,
             earlier_runs,
+            pipelines: (0, 0),
         },
     }
 }

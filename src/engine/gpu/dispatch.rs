@@ -104,13 +104,13 @@ impl Gpu {
                         bind_group_layouts: &[Some(&bgl)],
                         immediate_size: 0,
                     });
+                let adapted = self.caps.adapt_source(source, params_in_storage);
+                self.disk.note(&key, &adapted);
                 let module = self
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some(shader.stem),
-                        source: wgpu::ShaderSource::Wgsl(
-                            self.caps.adapt_source(source, params_in_storage),
-                        ),
+                        source: wgpu::ShaderSource::Wgsl(adapted),
                     });
                 Arc::new(
                     self.device
@@ -123,7 +123,7 @@ impl Gpu {
                                 constants,
                                 ..Default::default()
                             },
-                            cache: None,
+                            cache: self.disk.cache.as_ref(),
                         }),
                 )
             })

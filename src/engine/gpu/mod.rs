@@ -8,8 +8,10 @@ mod layout;
 mod logger;
 mod options;
 mod params;
+mod pipeline_cache;
 mod pool;
 mod raster;
+pub use pipeline_cache::cache_dir;
 mod readback;
 mod shader;
 mod shader_needs;
@@ -172,6 +174,8 @@ pub struct Gpu {
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
+    /// Pipelines compiled once per machine ([`Gpu::pipeline_counts`]).
+    disk: pipeline_cache::DiskCache,
     errors: Arc<Mutex<Vec<String>>>,
     /// Why the device was lost, once it was (set by wgpu's device-lost callback).
     lost: Arc<Mutex<Option<String>>>,
@@ -220,7 +224,8 @@ impl Gpu {
         }
         let wanted = wgpu::Features::FLOAT32_FILTERABLE
             | wgpu::Features::TIMESTAMP_QUERY
-            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES
+            | wgpu::Features::PIPELINE_CACHE;
         let features = adapter.features() & wanted;
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -240,6 +245,15 @@ impl Gpu {
                 v.push(e.to_string());
             }
         }));
+        let info = adapter.get_info();
+        let (disk, warning) = pipeline_cache::DiskCache::open(
+            &device,
+            &info,
+            features.contains(wgpu::Features::PIPELINE_CACHE),
+        );
+        if let Some(w) = warning {
+            eprintln!("warning: {w}");
+        }
         let lost = Arc::new(Mutex::new(None));
         let flag = lost.clone();
         device.set_device_lost_callback(move |reason, message| {
@@ -251,7 +265,7 @@ impl Gpu {
             pool: Arc::new(TexturePool::new(device.clone(), 64, caps.clone())),
             device,
             queue,
-            info: adapter.get_info(),
+            info,
             limits,
             caps,
             adapter_index: index,
@@ -262,6 +276,7 @@ impl Gpu {
             readbacks: Default::default(),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
+            disk,
             errors,
             lost,
         })
@@ -405,6 +420,18 @@ impl Gpu {
         let tex = self.texture(width, height, format)?;
         self.write(&tex, &zeros)?;
         Ok(tex)
+    }
+
+    /// Pipelines this context created so far: (compiled, taken from the pipeline cache on
+    /// disk).
+    pub fn pipeline_counts(&self) -> (u64, u64) {
+        self.disk.counts()
+    }
+
+    /// Save the pipeline cache ([`cache_dir`]) when pipelines were compiled since the last save
+    /// (the evaluator calls it after each evaluation); the reason when it could not be written.
+    pub fn save_pipeline_cache(&self) -> Result<(), String> {
+        self.disk.save()
     }
 
     /// Upload interleaved float samples (1 channel → `R32F`, 4 → `RGBA32F`; pad two or three

@@ -78,6 +78,7 @@ impl Gpu {
     ) -> Result<Arc<wgpu::RenderPipeline>, GpuError> {
         let key = format!("{}:raster:{formats:?}:{params_in_storage}", shader.stem);
         let wgsl = shader.wgsl().map_err(GpuError::Validation)?;
+        let noted = format!("{wgsl}|bits={bits}");
         let source = if bits {
             wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(
                 bits_module(&self.caps.adapt_source(wgsl, params_in_storage)).map_err(|e| {
@@ -95,6 +96,7 @@ impl Gpu {
         if let Some(p) = cache.get(&key) {
             return Ok(p.clone());
         }
+        self.disk.note(&key, &noted);
         let p = self.scoped(|| {
             let bgl = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(&key),
@@ -151,7 +153,7 @@ impl Gpu {
                     targets: &targets,
                 }),
                 multiview_mask: None,
-                cache: None,
+                cache: self.disk.cache.as_ref(),
             }))
         })?;
         cache.insert(key, p.clone());
@@ -331,6 +333,7 @@ impl Gpu {
             cache
                 .entry(key)
                 .or_insert_with(|| {
+                    self.disk.note(&format!("raster-unbits:{entry}"), UNBITS);
                     let module = self
                         .device
                         .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -344,7 +347,7 @@ impl Gpu {
                             module: &module,
                             entry_point: Some(entry),
                             compilation_options: Default::default(),
-                            cache: None,
+                            cache: self.disk.cache.as_ref(),
                         },
                     ))
                 })
