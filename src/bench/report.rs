@@ -237,7 +237,7 @@ pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, Ben
             row.temporal = Some((flicker, change));
         }
         match out.last_mut() {
-            Some((suite, _, rows)) if suite == get(0) => rows.push(row),
+            Some((suite, adapter, rows)) if suite == get(0) && adapter == get(1) => rows.push(row),
             _ => out.push((get(0).to_string(), get(1).to_string(), vec![row])),
         }
     }
@@ -245,8 +245,9 @@ pub fn rows_from_csv(text: &[u8]) -> Result<Vec<(String, String, Vec<Row>)>, Ben
 }
 
 /// `new` (a results CSV of the suites just run) merged into `old` (the file as it was): the
-/// rows of suites not run again are kept, those of the suites run are replaced; rows stay
-/// grouped by suite in name order.
+/// rows of a suite are replaced for the adapter it was run on, and kept for the suites not run
+/// and for other adapters (the curves of several machines live side by side); rows stay grouped
+/// by suite in name order, then by adapter.
 pub fn merge_results(old: &[u8], new: &[u8]) -> Result<Vec<u8>, BenchError> {
     let bad = |e: csv::Error| BenchError::Input(format!("results.csv: {e}"));
     let read = |bytes: &[u8]| -> Result<Vec<csv::StringRecord>, BenchError> {
@@ -258,10 +259,14 @@ pub fn merge_results(old: &[u8], new: &[u8]) -> Result<Vec<u8>, BenchError> {
         Ok(rows)
     };
     let fresh = read(new)?;
-    let ran: std::collections::BTreeSet<String> = fresh
-        .iter()
-        .filter_map(|r| r.get(0).map(str::to_string))
-        .collect();
+    let suite_and_adapter = |r: &csv::StringRecord| {
+        (
+            r.get(0).unwrap_or("").to_string(),
+            r.get(1).unwrap_or("").to_string(),
+        )
+    };
+    let ran: std::collections::BTreeSet<(String, String)> =
+        fresh.iter().map(suite_and_adapter).collect();
     // An old file written with other columns (before a column was added) is read by column
     // name: a column it lacks is empty, one no longer written is dropped.
     let header: Vec<String> = csv::Reader::from_reader(old)
@@ -275,18 +280,18 @@ pub fn merge_results(old: &[u8], new: &[u8]) -> Result<Vec<u8>, BenchError> {
     let mut all: Vec<csv::StringRecord> = if from.first().is_some_and(Option::is_some) {
         read(old)?
             .into_iter()
-            .filter(|r| r.get(0).is_some_and(|s| !ran.contains(s)))
             .map(|r| {
                 from.iter()
                     .map(|i| i.and_then(|i| r.get(i)).unwrap_or(""))
-                    .collect()
+                    .collect::<csv::StringRecord>()
             })
+            .filter(|r| !ran.contains(&suite_and_adapter(r)))
             .collect()
     } else {
         Vec::new()
     };
     all.extend(fresh);
-    all.sort_by(|a, b| a.get(0).cmp(&b.get(0)));
+    all.sort_by(|a, b| (a.get(0), a.get(1)).cmp(&(b.get(0), b.get(1))));
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(RESULT_COLUMNS).map_err(bad)?;
     for r in &all {
@@ -448,6 +453,43 @@ mod tests {
             merged,
             format!("{header}\n{}\n{}\n", row("a", "1"), row("b", "20"))
         );
+    }
+
+    #[test]
+    fn results_of_other_adapters_are_kept_beside_a_new_run() {
+        let header = RESULT_COLUMNS.join(",");
+        let row = |suite: &str, adapter: &str, ms: &str| {
+            let mut cells = vec![""; RESULT_COLUMNS.len()];
+            cells[0] = suite;
+            cells[1] = adapter;
+            cells[5] = "setting";
+            cells[6] = ms;
+            cells.join(",")
+        };
+        let old = format!(
+            "{header}\n{}\n{}\n{}\n",
+            row("a", "gpu", "1"),
+            row("a", "cpu", "9"),
+            row("b", "cpu", "8")
+        );
+        let new = format!("{header}\n{}\n", row("a", "cpu", "7"));
+        let merged =
+            String::from_utf8(merge_results(old.as_bytes(), new.as_bytes()).unwrap()).unwrap();
+        assert_eq!(
+            merged,
+            format!(
+                "{header}\n{}\n{}\n{}\n",
+                row("a", "cpu", "7"),
+                row("a", "gpu", "1"),
+                row("b", "cpu", "8")
+            )
+        );
+        let groups = super::rows_from_csv(merged.as_bytes()).unwrap();
+        let names: Vec<(&str, &str, usize)> = groups
+            .iter()
+            .map(|(s, a, r)| (s.as_str(), a.as_str(), r.len()))
+            .collect();
+        assert_eq!(names, [("a", "cpu", 1), ("a", "gpu", 1), ("b", "cpu", 1)]);
     }
 
     #[test]

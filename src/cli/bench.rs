@@ -163,15 +163,29 @@ fn csv_path(a: &BenchArgs, path: &Path, many: bool) -> PathBuf {
 }
 
 /// `tyndall bench --replot`: the plots of every suite recorded in `out/results.csv` (or of one
-/// suite), drawn again without measuring.
+/// suite), drawn again without measuring. A suite measured on several adapters is drawn for the
+/// adapter of this machine when it is one of them, else for the first in the file.
 pub(super) fn replot(out: &Path, only: Option<&str>) -> Result<(), CliError> {
     use crate::bench::{load_suite, plot, report};
     let csv = out.join("results.csv");
     let text = std::fs::read(&csv).map_err(|e| bad(format!("{}: {e}", csv.display())))?;
-    for (name, adapter, rows) in report::rows_from_csv(&text).map_err(bad)? {
-        if only.is_some_and(|o| o != name) {
+    let suites = report::rows_from_csv(&text).map_err(bad)?;
+    let here = crate::gpu::Gpu::shared().ok().map(|g| g.describe());
+    let mut drawn = std::collections::BTreeSet::new();
+    for (name, adapter, rows) in &suites {
+        let measured_here = here
+            .as_ref()
+            .is_some_and(|h| suites.iter().any(|(n, a, _)| n == name && a == h));
+        let wanted = if measured_here {
+            here.as_ref() == Some(adapter)
+        } else {
+            !drawn.contains(name)
+        };
+        if only.is_some_and(|o| o != name) || !wanted {
             continue;
         }
+        drawn.insert(name.clone());
+        let (name, adapter, rows) = (name.clone(), adapter.clone(), rows.clone());
         let spec = load_suite(&Path::new("benches").join(format!("{name}.ron"))).map_err(bad)?;
         let stem = name.replace('/', "-");
         for p in plot::plots(&out.join("plots"), &stem, &spec, &adapter, &rows).map_err(bad)? {

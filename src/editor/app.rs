@@ -163,11 +163,13 @@ impl EditorApp {
     /// An editor on `state` evaluating on `gpu` (`None`: no pictures). Should that device be
     /// lost, evaluation moves to a new [`Gpu::shared`] device.
     pub fn on_gpu(state: EditorState, registry: Arc<Registry>, gpu: Option<Arc<Gpu>>) -> Self {
+        let adapter = gpu.as_ref().map(|g| g.describe());
         let worker = gpu.map(|g| Worker::start(registry.clone(), g));
         let mut preset_folders = vec![PathBuf::from("graphs")];
         preset_folders.extend(user_preset_folder());
         let range = key_range(&state).unwrap_or((0.0, 48.0));
-        let bench = super::bench_panel::Curves::find(state.path());
+        let mut bench = super::bench_panel::Curves::find(state.path());
+        bench.adapter = adapter.clone();
         Self {
             bench,
             state,
@@ -248,7 +250,9 @@ impl EditorApp {
     /// Read the measured speed/accuracy curves from `path` (a `bench/results.csv`) instead of
     /// the one found next to the working directory or the graph.
     pub fn set_bench_results(&mut self, path: &Path) {
+        let adapter = self.bench.adapter.take();
         self.bench = super::bench_panel::Curves::at(path);
+        self.bench.adapter = adapter;
     }
 
     /// The node the viewer shows: the active pin's, else the selected one — or, when the

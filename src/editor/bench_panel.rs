@@ -96,6 +96,10 @@ pub fn agreement(
 /// The measured curves, reloaded when the file changes.
 #[derive(Default)]
 pub struct Curves {
+    /// The adapter the editor evaluates on ([`tyndall_engine::gpu::Gpu::describe`]): a suite
+    /// measured on it shows that adapter's curve; one measured elsewhere only, the curve of the
+    /// first adapter in the file (the plot names it).
+    pub adapter: Option<String>,
     path: Option<PathBuf>,
     stamp: Option<SystemTime>,
     rows: Vec<Measured>,
@@ -163,6 +167,16 @@ impl Curves {
         let own = |m: &&Measured| agreement(&m.setting, &BTreeMap::new()).1 > 0;
         for m in self.rows.iter().filter(|m| m.kind == kind).filter(own) {
             out.entry(m.suite.as_str()).or_default().push(m);
+        }
+        // One adapter's curve per suite: the one in use where it was measured.
+        for rows in out.values_mut() {
+            let shown = self
+                .adapter
+                .as_deref()
+                .filter(|a| rows.iter().any(|m| m.adapter == *a))
+                .or(rows.first().map(|m| m.adapter.as_str()))
+                .map(str::to_string);
+            rows.retain(|m| Some(&m.adapter) == shown.as_ref());
         }
         out
     }
@@ -388,5 +402,36 @@ mod tests {
         .unwrap();
         let of = curves.of_kind("Scatter");
         assert_eq!(of.keys().copied().collect::<Vec<_>>(), ["visibility/tree"]);
+    }
+
+    #[test]
+    fn a_suite_measured_on_several_adapters_shows_the_one_in_use() {
+        let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
+            blur,cpu,b,Blur,sigma=1,setting,50,49,0.01,0.1\n\
+            blur,cpu,b,Blur,sigma=2,setting,60,59,0.005,0.1\n\
+            blur,gpu,b,Blur,sigma=1,setting,0.5,0.4,0.01,0.1\n";
+        let mut curves = Curves {
+            rows: parse(text).unwrap(),
+            ..Default::default()
+        };
+        let adapters = |c: &Curves| -> Vec<String> {
+            c.of_kind("Blur")["blur"]
+                .iter()
+                .map(|m| m.adapter.clone())
+                .collect()
+        };
+        assert_eq!(
+            adapters(&curves),
+            ["cpu", "cpu"],
+            "no adapter: the first one"
+        );
+        curves.adapter = Some("gpu".into());
+        assert_eq!(adapters(&curves), ["gpu"]);
+        curves.adapter = Some("another".into());
+        assert_eq!(
+            adapters(&curves),
+            ["cpu", "cpu"],
+            "not measured on it: the first one"
+        );
     }
 }
