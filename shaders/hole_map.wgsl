@@ -56,28 +56,84 @@ fn threshold(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(out_holes, id.xy, vec4<f32>(select(0.0, 1.0, n < P.threshold), 0.0, 0.0, 1.0));
 }
 
-// One digit's histogram of the finite values' keys that share the prefix picked so far
-// (the first pass, shift 24, also counts the finite values).
-@compute @workgroup_size(8, 8)
-fn histogram(@builtin(global_invocation_id) id: vec3<u32>) {
+// The key of texel `id` when it takes part in this digit's histogram (finite, and sharing the
+// prefix picked so far), else NONE (no finite value has that key: it would be a NaN's).
+const NONE: u32 = 0xffffffffu;
+
+fn digit_key(id: vec2<u32>, prefix: u32) -> u32 {
     let size = textureDimensions(noise);
     if id.x >= size.x || id.y >= size.y {
-        return;
+        return NONE;
     }
-    let b = bitcast<u32>(textureLoad(noise, id.xy, 0).r);
+    let b = bitcast<u32>(textureLoad(noise, id, 0).r);
     if (b & 0x7f800000u) == 0x7f800000u {
-        return; // ±∞ and NaN take no part
+        return NONE; // ±∞ and NaN take no part
     }
     let key = key_of(b);
-    if P.shift == 24u {
-        atomicAdd(&sel[N], 1u);
-    } else {
+    if P.shift != 24u {
         let high = 0xffffffffu << (P.shift + 8u);
-        if (key & high) != (atomicLoad(&sel[PREFIX]) & high) {
-            return;
+        if (key & high) != (prefix & high) {
+            return NONE;
         }
     }
+    return key;
+}
+
+// One digit's histogram of the finite values' keys that share the prefix picked so far (the
+// first pass, shift 24, also counts the finite values), straight into `sel`: for CPU drivers,
+// where workgroup memory and barriers cost more than the atomics they save.
+@compute @workgroup_size(8, 8)
+fn histogram(@builtin(global_invocation_id) id: vec3<u32>) {
+    let key = digit_key(id.xy, atomicLoad(&sel[PREFIX]));
+    if key == NONE {
+        return;
+    }
+    if P.shift == 24u {
+        atomicAdd(&sel[N], 1u);
+    }
     atomicAdd(&sel[(key >> P.shift) & 0xffu], 1u);
+}
+
+// The same histogram for GPUs: each workgroup counts into its own bins, then adds the non-empty
+// ones to `sel` (the first digit of a noise map takes a few bins per workgroup: ~30× fewer
+// atomics on the shared bins).
+var<workgroup> local_bins: array<atomic<u32>, 256>;
+var<workgroup> local_n: atomic<u32>;
+var<workgroup> local_prefix: u32;
+
+@compute @workgroup_size(8, 8)
+fn histogram_workgroup(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    for (var i = li; i < BINS; i += 64u) {
+        atomicStore(&local_bins[i], 0u);
+    }
+    if li == 0u {
+        atomicStore(&local_n, 0u);
+        local_prefix = atomicLoad(&sel[PREFIX]);
+    }
+    workgroupBarrier();
+    let key = digit_key(id.xy, local_prefix);
+    if key != NONE {
+        if P.shift == 24u {
+            atomicAdd(&local_n, 1u);
+        }
+        atomicAdd(&local_bins[(key >> P.shift) & 0xffu], 1u);
+    }
+    workgroupBarrier();
+    for (var i = li; i < BINS; i += 64u) {
+        let c = atomicLoad(&local_bins[i]);
+        if c > 0u {
+            atomicAdd(&sel[i], c);
+        }
+    }
+    if li == 0u {
+        let n = atomicLoad(&local_n);
+        if n > 0u {
+            atomicAdd(&sel[N], n);
+        }
+    }
 }
 
 // The bin holding the k-th key: its digit joins the prefix, k becomes the rank inside it, and

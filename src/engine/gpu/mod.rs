@@ -422,6 +422,13 @@ impl Gpu {
         Ok(tex)
     }
 
+    /// Whether the adapter runs on the CPU (Mesa's lavapipe and llvmpipe, WARP…): for a node
+    /// with a form of a pass for CPUs and one for GPUs (workgroup memory and barriers cost more
+    /// than they save on a CPU), chosen by what the benchmarks measure on each.
+    pub fn is_cpu(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Pipelines this context created so far: (compiled, taken from the pipeline cache on
     /// disk).
     pub fn pipeline_counts(&self) -> (u64, u64) {
