@@ -8,7 +8,8 @@
 //! changed one, timed from the request to the viewed port (`node`.`output`) read back
 //! to the CPU — the editor's worker does the same before the window can show it. Only the
 //! nodes the change touches run again; which ran is counted in the row (`x first` column:
-//! the time over the full-size row's).
+//! the time over the full-size row's). `read back B` is what one update read back from the GPU
+//! (the most over the runs): the whole viewed picture, today.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -20,14 +21,16 @@ use tyndall_engine::graph::Graph;
 
 use super::{apply, describe, BenchError, Row, SuiteRun};
 
-/// One evaluation of `g` at `size` with the viewed port read back: the wall-clock time, ms.
+/// One evaluation of `g` at `size` with the viewed port read back: the wall-clock time (ms) and
+/// the bytes read back on the way (the evaluation's own and the picture's).
 fn picture(
     ev: &mut Evaluator,
     gpu: &Gpu,
     g: &Graph,
     target: &Target,
     size: (u32, u32),
-) -> Result<f64, BenchError> {
+) -> Result<(f64, u64), BenchError> {
+    let read_before = gpu.thread_readbacks().1;
     let opts = EvalOptions {
         size,
         ..Default::default()
@@ -44,7 +47,8 @@ fn picture(
         .get(&(n.clone(), p.clone()))
         .ok_or_else(|| BenchError::Input(format!("{n}.{p} produced nothing")))?;
     download(gpu, v).map_err(|e| BenchError::Input(e.to_string()))?;
-    Ok(start.elapsed().as_secs_f64() * 1e3)
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok((ms, gpu.thread_readbacks().1 - read_before))
 }
 
 /// Run an interactive suite (see the module docs); `progress` gets a line per measurement.
@@ -76,12 +80,15 @@ pub fn run(
             ));
             let (before, after) = (proxy_graph(base, &cat, f), proxy_graph(&changed, &cat, f));
             let mut times = Vec::new();
+            let mut read = 0;
             for _ in 0..runs.max(1) {
                 picture(&mut ev, gpu, &before, &target, at)?;
                 // The cache keeps several keys per node: without this the changed graph's
                 // results from the previous run would be found, not computed.
                 ev.keep_latest();
-                times.push(picture(&mut ev, gpu, &after, &target, at)?);
+                let (ms, bytes) = picture(&mut ev, gpu, &after, &target, at)?;
+                times.push(ms);
+                read = read.max(bytes);
             }
             times.sort_by(f64::total_cmp);
             let median = times[times.len() / 2];
@@ -92,6 +99,7 @@ pub fn run(
             params.insert("proxy".into(), format!("1/{f}"));
             rows.push(Row {
                 growth: median / full_ms,
+                readback: Some(read),
                 ..Row::timed(&params, median, times[0])
             });
         }

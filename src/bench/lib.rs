@@ -86,6 +86,9 @@ pub struct Row {
     pub chain: Option<chain::Step>,
     /// A temporal suite's `(flicker, reference change)` ([`temporal`]).
     pub temporal: Option<(f64, f64)>,
+    /// Bytes read back from the GPU per measured evaluation (an interactive suite's update:
+    /// what the editor's worker would read before the window shows the picture).
+    pub readback: Option<u64>,
 }
 
 impl Row {
@@ -108,6 +111,7 @@ impl Row {
             kind: String::new(),
             chain: None,
             temporal: None,
+            readback: None,
         }
     }
 }

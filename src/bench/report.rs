@@ -82,7 +82,7 @@ pub fn suite_text(
 
 /// Columns of `bench/results.csv`, one row per measured setting (and, for chain suites, one
 /// row per step and one per node and step).
-pub const RESULT_COLUMNS: [&str; 24] = [
+pub const RESULT_COLUMNS: [&str; 25] = [
     "suite",
     "adapter",
     "node",
@@ -106,6 +106,7 @@ pub const RESULT_COLUMNS: [&str; 24] = [
     "ran",
     "reused",
     "not_needed",
+    "readback_bytes",
     "status",
 ];
 
@@ -167,6 +168,7 @@ pub fn results_csv(results: &[(String, String, Vec<Row>)]) -> Result<Vec<u8>, Be
                 &ran,
                 &reused,
                 &nn,
+                &r.readback.map_or(String::new(), |b| b.to_string()),
                 "",
             ])
             .map_err(bad)?;
@@ -344,6 +346,7 @@ pub fn table(rows: &[Row]) -> String {
     let edges = rows.iter().any(|r| !r.edge_rmse.is_nan());
     let differ = rows.iter().any(|r| !r.differ.is_nan());
     let temporal = rows.iter().any(|r| r.temporal.is_some());
+    let readback = rows.iter().any(|r| r.readback.is_some());
     let mut s = format!(
         "{:<w$}  {:>10}  {:>10}  {:>10}  {:>10}  {:>8}  {:>13}",
         "setting", "median ms", "min ms", "RMSE", "max err", "x first", "holes in>out"
@@ -365,6 +368,9 @@ pub fn table(rows: &[Row]) -> String {
             "  {:>10}  {:>10}  {:>9}",
             "flicker", "ref change", "flicker %"
         ));
+    }
+    if readback {
+        s.push_str(&format!("  {:>12}", "read back B"));
     }
     s.push('\n');
     for r in rows {
@@ -402,6 +408,10 @@ pub fn table(rows: &[Row]) -> String {
                 cell(c, 6),
                 cell(share, 1)
             ));
+        }
+        if readback {
+            let b = r.readback.map_or("-".to_string(), |b| b.to_string());
+            s.push_str(&format!("  {b:>12}"));
         }
         s.push('\n');
     }
