@@ -1429,3 +1429,87 @@ fn a_second_render_compiles_no_pipeline_and_a_corrupt_cache_is_ignored() {
     assert_eq!(foreign, compiled);
     assert!(err.contains("not a Tyndall pipeline cache"), "{err}");
 }
+
+/// `--trace FILE`: a Chrome trace-event JSON that parses, with a complete event (`"ph": "X"`)
+/// for every node of the graph at every frame, the pipelines created, the read-backs with their
+/// bytes, and each file written with its frame and path; with `--stats` the GPU passes too.
+#[test]
+fn the_trace_parses_and_names_every_node_at_every_frame() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let trace = dir.path().join("run.trace.json");
+    let graph = "graphs/stylize/tree_holes_animated.ron";
+    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .env("TYNDALL_CACHE_DIR", "")
+        .args([
+            "render",
+            graph,
+            "-o",
+            &dir.path().join("f_####.png").display().to_string(),
+            "--frames",
+            "1-2",
+            "--size",
+            "64x36",
+            "--stats",
+            "--trace",
+            &trace.display().to_string(),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run tyndall");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&trace).expect("trace written")).expect("JSON");
+    let events = doc["traceEvents"].as_array().expect("traceEvents");
+    let complete: Vec<&serde_json::Value> = events.iter().filter(|e| e["ph"] == "X").collect();
+    assert!(complete
+        .iter()
+        .all(|e| e["ts"].as_f64().is_some_and(|t| t >= 0.0)
+            && e["dur"].as_f64().is_some_and(|d| d >= 0.0)));
+    let of = |cat: &str| -> Vec<&serde_json::Value> {
+        complete
+            .iter()
+            .copied()
+            .filter(|e| e["cat"] == cat)
+            .collect()
+    };
+    // Every node of the (flattened) graph ran at each frame: the first evaluates everything,
+    // the second what the time changes; each node appears at least once, with its frame.
+    let registry = tyndall::nodes::registry();
+    let g = tyndall::graph::load_file(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(graph),
+        registry.catalog(),
+    )
+    .expect("graph")
+    .flatten(registry.catalog())
+    .expect("flatten");
+    let nodes = of("node");
+    for n in g.nodes() {
+        assert!(
+            nodes
+                .iter()
+                .any(|e| e["name"] == n.id.as_str() && e["args"]["frame"] == 1),
+            "node {} at frame 1",
+            n.id
+        );
+    }
+    assert!(
+        nodes.iter().any(|e| e["args"]["frame"] == 2),
+        "frame 2's nodes"
+    );
+    assert!(!of("pipeline").is_empty(), "pipeline creations");
+    assert!(!of("gpu").is_empty(), "GPU passes (timed with --stats)");
+    assert!(of("readback")
+        .iter()
+        .all(|e| e["args"]["bytes"].as_u64().is_some_and(|b| b > 0)));
+    let writes = of("write");
+    assert_eq!(writes.len(), 2, "one file per frame");
+    for (w, f) in writes.iter().zip([1, 2]) {
+        assert_eq!(w["args"]["frame"], f);
+        assert!(w["args"]["path"]
+            .as_str()
+            .is_some_and(|p| p.ends_with(&format!("f_000{f}.png"))));
+    }
+}

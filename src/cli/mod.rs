@@ -47,6 +47,11 @@ pub struct Cli {
     /// lacks.
     #[arg(long, global = true, value_name = "NAME-or-INDEX")]
     pub adapter: Option<String>,
+    /// Write a Chrome trace of the run (node runs, GPU passes when timed — `--stats`, benches —,
+    /// pipeline creations, read-backs, file writes) to FILE: open it in Perfetto
+    /// (ui.perfetto.dev) or chrome://tracing.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -260,6 +265,20 @@ pub fn ensure_runtime_dir() {
 
 /// Run a parsed command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
+    let Some(trace) = cli.trace.clone() else {
+        return run_command(cli);
+    };
+    tyndall_engine::trace::start();
+    let ran = run_command(cli);
+    // Queued work finishes (and is traced) before the file is written.
+    crate::gpu::Gpu::settle_shared();
+    let written = tyndall_engine::trace::finish(&trace)
+        .map_err(|e| bad(format!("--trace {}: {e}", trace.display())));
+    ran.and(written)
+}
+
+/// Run a parsed command (without its trace).
+fn run_command(cli: Cli) -> Result<(), CliError> {
     let registry = Arc::new(crate::nodes::registry());
     if cli.adapter.is_some() {
         crate::gpu::set_adapter_choice(cli.adapter.clone());

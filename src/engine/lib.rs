@@ -13,3 +13,4 @@ pub mod gpu;
 pub mod graph;
 pub mod io;
 pub mod scene;
+pub mod trace;

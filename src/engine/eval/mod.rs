@@ -288,6 +288,7 @@ impl Evaluator {
     ) -> Result<Evaluation, EvalError> {
         self.cache.tick();
         self.earlier_runs = 0;
+        crate::trace::set_frame(opts.frame);
         let plan = self.plan(graph, targets)?;
         let order = graph.topo_order();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
@@ -491,6 +492,13 @@ impl Evaluator {
         });
         let submits = self.gpu.thread_submit_count() - submitted;
         let elapsed = start.elapsed();
+        crate::trace::record(
+            "node",
+            ctx.id,
+            start,
+            elapsed,
+            serde_json::json!({ "kind": k.schema().kind }),
+        );
         let gpu_time = self.gpu.take_gpu_time();
         self.gpu.set_timing(false);
         ran?;

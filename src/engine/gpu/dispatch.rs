@@ -80,6 +80,7 @@ impl Gpu {
         }
         check_binds(shader, &*self.entry_needs(shader, entry)?, binds)?;
         let source = shader.wgsl().map_err(GpuError::Validation)?;
+        let created = std::time::Instant::now();
         let p = self
             .scoped(|| {
                 let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
@@ -133,6 +134,13 @@ impl Gpu {
                 }
                 other => other,
             })?;
+        crate::trace::record(
+            "pipeline",
+            &key,
+            created,
+            created.elapsed(),
+            serde_json::json!({}),
+        );
         cache.insert(key, p.clone());
         Ok(p)
     }
@@ -332,7 +340,7 @@ impl Gpu {
             }
         };
         // Into this thread's batch (see batch.rs); timed, with its timestamps resolved after it.
-        let Some(timer) = self.pass_timer() else {
+        let Some(timer) = self.pass_timer(shader.stem) else {
             self.encode(|enc| pass(enc, None));
             return Ok(());
         };

@@ -97,6 +97,7 @@ impl Gpu {
             return Ok(p.clone());
         }
         self.disk.note(&key, &noted);
+        let created = std::time::Instant::now();
         let p = self.scoped(|| {
             let bgl = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(&key),
@@ -156,6 +157,13 @@ impl Gpu {
                 cache: self.disk.cache.as_ref(),
             }))
         })?;
+        crate::trace::record(
+            "pipeline",
+            &key,
+            created,
+            created.elapsed(),
+            serde_json::json!({}),
+        );
         cache.insert(key, p.clone());
         Ok(p)
     }
@@ -249,7 +257,7 @@ impl Gpu {
                 }
                 Ok(())
             };
-            match self.pass_timer() {
+            match self.pass_timer(shader.stem) {
                 None => self.encode(|enc| record(enc, None)),
                 Some(timer) => {
                     self.encode(|enc| record(enc, Some(&timer)))?;

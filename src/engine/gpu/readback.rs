@@ -29,6 +29,7 @@ impl Gpu {
 
     /// Wait for `buffer` (MAP_READ) to be readable and copy its bytes out.
     fn map_read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        let started = std::time::Instant::now();
         let (tx, rx) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -47,6 +48,13 @@ impl Gpu {
             let (n, b) = c.get();
             c.set((n + 1, b + bytes.len() as u64));
         });
+        crate::trace::record(
+            "readback",
+            "read-back",
+            started,
+            started.elapsed(),
+            serde_json::json!({ "bytes": bytes.len() }),
+        );
         Ok(bytes)
     }
 

@@ -17,6 +17,8 @@ pub struct PassTimer {
     pub query: wgpu::QuerySet,
     resolve: wgpu::Buffer,
     read: wgpu::Buffer,
+    /// What the pass is (`shader:entry`), for the trace.
+    label: String,
 }
 
 impl Gpu {
@@ -43,7 +45,7 @@ impl Gpu {
     }
 
     /// Queries for one pass, when timing.
-    pub(crate) fn pass_timer(&self) -> Option<PassTimer> {
+    pub(crate) fn pass_timer(&self, label: &str) -> Option<PassTimer> {
         if !self.timing_active() {
             return None;
         }
@@ -63,6 +65,7 @@ impl Gpu {
             }),
             resolve: buffer(wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
             read: buffer(wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
+            label: label.to_string(),
         })
     }
 
@@ -86,9 +89,12 @@ impl Gpu {
             .map_err(|e| GpuError::Readback(e.to_string()))?;
         let stamps: &[u64] = bytemuck::cast_slice(&view);
         let ticks = stamps[1].saturating_sub(stamps[0]);
-        let ns = (ticks as f64 * self.queue.get_timestamp_period() as f64) as u64;
+        let period = self.queue.get_timestamp_period() as f64;
+        let ns = (ticks as f64 * period) as u64;
+        let end_ns = stamps[1] as f64 * period;
         drop(view);
         t.read.unmap();
+        crate::trace::record_gpu(&t.label, end_ns, std::time::Duration::from_nanos(ns));
         GPU_NS.with(|c| c.set(c.get() + ns));
         Ok(())
     }

@@ -207,6 +207,24 @@ pub fn write_image(
     precision: Precision,
     srgb: bool,
 ) -> Result<(), IoError> {
+    let started = std::time::Instant::now();
+    let written = write_image_untraced(path, r, precision, srgb);
+    crate::trace::record(
+        "write",
+        "write",
+        started,
+        started.elapsed(),
+        serde_json::json!({ "path": path.display().to_string() }),
+    );
+    written
+}
+
+fn write_image_untraced(
+    path: &Path,
+    r: &Raster,
+    precision: Precision,
+    srgb: bool,
+) -> Result<(), IoError> {
     let err = |reason: String| IoError::Write {
         path: path.to_path_buf(),
         reason,
@@ -381,6 +399,24 @@ pub struct ExrHeader {
 /// Write a `width × height` single-part EXR with the named layers (atomically; non-finite
 /// samples become 0). Every channel must hold `width × height` samples.
 pub fn write_exr_layers(
+    path: &Path,
+    size: (u32, u32),
+    layers: &[ExrLayer],
+    header: &ExrHeader,
+) -> Result<(), IoError> {
+    let started = std::time::Instant::now();
+    let written = write_exr_layers_untraced(path, size, layers, header);
+    crate::trace::record(
+        "write",
+        "write",
+        started,
+        started.elapsed(),
+        serde_json::json!({ "path": path.display().to_string() }),
+    );
+    written
+}
+
+fn write_exr_layers_untraced(
     path: &Path,
     (width, height): (u32, u32),
     layers: &[ExrLayer],
