@@ -1513,3 +1513,62 @@ fn the_trace_parses_and_names_every_node_at_every_frame() {
             .is_some_and(|p| p.ends_with(&format!("f_000{f}.png"))));
     }
 }
+
+/// A sequence writes its files on background threads while the next frame evaluates (the
+/// trace's write events are on writer threads, not the evaluating one), and every file is
+/// byte for byte the one the same frame rendered alone writes.
+#[test]
+fn a_sequence_written_in_the_background_equals_its_frames_rendered_alone() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let render = |out: &str, frames: &str, trace: Option<&std::path::Path>| {
+        let mut args = vec![
+            "render".to_string(),
+            "graphs/stylize/tree_holes_animated.ron".into(),
+            "-o".into(),
+            dir.path().join(out).display().to_string(),
+            "--frames".into(),
+            frames.into(),
+            "--size".into(),
+            "96x54".into(),
+        ];
+        if let Some(t) = trace {
+            args.extend(["--trace".to_string(), t.display().to_string()]);
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+            .args(&args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .expect("run tyndall");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let trace = dir.path().join("seq.json");
+    render("seq_####.exr", "1-4", Some(&trace));
+    for f in 1..=4 {
+        render(&format!("one{f}_####.exr"), &format!("{f}-{f}"), None);
+        let seq = std::fs::read(dir.path().join(format!("seq_000{f}.exr"))).expect("seq");
+        let one = std::fs::read(dir.path().join(format!("one{f}_000{f}.exr"))).expect("alone");
+        assert!(
+            seq == one,
+            "frame {f} differs from the frame rendered alone"
+        );
+    }
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&trace).expect("trace")).expect("JSON");
+    let events = doc["traceEvents"].as_array().expect("events");
+    let track_of = |cat: &str| -> std::collections::BTreeSet<u64> {
+        events
+            .iter()
+            .filter(|e| e["cat"] == cat)
+            .filter_map(|e| e["tid"].as_u64())
+            .collect()
+    };
+    let (writes, nodes) = (track_of("write"), track_of("node"));
+    assert_eq!(events.iter().filter(|e| e["cat"] == "write").count(), 4);
+    assert!(
+        writes.is_disjoint(&nodes),
+        "writes {writes:?} on the nodes' thread {nodes:?}"
+    );
+}

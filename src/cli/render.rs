@@ -94,6 +94,8 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         indicatif::ProgressBar::hidden()
     };
     let clock = std::time::Instant::now();
+    // Files are encoded and written on background threads while the next frame evaluates.
+    let writes = DeferredWrites::start();
     let (mut written, mut skipped, mut failed) = (Vec::new(), 0usize, Vec::new());
     let mut done = 0usize;
     for f in &frames {
@@ -152,6 +154,15 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         // history included): keep about a frame's window, not the whole budget.
         ev.keep_used_since(epoch);
     }
+    for e in writes.finish() {
+        bar.suspend(|| eprintln!("error: {e}"));
+        if let tyndall_engine::io::IoError::Write { path, .. }
+        | tyndall_engine::io::IoError::Format { path, .. } = &e
+        {
+            written.retain(|w: &PathBuf| w != path);
+            failed.push(path.display().to_string());
+        }
+    }
     bar.finish_and_clear();
     print_summary(
         (frames.len(), vars.len()),
@@ -162,6 +173,34 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
         return Err(CliError::Frames(failed));
     }
     Ok(())
+}
+
+/// Deferred image writes for the length of a render: started on creation; [`finish`]
+/// waits for them and returns the failures; dropped early (an error ended the render), it waits
+/// too, so no file is left half-written when the process exits.
+///
+/// [`finish`]: DeferredWrites::finish
+struct DeferredWrites;
+
+impl DeferredWrites {
+    fn start() -> Self {
+        tyndall_engine::io::deferred::defer(true);
+        Self
+    }
+
+    fn finish(self) -> Vec<tyndall_engine::io::IoError> {
+        tyndall_engine::io::deferred::defer(false);
+        tyndall_engine::io::deferred::wait()
+    }
+}
+
+impl Drop for DeferredWrites {
+    fn drop(&mut self) {
+        tyndall_engine::io::deferred::defer(false);
+        for e in tyndall_engine::io::deferred::wait() {
+            eprintln!("error: {e}");
+        }
+    }
 }
 
 /// `auto` progress: a bar on a terminal, ALF lines otherwise.

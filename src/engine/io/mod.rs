@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use exr::prelude::{self as exrp, WritableImage};
 use thiserror::Error;
 
+pub mod deferred;
 mod layers;
 
 pub use layers::read_exr_layer;
@@ -200,23 +201,39 @@ fn read_png(path: &Path, srgb: bool) -> Result<Raster, IoError> {
 /// as `R`,`G`,`B`,`A`) or PNG (`U8`/`U16`; one channel as grey, three or four as RGBA (alpha 1
 /// for three), colour channels sRGB-encoded when
 /// `srgb`). Missing parent folders are created. Non-finite samples are written as 0, so no NaN/Inf reaches a file. The write is
-/// atomic (temporary file beside the target, flushed to disk, then renamed over it).
+/// atomic (temporary file beside the target, flushed to disk, then renamed over it). While
+/// writes are [`deferred`] (a sequence render), the raster is queued and written on a
+/// background thread: the file exists, or its failure is known, after [`deferred::wait`].
 pub fn write_image(
     path: &Path,
     r: &Raster,
     precision: Precision,
     srgb: bool,
 ) -> Result<(), IoError> {
-    let started = std::time::Instant::now();
-    let written = write_image_untraced(path, r, precision, srgb);
-    crate::trace::record(
-        "write",
-        "write",
-        started,
-        started.elapsed(),
-        serde_json::json!({ "path": path.display().to_string() }),
-    );
-    written
+    let traced = move |path: &Path, r: &Raster| {
+        let started = std::time::Instant::now();
+        let written = write_image_untraced(path, r, precision, srgb);
+        crate::trace::record(
+            "write",
+            "write",
+            started,
+            started.elapsed(),
+            serde_json::json!({ "path": path.display().to_string() }),
+        );
+        written
+    };
+    if !deferred::deferred() {
+        return traced(path, r);
+    }
+    // On a writer thread, with the frame it belongs to.
+    let (path, r, frame) = (path.to_path_buf(), r.clone(), crate::trace::frame());
+    deferred::submit(
+        path.clone(),
+        Box::new(move || {
+            crate::trace::set_frame(frame);
+            traced(&path, &r)
+        }),
+    )
 }
 
 fn write_image_untraced(
@@ -515,8 +532,22 @@ fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
             .map(|(i, n)| exrp::AnyChannel::new(*n, samples(i)))
             .collect()
     };
-    let img = exrp::Image::from_channels((w, h), exrp::AnyChannels::sort(list));
-    img.write().to_file(path).map_err(|e| e.to_string())
+    // Blocks in increasing order: the crate compresses them in parallel and would otherwise
+    // write them as they finish, so the same picture could give different bytes (a farm
+    // comparing checksums, a sequence written in the background against a frame alone).
+    let layer = exrp::Layer::new(
+        (w, h),
+        exrp::LayerAttributes::default(),
+        exrp::Encoding {
+            line_order: exrp::LineOrder::Increasing,
+            ..exrp::Encoding::FAST_LOSSLESS
+        },
+        exrp::AnyChannels::sort(list),
+    );
+    exrp::Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| e.to_string())
 }
 
 fn write_png(path: &Path, r: &Raster, sixteen: bool, srgb: bool) -> Result<(), String> {

@@ -1,0 +1,118 @@
+//! Image files written on background threads while the next frame is evaluated
+//! (`tyndall render`): [`defer`] turns [`super::write_image`] into a queued job — the raster
+//! is handed over, encoded (EXR compression and PNG encoding included) and written atomically by
+//! one of a few writer threads — and [`wait`] waits for every queued write and returns the
+//! failures. The bytes of each file are the same as a synchronous write's; at most a few writes
+//! wait in the queue (a frame's raster each), so memory stays bounded.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Sender};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
+
+use super::IoError;
+
+/// Writes queued and not finished yet, at most this many per writer thread.
+const QUEUED_PER_THREAD: usize = 2;
+
+type Job = Box<dyn FnOnce() -> Result<(), IoError> + Send>;
+
+struct Pool {
+    tx: Mutex<Sender<Job>>,
+    /// Writes queued or running, and the failures not yet returned by [`wait`].
+    state: Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)>,
+    limit: usize,
+}
+
+static ON: AtomicBool = AtomicBool::new(false);
+static POOL: OnceLock<Pool> = OnceLock::new();
+
+fn pool() -> &'static Pool {
+    POOL.get_or_init(|| {
+        let threads = std::thread::available_parallelism()
+            .map_or(2, |n| n.get())
+            .clamp(1, 4);
+        let (tx, rx) = channel::<Job>();
+        let rx = Arc::new(Mutex::new(rx));
+        let state: Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)> = Arc::default();
+        for i in 0..threads {
+            let (rx, state) = (rx.clone(), state.clone());
+            let _ = std::thread::Builder::new()
+                .name(format!("tyndall-write-{i}"))
+                .spawn(move || loop {
+                    let job = match rx.lock() {
+                        Ok(r) => r.recv(),
+                        Err(_) => return,
+                    };
+                    let Ok(job) = job else { return };
+                    let result = job();
+                    let (lock, cv) = &*state;
+                    let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
+                    s.0 -= 1;
+                    if let Err(e) = result {
+                        s.1.push(e);
+                    }
+                    cv.notify_all();
+                });
+        }
+        Pool {
+            tx: Mutex::new(tx),
+            state,
+            limit: threads * QUEUED_PER_THREAD,
+        }
+    })
+}
+
+/// Write image files on background threads from now on (`true`), or synchronously again.
+pub fn defer(on: bool) {
+    ON.store(on, Ordering::Release);
+}
+
+/// Whether image writes are deferred.
+pub fn deferred() -> bool {
+    ON.load(Ordering::Acquire)
+}
+
+/// Queue `job` (a write of `path`), waiting while the queue is full; runs it here when no
+/// writer thread could be started.
+pub(super) fn submit(path: PathBuf, job: Job) -> Result<(), IoError> {
+    let p = pool();
+    let (lock, cv) = &*p.state;
+    let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
+    while s.0 >= p.limit {
+        s = cv.wait(s).unwrap_or_else(|e| e.into_inner());
+    }
+    s.0 += 1;
+    drop(s);
+    let sent = p.tx.lock().map(|tx| tx.send(job));
+    match sent {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(unsent)) => {
+            let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
+            s.0 -= 1;
+            drop(s);
+            (unsent.0)()
+        }
+        Err(_) => {
+            let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
+            s.0 -= 1;
+            Err(IoError::Write {
+                path,
+                reason: "the background writer is gone".into(),
+            })
+        }
+    }
+}
+
+/// Wait until every queued write has finished; the writes that failed since the last call.
+pub fn wait() -> Vec<IoError> {
+    let Some(p) = POOL.get() else {
+        return Vec::new();
+    };
+    let (lock, cv) = &*p.state;
+    let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
+    while s.0 > 0 {
+        s = cv.wait(s).unwrap_or_else(|e| e.into_inner());
+    }
+    std::mem::take(&mut s.1)
+}
