@@ -17,10 +17,13 @@ const QUEUED_PER_THREAD: usize = 2;
 
 type Job = Box<dyn FnOnce() -> Result<(), IoError> + Send>;
 
+/// Writes queued or running, and the failures not yet returned by [`wait`], with the condition
+/// writers signal when one finishes.
+type State = Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)>;
+
 struct Pool {
     tx: Mutex<Sender<Job>>,
-    /// Writes queued or running, and the failures not yet returned by [`wait`].
-    state: Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)>,
+    state: State,
     limit: usize,
 }
 
@@ -34,7 +37,7 @@ fn pool() -> &'static Pool {
             .clamp(1, 4);
         let (tx, rx) = channel::<Job>();
         let rx = Arc::new(Mutex::new(rx));
-        let state: Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)> = Arc::default();
+        let state: State = Arc::default();
         for i in 0..threads {
             let (rx, state) = (rx.clone(), state.clone());
             let _ = std::thread::Builder::new()
