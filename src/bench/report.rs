@@ -422,16 +422,20 @@ pub fn table(rows: &[Row]) -> String {
 mod tests {
     use super::{merge_results, update_doc, RESULT_COLUMNS};
 
+    /// A results line: suite, adapter, a setting row, its median.
+    fn line(suite: &str, adapter: &str, ms: &str) -> String {
+        let mut cells = vec![""; RESULT_COLUMNS.len()];
+        cells[0] = suite;
+        cells[1] = adapter;
+        cells[5] = "setting";
+        cells[6] = ms;
+        cells.join(",")
+    }
+
     #[test]
     fn merged_results_keep_other_suites_and_replace_those_run() {
         let header = RESULT_COLUMNS.join(",");
-        let row = |suite: &str, ms: &str| {
-            let mut cells = vec![""; RESULT_COLUMNS.len()];
-            cells[0] = suite;
-            cells[5] = "setting";
-            cells[6] = ms;
-            cells.join(",")
-        };
+        let row = |suite: &str, ms: &str| line(suite, "", ms);
         let old = format!(
             "{header}\n{}\n{}\n{}\n",
             row("a", "1"),
@@ -468,14 +472,7 @@ mod tests {
     #[test]
     fn results_of_other_adapters_are_kept_beside_a_new_run() {
         let header = RESULT_COLUMNS.join(",");
-        let row = |suite: &str, adapter: &str, ms: &str| {
-            let mut cells = vec![""; RESULT_COLUMNS.len()];
-            cells[0] = suite;
-            cells[1] = adapter;
-            cells[5] = "setting";
-            cells[6] = ms;
-            cells.join(",")
-        };
+        let row = line;
         let old = format!(
             "{header}\n{}\n{}\n{}\n",
             row("a", "gpu", "1"),

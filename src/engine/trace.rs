@@ -100,6 +100,25 @@ pub fn record(cat: &str, name: &str, start: Instant, dur: Duration, mut args: Va
     }));
 }
 
+/// Record a pipeline creation (`cat: "pipeline"`, named by its key) that began at `start`.
+pub fn pipeline_created(key: &str, start: Instant) {
+    record("pipeline", key, start, start.elapsed(), json!({}));
+}
+
+/// Run `write` (a file write of `path`) and record it (`cat: "write"`, `args.path`).
+pub fn write<T>(path: &Path, write: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let out = write();
+    record(
+        "write",
+        "write",
+        start,
+        start.elapsed(),
+        json!({ "path": path.display().to_string() }),
+    );
+    out
+}
+
 /// The GPU clock's offset from the trace's (µs), fixed by the first GPU pass recorded.
 static GPU_OFFSET: OnceLock<f64> = OnceLock::new();
 

@@ -134,13 +134,7 @@ impl Gpu {
                 }
                 other => other,
             })?;
-        crate::trace::record(
-            "pipeline",
-            &key,
-            created,
-            created.elapsed(),
-            serde_json::json!({}),
-        );
+        crate::trace::pipeline_created(&key, created);
         cache.insert(key, p.clone());
         Ok(p)
     }

@@ -157,13 +157,7 @@ impl Gpu {
                 cache: self.disk.cache.as_ref(),
             }))
         })?;
-        crate::trace::record(
-            "pipeline",
-            &key,
-            created,
-            created.elapsed(),
-            serde_json::json!({}),
-        );
+        crate::trace::pipeline_created(&key, created);
         cache.insert(key, p.clone());
         Ok(p)
     }

@@ -211,16 +211,7 @@ pub fn write_image(
     srgb: bool,
 ) -> Result<(), IoError> {
     let traced = move |path: &Path, r: &Raster| {
-        let started = std::time::Instant::now();
-        let written = write_image_untraced(path, r, precision, srgb);
-        crate::trace::record(
-            "write",
-            "write",
-            started,
-            started.elapsed(),
-            serde_json::json!({ "path": path.display().to_string() }),
-        );
-        written
+        crate::trace::write(path, || write_image_untraced(path, r, precision, srgb))
     };
     if !deferred::deferred() {
         return traced(path, r);
@@ -421,16 +412,9 @@ pub fn write_exr_layers(
     layers: &[ExrLayer],
     header: &ExrHeader,
 ) -> Result<(), IoError> {
-    let started = std::time::Instant::now();
-    let written = write_exr_layers_untraced(path, size, layers, header);
-    crate::trace::record(
-        "write",
-        "write",
-        started,
-        started.elapsed(),
-        serde_json::json!({ "path": path.display().to_string() }),
-    );
-    written
+    crate::trace::write(path, || {
+        write_exr_layers_untraced(path, size, layers, header)
+    })
 }
 
 fn write_exr_layers_untraced(
