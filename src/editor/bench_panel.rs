@@ -407,15 +407,15 @@ mod tests {
     #[test]
     fn a_suite_measured_on_several_adapters_shows_the_one_in_use() {
         let text = "suite,adapter,node,kind,setting,row,median_ms,min_ms,rmse,max_err\n\
-            blur,cpu,b,Blur,sigma=1,setting,50,49,0.01,0.1\n\
-            blur,cpu,b,Blur,sigma=2,setting,60,59,0.005,0.1\n\
-            blur,gpu,b,Blur,sigma=1,setting,0.5,0.4,0.01,0.1\n";
+            blur,cpu,b,Smear,sigma=1,setting,50,49,0.01,0.1\n\
+            blur,cpu,b,Smear,sigma=2,setting,60,59,0.005,0.1\n\
+            blur,gpu,b,Smear,sigma=1,setting,0.5,0.4,0.01,0.1\n";
         let mut curves = Curves {
             rows: parse(text).unwrap(),
             ..Default::default()
         };
         let adapters = |c: &Curves| -> Vec<String> {
-            c.of_kind("Blur")["blur"]
+            c.of_kind("Smear")["blur"]
                 .iter()
                 .map(|m| m.adapter.clone())
                 .collect()
