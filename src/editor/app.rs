@@ -127,6 +127,8 @@ pub struct EditorApp {
     clipboard: String,
     /// Show per-node timings on the canvas (off for reproducible screenshots).
     pub show_timings: bool,
+    /// Where the trace being recorded goes ("Record trace"), while one is.
+    pub trace_file: Option<PathBuf>,
     /// An autosave left by a session that did not save, offered for recovery at start.
     pub recovery: Option<PathBuf>,
     /// The window was asked to close with unsaved changes: the save/discard/cancel prompt.
@@ -220,6 +222,7 @@ impl EditorApp {
             frame_all: true,
             clipboard: String::new(),
             show_timings: true,
+            trace_file: None,
             recovery: None,
             confirm_quit: false,
             allow_close: false,
@@ -345,6 +348,34 @@ impl EditorApp {
             };
             if let Some(m) = f(tool, &mut cx) {
                 self.status = m;
+            }
+        }
+    }
+
+    /// "Record trace": start recording (`tyndall-trace-<seconds>.json` beside the document, or
+    /// in the working directory), or stop and write the file (the status bar says where).
+    pub fn toggle_trace(&mut self) {
+        match self.trace_file.take() {
+            None => {
+                let stamp = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                let dir = self
+                    .state
+                    .path()
+                    .and_then(Path::parent)
+                    .map(Path::to_path_buf)
+                    .unwrap_or_default();
+                let path = dir.join(format!("tyndall-trace-{stamp}.json"));
+                tyndall_engine::trace::start();
+                self.status = format!("recording a trace into {}", path.display());
+                self.trace_file = Some(path);
+            }
+            Some(path) => {
+                self.status = match tyndall_engine::trace::finish(&path) {
+                    Ok(()) => format!("trace written: {} (open it in Perfetto)", path.display()),
+                    Err(e) => format!("the trace was not written: {}: {e}", path.display()),
+                };
             }
         }
     }

@@ -1090,3 +1090,54 @@ fn tool_jobs_run_on_the_worker_evaluator_with_its_cache_and_the_newest_ask_wins(
         .expect_err("no GPU");
     assert!(err.contains("no GPU"), "{err}");
 }
+
+/// "Record trace" in the top bar: on, the worker's evaluations are recorded; off, the trace is
+/// written beside the document and names the nodes that ran meanwhile.
+#[test]
+fn record_trace_writes_a_chrome_trace_beside_the_document() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("g.ron");
+    std::fs::write(
+        &path,
+        r#"(version: 3, nodes: {
+            "c": (kind: "Constant", params: {"value": 0.5}),
+            "b": (kind: "Blur", params: {"sigma": 1.0}),
+        }, edges: [("c.value", "b.in")])"#,
+    )
+    .expect("write graph");
+    let mut h = common::editor::open(&path, (1400.0, 1000.0));
+    h.get_by_label("Record trace").click();
+    h.run_steps(2);
+    // A change while recording: the blur runs again (the constant is reused).
+    h.state_mut()
+        .state
+        .set_param("b", "sigma", ParamValue::Float(2.0))
+        .expect("sigma");
+    settle(&mut h);
+    h.get_by_label("Record trace").click();
+    h.run_steps(2);
+    assert!(
+        h.state().status.contains("trace written"),
+        "{}",
+        h.state().status
+    );
+    let file = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.to_string_lossy().contains("tyndall-trace-"))
+        .expect("the trace file beside the document");
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&file).expect("read")).expect("JSON");
+    let nodes: Vec<&str> = doc["traceEvents"]
+        .as_array()
+        .expect("events")
+        .iter()
+        .filter(|e| e["cat"] == "node")
+        .filter_map(|e| e["name"].as_str())
+        .collect();
+    // (The recorder is process-wide: other tests of this binary may add their nodes.)
+    assert!(nodes.contains(&"b"), "{nodes:?}");
+}

@@ -217,7 +217,10 @@ fn a_frame_alone_equals_the_same_frame_in_a_sequence() {
     }
     let mut alone = evaluator(&gpu);
     let (image, _, runs, _) = accumulated(&mut alone, &gpu, &g, 10.0);
-    assert_eq!(runs, 9, "the same three earlier frames, the shadow map reused");
+    assert_eq!(
+        runs, 9,
+        "the same three earlier frames, the shadow map reused"
+    );
     assert_eq!(Some(image.data), last.map(|r| r.data), "bit for bit");
 }
 

@@ -31,6 +31,18 @@ impl EditorApp {
                 if ui.button("Save").on_hover_text("Ctrl+S").clicked() {
                     self.save();
                 }
+                let mut recording = self.trace_file.is_some();
+                if ui
+                    .toggle_value(&mut recording, "Record trace")
+                    .on_hover_text(
+                        "Record what evaluations do (node runs, GPU passes, pipelines, \
+                         read-backs, writes) into a Chrome trace beside the document: open it \
+                         in Perfetto",
+                    )
+                    .changed()
+                {
+                    self.toggle_trace();
+                }
                 if ui.button("Save as…").clicked() {
                     self.save_as = Some(
                         self.state
