@@ -36,6 +36,30 @@ fn uploads_of_the_wrong_shape_are_refused() {
     }
 }
 
+/// Read-backs reuse their staging buffers: after the first read-back of a size, more of it (and
+/// of a slightly smaller one) create none, and every read gives the texture's values.
+#[test]
+fn readbacks_reuse_their_staging_buffers() {
+    let _ = require_gpu!();
+    // A device of its own: other tests' read-backs do not count.
+    let gpu = tyndall::gpu::Gpu::new(false).expect("device");
+    let r = common::random_raster(200, 100, 4, -1.0, 1.0, 7);
+    let t = gpu.upload(200, 100, 4, &r.data).expect("upload");
+    let small = common::random_raster(190, 100, 4, -1.0, 1.0, 8);
+    let s = gpu.upload(190, 100, 4, &small.data).expect("upload");
+    assert_eq!(gpu.read_texture(&t).expect("read"), r.data);
+    let created = gpu.staging_buffers_created();
+    for _ in 0..5 {
+        assert_eq!(gpu.read_texture(&t).expect("read"), r.data);
+        assert_eq!(gpu.read_texture(&s).expect("read"), small.data);
+    }
+    assert_eq!(
+        gpu.staging_buffers_created(),
+        created,
+        "reused, not created"
+    );
+}
+
 #[test]
 fn pool_recycles_textures_of_same_size_and_format() {
     let gpu = require_gpu!();

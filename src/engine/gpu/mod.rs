@@ -171,6 +171,10 @@ pub struct Gpu {
     submits: std::sync::atomic::AtomicU64,
     /// Read-backs so far and their bytes ([`Gpu::readbacks`]).
     readbacks: [std::sync::atomic::AtomicU64; 2],
+    /// Staging buffers of earlier read-backs, unmapped, for the next ones.
+    staging: Mutex<Vec<wgpu::Buffer>>,
+    /// Staging buffers created ([`Gpu::staging_buffers_created`]).
+    staging_created: std::sync::atomic::AtomicU64,
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
@@ -274,6 +278,8 @@ impl Gpu {
             shader_needs: Mutex::new(HashMap::new()),
             submits: std::sync::atomic::AtomicU64::new(0),
             readbacks: Default::default(),
+            staging: Mutex::new(Vec::new()),
+            staging_created: Default::default(),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             disk,

@@ -8,54 +8,105 @@ thread_local! {
     static THREAD_READBACKS: std::cell::Cell<(u64, u64)> = const { std::cell::Cell::new((0, 0)) };
 }
 
+/// Staging buffers kept for reuse, at most this many.
+const STAGING_KEPT: usize = 8;
+
 impl Gpu {
     /// Read a storage buffer back as i32 words.
     pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
         let size = (b.words.max(1) as u64) * 4;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let staging = self.staging(size);
         self.scoped(|| {
             self.encode(|enc| enc.copy_buffer_to_buffer(&b.raw, 0, &staging, 0, size));
         })?;
         self.flush()?;
-        let bytes = self.map_read(&staging)?;
-        let words: Vec<i32> = bytemuck::cast_slice(&bytes).to_vec();
-        Ok(words[..b.words as usize].to_vec())
+        self.map_read(staging, size, |bytes| {
+            bytemuck::cast_slice::<u8, i32>(bytes)[..b.words as usize].to_vec()
+        })
     }
 
-    /// Wait for `buffer` (MAP_READ) to be readable and copy its bytes out.
-    fn map_read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    /// A MAP_READ staging buffer of at least `size` bytes: a kept one that fits (and is at most
+    /// twice as large), else a new one.
+    fn staging(&self, size: u64) -> wgpu::Buffer {
+        let mut kept = self.staging.lock().unwrap_or_else(|e| e.into_inner());
+        let fit = kept
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.size() >= size && b.size() <= size.max(256) * 2)
+            .min_by_key(|(_, b)| b.size())
+            .map(|(i, _)| i);
+        if let Some(i) = fit {
+            return kept.swap_remove(i);
+        }
+        drop(kept);
+        self.staging_created
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Staging buffers created for read-backs so far (each is kept and reused afterwards).
+    pub fn staging_buffers_created(&self) -> u64 {
+        self.staging_created
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Wait for the first `size` bytes of `buffer` (a staging buffer) to be readable, hand them
+    /// to `read` (the one copy out of the mapping is the caller's), and keep the buffer for the
+    /// next read-back.
+    fn map_read<T>(
+        &self,
+        buffer: wgpu::Buffer,
+        size: u64,
+        read: impl FnOnce(&[u8]) -> T,
+    ) -> Result<T, GpuError> {
         let started = std::time::Instant::now();
         let (tx, rx) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        buffer.map_async(wgpu::MapMode::Read, ..size, move |r| {
             let _ = tx.send(r);
         });
         self.wait()?;
         receive(&rx)?.map_err(|e| GpuError::Readback(e.to_string()))?;
-        let bytes = buffer
-            .get_mapped_range(..)
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .to_vec();
+        let out = {
+            let view = buffer
+                .get_mapped_range(..size)
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            read(&view)
+        };
         buffer.unmap();
+        let mut kept = self.staging.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() >= STAGING_KEPT {
+            // The smallest goes: large read-backs (the viewer's picture) repeat.
+            if let Some(i) = kept
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, b)| b.size())
+                .map(|(i, _)| i)
+            {
+                kept.swap_remove(i);
+            }
+        }
+        kept.push(buffer);
+        drop(kept);
         let [count, total] = &self.readbacks;
         count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        total.fetch_add(bytes.len() as u64, std::sync::atomic::Ordering::Relaxed);
+        total.fetch_add(size, std::sync::atomic::Ordering::Relaxed);
         THREAD_READBACKS.with(|c| {
             let (n, b) = c.get();
-            c.set((n + 1, b + bytes.len() as u64));
+            c.set((n + 1, b + size));
         });
         crate::trace::record(
             "readback",
             "read-back",
             started,
             started.elapsed(),
-            serde_json::json!({ "bytes": bytes.len() }),
+            serde_json::json!({ "bytes": size }),
         );
-        Ok(bytes)
+        Ok(out)
     }
 
     /// Read-backs made by this thread so far (to any context), and their bytes: what one
@@ -96,12 +147,8 @@ impl Gpu {
         let row = w * bpt;
         let padded =
             row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: (padded * h * d) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let size = (padded * h * d) as u64;
+        let buffer = self.staging(size);
         self.scoped(|| {
             self.encode(|enc| {
                 enc.copy_texture_to_buffer(
@@ -128,12 +175,13 @@ impl Gpu {
             });
         })?;
         self.flush()?;
-        let bytes = self.map_read(&buffer)?;
-        let mut out = Vec::with_capacity((row / 4 * h * d) as usize);
-        for r in 0..h * d {
-            let start = (r * padded) as usize;
-            out.extend_from_slice(bytemuck::cast_slice(&bytes[start..start + row as usize]));
-        }
-        Ok(out)
+        self.map_read(buffer, size, |bytes| {
+            let mut out = Vec::with_capacity((row / 4 * h * d) as usize);
+            for r in 0..h * d {
+                let start = (r * padded) as usize;
+                out.extend_from_slice(bytemuck::cast_slice(&bytes[start..start + row as usize]));
+            }
+            out
+        })
     }
 }
