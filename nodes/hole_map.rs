@@ -5,10 +5,10 @@
 //! the noise's distribution (Perlin noise clusters around 0.5: h = 0.3 gives far fewer than 30 %
 //! holes). With `calibrated` on, the threshold is the h-quantile of the input's values, so the
 //! fraction of hole texels is h (up to ties): "hole probability" then means what it says. The
-//! quantile is the k-th smallest finite value, k = ⌊h_q·n / 2³²⌋ with h_q = ⌊h·2³²⌋ (n finite
-//! values; within one rank of ⌊h·n⌋), found on the GPU by radix select — four histogram passes
-//! of 8 bits over order-preserving keys of the values' bits — so nothing is read back and the
-//! threshold is the CPU reference's bit for bit.
+//! quantile is the k-th smallest finite value, k = ⌊h_b·n / 2³²⌋ with h_b = ⌊h·2³²⌋ (n finite
+//! values; within one rank of ⌊h·n⌋), selected on the GPU (`algorithms::quantile`, radix
+//! select) and kept there for the threshold pass: nothing is read back, and the threshold is the
+//! CPU reference's bit for bit.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -22,6 +22,7 @@
 
 use std::sync::Arc;
 
+use crate::algorithms::quantile::{self, Histogram, Rank};
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
@@ -48,8 +49,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("holes", &[PortType::Scalar], "1 where a hole is punched, else 0.")],
     params: Params::SPECS,
 })
-.shaders(&[SHADER])
-.uniforms(&[HoleParams::LAYOUT]);
+.shaders(&[SHADER, quantile::SHADER])
+.uniforms(&[HoleParams::LAYOUT, quantile::QuantileParams::LAYOUT]);
 
 const SHADER: Shader = crate::shader("hole_map", include_str!("../shaders/hole_map.wgsl"));
 
@@ -58,35 +59,27 @@ tyndall_engine::uniforms! {
     pub struct HoleParams as "Params" {
         /// Values below this are holes (the `threshold` pass).
         pub threshold: f32,
-        /// h_q = ⌊h·2³²⌋: the rank selected is ⌊h_q·n / 2³²⌋.
-        pub hq: u32,
-        /// The digit of a `histogram` or `pick` pass: 24, 16, 8, 0.
-        pub shift: u32,
         /// Padding.
         pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
     }
 }
 
-/// h as the 32-bit fraction h_q = ⌊h·2³²⌋ (0 < h < 1).
-pub fn fraction_bits(h: f64) -> u32 {
-    (h * 4_294_967_296.0).floor().clamp(0.0, u32::MAX as f64) as u32
-}
-
 /// The threshold giving a hole fraction of `h` on these values: of the n finite values sorted
-/// (`f32::total_cmp`), the k-th smallest, k = ⌊h_q·n / 2³²⌋ ([`fraction_bits`]; so k values lie
-/// below it when values are distinct); h = 0 or no finite value gives −∞ (no holes), h = 1
-/// gives +∞ (all holes).
+/// (`f32::total_cmp`), the one at rank ⌊h_b·n / 2³²⌋ (`quantile::rank_of`, `Rank::Floor`; so
+/// that many values lie below it when values are distinct); h = 0 or no finite value gives −∞
+/// (no holes), h = 1 gives +∞ (all holes).
 pub fn calibrated_threshold(values: &[f32], h: f64) -> f32 {
     if h >= 1.0 {
         return f32::INFINITY;
     }
-    let mut v: Vec<f32> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if h <= 0.0 || v.is_empty() {
+    if h <= 0.0 {
         return f32::NEG_INFINITY;
     }
-    v.sort_by(f32::total_cmp);
-    let k = ((fraction_bits(h) as u64 * v.len() as u64) >> 32) as usize;
-    v[k.min(v.len() - 1)]
+    quantile::reference(values, h, Rank::Floor, None).unwrap_or(f32::NEG_INFINITY)
 }
 
 /// CPU reference of the thresholding.
@@ -96,28 +89,6 @@ pub fn reference(noise: &Raster, threshold: f32) -> Raster {
         *x = if *x < threshold { 1.0 } else { 0.0 };
     }
     out
-}
-
-/// How the calibrated threshold's histograms count (same result, different cost).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Histogram {
-    /// Every texel adds to the shared bins: for CPU drivers (2.3× faster than `Workgroup` on
-    /// lavapipe, where workgroup memory and barriers cost more than the atomics they save).
-    Shared,
-    /// Each workgroup counts into its own bins first: for GPUs (a noise map's first digit takes
-    /// a few bins per workgroup, so ~30× fewer atomics reach the shared bins).
-    Workgroup,
-}
-
-impl Histogram {
-    /// The form for `gpu`'s adapter.
-    pub fn for_adapter(gpu: &Gpu) -> Self {
-        if gpu.is_cpu() {
-            Self::Shared
-        } else {
-            Self::Workgroup
-        }
-    }
 }
 
 /// The hole map of `noise` with parameters `p` on the GPU, the calibrated threshold selected
@@ -130,12 +101,12 @@ pub fn holes(
 ) -> Result<GpuTexture, GpuError> {
     let h = p.probability;
     let out = gpu.texture(noise.width, noise.height, TexFormat::R32F)?;
-    let uniforms = |threshold: f32, shift: u32| HoleParams {
+    let uniforms = |threshold: f32| HoleParams {
         // ±∞ thresholds as the largest finite values keep the uniform finite.
         threshold: threshold.clamp(f32::MIN, f32::MAX),
-        hq: fraction_bits(h),
-        shift,
         _pad0: 0,
+        _pad1: 0,
+        _pad2: 0,
     };
     let (w, ht) = (noise.width, noise.height);
     if !p.calibrated || h <= 0.0 || h >= 1.0 {
@@ -144,7 +115,7 @@ pub fn holes(
             (true, true) => f32::INFINITY,
             (true, false) => f32::NEG_INFINITY,
         };
-        let u = uniforms(threshold, 0);
+        let u = uniforms(threshold);
         gpu.dispatch(
             SHADER,
             "threshold",
@@ -158,23 +129,9 @@ pub fn holes(
         )?;
         return Ok(out);
     }
-    // Radix select: 256 bins, then n, k and the prefix (see the shader).
-    let sel = gpu.buffer_zeroed(259)?;
-    let entry = match form {
-        Histogram::Shared => "histogram",
-        Histogram::Workgroup => "histogram_workgroup",
-    };
-    for shift in [24, 16, 8, 0] {
-        let u = uniforms(0.0, shift);
-        let binds = [
-            ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
-            ("noise", Bind::Texture(noise)),
-            ("sel", Bind::Buffer(&sel)),
-        ];
-        gpu.dispatch(SHADER, entry, &binds, w, ht)?;
-        gpu.dispatch(SHADER, "pick", &[binds[0], binds[2]], 1, 1)?;
-    }
-    let u = uniforms(0.0, 0);
+    // The h-quantile's key stays on the GPU, in `sel`, for the threshold pass.
+    let sel = quantile::select(gpu, noise, h, Rank::Floor, None, form)?;
+    let u = uniforms(0.0);
     gpu.dispatch(
         SHADER,
         "threshold_selected",

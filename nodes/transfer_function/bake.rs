@@ -2,6 +2,7 @@
 //! reference and GPU passes).
 
 use crate::algorithms::multigrid::Rgba;
+use crate::algorithms::quantile::{self, Histogram, Rank};
 
 use super::data::lerp_n;
 use super::diffusion::mg_pass;
@@ -109,23 +110,38 @@ pub fn depth_coordinate(d: f32, depth_min: f32, depth_max: f32) -> f32 {
     }
 }
 
-/// `depth_range = auto`: the 1st and 99th percentiles (nearest rank) of the finite surface
-/// depths — below the camera's far distance when the depth comes from a camera (sky pixels sit
-/// at the far distance), all finite values when it comes from a file (identity matrices).
-/// `(0, 1)` when no pixel qualifies.
+/// `depth_range = auto`: the 1st and 99th percentiles (nearest rank, `quantile::Rank::Round`)
+/// of the finite surface depths — below the camera's far distance when the depth comes from a
+/// camera (sky pixels sit at the far distance), all finite values when it comes from a file
+/// (identity matrices). `(0, 1)` when no pixel qualifies. [`auto_range_gpu`] is the same on the
+/// GPU, bit for bit.
 pub fn auto_range(depth: &[f32], m: &Matrices) -> (f32, f32) {
-    let from_camera = m.view != IDENTITY || m.proj != IDENTITY;
-    let mut v: Vec<f32> = depth
-        .iter()
-        .copied()
-        .filter(|d| d.is_finite() && (!from_camera || *d < m.far))
-        .collect();
-    if v.is_empty() {
-        return (0.0, 1.0);
+    let limit = depth_limit(m);
+    let at = |q| quantile::reference(depth, q, Rank::Round, limit);
+    match (at(0.01), at(0.99)) {
+        (Some(lo), Some(hi)) => (lo, hi),
+        _ => (0.0, 1.0),
     }
-    v.sort_by(f32::total_cmp);
-    let at = |q: f64| v[((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
-    (at(0.01), at(0.99))
+}
+
+/// The depths that count for the automatic range: below the far distance of a camera's depth.
+fn depth_limit(m: &Matrices) -> Option<f32> {
+    (m.view != IDENTITY || m.proj != IDENTITY).then_some(m.far)
+}
+
+/// [`auto_range`] of a depth map on the GPU: the two percentiles are selected there and only
+/// their selection buffers (2 × 1,036 bytes) are read back, not the map.
+pub fn auto_range_gpu(
+    gpu: &tyndall_engine::gpu::Gpu,
+    depth: &tyndall_engine::gpu::GpuTexture,
+    m: &Matrices,
+) -> Result<(f32, f32), tyndall_engine::gpu::GpuError> {
+    let (limit, form) = (depth_limit(m), Histogram::for_adapter(gpu));
+    let at = |q| quantile::select_value(gpu, depth, q, Rank::Round, limit, form);
+    Ok(match (at(0.01)?, at(0.99)?) {
+        (Some(lo), Some(hi)) => (lo, hi),
+        _ => (0.0, 1.0),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -139,8 +139,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 }).tools(&["layer_list"])
 
-.shaders(&[SHADER])
-.uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT]);
+.shaders(&[SHADER, crate::algorithms::quantile::SHADER])
+.uniforms(&[LayerParams::LAYOUT, MultigridParams::LAYOUT, LookupParams::LAYOUT, crate::algorithms::quantile::QuantileParams::LAYOUT]);
 
 const SHADER: Shader = crate::shader(
     "transfer_function",
@@ -157,8 +157,8 @@ mod diffusion;
 
 pub use anchors::anchor_tf_position;
 pub use bake::{
-    auto_range, bake_gpu, bake_reference, bilinear, blend, depth_coordinate, gradient_colour,
-    LayerParams, LookupParams,
+    auto_range, auto_range_gpu, bake_gpu, bake_reference, bilinear, blend, depth_coordinate,
+    gradient_colour, LayerParams, LookupParams,
 };
 pub use data::{layer_name, Anchor, Blend, Constraint, Layer, LayerEntry, TfData, TfKey};
 pub use diffusion::{diffuse_gpu, diffuse_reference, rasterise_constraints, MultigridParams};
@@ -240,7 +240,7 @@ impl Frame {
         let p = Params::from_ctx(ctx)?;
         Ok(match p.depth_range {
             DepthRange::Manual => (p.depth_min, p.depth_max),
-            DepthRange::Auto => auto_range(&ctx.gpu.read_texture(&self.depth)?, &self.camera),
+            DepthRange::Auto => auto_range_gpu(ctx.gpu, &self.depth, &self.camera)?,
         })
     }
 }

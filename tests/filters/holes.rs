@@ -6,6 +6,7 @@ use std::sync::Arc;
 use tyndall::eval::{Matrices, PortValue};
 use tyndall::graph::{ParamValue, PortType};
 use tyndall::io::Raster;
+use tyndall::nodes::algorithms::quantile;
 use tyndall::nodes::{hole_composite, hole_map, perlin_noise2d};
 
 fn noise(gpu: &Arc<tyndall::gpu::Gpu>, params: &[(&str, ParamValue)], size: (u32, u32)) -> Raster {
@@ -192,7 +193,7 @@ fn calibrated_threshold_is_selected_on_the_gpu_bit_for_bit_without_readback() {
                 .expect("params");
             let noise = common::upload(&gpu, &n, PortType::Scalar);
             let tex = noise.texture().expect("texture").clone();
-            for form in [hole_map::Histogram::Shared, hole_map::Histogram::Workgroup] {
+            for form in [quantile::Histogram::Shared, quantile::Histogram::Workgroup] {
                 let t = hole_map::holes(&gpu, &tex, &p, form).expect("holes");
                 let got = tyndall::eval::download(&gpu, &PortValue::Scalar(Arc::new(t)))
                     .expect("download");

@@ -669,3 +669,64 @@ fn pick_and_anchored_constraints_follow_the_surface() {
         "the constraint did not move with the camera (choose another pixel or camera)"
     );
 }
+
+/// `depth_range = auto` on the GPU (the percentiles selected there, only the selections read
+/// back) equals the CPU reference bit for bit: a camera's depth (sky at the far distance, NaN
+/// and ∞ texels left out), a file's depth (every finite value counts), and a map where nothing
+/// qualifies (the default range).
+#[test]
+fn auto_depth_range_is_selected_on_the_gpu_as_the_reference() {
+    let gpu = require_gpu!();
+    use tyndall::nodes::transfer_function::{auto_range, auto_range_gpu};
+    let camera = tyndall::scene::Camera {
+        position: glam::Vec3::new(0.0, 1.0, 5.0),
+        target: glam::Vec3::ZERO,
+        fov_y: 45.0,
+        near: 0.1,
+        far: 40.0,
+    };
+    let cam = Matrices::of_camera(&camera, 53, 31);
+    let mut depth = common::random_raster(53, 31, 1, 0.5, 60.0, 11);
+    for (i, d) in depth.data.iter_mut().enumerate() {
+        match i % 17 {
+            3 => *d = 40.0, // sky: the far distance
+            5 => *d = f32::NAN,
+            7 => *d = f32::INFINITY,
+            11 => *d = 7.25, // ties
+            _ => {}
+        }
+    }
+    let tex = common::upload(&gpu, &depth, PortType::Scalar);
+    let tex = tex.texture().expect("texture");
+    for m in [cam, Matrices::default()] {
+        let want = auto_range(&depth.data, &m);
+        let got = auto_range_gpu(&gpu, tex, &m).expect("auto range");
+        assert_eq!(
+            (got.0.to_bits(), got.1.to_bits()),
+            (want.0.to_bits(), want.1.to_bits()),
+            "{got:?} vs {want:?}"
+        );
+        assert!(want.0 < want.1);
+    }
+    // Nearest rank of the percentile: 60 depths 1…60 m give ranks round(0.01·59) = 1 and
+    // round(0.99·59) = 58, i.e. 2 m and 59 m (a floor of q·n would give 1 m).
+    let ramp = Raster {
+        width: 12,
+        height: 5,
+        channels: 1,
+        data: (1..=60).rev().map(|i| i as f32).collect(),
+    };
+    assert_eq!(auto_range(&ramp.data, &Matrices::default()), (2.0, 59.0));
+    let ramp_tex = common::upload(&gpu, &ramp, PortType::Scalar);
+    let got = auto_range_gpu(
+        &gpu,
+        ramp_tex.texture().expect("texture"),
+        &Matrices::default(),
+    )
+    .expect("ramp");
+    assert_eq!(got, (2.0, 59.0));
+    let sky = Raster::new(9, 4, 1, 40.0);
+    let sky_tex = common::upload(&gpu, &sky, PortType::Scalar);
+    let got = auto_range_gpu(&gpu, sky_tex.texture().expect("texture"), &cam).expect("sky");
+    assert_eq!(got, (0.0, 1.0), "no surface: the default range");
+}
