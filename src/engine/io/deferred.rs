@@ -23,7 +23,7 @@ type Job = Box<dyn FnOnce() -> Result<(), IoError> + Send>;
 type State = Arc<(Mutex<(usize, Vec<IoError>)>, Condvar)>;
 
 struct Pool {
-    tx: Mutex<Sender<Job>>,
+    tx: Mutex<Sender<(PathBuf, Job)>>,
     state: State,
     limit: usize,
 }
@@ -36,7 +36,7 @@ fn pool() -> &'static Pool {
         let threads = std::thread::available_parallelism()
             .map_or(2, |n| n.get())
             .clamp(1, 4);
-        let (tx, rx) = channel::<Job>();
+        let (tx, rx) = channel::<(PathBuf, Job)>();
         let rx = Arc::new(Mutex::new(rx));
         let state: State = Arc::default();
         for i in 0..threads {
@@ -48,8 +48,16 @@ fn pool() -> &'static Pool {
                         Ok(r) => r.recv(),
                         Err(_) => return,
                     };
-                    let Ok(job) = job else { return };
-                    let result = job();
+                    let Ok((path, job)) = job else { return };
+                    // A panic in an encoder is a failed write, not a writer gone (which would
+                    // leave `wait` waiting for it).
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(job))
+                        .unwrap_or_else(|_| {
+                            Err(IoError::Write {
+                                path,
+                                reason: "the encoder panicked".into(),
+                            })
+                        });
                     let (lock, cv) = &*state;
                     let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
                     s.0 -= 1;
@@ -88,14 +96,14 @@ pub(super) fn submit(path: PathBuf, job: Job) -> Result<(), IoError> {
     }
     s.0 += 1;
     drop(s);
-    let sent = p.tx.lock().map(|tx| tx.send(job));
+    let sent = p.tx.lock().map(|tx| tx.send((path.clone(), job)));
     match sent {
         Ok(Ok(())) => Ok(()),
         Ok(Err(unsent)) => {
             let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
             s.0 -= 1;
             drop(s);
-            (unsent.0)()
+            (unsent.0 .1)()
         }
         Err(_) => {
             let mut s = lock.lock().unwrap_or_else(|e| e.into_inner());
