@@ -151,16 +151,9 @@ pub fn select(
     Ok(sel)
 }
 
-/// [`select`], read back: the quantile, or `None` when no value took part.
-pub fn select_value(
-    gpu: &Gpu,
-    values: &GpuTexture,
-    q: f64,
-    rank: Rank,
-    limit: Option<f32>,
-    form: Histogram,
-) -> Result<Option<f32>, GpuError> {
-    let sel = select(gpu, values, q, rank, limit, form)?;
-    let words = gpu.read_buffer_i32(&sel)?;
+/// The value a [`select`] chose, read back (the buffer's 1,036 bytes), or `None` when no value
+/// took part.
+pub fn read_value(gpu: &Gpu, sel: &GpuBuffer) -> Result<Option<f32>, GpuError> {
+    let words = gpu.read_buffer_i32(sel)?;
     Ok((words[N_WORD] != 0).then(|| value_of(words[KEY_WORD] as u32)))
 }

@@ -137,7 +137,10 @@ pub fn auto_range_gpu(
     m: &Matrices,
 ) -> Result<(f32, f32), tyndall_engine::gpu::GpuError> {
     let (limit, form) = (depth_limit(m), Histogram::for_adapter(gpu));
-    let at = |q| quantile::select_value(gpu, depth, q, Rank::Round, limit, form);
+    let at = |q| {
+        let sel = quantile::select(gpu, depth, q, Rank::Round, limit, form)?;
+        quantile::read_value(gpu, &sel)
+    };
     Ok(match (at(0.01)?, at(0.99)?) {
         (Some(lo), Some(hi)) => (lo, hi),
         _ => (0.0, 1.0),

@@ -3,6 +3,8 @@
 //!
 //! Exit codes: 0 ok, 1 evaluation error, 2 bad input (file, graph, argument).
 
+mod runtime_dir;
+pub use runtime_dir::ensure_runtime_dir;
 mod bench;
 mod eval;
 mod group;
@@ -236,31 +238,6 @@ pub fn main() -> i32 {
     // An error can leave passes queued; the driver must finish them before the process exits.
     crate::gpu::Gpu::settle_shared();
     code
-}
-
-/// Point `XDG_RUNTIME_DIR` at a private directory (`$TMPDIR/tyndall-runtime-$USER`, mode 0700
-/// as the XDG base-directory spec asks) when it is unset or not a directory: without it the
-/// Vulkan loader's window-system probing prints "error: XDG_RUNTIME_DIR is invalid or not set in
-/// the environment." twice per device (CI runners, cron jobs, farm nodes), before a render that
-/// then succeeds. Call it before any thread starts (it sets an environment variable).
-pub fn ensure_runtime_dir() {
-    let valid = std::env::var_os("XDG_RUNTIME_DIR")
-        .map(PathBuf::from)
-        .is_some_and(|p| p.is_absolute() && p.is_dir());
-    if valid {
-        return;
-    }
-    let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
-    let dir = std::env::temp_dir().join(format!("tyndall-runtime-{user}"));
-    if std::fs::create_dir_all(&dir).is_err() {
-        return;
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
-    }
-    std::env::set_var("XDG_RUNTIME_DIR", &dir);
 }
 
 /// Run a parsed command.

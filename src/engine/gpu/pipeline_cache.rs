@@ -215,6 +215,20 @@ fn parse(bytes: &[u8], identity: &str) -> Result<(BTreeSet<String>, Vec<u8>), St
     Ok((names, rest.to_vec()))
 }
 
+impl super::Gpu {
+    /// Pipelines this context created so far: (compiled, taken from the pipeline cache on
+    /// disk).
+    pub fn pipeline_counts(&self) -> (u64, u64) {
+        self.disk.counts()
+    }
+
+    /// Save the pipeline cache ([`cache_dir`]) when pipelines were compiled since the last save
+    /// (the evaluator calls it after each evaluation); the reason when it could not be written.
+    pub fn save_pipeline_cache(&self) -> Result<(), String> {
+        self.disk.save()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
