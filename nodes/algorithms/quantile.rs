@@ -3,7 +3,7 @@
 //! bits, each followed by one invocation picking the bin that holds the k-th key. The selected
 //! key stays in a small storage buffer ([`KEY_WORD`] of [`select`]'s result) for a later pass,
 //! or is read back (the buffer's 1,036 bytes) when the CPU needs the number. Bit for bit
-//! [`reference`]. Hole maps' calibrated thresholds and transfer functions' automatic depth
+//! [`reference()`]. Hole maps' calibrated thresholds and transfer functions' automatic depth
 //! ranges use it.
 
 use tyndall_engine::gpu::{Bind, Gpu, GpuBuffer, GpuError, GpuTexture, Shader};
