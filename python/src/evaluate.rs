@@ -516,8 +516,11 @@ pub(crate) fn node<'py>(
 /// Render the graph's output nodes as `tyndall render` does: for each frame of `frames`
 /// (`"1-24"`, `"1,5,7-9"`, `"1-24x2"`; None: one evaluation, file names as written) at time =
 /// the frame, the outputs written under `output_dir` (default: the working directory) with the
-/// frame in their names. `progress(frame, done, total)` is called after each frame; Ctrl+C stops
-/// after the frame in flight. Returns the frames rendered.
+/// frame in their names. As in `tyndall render`, files are encoded and written on background
+/// threads while the next frame evaluates (the same bytes as written one by one); every write has
+/// finished when `render` returns, and a failed one raises `OSError` naming its file.
+/// `progress(frame, done, total)` is called after each frame's evaluation; Ctrl+C stops after the
+/// frame in flight (its files are still written). Returns the frames rendered.
 #[pyfunction]
 #[pyo3(signature = (graph, frames=None, output_dir=None, size=(960, 540), progress=None))]
 pub(crate) fn render(
@@ -546,9 +549,31 @@ pub(crate) fn render(
     )));
     let g = Arc::new(g);
     let mut done = Vec::new();
+    let rendered = render_frames(py, &list, &ev, &g, size, progress.as_ref(), &mut done);
+    // Every file is written (or known to have failed) before returning, even after an error.
+    let failures = py.detach(tyndall_engine::io::deferred::wait);
+    rendered?;
+    if !failures.is_empty() {
+        let text: Vec<String> = failures.iter().map(ToString::to_string).collect();
+        return Err(pyo3::exceptions::PyOSError::new_err(text.join("; ")));
+    }
+    Ok(done)
+}
+
+/// The frames of [`render`], each evaluated on its own thread with its image writes deferred.
+fn render_frames(
+    py: Python<'_>,
+    list: &[Option<i64>],
+    ev: &Arc<Mutex<tyndall_engine::eval::Evaluator>>,
+    g: &Arc<tyndall_engine::graph::Graph>,
+    size: (u32, u32),
+    progress: Option<&Bound<'_, PyAny>>,
+    done: &mut Vec<i64>,
+) -> PyResult<()> {
     for (i, f) in list.iter().enumerate() {
         let (ev, g, f) = (ev.clone(), g.clone(), *f);
         let r = off_thread(py, move || {
+            tyndall_engine::io::deferred::defer(true);
             let mut ev = ev.lock().unwrap_or_else(|e| e.into_inner());
             let opts = EvalOptions {
                 time: f.unwrap_or(0) as f64,
@@ -566,9 +591,9 @@ pub(crate) fn render(
         r.map_err(|e| eval_err(py, &e))?;
         let frame = f.unwrap_or(0);
         done.push(frame);
-        if let Some(cb) = &progress {
+        if let Some(cb) = progress {
             cb.call1((frame, i + 1, list.len()))?;
         }
     }
-    Ok(done)
+    Ok(())
 }

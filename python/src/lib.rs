@@ -158,6 +158,8 @@ pub(crate) fn eval_err(py: Python<'_>, e: &tyndall_engine::eval::EvalError) -> P
                 ..About::default()
             },
         ),
+        // No node to name: the GPU work of several nodes was being submitted.
+        E::Submit(_) => raise::<GpuError>(py, e.to_string(), About::default()),
     }
 }
 

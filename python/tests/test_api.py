@@ -189,6 +189,36 @@ def test_render_frames_with_progress(tmp_path):
         assert (tmp_path / f"c_{f:04d}.exr").is_file()
 
 
+def test_render_writes_in_the_background_the_same_bytes_as_alone(tmp_path):
+    # Frames are written on background threads while the next one evaluates: a sequence's files
+    # are the bytes of the same frames rendered one call each, and all exist when render returns.
+    g = tyndall.Graph.load(WINDOW)
+    g.set("scatter", "steps", 8)
+    seq, alone = tmp_path / "seq", tmp_path / "alone"
+    assert tyndall.render(g, "1-4", output_dir=seq, size=(64, 36)) == [1, 2, 3, 4]
+    for f in (1, 2, 3, 4):
+        tyndall.render(g, str(f), output_dir=alone, size=(64, 36))
+    names = sorted(p.name for p in seq.rglob("*") if p.is_file())
+    assert names and names == sorted(p.name for p in alone.rglob("*") if p.is_file())
+    for p in seq.rglob("*"):
+        if p.is_file():
+            assert p.read_bytes() == (alone / p.relative_to(seq)).read_bytes(), p
+
+
+def test_render_raises_for_a_file_it_could_not_write(tmp_path):
+    g = tyndall.Graph.from_str(
+        """(version: 3, nodes: {
+            "c": (kind: "Constant", params: {"value": 0.5}),
+            "out": (kind: "ImageOutput", params: {"path": "c_####.exr"}),
+        }, edges: [("c.value", "out.image")])"""
+    )
+    blocked = tmp_path / "c_0002.exr"
+    blocked.mkdir()  # a folder where frame 2's file should go
+    with pytest.raises(OSError, match="c_0002.exr"):
+        tyndall.render(g, "1-3", output_dir=tmp_path, size=(8, 4))
+    assert (tmp_path / "c_0001.exr").is_file() and (tmp_path / "c_0003.exr").is_file()
+
+
 def test_gpu_work_releases_the_gil_and_ctrl_c_interrupts(ev):
     g = tyndall.Graph.load(WINDOW)
     g.set("scatter", "steps", 256)

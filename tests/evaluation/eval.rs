@@ -62,7 +62,8 @@ fn only_changed_node_and_downstream_rerun() {
 
 /// A node keyed on the parts of the scene it reads: a sun change re-runs the shadow map, not the
 /// G-buffer (camera and geometry); a camera change the reverse; other geometry (another built-in
-/// scene) both.
+/// scene) both. The scene node re-runs each time, and uploads its meshes again only for other
+/// geometry.
 #[test]
 fn a_sun_change_leaves_the_g_buffer_reused() {
     let gpu = require_gpu!();
@@ -81,13 +82,18 @@ fn a_sun_change_leaves_the_g_buffer_reused() {
     let targets = [
         Target::Port("gb".into(), "depth".into()),
         Target::Port("sm".into(), "map".into()),
+        Target::Port("scene".into(), "scene".into()),
     ];
     let opts = EvalOptions {
         size: (64, 36),
         ..Default::default()
     };
-    let mut step = |g: &Graph, ran: &[&str], reused: &[&str]| {
+    let mut step = |g: &Graph, ran: &[&str], reused: &[&str], meshes_reused: bool| {
         let r = ev.evaluate(g, &targets, &opts).expect("evaluate");
+        let scene = r.outputs[&("scene".to_string(), "scene".to_string())]
+            .payload::<tyndall::scene::GpuScene>()
+            .expect("scene");
+        assert_eq!(scene.geometry_reused, meshes_reused, "{}", r.stats);
         for id in ran {
             assert_eq!(r.stats.status(id), Some(Status::Ran), "{id}: {}", r.stats);
         }
@@ -100,16 +106,16 @@ fn a_sun_change_leaves_the_g_buffer_reused() {
             );
         }
     };
-    step(&g, &["scene", "gb", "sm"], &[]);
+    step(&g, &["scene", "gb", "sm"], &[], false);
     g.set_param(&cat, "scene", "sun_elevation", ParamValue::Float(20.0))
         .expect("sun");
-    step(&g, &["scene", "sm"], &["gb"]);
+    step(&g, &["scene", "sm"], &["gb"], true);
     g.set_param(&cat, "scene", "cam_x", ParamValue::Float(5.0))
         .expect("camera");
-    step(&g, &["scene", "gb"], &["sm"]);
+    step(&g, &["scene", "gb"], &["sm"], true);
     g.set_param(&cat, "scene", "name", ParamValue::Enum("tree".into()))
         .expect("geometry");
-    step(&g, &["scene", "gb", "sm"], &[]);
+    step(&g, &["scene", "gb", "sm"], &[], false);
 }
 
 #[test]

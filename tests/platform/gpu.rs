@@ -606,3 +606,62 @@ fn a_gl_context_without_compute_is_refused_in_one_line() {
         assert!(!why.contains('\n'), "{why}");
     }
 }
+
+/// A pipelined evaluation submits its nodes' passes in chunks of
+/// [`tyndall::gpu::CHUNK_PASSES`], not per node, and computes the same picture: a chain of 300
+/// Math nodes (one pass each) is at most 300 / 64 + 1 submissions on a batching backend (GL
+/// submits every pass alone), and its value equals the unpipelined evaluation's.
+#[test]
+fn a_pipelined_evaluation_submits_in_chunks_not_per_node() {
+    let gpu = require_gpu!();
+    let batched = gpu.info.backend != wgpu::Backend::Gl;
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let n = 300;
+    let text = tyndall::bench::documents::math_chain(n, false);
+    let graph =
+        tyndall::graph::load_str(&text, std::path::Path::new("chain.ron"), registry.catalog())
+            .expect("chain");
+    let target = [tyndall::eval::Target::Port(
+        format!("m{}", n - 1),
+        "out".into(),
+    )];
+    let mut values = Vec::new();
+    for pipelined in [false, true] {
+        let mut ev = tyndall::eval::Evaluator::new(registry.clone(), gpu.clone());
+        let opts = tyndall::eval::EvalOptions {
+            size: (4, 2),
+            pipelined,
+            ..Default::default()
+        };
+        let before = gpu.thread_submit_count();
+        let r = ev.evaluate(&graph, &target, &opts).expect("evaluate");
+        let submits = gpu.thread_submit_count() - before;
+        let ran = r.stats.nodes.iter().filter(|s| s.status.ran()).count();
+        assert_eq!(ran, n + 1, "the constant and every Math node ran");
+        let most = if !batched {
+            u64::MAX
+        } else if pipelined {
+            (n as u64).div_ceil(tyndall::gpu::CHUNK_PASSES as u64) + 1
+        } else {
+            n as u64 + 1
+        };
+        assert!(
+            submits <= most && (!pipelined || !batched || submits < 10),
+            "pipelined={pipelined}: {submits} submissions (at most {most})"
+        );
+        let out = r
+            .outputs
+            .values()
+            .next()
+            .and_then(|v| v.texture())
+            .expect("texture");
+        values.push(gpu.read_texture(out).expect("read"));
+    }
+    assert_eq!(values[0], values[1]);
+    let expected = 0.5 + 0.001 * n as f32;
+    assert!(
+        values[1].iter().all(|v| (v - expected).abs() < 1e-3),
+        "{:?} (expected {expected}: 300 additions of 0.001 in f32)",
+        &values[1][..2]
+    );
+}

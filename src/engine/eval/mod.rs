@@ -80,17 +80,24 @@ pub enum EvalError {
     /// The document is inconsistent with the registry.
     #[error(transparent)]
     Graph(#[from] GraphError),
+    /// The last chunk of the evaluation's GPU commands could not be submitted (every node had
+    /// recorded its passes without an error).
+    #[error("submitting the evaluation's GPU work: {0}")]
+    Submit(#[source] GpuError),
 }
 
 impl EvalError {
     /// Whether the GPU device was lost (or hung past the watchdog): nothing later can run on it,
     /// so a batch stops instead of failing every remaining frame.
     pub fn device_lost(&self) -> bool {
-        matches!(
-            self,
-            EvalError::Node { source, .. }
-                if matches!(source.innermost(), NodeError::Gpu(GpuError::Lost(_) | GpuError::Hung(_)))
-        )
+        match self {
+            EvalError::Node { source, .. } => matches!(
+                source.innermost(),
+                NodeError::Gpu(GpuError::Lost(_) | GpuError::Hung(_))
+            ),
+            EvalError::Submit(e) => matches!(e, GpuError::Lost(_) | GpuError::Hung(_)),
+            _ => false,
+        }
     }
 }
 
@@ -295,7 +302,12 @@ impl Evaluator {
         let order = graph.topo_order();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
         let pipelines = self.gpu.pipeline_counts();
+        // The nodes' passes are submitted in chunks, not per node (gpu/batch.rs).
+        let gpu = self.gpu.clone();
+        let batch = gpu.batch_scope();
         let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
+        let submitted = batch.end();
+        let done = done.and_then(|d| submitted.map(|()| d).map_err(EvalError::Submit));
         self.cache.evict();
         // The pipelines compiled by this evaluation go to the cache on disk for the next
         // process; a cache that cannot be written only costs that process the compilation.
@@ -480,13 +492,15 @@ impl Evaluator {
         self.gpu.set_timing(opts.gpu_timings);
         let start = Instant::now();
         let submitted = self.gpu.thread_submit_count();
-        // The node's passes go into one command encoder, submitted once (see gpu/batch.rs).
+        // The node's passes go into one command buffer, submitted with its neighbours' (see
+        // gpu/batch.rs) — at once, and waited for, when timed or not pipelined.
         self.gpu.begin_batch();
         let ran = k.run(ctx);
         let ended = self.gpu.end_batch();
         let wait = opts.gpu_timings || !opts.pipelined;
         let ran = ran.and(ended.map_err(NodeError::from)).and_then(|()| {
             if wait {
+                self.gpu.flush()?;
                 self.gpu.wait()?;
             }
             self.gpu.take_errors()?;

@@ -3,6 +3,7 @@
 
 pub mod adapter;
 mod batch;
+pub use batch::{BatchScope, CHUNK_PASSES};
 mod dispatch;
 mod layout;
 mod logger;
@@ -176,6 +177,8 @@ pub struct Gpu {
     staging: Mutex<Vec<wgpu::Buffer>>,
     /// Staging buffers created ([`Gpu::staging_buffers_created`]).
     staging_created: std::sync::atomic::AtomicU64,
+    /// Values made once per content key while someone holds them ([`Gpu::shared_by_key`]).
+    keyed: Mutex<HashMap<u64, std::sync::Weak<dyn std::any::Any + Send + Sync>>>,
     pool: Arc<TexturePool>,
     pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
@@ -281,6 +284,7 @@ impl Gpu {
             readbacks: Default::default(),
             staging: Mutex::new(Vec::new()),
             staging_created: Default::default(),
+            keyed: Mutex::default(),
             pipelines: Mutex::new(HashMap::new()),
             render_pipelines: Mutex::new(HashMap::new()),
             disk,

@@ -174,4 +174,35 @@ impl Gpu {
             })
         })
     }
+
+    /// The value made by `make` for content `key`, made once and shared while anything holds
+    /// it: a second request for the same key (a scene's unchanged geometry on the next frame)
+    /// gets the same GPU resources instead of uploading them again. Keys are 64-bit content
+    /// hashes, per type; the second value says whether it was shared (not made now).
+    pub fn shared_by_key<T: std::any::Any + Send + Sync>(
+        &self,
+        key: u64,
+        make: impl FnOnce() -> Result<T, GpuError>,
+    ) -> Result<(std::sync::Arc<T>, bool), GpuError> {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::hash::DefaultHasher::new();
+        (key, std::any::TypeId::of::<T>()).hash(&mut h);
+        let key = h.finish();
+        let held = self
+            .keyed
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&key).and_then(std::sync::Weak::upgrade))
+            .and_then(|v| v.downcast::<T>().ok());
+        if let Some(v) = held {
+            return Ok((v, true));
+        }
+        let v = std::sync::Arc::new(make()?);
+        if let Ok(mut m) = self.keyed.lock() {
+            m.retain(|_, w| w.strong_count() > 0);
+            let any: std::sync::Arc<dyn std::any::Any + Send + Sync> = v.clone();
+            m.insert(key, std::sync::Arc::downgrade(&any));
+        }
+        Ok((v, false))
+    }
 }

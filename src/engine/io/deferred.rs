@@ -1,13 +1,14 @@
 //! Image files written on background threads while the next frame is evaluated
-//! (`tyndall render`): [`defer`] turns [`super::write_image`] into a queued job — the raster
+//! (`tyndall render`, Python's `tyndall.render`): [`defer`] turns [`super::write_image`] on the
+//! calling thread into a queued job — the raster
 //! is handed over, encoded (EXR compression and PNG encoding included) and written atomically by
 //! one of a few writer threads — and [`wait`] waits for every queued write and returns the
 //! failures. The bytes of each file are the same as a synchronous write's; at most one write per
 //! writer thread runs and one more waits (a frame's raster each: 5 × 133 MB at 4K RGBA32F with 4
 //! writers), so memory stays bounded.
 
+use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Sender};
 use std::sync::{Arc, Condvar, Mutex, OnceLock};
 
@@ -28,7 +29,12 @@ struct Pool {
     limit: usize,
 }
 
-static ON: AtomicBool = AtomicBool::new(false);
+thread_local! {
+    /// Whether this thread's image writes are deferred: per thread, so a render deferring its
+    /// writes leaves another evaluation of the same process (a Python thread, the editor)
+    /// writing synchronously.
+    static ON: Cell<bool> = const { Cell::new(false) };
+}
 static POOL: OnceLock<Pool> = OnceLock::new();
 
 fn pool() -> &'static Pool {
@@ -75,14 +81,15 @@ fn pool() -> &'static Pool {
     })
 }
 
-/// Write image files on background threads from now on (`true`), or synchronously again.
+/// Write this thread's image files on background threads from now on (`true`), or
+/// synchronously again.
 pub fn defer(on: bool) {
-    ON.store(on, Ordering::Release);
+    ON.with(|d| d.set(on));
 }
 
-/// Whether image writes are deferred.
+/// Whether this thread's image writes are deferred.
 pub fn deferred() -> bool {
-    ON.load(Ordering::Acquire)
+    ON.with(Cell::get)
 }
 
 /// Queue `job` (a write of `path`), waiting while the queue is full; runs it here when no
@@ -116,7 +123,8 @@ pub(super) fn submit(path: PathBuf, job: Job) -> Result<(), IoError> {
     }
 }
 
-/// Wait until every queued write has finished; the writes that failed since the last call.
+/// Wait until every queued write has finished (every thread's); the writes that failed since
+/// the last call.
 pub fn wait() -> Vec<IoError> {
     let Some(p) = POOL.get() else {
         return Vec::new();

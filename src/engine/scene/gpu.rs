@@ -19,6 +19,12 @@ pub struct GpuScene {
     pub ranges: Vec<Range<u32>>,
     /// A content key per part of `scene` (what a node declaring the parts it reads is keyed on).
     pub parts: super::PartKeys,
+    /// Whether `vertices` and `indices` are those of an earlier upload of the same geometry
+    /// still held (the scene of the previous frame when only the camera or the sun moved), not
+    /// uploaded again.
+    pub geometry_reused: bool,
+    /// Keeps the shared buffers findable by the next upload of the same geometry.
+    _buffers: std::sync::Arc<(wgpu::Buffer, wgpu::Buffer)>,
 }
 
 impl std::fmt::Debug for GpuScene {
@@ -33,64 +39,28 @@ impl std::fmt::Debug for GpuScene {
 }
 
 impl GpuScene {
-    /// Upload `scene`.
+    /// Upload `scene`: its geometry only when no scene of the same geometry is held on this
+    /// GPU ([`Gpu::shared_by_key`] on the geometry key of [`super::PartKeys`]) — a shot whose
+    /// camera or sun moves uploads its meshes once.
     pub fn upload(gpu: &Gpu, scene: Scene) -> Result<GpuScene, GpuError> {
-        let mut verts: Vec<MeshVertex> = Vec::new();
-        let mut idx: Vec<u32> = Vec::new();
+        let parts = super::PartKeys::of(&scene);
+        let (buffers, geometry_reused) =
+            gpu.shared_by_key(parts.geometry, || upload_geometry(gpu, &scene))?;
         let mut ranges = Vec::new();
+        let mut start = 0u32;
         for o in &scene.objects {
-            let base = verts.len() as u32;
-            for (p, n) in o.positions.iter().zip(&o.normals) {
-                verts.push(MeshVertex {
-                    position: p.to_array(),
-                    normal: n.to_array(),
-                    colour: o.colour,
-                });
-            }
-            let start = idx.len() as u32;
-            idx.extend(o.indices.iter().map(|i| i + base));
-            ranges.push(start..idx.len() as u32);
+            let end = start + o.indices.len() as u32;
+            ranges.push(start..end);
+            start = end;
         }
-        if verts.is_empty() {
-            verts.push(MeshVertex {
-                position: [0.0; 3],
-                normal: [0.0, 1.0, 0.0],
-                colour: [0.0; 4],
-            });
-        }
-        if idx.is_empty() {
-            idx.extend_from_slice(&[0, 0, 0]);
-        }
-        let (vertices, indices) = gpu.scoped(|| {
-            let make = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
-                let b = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: bytes.len() as u64,
-                    usage: usage | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                gpu.queue.write_buffer(&b, 0, bytes);
-                b
-            };
-            (
-                make(
-                    "vertices",
-                    bytemuck::cast_slice(&verts),
-                    wgpu::BufferUsages::VERTEX,
-                ),
-                make(
-                    "indices",
-                    bytemuck::cast_slice(&idx),
-                    wgpu::BufferUsages::INDEX,
-                ),
-            )
-        })?;
         Ok(GpuScene {
-            parts: super::PartKeys::of(&scene),
+            parts,
             scene,
-            vertices,
-            indices,
+            vertices: buffers.0.clone(),
+            indices: buffers.1.clone(),
             ranges,
+            geometry_reused,
+            _buffers: buffers,
         })
     }
 
@@ -111,4 +81,57 @@ impl GpuScene {
     pub fn bytes(&self) -> usize {
         (self.vertices.size() + self.indices.size()) as usize
     }
+}
+
+/// The vertex and index buffers of every object of `scene` (indices offset into the shared
+/// vertex buffer), with one degenerate triangle for an empty scene.
+fn upload_geometry(gpu: &Gpu, scene: &Scene) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+    let mut verts: Vec<MeshVertex> = Vec::new();
+    let mut idx: Vec<u32> = Vec::new();
+    for o in &scene.objects {
+        let base = verts.len() as u32;
+        for (p, n) in o.positions.iter().zip(&o.normals) {
+            verts.push(MeshVertex {
+                position: p.to_array(),
+                normal: n.to_array(),
+                colour: o.colour,
+            });
+        }
+        idx.extend(o.indices.iter().map(|i| i + base));
+    }
+    if verts.is_empty() {
+        verts.push(MeshVertex {
+            position: [0.0; 3],
+            normal: [0.0, 1.0, 0.0],
+            colour: [0.0; 4],
+        });
+    }
+    if idx.is_empty() {
+        idx.extend_from_slice(&[0, 0, 0]);
+    }
+    let (vertices, indices) = gpu.scoped(|| {
+        let make = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+            let b = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.len() as u64,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            gpu.queue.write_buffer(&b, 0, bytes);
+            b
+        };
+        (
+            make(
+                "vertices",
+                bytemuck::cast_slice(&verts),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            make(
+                "indices",
+                bytemuck::cast_slice(&idx),
+                wgpu::BufferUsages::INDEX,
+            ),
+        )
+    })?;
+    Ok((vertices, indices))
 }
