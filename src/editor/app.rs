@@ -9,6 +9,7 @@ mod parameters;
 mod presets;
 pub mod pump;
 mod scope;
+pub mod shown;
 mod timeline;
 mod viewer;
 
@@ -26,8 +27,8 @@ use egui_snarl::ui::{get_selected_nodes, SnarlWidget};
 use egui_snarl::Snarl;
 
 use super::canvas::CanvasView;
-use super::view::{probe, to_srgb8, Channel};
-use super::worker::{NodeReport, Request, Worker};
+use super::view::{to_srgb8, Channel};
+use super::worker::{NodeReport, Picture, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
 use tyndall_engine::eval::Registry;
 
@@ -70,21 +71,28 @@ pub struct EditorApp {
     pub proxy: pump::ProxyState,
     /// The worker's last report per node: ran / cached, time, error.
     pub reports: BTreeMap<String, NodeReport>,
-    thumbs: BTreeMap<String, egui::TextureHandle>,
+    thumbs: BTreeMap<String, shown::ShownTexture>,
     /// Group instance → the flattened node its thumbnail comes from (the worker's).
     aliases: BTreeMap<String, String>,
     /// The viewed node's picture outputs, by port.
-    pub pictures: Option<(String, Vec<(String, Raster)>)>,
+    pub pictures: Option<(String, Vec<(String, Picture)>)>,
     /// The A/B wipe (Nuke's): the node shown right of the split, over the viewed one (`W`
     /// toggles it with the node being viewed as B); `None`: off.
     pub wipe: Option<String>,
     /// Where the wipe splits the picture, 0 (all B) to 1 (all A).
     pub wipe_split: f32,
     /// The wipe node's picture outputs, by port.
-    pub compare: Option<(String, Vec<(String, Raster)>)>,
-    wipe_tex: Option<(String, egui::TextureHandle)>,
+    pub compare: Option<(String, Vec<(String, Picture)>)>,
+    wipe_tex: Option<(String, shown::ShownTexture)>,
     view_port: Option<String>,
-    view_tex: Option<(String, egui::TextureHandle)>,
+    view_tex: Option<(String, shown::ShownTexture)>,
+    /// The window's device, while the evaluation shares it (pictures arrive as textures and
+    /// are drawn by the display pass; see `app/shown.rs`).
+    window: Option<shown::WindowGpu>,
+    /// Whether the window's device was looked at (on the first frame).
+    window_checked: bool,
+    /// The pixel probe's texel reads in flight (textures only).
+    probe_reads: shown::Probe,
     /// Viewer channel.
     pub channel: Channel,
     /// Viewer exposure in stops.
@@ -198,6 +206,9 @@ impl EditorApp {
             wipe_tex: None,
             view_port: None,
             view_tex: None,
+            window: None,
+            window_checked: false,
+            probe_reads: shown::Probe::default(),
             channel: Channel::Rgb,
             exposure: 0.0,
             zoom: Zoom::Fit,
@@ -314,6 +325,34 @@ impl EditorApp {
     /// The canvas widget's id (it holds the canvas's selection).
     pub(super) fn canvas_id(&self) -> egui::Id {
         egui::Id::new(("tyndall-canvas", self.canvas_gen))
+    }
+
+    /// On the first frame: when the window draws with the adapter the evaluation runs on (not
+    /// GL), move the evaluation onto the window's device, so pictures are drawn from the
+    /// textures they were evaluated into ([`shown::WindowGpu::share`]).
+    fn share_window_device(&mut self, frame: &eframe::Frame) {
+        if std::mem::replace(&mut self.window_checked, true) {
+            return;
+        }
+        let (Some(render), Some(worker)) = (frame.wgpu_render_state(), self.worker.as_ref()) else {
+            return;
+        };
+        let Some(window) = shown::WindowGpu::share(render, worker.gpu()) else {
+            return;
+        };
+        Gpu::set_shared(window.gpu.clone());
+        if let Some(old) = self.worker.take() {
+            old.abandon();
+        }
+        self.worker = Some(Worker::start(self.registry.clone(), window.gpu.clone()));
+        self.requested.clear();
+        self.jobs.reset();
+        self.window = Some(window);
+    }
+
+    /// Whether the viewer draws evaluated textures on the window's device (no read-back).
+    pub fn shares_window_device(&self) -> bool {
+        self.window.is_some()
     }
 
     /// Whether node `id` (a flattened id) has a thumbnail on the canvas.
@@ -448,8 +487,9 @@ impl EditorApp {
 }
 
 impl eframe::App for EditorApp {
-    fn ui(&mut self, root: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, root: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = root.ctx().clone();
+        self.share_window_device(frame);
         self.dialogs(&ctx);
         self.shortcuts(&ctx);
         self.sync();
@@ -531,6 +571,25 @@ pub fn run(path: Option<PathBuf>, registry: Arc<Registry>, tools: Tools) -> Resu
         .map(|g| (g.info.name.clone(), g.info.backend));
     let problem = app.gpu_problem.clone();
     if let eframe::egui_wgpu::WgpuSetup::CreateNew(c) = &mut options.wgpu_options.wgpu_setup {
+        // The device asks what the evaluation asks (all the adapter's limits, Tyndall's
+        // features), so the evaluation can move onto it (`share_window_device`); on GL the
+        // window keeps egui's own request (the evaluation stays on its own device there).
+        let egui_request = c.device_descriptor.clone();
+        c.instance_descriptor.flags = tyndall_engine::gpu::instance_flags(
+            tyndall_engine::gpu::GpuOptions::from_env().validation,
+        );
+        c.device_descriptor = Arc::new(move |adapter| {
+            if adapter.get_info().backend == eframe::wgpu::Backend::Gl {
+                return egui_request(adapter);
+            }
+            let (features, limits) = tyndall_engine::gpu::device_request(adapter);
+            eframe::wgpu::DeviceDescriptor {
+                label: Some("tyndall editor"),
+                required_features: features,
+                required_limits: limits,
+                ..Default::default()
+            }
+        });
         c.native_adapter_selector = Some(Arc::new(move |adapters, surface| {
             let presents =
                 |a: &&eframe::wgpu::Adapter| surface.is_none_or(|s| a.is_surface_supported(s));

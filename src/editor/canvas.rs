@@ -39,7 +39,7 @@ pub(super) struct CanvasView<'a> {
     pub status: &'a mut String,
     pub reports: &'a BTreeMap<String, NodeReport>,
     pub show_timings: bool,
-    pub thumbs: &'a BTreeMap<String, egui::TextureHandle>,
+    pub thumbs: &'a BTreeMap<String, super::app::shown::ShownTexture>,
     /// Group instance (flattened path) → the flattened node whose thumbnail it shows.
     pub aliases: &'a BTreeMap<String, String>,
     /// Every output's type (`(node, port)`), as [`Graph::output_types`] resolved it.
@@ -193,7 +193,7 @@ impl SnarlViewer<String> for CanvasView<'_> {
                 let (rect, _) = ui.allocate_exact_size(size * scale, egui::Sense::hover());
                 let on_screen = rect.height() * self.transform.scaling;
                 if ui.is_rect_visible(rect) && on_screen >= THUMB_MIN_PX {
-                    egui::Image::new(t).paint_at(ui, rect);
+                    egui::Image::new((t.id(), t.size_vec2())).paint_at(ui, rect);
                 }
             }
             match &report {

@@ -17,6 +17,9 @@ pub mod tool;
 pub mod view;
 pub mod worker;
 
+/// The display pass (in the engine, which `tyndall bench interactive` shares).
+pub use tyndall_engine::display;
+
 pub use app::pump::ProxyState;
 pub use app::{run, user_preset_folder, EditorApp, Zoom, VIEW_SIZE};
 pub use canvas::port_colour;

@@ -3,47 +3,7 @@
 
 use tyndall_engine::io::{linear_to_srgb, Raster};
 
-/// Which channel(s) the viewer shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Channel {
-    /// Colour (a one-channel picture shows as grey).
-    #[default]
-    Rgb,
-    /// Red only, as grey.
-    R,
-    /// Green only, as grey.
-    G,
-    /// Blue only, as grey.
-    B,
-    /// Alpha only, as grey.
-    A,
-    /// Rec. 709 luminance, as grey.
-    Luma,
-}
-
-impl Channel {
-    /// All, in menu order.
-    pub const ALL: [Channel; 6] = [
-        Channel::Rgb,
-        Channel::R,
-        Channel::G,
-        Channel::B,
-        Channel::A,
-        Channel::Luma,
-    ];
-
-    /// Menu label.
-    pub fn label(self) -> &'static str {
-        match self {
-            Channel::Rgb => "RGB",
-            Channel::R => "R",
-            Channel::G => "G",
-            Channel::B => "B",
-            Channel::A => "A",
-            Channel::Luma => "Luma",
-        }
-    }
-}
+pub use tyndall_engine::display::Channel;
 
 /// The displayed linear RGB of pixel `i` of `r` (before exposure).
 pub fn shown_rgb(r: &Raster, i: usize, channel: Channel) -> [f32; 3] {
@@ -83,17 +43,25 @@ pub fn to_srgb8(r: &Raster, channel: Channel, stops: f32) -> Vec<[u8; 4]> {
 /// The probe's line for pixel (x, y): every picture's value there, by port name (`visibility
 /// 0.412  depth 12.7 …` for a scattering node: V̄ and linear depth).
 pub fn probe(pictures: &[(String, Raster)], x: u32, y: u32) -> String {
+    let values: Vec<(String, Vec<f32>)> = pictures
+        .iter()
+        .filter(|(_, r)| x < r.width && y < r.height)
+        .map(|(port, r)| {
+            let i = (y * r.width + x) as usize * r.channels as usize;
+            (port.clone(), r.data[i..i + r.channels as usize].to_vec())
+        })
+        .collect();
+    probe_line(x, y, &values)
+}
+
+/// The probe's line for pixel (x, y) from each port's values there (one or four channels).
+pub fn probe_line(x: u32, y: u32, values: &[(String, Vec<f32>)]) -> String {
     let mut parts = vec![format!("({x}, {y})")];
-    for (port, r) in pictures {
-        if x >= r.width || y >= r.height {
-            continue;
-        }
-        let i = (y * r.width + x) as usize * r.channels as usize;
-        let v = &r.data[i..i + r.channels as usize];
-        let text = if v.len() == 1 {
-            format!("{:.4}", v[0])
-        } else {
-            format!("({:.4}, {:.4}, {:.4}, {:.4})", v[0], v[1], v[2], v[3])
+    for (port, v) in values {
+        let text = match v.as_slice() {
+            [a] => format!("{a:.4}"),
+            [a, b, c, d, ..] => format!("({a:.4}, {b:.4}, {c:.4}, {d:.4})"),
+            other => format!("{other:.4?}"),
         };
         parts.push(format!("{port} {text}"));
     }

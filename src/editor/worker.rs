@@ -13,17 +13,45 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use tyndall_engine::eval::{Evaluator, Registry, Status};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::gpu::{Gpu, GpuTexture};
 use tyndall_engine::graph::{Graph, PortType};
 use tyndall_engine::io::Raster;
 
 mod evaluate;
 
 use evaluate::evaluate;
-pub use evaluate::shrink;
+pub use evaluate::{shrink, thumbnail_of};
 
 /// Longest side of a node's thumbnail on the canvas, in pixels.
 pub const THUMB: u32 = 96;
+
+/// A picture the worker sends the window: read back to the CPU, or the GPU texture it was
+/// evaluated into (when the window draws with the evaluation's device: [`Request::textures`]).
+#[derive(Clone, Debug)]
+pub enum Picture {
+    /// Read back (a window on another device).
+    Pixels(Raster),
+    /// The evaluated texture itself, drawn by the window's display pass (`crate::display`).
+    Texture(Arc<GpuTexture>),
+}
+
+impl Picture {
+    /// Width and height in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        match self {
+            Picture::Pixels(r) => (r.width, r.height),
+            Picture::Texture(t) => (t.width, t.height),
+        }
+    }
+
+    /// The values, when read back.
+    pub fn pixels(&self) -> Option<&Raster> {
+        match self {
+            Picture::Pixels(r) => Some(r),
+            Picture::Texture(_) => None,
+        }
+    }
+}
 
 /// What to evaluate.
 #[derive(Clone)]
@@ -45,6 +73,9 @@ pub struct Request {
     /// viewed pictures only, at `size` / f with the screen-pixel knobs scaled
     /// ([`tyndall_engine::eval::proxy`]), no thumbnails.
     pub proxy: u32,
+    /// Send the evaluated textures ([`Picture::Texture`]) instead of reading pictures back: the
+    /// window draws with the evaluation's device. Default (false): read back.
+    pub textures: bool,
 }
 
 /// One node's part of a result.
@@ -56,9 +87,9 @@ pub struct NodeReport {
     pub time: Duration,
     /// Its error, or the upstream node whose error stopped it.
     pub error: Option<String>,
-    /// A small picture of its first picture output, when it ran (or was never sent); keep the
-    /// previous one when `None`.
-    pub thumb: Option<Raster>,
+    /// A small picture of its first picture output (read back and shrunk, or its texture for the
+    /// window to shrink), when it ran (or was never sent); keep the previous one when `None`.
+    pub thumb: Option<Picture>,
 }
 
 impl Default for NodeReport {
@@ -83,9 +114,9 @@ pub struct Outcome {
     /// (whose thumbnail the group node shows).
     pub aliases: BTreeMap<String, String>,
     /// The viewed node and its picture outputs by port name.
-    pub view: Option<(String, Vec<(String, Raster)>)>,
+    pub view: Option<(String, Vec<(String, Picture)>)>,
     /// The wipe's compared node and its picture outputs, when asked for.
-    pub compare: Option<(String, Vec<(String, Raster)>)>,
+    pub compare: Option<(String, Vec<(String, Picture)>)>,
     /// Wall-clock time of the whole evaluation.
     pub elapsed: Duration,
     /// The GPU device was lost during this evaluation (the reason): nothing more runs on this
@@ -132,9 +163,16 @@ pub struct Worker {
     newest: Arc<AtomicU64>,
     /// Generation of the newest outcome received.
     pub done: u64,
+    /// The context it evaluates on.
+    gpu: Arc<Gpu>,
 }
 
 impl Worker {
+    /// The context it evaluates on.
+    pub fn gpu(&self) -> &Arc<Gpu> {
+        &self.gpu
+    }
+
     /// Start a worker evaluating with `registry` on `gpu`.
     pub fn start(registry: Arc<Registry>, gpu: Arc<Gpu>) -> Self {
         let (tx, messages) = channel::<Message>();
@@ -143,6 +181,7 @@ impl Worker {
         let (progress_tx, progress) = channel::<tyndall_engine::eval::Progress>();
         let newest = Arc::new(AtomicU64::new(0));
         let newest_seen = newest.clone();
+        let context = gpu.clone();
         let thread = std::thread::Builder::new()
             .name("tyndall-eval".into())
             .spawn(move || {
@@ -214,6 +253,7 @@ impl Worker {
             sent: 0,
             done: 0,
             newest,
+            gpu: context,
         }
     }
 

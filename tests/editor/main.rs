@@ -8,5 +8,6 @@ mod common;
 
 mod brush;
 mod colour;
+mod display;
 mod state;
 mod ui;

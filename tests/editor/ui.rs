@@ -878,9 +878,15 @@ fn worker_proxy_then_full_ends_on_the_full_picture_and_stale_requests_never_win(
         view: Some("tonemap".into()),
         compare: None,
         proxy,
+        textures: false,
     };
-    let picture =
-        |o: &tyndall::editor::worker::Outcome| o.view.as_ref().expect("view").1[0].1.clone();
+    let picture = |o: &tyndall::editor::worker::Outcome| {
+        o.view.as_ref().expect("view").1[0]
+            .1
+            .pixels()
+            .expect("read back")
+            .clone()
+    };
     // A proxy: the viewer's picture only, at half the size, no thumbnails.
     w.request(request(&g, 2));
     let outs = outcomes(&mut w);
@@ -984,7 +990,7 @@ fn dragging_a_knob_shows_a_proxy_then_the_full_picture() {
     let (f, size) = h.state().proxy.shown;
     assert!(f > 1, "a proxy is shown while dragging");
     let shown = &h.state().pictures.as_ref().expect("picture").1[0].1;
-    assert_eq!((shown.width, shown.height), size);
+    assert_eq!(shown.size(), size);
     assert_eq!(
         size,
         (
@@ -1004,6 +1010,7 @@ fn dragging_a_knob_shows_a_proxy_then_the_full_picture() {
     assert_eq!(h.state().proxy.shown, (1, tyndall::editor::VIEW_SIZE));
     assert!(h.state().status.starts_with("full"), "{}", h.state().status);
     let shown = h.state().pictures.as_ref().expect("picture").1[0].1.clone();
+    let shown = shown.pixels().expect("read back").clone();
     let gpu = common::gpu().expect("gpu");
     // (The editor resolves relative paths against the graph's folder; this graph has none.)
     let doc = h.state().state.root().clone();
@@ -1034,6 +1041,7 @@ fn tool_jobs_run_on_the_worker_evaluator_with_its_cache_and_the_newest_ask_wins(
         view: Some("tonemap".into()),
         compare: None,
         proxy: 1,
+        textures: false,
     });
     outcomes(&mut w);
     // Two asks under one key: the first one's answer is dropped, the second's is the tonemap
@@ -1140,4 +1148,65 @@ fn record_trace_writes_a_chrome_trace_beside_the_document() {
         .collect();
     // (The recorder is process-wide: other tests of this binary may add their nodes.)
     assert!(nodes.contains(&"b"), "{nodes:?}");
+}
+
+/// With the window on the evaluation's device (as `tyndall edit` opens it on every backend but
+/// GL), the viewer and the thumbnails are drawn from the evaluated textures: a knob change reads
+/// nothing back (the probe's hovered pixel would be at most 16 bytes a port), the pictures are
+/// textures, and the window shows the change. On GL the editor keeps reading back.
+#[test]
+fn the_viewer_draws_the_evaluated_texture_without_a_readback() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let mut h = common::editor::open_sharing(&path, (1200.0, 760.0));
+    h.state_mut().selected = Some("tonemap".into());
+    settle(&mut h);
+    let gl = common::gpu().expect("adapter").info.backend == wgpu::Backend::Gl;
+    assert_eq!(h.state().shares_window_device(), !gl);
+    if gl {
+        return;
+    }
+    let textures = |h: &Harness<'static, EditorApp>| {
+        let (_, pictures) = h.state().pictures.clone().expect("the viewer's picture");
+        pictures
+            .iter()
+            .all(|(_, p)| matches!(p, tyndall::editor::worker::Picture::Texture(_)))
+    };
+    assert!(textures(&h));
+    for id in ["shadow", "gbuffer", "scatter", "tonemap"] {
+        assert!(h.state().has_thumbnail(id), "{id} has no thumbnail");
+    }
+    h.run_steps(2);
+    let before_image = h.render().expect("render");
+    // The evaluation now runs on the window's device: what it reads back is counted there.
+    let gpu = tyndall::gpu::Gpu::shared().expect("the shared context");
+    let (reads, bytes) = gpu.readbacks();
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(2.0))
+        .expect("param");
+    settle(&mut h);
+    h.run_steps(2);
+    let (reads_after, bytes_after) = gpu.readbacks();
+    assert!(
+        bytes_after - bytes <= 64,
+        "a knob change read back {} bytes in {} reads",
+        bytes_after - bytes,
+        reads_after - reads
+    );
+    assert!(textures(&h));
+    assert_eq!(
+        h.state().reports["tonemap"].status,
+        tyndall::eval::Status::Ran
+    );
+    let after_image = h.render().expect("render");
+    let changed = before_image
+        .pixels()
+        .zip(after_image.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    // The viewer (and the tonemap's thumbnail) got brighter: thousands of pixels.
+    assert!(changed > 5_000, "only {changed} pixels changed");
 }

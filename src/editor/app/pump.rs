@@ -40,6 +40,7 @@ impl EditorApp {
                 view,
                 compare: self.wipe.clone(),
                 proxy: self.proxy.requested,
+                textures: self.window.is_some(),
             });
         }
         if let Some(p) = worker.poll_progress() {
@@ -54,15 +55,10 @@ impl EditorApp {
             self.aliases = out.aliases;
             for (id, rep) in out.nodes {
                 if let Some(t) = &rep.thumb {
-                    let image = colour_image(t, Channel::Rgb, 0.0);
-                    self.thumbs.insert(
-                        id.clone(),
-                        ctx.load_texture(
-                            format!("thumb-{id}"),
-                            image,
-                            egui::TextureOptions::LINEAR,
-                        ),
-                    );
+                    let window = self.window.as_ref();
+                    if let Some(tex) = shown::thumbnail_texture(ctx, window, &id, t) {
+                        self.thumbs.insert(id.clone(), tex);
+                    }
                 }
                 self.reports.insert(id, NodeReport { thumb: None, ..rep });
             }
@@ -116,6 +112,14 @@ impl EditorApp {
     fn restart_after_loss(&mut self, reason: &str) {
         if let Some(old) = self.worker.take() {
             old.abandon();
+        }
+        // The window's device went with it (when shared): pictures are read back from now on.
+        if self.window.take().is_some() {
+            self.thumbs.clear();
+            self.view_tex = None;
+            self.wipe_tex = None;
+            self.pictures = None;
+            self.compare = None;
         }
         self.requested.clear();
         self.progress = None;

@@ -128,11 +128,11 @@ impl EditorApp {
         };
         let key = format!("{b}.{bport}:{:?}:{}", self.channel, self.exposure);
         if self.wipe_tex.as_ref().is_none_or(|(k, _)| *k != key) {
-            let image = colour_image(raster, self.channel, self.exposure);
-            let tex = ui
-                .ctx()
-                .load_texture("viewer-wipe", image, egui::TextureOptions::NEAREST);
-            self.wipe_tex = Some((key, tex));
+            let window = self.window.as_ref();
+            let (channel, stops) = (self.channel, self.exposure);
+            self.wipe_tex =
+                shown::viewer_texture(ui.ctx(), window, "viewer-wipe", raster, channel, stops)
+                    .map(|tex| (key, tex));
         }
         let Some((_, tex)) = &self.wipe_tex else {
             return;
@@ -168,7 +168,7 @@ impl EditorApp {
         &mut self,
         ui: &mut egui::Ui,
         node: &str,
-        pictures: &[(String, Raster)],
+        pictures: &[(String, Picture)],
     ) {
         let port = self
             .view_port
@@ -181,23 +181,23 @@ impl EditorApp {
         };
         let tex_key = format!("{node}.{port}:{:?}:{}", self.channel, self.exposure);
         if self.view_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
-            let image = colour_image(raster, self.channel, self.exposure);
-            let tex = ui
-                .ctx()
-                .load_texture("viewer", image, egui::TextureOptions::NEAREST);
-            self.view_tex = Some((tex_key, tex));
+            let window = self.window.as_ref();
+            let (channel, stops) = (self.channel, self.exposure);
+            self.view_tex =
+                shown::viewer_texture(ui.ctx(), window, "viewer", raster, channel, stops)
+                    .map(|tex| (tex_key, tex));
         }
         let Some((_, tex)) = &self.view_tex else {
             return;
         };
+        let (width, height) = raster.size();
         // A proxy picture is drawn at the size of the full one.
-        let size =
-            egui::vec2(raster.width as f32, raster.height as f32) * self.proxy.display_scale();
+        let size = egui::vec2(width as f32, height as f32) * self.proxy.display_scale();
         let shown = match self.zoom {
             Zoom::Fit => size * (ui.available_width() / size.x).min(300.0 / size.y),
             Zoom::One => size,
         };
-        let image = egui::Image::new(tex)
+        let image = egui::Image::new((tex.id(), tex.size_vec2()))
             .fit_to_exact_size(shown)
             .sense(egui::Sense::click_and_drag());
         let response = match self.zoom {
@@ -216,17 +216,49 @@ impl EditorApp {
         });
         if let Some(pos) = response.hover_pos() {
             let rel = (pos - response.rect.min) / response.rect.size();
-            let x = (rel.x * raster.width as f32).floor().max(0.0) as u32;
-            let y = (rel.y * raster.height as f32).floor().max(0.0) as u32;
-            self.probe = probe(pictures, x, y);
+            let x = (rel.x * width as f32).floor().max(0.0) as u32;
+            let y = (rel.y * height as f32).floor().max(0.0) as u32;
+            self.probe_pixel(ui.ctx(), pictures, x, y);
         }
-        let size = (raster.width, raster.height);
+        let size = (width, height);
         // The selected node's tools take the pointer over the picture and draw over it.
         if let Some(id) = self.selected.clone() {
             self.each_tool(&id, |tool, cx| tool.viewer(ui, &response, size, cx));
         }
         ui.label(egui::RichText::new(&self.probe).monospace().small());
     }
+}
+
+impl EditorApp {
+    /// The probe's line for pixel (`x`, `y`): from read-back pixels at once; from textures by
+    /// reading that texel back without waiting (the line follows a frame or two later).
+    fn probe_pixel(&mut self, ctx: &egui::Context, pictures: &[(String, Picture)], x: u32, y: u32) {
+        if pictures.iter().all(|(_, p)| p.pixels().is_some()) {
+            let values: Vec<(String, Vec<f32>)> = pictures
+                .iter()
+                .filter_map(|(n, p)| Some((n.clone(), texel(p.pixels()?, x, y)?)))
+                .collect();
+            self.probe = crate::view::probe_line(x, y, &values);
+            return;
+        }
+        let Some(window) = self.window.as_ref() else {
+            return;
+        };
+        if let Some(line) = self.probe_reads.update(&window.gpu, pictures, x, y) {
+            self.probe = line;
+        }
+        if self.probe_reads.waiting() {
+            ctx.request_repaint_after(std::time::Duration::from_millis(16));
+        }
+    }
+}
+
+/// The values of pixel (`x`, `y`) of `r`, when inside.
+fn texel(r: &Raster, x: u32, y: u32) -> Option<Vec<f32>> {
+    (x < r.width && y < r.height).then(|| {
+        let i = (y * r.width + x) as usize * r.channels as usize;
+        r.data[i..i + r.channels as usize].to_vec()
+    })
 }
 
 /// An egui picture of `r` as the viewer shows it.

@@ -10,7 +10,7 @@ use tyndall_engine::gpu::Gpu;
 use tyndall_engine::graph::Graph;
 use tyndall_engine::io::Raster;
 
-use super::{picture_ports, NodeReport, Outcome, Request, THUMB};
+use super::{picture_ports, NodeReport, Outcome, Picture, Request, THUMB};
 
 /// A picture a shown id reads: (the port name shown, the flattened node, its port).
 type Shown = (String, String, String);
@@ -67,7 +67,7 @@ pub(super) fn evaluate(
             Ok(r) => {
                 note_runs(&mut nodes, thumbed, &r.stats);
                 if full > 0 {
-                    let pictures = pictures(ev.gpu(), &r, &ports);
+                    let pictures = pictures(ev.gpu(), &r, &ports, req.textures);
                     if full == 1 {
                         view = Some((id.clone(), pictures));
                     } else {
@@ -78,7 +78,11 @@ pub(super) fn evaluate(
                         r.outputs.get(&(ports[0].1.clone(), ports[0].2.clone())),
                         nodes.get_mut(&id),
                     ) {
-                        rep.thumb = thumbnail(ev.gpu(), v);
+                        rep.thumb = if req.textures {
+                            v.texture().map(|t| Picture::Texture(t.clone()))
+                        } else {
+                            thumbnail(ev.gpu(), v).map(Picture::Pixels)
+                        };
                         thumbed.insert(id.clone());
                     }
                 }
@@ -155,18 +159,24 @@ fn reads(
     reads
 }
 
-/// The pictures `ports` read in evaluation `r`, by port shown (one that failed to download is
-/// left out).
+/// The pictures `ports` read in evaluation `r`, by port shown: their textures, or read back
+/// (one that failed to download is left out).
 fn pictures(
     gpu: &Gpu,
     r: &tyndall_engine::eval::Evaluation,
     ports: &[Shown],
-) -> Vec<(String, Raster)> {
+    textures: bool,
+) -> Vec<(String, Picture)> {
     ports
         .iter()
         .filter_map(|(shown, n, p)| {
             let v = r.outputs.get(&(n.clone(), p.clone()))?;
-            Some((shown.clone(), download(gpu, v).ok()?))
+            let picture = if textures {
+                Picture::Texture(v.texture()?.clone())
+            } else {
+                Picture::Pixels(download(gpu, v).ok()?)
+            };
+            Some((shown.clone(), picture))
         })
         .collect()
 }
@@ -244,12 +254,18 @@ fn failed(req: &Request, reason: &str, start: std::time::Instant) -> Outcome {
     }
 }
 
-/// A picture-like value read back and shrunk (box filter) to at most [`THUMB`] pixels wide or
-/// high; `None` for values that are not 2D pictures.
-/// One-channel values beyond 1 (depths in metres) are divided by their largest finite value so
-/// the thumbnail shows their shape instead of white.
+/// A picture-like value read back and shrunk into a thumbnail ([`thumbnail_of`]); `None` for
+/// values that are not 2D pictures.
 fn thumbnail(gpu: &Gpu, value: &PortValue) -> Option<Raster> {
-    let mut r = shrink(&download(gpu, value).ok()?, THUMB);
+    Some(thumbnail_of(&download(gpu, value).ok()?))
+}
+
+/// A thumbnail of `r`: shrunk (box filter) to at most [`THUMB`] pixels wide or high; one-channel
+/// values beyond 1 (depths in metres) divided by their largest finite value so the thumbnail
+/// shows their shape instead of white. (The display pass does the same on the GPU,
+/// `tyndall_engine::display::Look::thumbnail`.)
+pub fn thumbnail_of(r: &Raster) -> Raster {
+    let mut r = shrink(r, THUMB);
     if r.channels == 1 {
         let top = r
             .data
@@ -260,7 +276,7 @@ fn thumbnail(gpu: &Gpu, value: &PortValue) -> Option<Raster> {
             r.data.iter_mut().for_each(|v| *v /= top);
         }
     }
-    Some(r)
+    r
 }
 
 /// Shrink `r` by an integer box filter so its longer side is at most `side` pixels.

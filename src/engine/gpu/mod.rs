@@ -14,6 +14,7 @@ mod pool;
 mod raster;
 pub use pipeline_cache::cache_dir;
 mod readback;
+pub use readback::TexelRead;
 mod resources;
 mod shader;
 mod shader_needs;
@@ -29,7 +30,8 @@ use thiserror::Error;
 pub use layout::{check_uniform_layout, UniformLayout};
 use logger::{CAPTURING, LOGGED_ERRORS};
 pub use options::{
-    adapter_choice, env_backends, instance, instance_on, set_adapter_choice, GpuOptions,
+    adapter_choice, env_backends, instance, instance_flags, instance_on, set_adapter_choice,
+    GpuOptions,
 };
 pub use params::PARAMS_IN_STORAGE_BELOW;
 use pool::{narrow, widen};
@@ -195,6 +197,18 @@ impl std::fmt::Debug for Gpu {
     }
 }
 
+/// The features Tyndall asks of a device (those of its wishes `adapter` offers: filterable
+/// 32-bit floats, timestamps, adapter-specific format features, a pipeline cache) and the limits
+/// (all that `adapter` offers) — for [`Gpu::with_options`], and for a device made elsewhere that
+/// [`Gpu::on_device`] wraps.
+pub fn device_request(adapter: &wgpu::Adapter) -> (wgpu::Features, wgpu::Limits) {
+    let wanted = wgpu::Features::FLOAT32_FILTERABLE
+        | wgpu::Features::TIMESTAMP_QUERY
+        | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES
+        | wgpu::Features::PIPELINE_CACHE;
+    (adapter.features() & wanted, adapter.limits())
+}
+
 /// The process-wide context of [`Gpu::shared`] (or the error that made it fail).
 static SHARED: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);
 
@@ -230,22 +244,59 @@ impl Gpu {
         if let Some(storage) = options.params_in_storage {
             caps.params_in_storage_below = if storage { u64::MAX } else { 0 };
         }
-        let wanted = wgpu::Features::FLOAT32_FILTERABLE
-            | wgpu::Features::TIMESTAMP_QUERY
-            | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES
-            | wgpu::Features::PIPELINE_CACHE;
-        let features = adapter.features() & wanted;
-        let limits = adapter.limits();
+        let (features, limits) = device_request(adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("tyndall"),
             required_features: features,
-            required_limits: limits.clone(),
+            required_limits: limits,
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
         // Messages logged while backends were probed (e.g. an EGL driver that fails to load
         // before Vulkan is chosen) are not errors of our work.
         LOGGED_ERRORS.with(|v| v.borrow_mut().clear());
+        Ok(Gpu::assemble(adapter, device, queue, caps, index, chosen))
+    }
+
+    /// A context on a device created elsewhere from `adapter` with [`device_request`]'s
+    /// features and limits — the editor's window: eframe creates the device it draws with, and
+    /// the evaluation shares it, so a picture is drawn from the texture it is evaluated into.
+    /// `like` is the context it stands in for (its adapter index and how it was chosen).
+    pub fn on_device(
+        adapter: &wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        like: &Gpu,
+    ) -> Gpu {
+        // The same adapter keeps the substitutes chosen for it (`GpuOptions`); another gets its own.
+        let i = adapter.get_info();
+        let caps = if i.name == like.info.name && i.backend == like.info.backend {
+            like.caps.clone()
+        } else {
+            adapter::Capabilities::of(adapter)
+        };
+        Gpu::assemble(
+            adapter,
+            device,
+            queue,
+            caps,
+            like.adapter_index,
+            like.chosen.clone(),
+        )
+    }
+
+    /// The context around a device: error and loss callbacks, the pipeline cache on disk, the
+    /// texture pool.
+    fn assemble(
+        adapter: &wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        caps: adapter::Capabilities,
+        index: usize,
+        chosen: adapter::Chosen,
+    ) -> Gpu {
+        let features = device.features();
+        let limits = device.limits();
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = errors.clone();
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
@@ -269,7 +320,7 @@ impl Gpu {
                 *l = Some(format!("{reason:?}: {message}"));
             }
         });
-        Ok(Gpu {
+        Gpu {
             pool: Arc::new(TexturePool::new(device.clone(), 64, caps.clone())),
             device,
             queue,
@@ -290,7 +341,13 @@ impl Gpu {
             disk,
             errors,
             lost,
-        })
+        }
+    }
+
+    /// Make `gpu` the process-wide context [`Gpu::shared`] returns (the editor's window device,
+    /// [`Gpu::on_device`]), until its device is lost.
+    pub fn set_shared(gpu: Arc<Gpu>) {
+        *SHARED.lock().unwrap_or_else(|e| e.into_inner()) = Some(Ok(gpu));
     }
 
     /// The process-wide context (created on first use; validation on when

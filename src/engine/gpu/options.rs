@@ -56,13 +56,8 @@ pub fn instance(validation: bool) -> wgpu::Instance {
 /// [`instance`] on the given backends.
 pub fn instance_on(validation: bool, backends: wgpu::Backends) -> wgpu::Instance {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    // Without validation: no flags at all (wgpu's default in debug builds would turn the
-    // validation layer on anyway).
-    desc.flags = wgpu::InstanceFlags::empty();
+    desc.flags = instance_flags(validation);
     if validation {
-        // VALIDATION only: DEBUG makes naga emit `OpSource WGSL`, which Debian 12's validation
-        // layer (1.3.239) does not know and reports as invalid SPIR-V.
-        desc.flags = wgpu::InstanceFlags::VALIDATION;
         // Another logger may already be installed (an application's); then it sees them.
         if log::set_logger(&LOGGER).is_ok() {
             log::set_max_level(log::LevelFilter::Warn);
@@ -71,6 +66,19 @@ pub fn instance_on(validation: bool, backends: wgpu::Backends) -> wgpu::Instance
     let mut desc = desc.with_env();
     desc.backends = backends;
     wgpu::Instance::new(desc)
+}
+
+/// The instance flags of a Tyndall context — and of an editor window's instance, whose device
+/// the evaluation may share: without validation none at all (wgpu's default in debug builds
+/// would turn the validation layer on anyway); with it `VALIDATION` only (`DEBUG` makes naga
+/// emit `OpSource WGSL`, which Debian 12's validation layer, 1.3.239, does not know and reports
+/// as invalid SPIR-V).
+pub fn instance_flags(validation: bool) -> wgpu::InstanceFlags {
+    if validation {
+        wgpu::InstanceFlags::VALIDATION
+    } else {
+        wgpu::InstanceFlags::empty()
+    }
 }
 
 static ADAPTER_CHOICE: Mutex<Option<String>> = Mutex::new(None);

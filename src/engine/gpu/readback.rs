@@ -184,4 +184,98 @@ impl Gpu {
             out
         })
     }
+
+    /// Start reading texel (`x`, `y`) of `tex` back without waiting (the editor's pixel probe:
+    /// 4–16 bytes, and the window keeps drawing): [`TexelRead::try_take`] gives the values once
+    /// the GPU has copied them. Counted as a read-back of the texel's bytes.
+    pub fn read_texel_async(
+        &self,
+        tex: &GpuTexture,
+        x: u32,
+        y: u32,
+    ) -> Result<TexelRead, GpuError> {
+        let stored = tex.stored_channels();
+        let bytes = u64::from(stored * 4);
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("texel read-back"),
+            size: bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        self.scoped(|| {
+            self.encode(|enc| {
+                enc.copy_texture_to_buffer(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: tex.raw(),
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: x.min(tex.width.saturating_sub(1)),
+                            y: y.min(tex.height.saturating_sub(1)),
+                            z: 0,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    wgpu::TexelCopyBufferInfo {
+                        buffer: &buffer,
+                        layout: wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: None,
+                            rows_per_image: None,
+                        },
+                    },
+                    wgpu::Extent3d {
+                        width: 1,
+                        height: 1,
+                        depth_or_array_layers: 1,
+                    },
+                )
+            });
+        })?;
+        self.flush()?;
+        let done = Arc::new(Mutex::new(None));
+        let flag = done.clone();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            if let Ok(mut d) = flag.lock() {
+                *d = Some(r.map_err(|e| e.to_string()));
+            }
+        });
+        let [count, total] = &self.readbacks;
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        total.fetch_add(bytes, std::sync::atomic::Ordering::Relaxed);
+        THREAD_READBACKS.with(|c| {
+            let (n, b) = c.get();
+            c.set((n + 1, b + bytes));
+        });
+        Ok(TexelRead {
+            buffer,
+            done,
+            stored,
+            channels: tex.format.channels(),
+        })
+    }
+}
+
+/// A texel read-back in flight ([`Gpu::read_texel_async`]).
+pub struct TexelRead {
+    buffer: wgpu::Buffer,
+    done: Arc<Mutex<Option<Result<(), String>>>>,
+    stored: u32,
+    channels: u32,
+}
+
+impl TexelRead {
+    /// The texel's values (its format's channels) once copied; `None` while the GPU has not got
+    /// there (the device is polled, never waited for).
+    pub fn try_take(&self, gpu: &Gpu) -> Option<Result<Vec<f32>, GpuError>> {
+        let _ = gpu.device.poll(wgpu::PollType::Poll);
+        let done = self.done.lock().ok()?.clone()?;
+        Some(done.map_err(GpuError::Readback).and_then(|()| {
+            let view = self
+                .buffer
+                .get_mapped_range(..)
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            let values: Vec<f32> = bytemuck::cast_slice::<u8, f32>(&view).to_vec();
+            Ok(narrow(values, self.stored, self.channels))
+        }))
+    }
 }

@@ -1,0 +1,224 @@
+//! Pictures on screen. When the window draws with the evaluation's device ([`WindowGpu`]: not on
+//! wgpu's GL backend, not after a lost device, and only when the window's adapter is the one the
+//! evaluation chose), the worker sends the evaluated textures and each shown picture is one
+//! display pass on the GPU ([`crate::display`]) registered with egui as a native texture —
+//! nothing read back but the probed pixel. Otherwise pictures come read back and are converted
+//! on the CPU into egui textures, as before.
+
+use std::sync::Arc;
+
+use eframe::egui;
+use eframe::egui_wgpu::RenderState;
+use tyndall_engine::gpu::{device_request, Gpu, GpuTexture, TexelRead};
+
+use crate::display::{Display, Look, Shown};
+use crate::view::Channel;
+use crate::worker::Picture;
+
+/// A picture as egui draws it.
+pub enum ShownTexture {
+    /// Made from read-back pixels (egui's own texture).
+    Managed(egui::TextureHandle),
+    /// Drawn by the display pass on the window's device.
+    Native(Box<Native>),
+}
+
+/// A display-pass texture registered with egui's renderer (freed there when dropped).
+pub struct Native {
+    id: egui::TextureId,
+    size: egui::Vec2,
+    _drawn: Shown,
+    window: RenderState,
+}
+
+impl Drop for Native {
+    fn drop(&mut self) {
+        self.window.renderer.write().free_texture(&self.id);
+    }
+}
+
+impl ShownTexture {
+    /// egui's id of the texture.
+    pub fn id(&self) -> egui::TextureId {
+        match self {
+            ShownTexture::Managed(t) => t.id(),
+            ShownTexture::Native(n) => n.id,
+        }
+    }
+
+    /// Its size in texels.
+    pub fn size_vec2(&self) -> egui::Vec2 {
+        match self {
+            ShownTexture::Managed(t) => t.size_vec2(),
+            ShownTexture::Native(n) => n.size,
+        }
+    }
+}
+
+/// The window's device when the evaluation shares it: egui's renderer and the display pass.
+pub struct WindowGpu {
+    /// eframe's wgpu state (device, queue, renderer).
+    pub render: RenderState,
+    /// The evaluation's context on the same device.
+    pub gpu: Arc<Gpu>,
+    display: Display,
+}
+
+impl WindowGpu {
+    /// The evaluation's context on the window's device, when they can be one: the window's
+    /// adapter is the one `evaluation` runs on, not wgpu's GL backend (a long pass there holds
+    /// the context lock the window's frames need), and its device was created with the
+    /// features Tyndall asks for ([`device_request`], which `run` passes to eframe).
+    pub fn share(render: &RenderState, evaluation: &Gpu) -> Option<WindowGpu> {
+        let info = render.adapter.get_info();
+        let same = info.name == evaluation.info.name && info.backend == evaluation.info.backend;
+        let (features, _) = device_request(&render.adapter);
+        if !same
+            || !tyndall_engine::display::window_shares_device(evaluation)
+            || !render.device.features().contains(features)
+        {
+            return None;
+        }
+        let gpu = Arc::new(Gpu::on_device(
+            &render.adapter,
+            render.device.clone(),
+            render.queue.clone(),
+            evaluation,
+        ));
+        let display = match Display::new(&gpu) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("warning: the viewer reads pictures back: its display pass failed: {e}");
+                return None;
+            }
+        };
+        Some(WindowGpu {
+            render: render.clone(),
+            gpu,
+            display,
+        })
+    }
+
+    /// `t` drawn as `look` says and registered with egui (`None` when the pass failed: the
+    /// picture is left out, as a failed read-back was).
+    pub fn draw(&self, t: &GpuTexture, look: Look) -> Option<ShownTexture> {
+        let drawn = self.display.draw(&self.gpu, t, look).ok()?;
+        let id = self.render.renderer.write().register_native_texture(
+            &self.render.device,
+            &drawn.view,
+            wgpu::FilterMode::Nearest,
+        );
+        Some(ShownTexture::Native(Box::new(Native {
+            id,
+            size: egui::vec2(drawn.size.0 as f32, drawn.size.1 as f32),
+            _drawn: drawn,
+            window: self.render.clone(),
+        })))
+    }
+}
+
+/// `picture` on screen as the viewer shows it (`channel`, `stops`): one display pass for a
+/// texture (on `window`), the CPU conversion for read-back pixels.
+pub fn viewer_texture(
+    ctx: &egui::Context,
+    window: Option<&WindowGpu>,
+    name: &str,
+    picture: &Picture,
+    channel: Channel,
+    stops: f32,
+) -> Option<ShownTexture> {
+    match picture {
+        Picture::Pixels(r) => {
+            let image = super::colour_image(r, channel, stops);
+            Some(ShownTexture::Managed(ctx.load_texture(
+                name,
+                image,
+                egui::TextureOptions::NEAREST,
+            )))
+        }
+        Picture::Texture(t) => window?.draw(t, Look::viewer(channel, stops)),
+    }
+}
+
+/// A node thumbnail on screen: shrunk on the GPU for a texture, converted on the CPU for pixels
+/// the worker already shrank.
+pub fn thumbnail_texture(
+    ctx: &egui::Context,
+    window: Option<&WindowGpu>,
+    id: &str,
+    picture: &Picture,
+) -> Option<ShownTexture> {
+    match picture {
+        Picture::Pixels(r) => {
+            let image = super::colour_image(r, Channel::Rgb, 0.0);
+            Some(ShownTexture::Managed(ctx.load_texture(
+                format!("thumb-{id}"),
+                image,
+                egui::TextureOptions::LINEAR,
+            )))
+        }
+        Picture::Texture(t) => {
+            window?.draw(t, Look::thumbnail(t.width, t.height, crate::worker::THUMB))
+        }
+    }
+}
+
+/// Reads of one pixel in flight: the pixel and each port's read.
+type PixelReads = ((u32, u32), Vec<(String, TexelRead)>);
+
+/// The pixel probe's reads in flight: the values under the pointer of every texture shown,
+/// read back without waiting (4–16 bytes each).
+#[derive(Default)]
+pub struct Probe {
+    /// The pixel asked for and its reads by port.
+    pending: Option<PixelReads>,
+    /// The pixel whose reads were last started.
+    asked: Option<(u32, u32)>,
+}
+
+impl Probe {
+    /// Ask for pixel (`x`, `y`) of the textures among `pictures` (once per pixel), and give the
+    /// probe's line once every read is back.
+    pub fn update(
+        &mut self,
+        gpu: &Gpu,
+        pictures: &[(String, Picture)],
+        x: u32,
+        y: u32,
+    ) -> Option<String> {
+        if self.asked != Some((x, y)) {
+            self.asked = Some((x, y));
+            let reads = pictures
+                .iter()
+                .filter_map(|(port, p)| match p {
+                    Picture::Texture(t) if x < t.width && y < t.height => {
+                        Some((port.clone(), gpu.read_texel_async(t, x, y).ok()?))
+                    }
+                    _ => None,
+                })
+                .collect();
+            self.pending = Some(((x, y), reads));
+        }
+        self.poll(gpu)
+    }
+
+    /// The probe's line once every read of the newest pixel is back.
+    pub fn poll(&mut self, gpu: &Gpu) -> Option<String> {
+        let ((x, y), reads) = self.pending.as_ref()?;
+        let mut values = Vec::new();
+        for (port, read) in reads {
+            // A failed read leaves its port out of the line, as a failed download did.
+            if let Ok(v) = read.try_take(gpu)? {
+                values.push((port.clone(), v));
+            }
+        }
+        let line = crate::view::probe_line(*x, *y, &values);
+        self.pending = None;
+        Some(line)
+    }
+
+    /// Whether reads are still in flight (the window draws again soon to take them).
+    pub fn waiting(&self) -> bool {
+        self.pending.is_some()
+    }
+}
