@@ -3,6 +3,8 @@
 // key comes in `sel`, selected by shaders/algorithms/quantile.wgsl (word 256: how many values
 // took part, word 258: the key).
 
+#import lib/order_key
+
 struct Params {
     threshold: f32,
     _pad0: u32,
@@ -15,13 +17,6 @@ struct Params {
 @group(0) @binding(2) var out_holes: texture_storage_2d<r32float, write>;
 @group(0) @binding(3) var<storage, read_write> sel: array<u32>;
 
-const N: u32 = 256u;
-const KEY: u32 = 258u;
-
-// The value of an order-preserving key (the inverse of the quantile pass's `key_of`).
-fn value_of(k: u32) -> f32 {
-    return bitcast<f32>(select(~k, k & 0x7fffffffu, (k & 0x80000000u) != 0u));
-}
 
 @compute @workgroup_size(8, 8)
 fn threshold(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -41,6 +36,6 @@ fn threshold_selected(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = textureLoad(noise, id.xy, 0).r;
-    let hole = sel[N] > 0u && n < value_of(sel[KEY]);
+    let hole = sel[SELECTED_N] > 0u && n < value_of(sel[SELECTED_KEY]);
     textureStore(out_holes, id.xy, vec4<f32>(select(0.0, 1.0, hole), 0.0, 0.0, 1.0));
 }

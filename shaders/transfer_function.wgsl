@@ -2,6 +2,7 @@
 // diffusion layers by multigrid, and look the LUT up per pixel with (V̄, normalised depth).
 // Texel (i, j) of the LUT holds the colour at u = (i + 0.5)/N (V̄), v = (j + 0.5)/N (depth).
 #import lib/sampling
+#import lib/order_key
 
 struct Layer {
     kind: u32,      // 0 solid, 1 gradient, 2 sampled from `src` (diffusion solution or image)
@@ -38,6 +39,9 @@ struct Lookup {
 @group(0) @binding(7) var<uniform> K: Lookup;
 @group(0) @binding(8) var vis_tex: texture_2d<f32>;
 @group(0) @binding(9) var depth_tex: texture_2d<f32>;
+// `lookup_selected`: the 1st and 99th percentile selections of the depth (quantile passes).
+@group(0) @binding(10) var<storage, read_write> sel_lo: array<u32>;
+@group(0) @binding(11) var<storage, read_write> sel_hi: array<u32>;
 
 // Bilinear sample of `t` at (u, v) ∈ [0, 1]², texel centres at (i + 0.5)/size, clamp to edge.
 fn bilinear(t: texture_2d<f32>, uv: vec2<f32>) -> vec4<f32> {
@@ -180,18 +184,32 @@ fn mg_prolong(@builtin(global_invocation_id) id: vec3<u32>) {
 // The LUT (a_tex) looked up at (V̄, normalised depth); Modulate multiplies the in-scatter (b_tex).
 @compute @workgroup_size(8, 8)
 fn lookup(@builtin(global_invocation_id) id: vec3<u32>) {
+    shade(vec2<i32>(id.xy), K.depth_min, K.depth_max);
+}
+
+// `lookup` over the depth range the quantile passes selected on the GPU (`depth_range = auto`:
+// the 1st and 99th percentiles; none took part: 0…1), read here instead of by the CPU.
+@compute @workgroup_size(8, 8)
+fn lookup_selected(@builtin(global_invocation_id) id: vec3<u32>) {
+    let have = sel_lo[SELECTED_N] > 0u && sel_hi[SELECTED_N] > 0u;
+    let lo = select(0.0, value_of(sel_lo[SELECTED_KEY]), have);
+    let hi = select(1.0, value_of(sel_hi[SELECTED_KEY]), have);
+    shade(vec2<i32>(id.xy), lo, hi);
+}
+
+// The TF looked up at texel p's (V̄, depth normalised over depth_min…depth_max).
+fn shade(p: vec2<i32>, depth_min: f32, depth_max: f32) {
     let size = vec2<i32>(textureDimensions(out_tex));
-    let p = vec2<i32>(id.xy);
     if p.x >= size.x || p.y >= size.y {
         return;
     }
     var u = textureLoad(vis_tex, p, 0).r;
     u = clamp(select(0.0, u, u == u), 0.0, 1.0);
     let d = textureLoad(depth_tex, p, 0).r;
-    let span = K.depth_max - K.depth_min;
-    var v = select(0.0, 1.0, d > K.depth_min);
+    let span = depth_max - depth_min;
+    var v = select(0.0, 1.0, d > depth_min);
     if span > 0.0 {
-        v = (d - K.depth_min) / span;
+        v = (d - depth_min) / span;
     }
     v = clamp(select(0.0, v, v == v), 0.0, 1.0);
     let tf = bilinear(a_tex, vec2<f32>(u, v)).rgb * K.intensity;

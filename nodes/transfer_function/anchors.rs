@@ -56,7 +56,6 @@ pub(super) fn resolve_anchors(
             "and `depth` must be connected for anchored constraints",
         )
     })?;
-    let range = f.range(ctx)?;
     let read = |t: &GpuTexture| -> Result<Raster, NodeError> {
         Ok(Raster {
             width: t.width,
@@ -66,6 +65,8 @@ pub(super) fn resolve_anchors(
         })
     };
     let (vis, depth) = (read(&f.vis)?, read(&f.depth)?);
+    // The maps are on the CPU already: the range as the node uses it, from them.
+    let range = f.range_values(ctx, &depth)?;
     for (i, e) in layers.iter_mut().enumerate() {
         if let Layer::Diffusion { constraints } = &mut e.layer {
             for c in constraints.iter_mut() {

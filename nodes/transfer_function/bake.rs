@@ -129,22 +129,36 @@ fn depth_limit(m: &Matrices) -> Option<f32> {
     (m.view != IDENTITY || m.proj != IDENTITY).then_some(m.far)
 }
 
-/// [`auto_range`] of a depth map on the GPU: the two percentiles are selected there and only
-/// their selection buffers (2 × 1,036 bytes) are read back, not the map.
+/// The selections of [`auto_range`]'s two percentiles of a depth map, made on the GPU and
+/// kept there (`quantile::select`'s buffers): the node's `lookup_selected` pass reads them, so
+/// `depth_range = auto` reads nothing back.
+pub fn auto_range_select(
+    gpu: &tyndall_engine::gpu::Gpu,
+    depth: &tyndall_engine::gpu::GpuTexture,
+    m: &Matrices,
+) -> Result<[tyndall_engine::gpu::GpuBuffer; 2], tyndall_engine::gpu::GpuError> {
+    let (limit, form) = (depth_limit(m), Histogram::for_adapter(gpu));
+    let at = |q| quantile::select(gpu, depth, q, Rank::Round, limit, form);
+    Ok([at(0.01)?, at(0.99)?])
+}
+
+/// [`auto_range`] of a depth map on the GPU ([`auto_range_select`]), its two selections read
+/// back (2 × 1,036 bytes, not the map): the numbers, for tests and tools.
 pub fn auto_range_gpu(
     gpu: &tyndall_engine::gpu::Gpu,
     depth: &tyndall_engine::gpu::GpuTexture,
     m: &Matrices,
 ) -> Result<(f32, f32), tyndall_engine::gpu::GpuError> {
-    let (limit, form) = (depth_limit(m), Histogram::for_adapter(gpu));
-    let at = |q| {
-        let sel = quantile::select(gpu, depth, q, Rank::Round, limit, form)?;
-        quantile::read_value(gpu, &sel)
-    };
-    Ok(match (at(0.01)?, at(0.99)?) {
-        (Some(lo), Some(hi)) => (lo, hi),
-        _ => (0.0, 1.0),
-    })
+    let [lo, hi] = auto_range_select(gpu, depth, m)?;
+    Ok(
+        match (
+            quantile::read_value(gpu, &lo)?,
+            quantile::read_value(gpu, &hi)?,
+        ) {
+            (Some(lo), Some(hi)) => (lo, hi),
+            _ => (0.0, 1.0),
+        },
+    )
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -157,8 +157,8 @@ mod diffusion;
 
 pub use anchors::anchor_tf_position;
 pub use bake::{
-    auto_range, auto_range_gpu, bake_gpu, bake_reference, bilinear, blend, depth_coordinate,
-    gradient_colour, LayerParams, LookupParams,
+    auto_range, auto_range_gpu, auto_range_select, bake_gpu, bake_reference, bilinear, blend,
+    depth_coordinate, gradient_colour, LayerParams, LookupParams,
 };
 pub use data::{layer_name, Anchor, Blend, Constraint, Layer, LayerEntry, TfData, TfKey};
 pub use diffusion::{diffuse_gpu, diffuse_reference, rasterise_constraints, MultigridParams};
@@ -235,14 +235,34 @@ impl Frame {
         Ok(Some(Frame { vis, depth, camera }))
     }
 
-    /// The depth range: the parameters, or the frame's percentiles.
-    fn range(&self, ctx: &RunCtx) -> Result<(f32, f32), NodeError> {
+    /// The depth range: the parameters, or the frame's percentiles as selected on the GPU.
+    fn range(&self, ctx: &RunCtx) -> Result<Range, NodeError> {
+        let p = Params::from_ctx(ctx)?;
+        Ok(match p.depth_range {
+            DepthRange::Manual => Range::Manual(p.depth_min, p.depth_max),
+            DepthRange::Auto => {
+                Range::Selected(auto_range_select(ctx.gpu, &self.depth, &self.camera)?)
+            }
+        })
+    }
+}
+
+impl Frame {
+    /// The depth range as numbers, `depth` being this frame's depth read back (the automatic
+    /// range from it on the CPU, bit for bit the GPU's).
+    fn range_values(&self, ctx: &RunCtx, depth: &Raster) -> Result<(f32, f32), NodeError> {
         let p = Params::from_ctx(ctx)?;
         Ok(match p.depth_range {
             DepthRange::Manual => (p.depth_min, p.depth_max),
-            DepthRange::Auto => auto_range_gpu(ctx.gpu, &self.depth, &self.camera)?,
+            DepthRange::Auto => auto_range(&depth.data, &self.camera),
         })
     }
+}
+
+/// A frame's depth range: numbers, or percentile selections left on the GPU for the lookup.
+enum Range {
+    Manual(f32, f32),
+    Selected([tyndall_engine::gpu::GpuBuffer; 2]),
 }
 
 /// Where a picked pixel lands in the TF: the depth range as the node would use it this frame.
@@ -356,25 +376,32 @@ impl NodeKind for TransferFunction {
                 }
                 Mode::Replace => None,
             };
-            let (depth_min, depth_max) = f.range(ctx)?;
+            let range = f.range(ctx)?;
+            let (depth_min, depth_max) = match range {
+                Range::Manual(lo, hi) => (lo, hi),
+                Range::Selected(_) => (0.0, 1.0),
+            };
             let k = LookupParams {
                 depth_min,
                 depth_max,
                 intensity: p.intensity,
                 modulate: (mode == Mode::Modulate) as u32,
             };
-            let image = mg_pass(
-                ctx.gpu,
-                "lookup",
-                (f.vis.width, f.vis.height),
-                &[
-                    ("a_tex", Bind::Texture(&lut)),
-                    ("b_tex", Bind::Texture(inscatter.as_deref().unwrap_or(&lut))),
-                    ("K", Bind::Uniform(bytemuck::bytes_of(&k))),
-                    ("vis_tex", Bind::Texture(&f.vis)),
-                    ("depth_tex", Bind::Texture(&f.depth)),
-                ],
-            )?;
+            let mut binds = vec![
+                ("a_tex", Bind::Texture(&lut)),
+                ("b_tex", Bind::Texture(inscatter.as_deref().unwrap_or(&lut))),
+                ("K", Bind::Uniform(bytemuck::bytes_of(&k))),
+                ("vis_tex", Bind::Texture(&f.vis)),
+                ("depth_tex", Bind::Texture(&f.depth)),
+            ];
+            let entry = match &range {
+                Range::Manual(..) => "lookup",
+                Range::Selected([lo, hi]) => {
+                    binds.extend([("sel_lo", Bind::Buffer(lo)), ("sel_hi", Bind::Buffer(hi))]);
+                    "lookup_selected"
+                }
+            };
+            let image = mg_pass(ctx.gpu, entry, (f.vis.width, f.vis.height), &binds)?;
             ctx.set("image", PortValue::Image(Arc::new(image)));
         }
         ctx.set("lut", PortValue::Lut2D(lut));

@@ -12,6 +12,9 @@
 
 use crate::gpu::{Gpu, GpuError, GpuTexture};
 
+/// The pass's shader file, `shaders/<STEM>.wgsl` (the engine's own, not a node's).
+pub const STEM: &str = "display";
+
 const SOURCE: &str = include_str!("../../shaders/display.wgsl");
 
 /// Which channel(s) a picture shows.

@@ -730,3 +730,55 @@ fn auto_depth_range_is_selected_on_the_gpu_as_the_reference() {
     let got = auto_range_gpu(&gpu, sky_tex.texture().expect("texture"), &cam).expect("sky");
     assert_eq!(got, (0.0, 1.0), "no surface: the default range");
 }
+
+/// `depth_range = auto` in the node reads nothing back: the lookup reads the percentiles the
+/// quantile passes selected on the GPU, and its picture equals the same node with the range
+/// set by hand to the CPU reference's percentiles of that frame's depth, bit for bit
+/// (`graphs/color/sunrise.ron`, whose TF is automatic).
+#[test]
+fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
+    let gpu = require_gpu!();
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/color/sunrise.ron");
+    let mut g = tyndall::graph::load_file(&path, &cat).expect("graph");
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+    let opts = tyndall::eval::EvalOptions {
+        size: (64, 36),
+        ..Default::default()
+    };
+    let image = tyndall::eval::Target::Port("sunrise".into(), "image".into());
+    let depth = tyndall::eval::Target::Port("scatter".into(), "depth".into());
+    // The upstream nodes first: what the TF's own run reads back is what is counted.
+    let r = ev.evaluate(&g, &[depth.clone()], &opts).expect("upstream");
+    let PortValue::Depth(_, cam) = &r.outputs[&("scatter".into(), "depth".into())] else {
+        panic!("depth");
+    };
+    let cam = cam.clone();
+    let depth_map = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "depth".into())])
+        .expect("depth");
+    let before = gpu.thread_readbacks().1;
+    let r = ev.evaluate(&g, &[image.clone()], &opts).expect("auto");
+    assert_eq!(
+        r.stats.status("sunrise"),
+        Some(tyndall::eval::Status::Ran),
+        "{}",
+        r.stats
+    );
+    assert_eq!(gpu.thread_readbacks().1 - before, 0, "the TF read back");
+    let auto = tyndall::eval::download(&gpu, &r.outputs[&("sunrise".into(), "image".into())])
+        .expect("image");
+    let (lo, hi) = tyndall::nodes::transfer_function::auto_range(&depth_map.data, &cam);
+    assert!(lo < hi, "{lo} … {hi}: a frame with surfaces");
+    for (name, v) in [
+        ("depth_range", ParamValue::Enum("manual".into())),
+        ("depth_min", ParamValue::Float(lo as f64)),
+        ("depth_max", ParamValue::Float(hi as f64)),
+    ] {
+        g.set_param(&cat, "sunrise", name, v).expect(name);
+    }
+    let r = ev.evaluate(&g, &[image], &opts).expect("manual");
+    let manual = tyndall::eval::download(&gpu, &r.outputs[&("sunrise".into(), "image".into())])
+        .expect("image");
+    assert_eq!(auto.data, manual.data);
+}

@@ -236,7 +236,8 @@ fn no_technique_uses_another_techniques_module() {
     );
 }
 
-/// Every shader file is a node's shader, imported by one, or part of the shared library.
+/// Every shader file is a node's shader, imported by one, part of the shared library, or the
+/// engine's own display pass (`tyndall::display`, which the editor and the benchmarks run).
 #[test]
 fn no_shader_file_is_unused() {
     let registry = tyndall::nodes::registry();
@@ -252,7 +253,8 @@ fn no_shader_file_is_unused() {
         if name.starts_with("lib/") {
             continue;
         }
-        let used = shaders.iter().any(|s| s.stem == name)
+        let used = name == tyndall::display::STEM
+            || shaders.iter().any(|s| s.stem == name)
             || composed
                 .iter()
                 .any(|c| c.contains(&format!("---- #import {name} ")));
