@@ -750,15 +750,19 @@ fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
     let image = tyndall::eval::Target::Port("sunrise".into(), "image".into());
     let depth = tyndall::eval::Target::Port("scatter".into(), "depth".into());
     // The upstream nodes first: what the TF's own run reads back is what is counted.
-    let r = ev.evaluate(&g, &[depth.clone()], &opts).expect("upstream");
+    let r = ev
+        .evaluate(&g, std::slice::from_ref(&depth), &opts)
+        .expect("upstream");
     let PortValue::Depth(_, cam) = &r.outputs[&("scatter".into(), "depth".into())] else {
         panic!("depth");
     };
-    let cam = cam.clone();
+    let cam = *cam;
     let depth_map = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "depth".into())])
         .expect("depth");
     let before = gpu.thread_readbacks().1;
-    let r = ev.evaluate(&g, &[image.clone()], &opts).expect("auto");
+    let r = ev
+        .evaluate(&g, std::slice::from_ref(&image), &opts)
+        .expect("auto");
     assert_eq!(
         r.stats.status("sunrise"),
         Some(tyndall::eval::Status::Ran),
