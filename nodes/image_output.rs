@@ -45,11 +45,14 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use tyndall_engine::eval::{download, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{
+    download, download_later, NodeDecl, NodeError, NodeKind, PortValue, RunCtx,
+};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::{
-    file_kind, write_exr_layers, write_image, ExrHeader, ExrLayer, FileKind, Precision, Raster,
+    file_kind, write_exr_layers, write_image_later, ExrHeader, ExrLayer, FileKind, Precision,
+    Raster,
 };
 
 /// The `ImageOutput` node kind.
@@ -172,8 +175,10 @@ impl NodeKind for ImageOutput {
         let value = outputs
             .get("written")
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;
-        let raster = download(ctx.gpu, value)?;
-        write_image(&path, &raster, precision, p.srgb)?;
+        // Read back while the next frame is recorded when writes are deferred (a sequence).
+        let pending = download_later(ctx.gpu, value)?;
+        let raster = Box::new(move || pending.wait().map_err(|e| e.to_string()));
+        write_image_later(&path, raster, precision, p.srgb)?;
         Ok(())
     }
 }

@@ -1515,8 +1515,9 @@ fn the_trace_parses_and_names_every_node_at_every_frame() {
 }
 
 /// A sequence writes its files on background threads while the next frame evaluates (the
-/// trace's write events are on writer threads, not the evaluating one), and every file is
-/// byte for byte the one the same frame rendered alone writes.
+/// trace's write events are on writer threads, not the evaluating one, and so are the
+/// read-backs of the written pictures: the evaluating thread never waits for them), and every
+/// file is byte for byte the one the same frame rendered alone writes.
 #[test]
 fn a_sequence_written_in_the_background_equals_its_frames_rendered_alone() {
     if !gpu_available() {
@@ -1570,5 +1571,14 @@ fn a_sequence_written_in_the_background_equals_its_frames_rendered_alone() {
     assert!(
         writes.is_disjoint(&nodes),
         "writes {writes:?} on the nodes' thread {nodes:?}"
+    );
+    let read_by_writers = events
+        .iter()
+        .filter(|e| e["cat"] == "readback")
+        .filter(|e| e["tid"].as_u64().is_some_and(|t| writes.contains(&t)))
+        .count();
+    assert_eq!(
+        read_by_writers, 4,
+        "each frame's picture read back by its writer"
     );
 }

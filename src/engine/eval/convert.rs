@@ -44,6 +44,38 @@ pub fn upload_raster(gpu: &Gpu, r: &Raster, ty: PortType) -> Result<PortValue, N
     }
 }
 
+/// Start reading a 2D value back ([`Gpu::read_texture_later`]); the raster comes from
+/// [`PendingRaster::wait`], on any thread.
+pub fn download_later(gpu: &Gpu, v: &PortValue) -> Result<PendingRaster, NodeError> {
+    let t = v
+        .texture()
+        .ok_or_else(|| NodeError::Other(format!("a {} value is not an image", v.port_type())))?;
+    Ok(PendingRaster {
+        read: gpu.read_texture_later(t)?,
+        size: (t.width, t.height),
+        channels: t.format.channels(),
+    })
+}
+
+/// A [`download_later`] in flight.
+pub struct PendingRaster {
+    read: crate::gpu::PendingRead,
+    size: (u32, u32),
+    channels: u32,
+}
+
+impl PendingRaster {
+    /// The raster, once the GPU has copied it.
+    pub fn wait(self) -> Result<Raster, crate::gpu::GpuError> {
+        Ok(Raster {
+            width: self.size.0,
+            height: self.size.1,
+            channels: self.channels,
+            data: self.read.wait()?,
+        })
+    }
+}
+
 /// Read a 2D value back to the CPU.
 pub fn download(gpu: &Gpu, v: &PortValue) -> Result<Raster, NodeError> {
     let t = v

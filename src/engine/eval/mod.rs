@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 
 use thiserror::Error;
 
-pub use convert::{download, upload_raster};
+pub use convert::{download, download_later, upload_raster, PendingRaster};
 pub use history::MAX_HISTORY_DEPTH;
 pub use node::{
     check_side, Earlier, FileRole, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx,

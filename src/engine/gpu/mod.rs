@@ -14,7 +14,7 @@ mod pool;
 mod raster;
 pub use pipeline_cache::cache_dir;
 mod readback;
-pub use readback::TexelRead;
+pub use readback::{PendingRead, TexelRead};
 mod resources;
 mod shader;
 mod shader_needs;
@@ -176,7 +176,7 @@ pub struct Gpu {
     /// Read-backs so far and their bytes ([`Gpu::readbacks`]).
     readbacks: [std::sync::atomic::AtomicU64; 2],
     /// Staging buffers of earlier read-backs, unmapped, for the next ones.
-    staging: Mutex<Vec<wgpu::Buffer>>,
+    staging: Arc<Mutex<Vec<wgpu::Buffer>>>,
     /// Staging buffers created ([`Gpu::staging_buffers_created`]).
     staging_created: std::sync::atomic::AtomicU64,
     /// Values made once per content key while someone holds them ([`Gpu::shared_by_key`]).
@@ -333,7 +333,7 @@ impl Gpu {
             shader_needs: Mutex::new(HashMap::new()),
             submits: std::sync::atomic::AtomicU64::new(0),
             readbacks: Default::default(),
-            staging: Mutex::new(Vec::new()),
+            staging: Arc::default(),
             staging_created: Default::default(),
             keyed: Mutex::default(),
             pipelines: Mutex::new(HashMap::new()),

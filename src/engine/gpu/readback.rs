@@ -78,27 +78,8 @@ impl Gpu {
             read(&view)
         };
         buffer.unmap();
-        let mut kept = self.staging.lock().unwrap_or_else(|e| e.into_inner());
-        if kept.len() >= STAGING_KEPT {
-            // The smallest goes: large read-backs (the viewer's picture) repeat.
-            if let Some(i) = kept
-                .iter()
-                .enumerate()
-                .min_by_key(|(_, b)| b.size())
-                .map(|(i, _)| i)
-            {
-                kept.swap_remove(i);
-            }
-        }
-        kept.push(buffer);
-        drop(kept);
-        let [count, total] = &self.readbacks;
-        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        total.fetch_add(size, std::sync::atomic::Ordering::Relaxed);
-        THREAD_READBACKS.with(|c| {
-            let (n, b) = c.get();
-            c.set((n + 1, b + size));
-        });
+        keep_staging(&self.staging, buffer);
+        self.count_readback(size);
         crate::trace::record(
             "readback",
             "read-back",
@@ -107,6 +88,17 @@ impl Gpu {
             serde_json::json!({ "bytes": size }),
         );
         Ok(out)
+    }
+
+    /// Count a read-back of `size` bytes (for the context and for this thread).
+    fn count_readback(&self, size: u64) {
+        let [count, total] = &self.readbacks;
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        total.fetch_add(size, std::sync::atomic::Ordering::Relaxed);
+        THREAD_READBACKS.with(|c| {
+            let (n, b) = c.get();
+            c.set((n + 1, b + size));
+        });
     }
 
     /// Read-backs made by this thread so far (to any context), and their bytes: what one
@@ -143,12 +135,25 @@ impl Gpu {
         size: [u32; 3],
         bpt: u32,
     ) -> Result<Vec<f32>, GpuError> {
+        let copy = self.copy_texels(texture, level, size, bpt)?;
+        let rows = copy.rows;
+        self.map_read(copy.buffer, copy.bytes, |bytes| rows.unpad(bytes))
+    }
+
+    /// Record the copy of [`Gpu::read_texels`] into a staging buffer and submit it.
+    fn copy_texels(
+        &self,
+        texture: &wgpu::Texture,
+        level: u32,
+        size: [u32; 3],
+        bpt: u32,
+    ) -> Result<Copied, GpuError> {
         let [w, h, d] = size;
         let row = w * bpt;
         let padded =
             row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let size = (padded * h * d) as u64;
-        let buffer = self.staging(size);
+        let bytes = (padded * h * d) as u64;
+        let buffer = self.staging(bytes);
         self.scoped(|| {
             self.encode(|enc| {
                 enc.copy_texture_to_buffer(
@@ -175,13 +180,30 @@ impl Gpu {
             });
         })?;
         self.flush()?;
-        self.map_read(buffer, size, |bytes| {
-            let mut out = Vec::with_capacity((row / 4 * h * d) as usize);
-            for r in 0..h * d {
-                let start = (r * padded) as usize;
-                out.extend_from_slice(bytemuck::cast_slice(&bytes[start..start + row as usize]));
-            }
-            out
+        Ok(Copied {
+            buffer,
+            bytes,
+            rows: Rows {
+                row,
+                padded,
+                count: h * d,
+            },
+        })
+    }
+
+    /// Start reading `tex` back and return at once: the copy is submitted now, the bytes are
+    /// waited for by [`PendingRead::wait`] — on another thread, while this one records more
+    /// work (a sequence's next frame while this one is written). Counted as a read-back now.
+    pub fn read_texture_later(&self, tex: &GpuTexture) -> Result<PendingRead, GpuError> {
+        let stored = tex.stored_channels();
+        let copy = self.copy_texels(tex.raw(), 0, [tex.width, tex.height, 1], stored * 4)?;
+        self.count_readback(copy.bytes);
+        Ok(PendingRead {
+            device: self.device.clone(),
+            copy,
+            home: Arc::downgrade(&self.staging),
+            stored,
+            channels: tex.format.channels(),
         })
     }
 
@@ -277,5 +299,110 @@ impl TexelRead {
             let values: Vec<f32> = bytemuck::cast_slice::<u8, f32>(&view).to_vec();
             Ok(narrow(values, self.stored, self.channels))
         }))
+    }
+}
+
+/// Keep `buffer` (unmapped) for the next read-backs, at most [`STAGING_KEPT`] of them.
+fn keep_staging(staging: &Mutex<Vec<wgpu::Buffer>>, buffer: wgpu::Buffer) {
+    let mut kept = staging.lock().unwrap_or_else(|e| e.into_inner());
+    if kept.len() >= STAGING_KEPT {
+        // The smallest goes: large read-backs (the viewer's picture) repeat.
+        if let Some(i) = kept
+            .iter()
+            .enumerate()
+            .min_by_key(|(_, b)| b.size())
+            .map(|(i, _)| i)
+        {
+            kept.swap_remove(i);
+        }
+    }
+    kept.push(buffer);
+}
+
+/// Rows of a texel copy: their bytes, their padded stride and how many.
+#[derive(Clone, Copy)]
+struct Rows {
+    row: u32,
+    padded: u32,
+    count: u32,
+}
+
+impl Rows {
+    /// The floats of the copy, padding removed.
+    fn unpad(self, bytes: &[u8]) -> Vec<f32> {
+        let mut out = Vec::with_capacity((self.row / 4 * self.count) as usize);
+        for r in 0..self.count {
+            let start = (r * self.padded) as usize;
+            out.extend_from_slice(bytemuck::cast_slice(
+                &bytes[start..start + self.row as usize],
+            ));
+        }
+        out
+    }
+}
+
+/// A texel copy submitted into a staging buffer.
+struct Copied {
+    buffer: wgpu::Buffer,
+    bytes: u64,
+    rows: Rows,
+}
+
+/// A texture read-back submitted and not yet waited for ([`Gpu::read_texture_later`]).
+pub struct PendingRead {
+    device: wgpu::Device,
+    copy: Copied,
+    home: std::sync::Weak<Mutex<Vec<wgpu::Buffer>>>,
+    stored: u32,
+    channels: u32,
+}
+
+impl PendingRead {
+    /// Wait for the copy (polling the device, so other submissions are not waited for) and
+    /// return the texture's values as [`Gpu::read_texture`] does.
+    pub fn wait(self) -> Result<Vec<f32>, GpuError> {
+        let started = std::time::Instant::now();
+        let Copied {
+            buffer,
+            bytes,
+            rows,
+        } = self.copy;
+        let done = Arc::new(Mutex::new(None));
+        let flag = done.clone();
+        buffer.map_async(wgpu::MapMode::Read, ..bytes, move |r| {
+            if let Ok(mut d) = flag.lock() {
+                *d = Some(r.map_err(|e| e.to_string()));
+            }
+        });
+        let secs = watchdog_secs();
+        loop {
+            let _ = self.device.poll(wgpu::PollType::Poll);
+            if let Some(r) = done.lock().ok().and_then(|d| d.clone()) {
+                r.map_err(GpuError::Readback)?;
+                break;
+            }
+            if secs > 0 && started.elapsed().as_secs() >= secs {
+                return Err(GpuError::Hung(secs));
+            }
+            std::thread::sleep(std::time::Duration::from_micros(500));
+        }
+        let values = {
+            let view = buffer
+                .get_mapped_range(..bytes)
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            rows.unpad(&view)
+        };
+        buffer.unmap();
+        if let Some(home) = self.home.upgrade() {
+            keep_staging(&home, buffer);
+        }
+        crate::trace::record(
+            "readback",
+            "read-back",
+            started,
+            started.elapsed(),
+            serde_json::json!({ "bytes": bytes }),
+        );
+        Ok(narrow(values, self.stored, self.channels))
     }
 }

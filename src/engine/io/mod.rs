@@ -227,6 +227,36 @@ pub fn write_image(
     )
 }
 
+/// [`write_image`] of a raster still being read back from the GPU: `raster` waits for it (on
+/// the writer thread when writes are [`deferred`], so the next frame is recorded meanwhile;
+/// here otherwise). A failed read is a failed write of `path`.
+pub fn write_image_later(
+    path: &Path,
+    raster: Box<dyn FnOnce() -> Result<Raster, String> + Send>,
+    precision: Precision,
+    srgb: bool,
+) -> Result<(), IoError> {
+    let read = move |path: &Path| {
+        raster().map_err(|reason| IoError::Write {
+            path: path.to_path_buf(),
+            reason: format!("reading the picture back: {reason}"),
+        })
+    };
+    if !deferred::deferred() {
+        let r = read(path)?;
+        return crate::trace::write(path, || write_image_untraced(path, &r, precision, srgb));
+    }
+    let (path, frame) = (path.to_path_buf(), crate::trace::frame());
+    deferred::submit(
+        path.clone(),
+        Box::new(move || {
+            crate::trace::set_frame(frame);
+            let r = read(&path)?;
+            crate::trace::write(&path, || write_image_untraced(&path, &r, precision, srgb))
+        }),
+    )
+}
+
 fn write_image_untraced(
     path: &Path,
     r: &Raster,
