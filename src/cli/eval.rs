@@ -67,8 +67,9 @@ pub(super) fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliEr
             output_suffix: v.suffix.clone(),
             frame: None,
             gpu_timings: a.common.stats,
-            // Without --stats nobody reads per-node times: let the GPU work overlap.
-            pipelined: !a.common.stats,
+            // The GPU works while later nodes are recorded; --stats reads its per-node
+            // time from timestamps, not from waits.
+            pipelined: true,
             inject: BTreeMap::new(),
             progress: Some(node_progress()),
             ..Default::default()

@@ -119,7 +119,9 @@ pub struct Common {
     /// Default image size for nodes that create images, WIDTHxHEIGHT.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Print per-node statistics (ran | passed through | reused | not needed, time).
+    /// Print per-node statistics (ran | passed through | reused | not needed; wall ms: the
+    /// node's CPU time, recording its passes — the GPU runs them while later nodes are recorded;
+    /// gpu ms: its passes' GPU time from timestamp queries, read once per evaluation).
     #[arg(long)]
     pub stats: bool,
     /// Evaluate once per value of NODE.PARAM in one process: NODE.PARAM=v1,v2,... Output files

@@ -113,8 +113,9 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
                         output_suffix: v.suffix.clone(),
                         frame: *f,
                         gpu_timings: a.common.stats,
-                        // Without --stats nobody reads per-node times: let the GPU work overlap.
-                        pipelined: !a.common.stats,
+                        // The GPU works while later nodes are recorded; --stats reads its
+                        // per-node time from timestamps, not from waits.
+                        pipelined: true,
                         inject: BTreeMap::new(),
                         progress: Some(node_progress()),
                         ..Default::default()

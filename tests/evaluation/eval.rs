@@ -422,6 +422,57 @@ fn gpu_timings_come_from_timestamp_queries_when_asked() {
     }
 }
 
+/// With `gpu_timings` and `pipelined` (`tyndall eval --stats`), nothing waits between nodes: the
+/// passes are submitted in chunks, not per node, and every node that ran still gets its GPU
+/// time — its passes' timestamps, read once at the end (the scattering's is not zero).
+#[test]
+fn pipelined_gpu_timings_are_read_once_per_evaluation() {
+    let gpu = require_gpu!();
+    if !gpu
+        .device
+        .features()
+        .contains(wgpu::Features::TIMESTAMP_QUERY)
+    {
+        return;
+    }
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let g = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
+    let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+    let before = gpu.thread_submit_count();
+    let r = ev
+        .evaluate(
+            &g,
+            &[Target::Port("tonemap".into(), "out".into())],
+            &EvalOptions {
+                size: (64, 36),
+                gpu_timings: true,
+                pipelined: true,
+                ..Default::default()
+            },
+        )
+        .expect("evaluate");
+    let submits = gpu.thread_submit_count() - before;
+    let ran: Vec<_> = r.stats.nodes.iter().filter(|n| n.status.ran()).collect();
+    assert!(ran.len() >= 5, "{}", r.stats);
+    assert!(
+        ran.iter().all(|n| n.gpu_time.is_some()),
+        "every node that ran has a GPU time: {}",
+        r.stats
+    );
+    let scatter = ran.iter().find(|n| n.id == "scatter").expect("scatter");
+    assert!(scatter
+        .gpu_time
+        .is_some_and(|t| t > std::time::Duration::ZERO));
+    if gpu.info.backend != wgpu::Backend::Gl {
+        assert!(
+            (submits as usize) < ran.len(),
+            "{submits} submissions for {} nodes: one per node or more",
+            ran.len()
+        );
+    }
+}
+
 /// A document checked against another catalog (a newer Tyndall's, a hand-built one) can carry an
 /// enum value this registry does not know. The loader refuses such files, but nothing stops a
 /// `Graph` built in code: the node must then fail with an error naming the node and the

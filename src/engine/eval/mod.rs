@@ -123,14 +123,16 @@ pub struct EvalOptions {
     /// `%04d` in a sink's path becomes the zero-padded frame; a path without either gets
     /// `_NNNN` before its extension. `None`: names are left as they are (a single evaluation).
     pub frame: Option<i64>,
-    /// Measure each node's GPU time with timestamp queries (when the adapter has them); this
-    /// waits for every pass, so it is meant for statistics and benchmarks.
+    /// Measure each node's GPU time with timestamp queries (when the adapter has them): every
+    /// pass's timestamps, read once the evaluation is submitted (no wait between nodes for
+    /// them), summed per node. For statistics, benchmarks and traces.
     pub gpu_timings: bool,
     /// Let each node's GPU work run while the next nodes are recorded, instead of waiting for
     /// it after every node: what a long chain of small nodes needs (the wait per submission
     /// dominates there). A node's time is then the time to record and submit its passes, and
-    /// an error the GPU raises while executing shows at the next read-back. Off by default
-    /// (the editor and `--stats` show each node's real cost); ignored with `gpu_timings`.
+    /// an error the GPU raises while executing shows at the next read-back; its GPU cost is
+    /// what `gpu_timings` measures. Off by default (a node's wall time then includes its GPU
+    /// work, as the editor shows it); `tyndall eval` and `render` pipeline, `--stats` included.
     pub pipelined: bool,
     /// Values injected on unconnected input ports, by (node, port) — how `tyndall node` feeds
     /// files to a node. Each carries its own cache key.
@@ -308,6 +310,22 @@ impl Evaluator {
         let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
         let submitted = batch.end();
         let done = done.and_then(|d| submitted.map(|()| d).map_err(EvalError::Submit));
+        // Every pass's GPU time, read once now that everything is submitted.
+        let done = done.and_then(|d| {
+            let mut times = gpu.resolve_timings().map_err(EvalError::Submit)?;
+            let timed = opts.gpu_timings
+                && gpu
+                    .device
+                    .features()
+                    .contains(wgpu::Features::TIMESTAMP_QUERY);
+            for (id, run) in stats.iter_mut() {
+                // A node that ran without a pass took no GPU time.
+                let none = (timed && run.0.ran()).then_some(Duration::ZERO);
+                run.2 = times.remove(id).or(none);
+            }
+            gpu.unclaimed_timings(times);
+            Ok(d)
+        });
         self.cache.evict();
         // The pipelines compiled by this evaluation go to the cache on disk for the next
         // process; a cache that cannot be written only costs that process the compilation.
@@ -386,7 +404,7 @@ impl Evaluator {
                     outputs
                 }
                 None => {
-                    let (outputs, wall, gpu, submits) =
+                    let (outputs, wall, submits) =
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
                     let time = wall + history.time;
                     self.cache.record(id, key, &outputs, time);
@@ -395,7 +413,8 @@ impl Evaluator {
                     } else {
                         Status::Ran
                     };
-                    stats.insert(id.clone(), (status, time, gpu, submits, time));
+                    // Its GPU time comes once the evaluation is submitted.
+                    stats.insert(id.clone(), (status, time, None, submits, time));
                     outputs
                 }
             };
@@ -476,28 +495,29 @@ impl Evaluator {
     }
 
     /// Step 3b, run: the node's GPU work, waited for and timed; every wanted port must be set.
-    #[allow(clippy::type_complexity)]
     fn run(
         &self,
         k: &dyn NodeKind,
         ctx: &mut RunCtx,
         want: &BTreeSet<String>,
         opts: &EvalOptions,
-    ) -> Result<(BTreeMap<String, PortValue>, Duration, Option<Duration>, u64), NodeError> {
+    ) -> Result<(BTreeMap<String, PortValue>, Duration, u64), NodeError> {
         // An adapter that cannot give this node's shader what it needs: one line naming what
         // is missing, before any of its passes is recorded.
         for shader in k.decl().shaders {
             self.gpu.supports(*shader)?;
         }
         self.gpu.set_timing(opts.gpu_timings);
+        self.gpu.set_timed_node(ctx.id);
         let start = Instant::now();
         let submitted = self.gpu.thread_submit_count();
         // The node's passes go into one command buffer, submitted with its neighbours' (see
-        // gpu/batch.rs) — at once, and waited for, when timed or not pipelined.
+        // gpu/batch.rs) — at once, and waited for, when not pipelined. Its GPU time is read
+        // once the evaluation is submitted (`Gpu::resolve_timings`).
         self.gpu.begin_batch();
         let ran = k.run(ctx);
         let ended = self.gpu.end_batch();
-        let wait = opts.gpu_timings || !opts.pipelined;
+        let wait = !opts.pipelined;
         let ran = ran.and(ended.map_err(NodeError::from)).and_then(|()| {
             if wait {
                 self.gpu.flush()?;
@@ -515,13 +535,12 @@ impl Evaluator {
             elapsed,
             serde_json::json!({ "kind": k.schema().kind }),
         );
-        let gpu_time = self.gpu.take_gpu_time();
         self.gpu.set_timing(false);
         ran?;
         if let Some(p) = want.iter().find(|p| !ctx.outputs.contains_key(*p)) {
             return Err(NodeError::Other(format!("did not produce output '{p}'")));
         }
-        Ok((std::mem::take(&mut ctx.outputs), elapsed, gpu_time, submits))
+        Ok((std::mem::take(&mut ctx.outputs), elapsed, submits))
     }
 }
 

@@ -47,8 +47,6 @@ thread_local! {
     static THREAD_SUBMITS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
     /// `Some` while batching on this thread.
     static BATCH: RefCell<Option<Batch>> = const { RefCell::new(None) };
-    /// Timers of passes recorded in the batch, read once it is submitted.
-    static TIMERS: RefCell<Vec<super::PassTimer>> = const { RefCell::new(Vec::new()) };
     /// Textures dropped while batching, returned to the pool once the batch is submitted.
     static RETIRED: RefCell<Vec<Box<dyn FnOnce()>>> = const { RefCell::new(Vec::new()) };
 }
@@ -139,7 +137,7 @@ impl Gpu {
 
     /// Submit what this thread's batch has recorded so far and keep batching — before a
     /// read-back or a queue write, and when a chunk is full. Then the textures retired meanwhile
-    /// go back to the pool and the passes' timers are read. An encoding error surfaces here (wgpu
+    /// go back to the pool. An encoding error surfaces here (wgpu
     /// reports a pass's errors when its encoder is finished): it is reported to the node whose
     /// batch ended the chunk, though any pass of the chunk may have caused it.
     pub(crate) fn flush(&self) -> Result<(), GpuError> {
@@ -154,8 +152,7 @@ impl Gpu {
             None => Ok(()),
         };
         release_retired();
-        submitted?;
-        self.read_timers()
+        submitted
     }
 
     /// Whether commands are being batched on this thread now. Never on wgpu's GL backend: a
@@ -165,22 +162,6 @@ impl Gpu {
     /// any thread evaluating beside it; there every pass is submitted alone, as before.
     fn batching(&self) -> bool {
         BATCH.with(|b| b.borrow().is_some()) && !tracing() && self.info.backend != wgpu::Backend::Gl
-    }
-
-    /// A pass's timer, resolved in the encoder that recorded it: read now when that encoder
-    /// was submitted, else once the batch is.
-    pub(crate) fn after_submit(&self, timer: super::PassTimer) -> Result<(), GpuError> {
-        if self.batching() {
-            TIMERS.with(|t| t.borrow_mut().push(timer));
-            Ok(())
-        } else {
-            self.read_timer(timer)
-        }
-    }
-
-    fn read_timers(&self) -> Result<(), GpuError> {
-        let timers = TIMERS.with(|t| std::mem::take(&mut *t.borrow_mut()));
-        timers.into_iter().try_for_each(|t| self.read_timer(t))
     }
 
     /// Record commands with `f`: into this thread's batch, or into an encoder submitted at once.
