@@ -104,32 +104,23 @@ pub(super) fn dispatch_epipolar(
     )?;
     let list = gpu.buffer_zeroed(w * h)?;
     let count = gpu.buffer_zeroed(1)?;
-    let with_list = |entry: &str, level: u32, size: (u32, u32)| {
-        let e = EpiParams { level, ..base };
-        let mut b = binds.to_vec();
-        b.push(("E", Bind::Uniform(bytemuck::bytes_of(&e))));
-        b.push(("slice_table", Bind::Texture(&table)));
-        b.push(("samples_in", Bind::Texture(&samples)));
-        b.push(("fallback", Bind::Buffer(&list)));
-        b.push(("fallback_count", Bind::Buffer(&count)));
-        gpu.dispatch_with(EPIPOLAR, entry, &b, size, &constants)
-    };
-    with_list("epi_gather", 0, (w, h))?;
-    // The fall-back pixels (depth discontinuities) trace their own ray: one read-back of the
-    // count sizes that dispatch.
-    let n = gpu
-        .read_buffer_i32(&count)?
-        .first()
-        .copied()
-        .unwrap_or(0)
-        .max(0) as u32;
-    if n > 0 {
-        with_list(
-            "epi_fallback",
-            n.min(w * h),
-            (256, n.min(w * h).div_ceil(256)),
-        )?;
-    }
+    let args = gpu.buffer_zeroed(3)?;
+    let e = EpiParams { level: 0, ..base };
+    let mut b = binds.to_vec();
+    b.extend([
+        ("E", Bind::Uniform(bytemuck::bytes_of(&e))),
+        ("slice_table", Bind::Texture(&table)),
+        ("samples_in", Bind::Texture(&samples)),
+        ("fallback", Bind::Buffer(&list)),
+        ("fallback_count", Bind::Buffer(&count)),
+    ]);
+    gpu.dispatch_with(EPIPOLAR, "epi_gather", &b, (w, h), &constants)?;
+    // The fall-back pixels (depth discontinuities) trace their own ray, in a dispatch the GPU
+    // sizes from the list's length: nothing is read back between the passes.
+    b.push(("fallback_args", Bind::Buffer(&args)));
+    gpu.dispatch_with(EPIPOLAR, "epi_fallback_args", &b, (1, 1), &constants)?;
+    b.pop();
+    gpu.dispatch_indirect(EPIPOLAR, "epi_fallback", &b, &args, &constants)?;
     Ok(())
 }
 

@@ -20,7 +20,7 @@ struct Epi {
     tree_top: u32,
     tree_level: u32,
     threshold: f32,
-    // Level being built (epi_tree); number of listed pixels (epi_fallback).
+    // Level being built (epi_tree).
     level: u32,
     _pad0: u32,
     _pad1: u32,
@@ -356,6 +356,8 @@ fn epi_interpolate(pc: vec2<f32>, s: f32, len: f32) -> vec3<f32> {
 
 @group(0) @binding(21) var<storage, read_write> fallback: array<u32>;
 @group(0) @binding(22) var<storage, read_write> fallback_count: array<atomic<u32>>;
+// `epi_fallback`'s workgroup counts (x, y, z), written by `epi_fallback_args`.
+@group(0) @binding(23) var<storage, read_write> fallback_args: array<u32>;
 
 // Every pixel interpolated from the samples; one with no usable sample is appended to the
 // fall-back list (its own ray is traced by `epi_fallback`: kept out of this pass, whose SIMD
@@ -383,11 +385,26 @@ fn epi_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// The listed pixels (E.level of them, 256 per row of the dispatch) trace their own MinMax ray.
+// How many pixels the list holds (the count may pass its length when every pixel falls back).
+fn listed() -> u32 {
+    return min(atomicLoad(&fallback_count[0]), arrayLength(&fallback));
+}
+
+// The fall-back list's length as `epi_fallback`'s workgroups (8 × 8 over rows of 256 pixels),
+// for an indirect dispatch: the list is never read back to size it.
+@compute @workgroup_size(1)
+fn epi_fallback_args() {
+    let rows = (listed() + 255u) / 256u;
+    fallback_args[0] = 32u;
+    fallback_args[1] = (rows + 7u) / 8u;
+    fallback_args[2] = 1u;
+}
+
+// The listed pixels (256 per row of the dispatch) trace their own MinMax ray.
 @compute @workgroup_size(8, 8)
 fn epi_fallback(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.y * 256u + id.x;
-    if id.x >= 256u || i >= E.level {
+    if id.x >= 256u || i >= listed() {
         return;
     }
     let size = textureDimensions(depth);

@@ -1468,3 +1468,36 @@ fn epipolar_stability_at_the_epipole_extremes() {
         assert!(e <= 0.02, "{what}: RMSE against MinMax {e}");
     }
 }
+
+/// Epipolar's fall-back pass is sized on the GPU (an indirect dispatch from the list's length):
+/// the node reads nothing back (it read the 4-byte count before).
+#[test]
+fn epipolar_reads_nothing_back() {
+    let gpu = require_gpu!();
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/tree.ron");
+    let mut g = tyndall::graph::load_file(&path, &cat).expect("graph");
+    g.set_param(
+        &cat,
+        "scatter",
+        "method",
+        ParamValue::Enum("Epipolar".into()),
+    )
+    .expect("method");
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let before = gpu.thread_readbacks();
+    let r = ev
+        .evaluate(
+            &g,
+            &[Target::Port("scatter".into(), "visibility".into())],
+            &EvalOptions {
+                size: (96, 54),
+                ..Default::default()
+            },
+        )
+        .expect("evaluate");
+    assert_eq!(r.stats.status("scatter"), Some(tyndall::eval::Status::Ran));
+    let after = gpu.thread_readbacks();
+    assert_eq!(after.1 - before.1, 0, "{} read-backs", after.0 - before.0);
+}

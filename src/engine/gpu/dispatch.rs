@@ -216,6 +216,7 @@ impl Gpu {
             let _ = self.wait();
             std::time::Instant::now()
         });
+        let groups = Workgroups::Count(groups);
         self.scoped(|| self.record(&pipeline, shader, binds, groups, storage))??;
         if let Some(start) = start {
             self.wait()?;
@@ -242,7 +243,33 @@ impl Gpu {
             .caps
             .params_in_storage(size.iter().map(|n| u64::from(*n)).product());
         let pipeline = self.pipeline(shader, entry, binds, &[], storage)?;
-        let groups = self.entry_needs(shader, entry)?.groups(size);
+        let groups = Workgroups::Count(self.entry_needs(shader, entry)?.groups(size));
+        self.scoped(|| self.record(&pipeline, shader, binds, groups, storage))?
+    }
+
+    /// Run compute entry point `entry` over the workgroup counts (x, y, z) held in the first
+    /// three words of `args`, written there by an earlier pass — a pass sized by what the GPU
+    /// found (a list's length) without reading the size back. With `constants` as in
+    /// [`Gpu::dispatch_with`].
+    pub fn dispatch_indirect(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(&str, Bind)],
+        args: &GpuBuffer,
+        constants: &[(&str, f64)],
+    ) -> Result<(), GpuError> {
+        if args.words < 3 {
+            return Err(GpuError::Validation(format!(
+                "{}:{entry}: an indirect dispatch needs 3 words of workgroup counts, not {}",
+                shader.stem, args.words
+            )));
+        }
+        let binds = &self.numbered(shader, binds)?;
+        // The size is the GPU's: the parameter block is a uniform (the form for large passes).
+        let storage = self.caps.params_in_storage(u64::MAX);
+        let pipeline = self.pipeline(shader, entry, binds, constants, storage)?;
+        let groups = Workgroups::Indirect(&args.raw);
         self.scoped(|| self.record(&pipeline, shader, binds, groups, storage))?
     }
 
@@ -251,7 +278,7 @@ impl Gpu {
         pipeline: &wgpu::ComputePipeline,
         shader: Shader,
         binds: &[(u32, Bind)],
-        groups: [u32; 3],
+        groups: Workgroups,
         params_in_storage: bool,
     ) -> Result<(), GpuError> {
         let buffers: Vec<Option<wgpu::Buffer>> = binds
@@ -323,7 +350,10 @@ impl Gpu {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+            match groups {
+                Workgroups::Count([x, y, z]) => pass.dispatch_workgroups(x, y, z),
+                Workgroups::Indirect(args) => pass.dispatch_workgroups_indirect(args, 0),
+            }
             drop(pass);
             // Volume levels written through row buffers: copied into their textures when
             // something reads them (see volume.rs).
@@ -344,6 +374,15 @@ impl Gpu {
         });
         self.after_submit(timer)
     }
+}
+
+/// How many workgroups a pass runs.
+#[derive(Clone, Copy)]
+enum Workgroups<'a> {
+    /// Counted on the CPU.
+    Count([u32; 3]),
+    /// Written by an earlier pass into a buffer's first three words.
+    Indirect(&'a wgpu::Buffer),
 }
 
 /// One entry point's needs, kept with the shader's.

@@ -113,9 +113,12 @@ impl Gpu {
             self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("storage"),
                 size,
+                // INDIRECT: a pass may write the workgroup counts of a later one
+                // (`Gpu::dispatch_indirect`).
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::INDIRECT,
                 mapped_at_creation: false,
             })
         })?;
