@@ -329,7 +329,8 @@ impl EditorApp {
 
     /// On the first frame: when the window draws with the adapter the evaluation runs on (not
     /// GL), move the evaluation onto the window's device, so pictures are drawn from the
-    /// textures they were evaluated into ([`shown::WindowGpu::share`]).
+    /// textures they were evaluated into ([`shown::WindowGpu::share`]). The process-wide
+    /// [`Gpu::shared`] stays as it was: after a lost device the editor restarts on it.
     fn share_window_device(&mut self, frame: &eframe::Frame) {
         if std::mem::replace(&mut self.window_checked, true) {
             return;
@@ -340,7 +341,6 @@ impl EditorApp {
         let Some(window) = shown::WindowGpu::share(render, worker.gpu()) else {
             return;
         };
-        Gpu::set_shared(window.gpu.clone());
         if let Some(old) = self.worker.take() {
             old.abandon();
         }
@@ -353,6 +353,11 @@ impl EditorApp {
     /// Whether the viewer draws evaluated textures on the window's device (no read-back).
     pub fn shares_window_device(&self) -> bool {
         self.window.is_some()
+    }
+
+    /// The context the document is evaluated on (the window's device while shared), if any.
+    pub fn evaluation_gpu(&self) -> Option<&Arc<Gpu>> {
+        self.worker.as_ref().map(Worker::gpu)
     }
 
     /// Whether node `id` (a flattened id) has a thumbnail on the canvas.

@@ -1180,8 +1180,9 @@ fn the_viewer_draws_the_evaluated_texture_without_a_readback() {
     }
     h.run_steps(2);
     let before_image = h.render().expect("render");
-    // The evaluation now runs on the window's device: what it reads back is counted there.
-    let gpu = tyndall::gpu::Gpu::shared().expect("the shared context");
+    // The evaluation now runs on the window's device (a context of this window alone): what it
+    // reads back is counted there.
+    let gpu = h.state().evaluation_gpu().expect("evaluating").clone();
     let (reads, bytes) = gpu.readbacks();
     h.state_mut()
         .state

@@ -260,7 +260,8 @@ impl Gpu {
 
     /// A context on a device created elsewhere from `adapter` with [`device_request`]'s
     /// features and limits — the editor's window: eframe creates the device it draws with, and
-    /// the evaluation shares it, so a picture is drawn from the texture it is evaluated into.
+    /// the evaluation moves onto it, so a picture is drawn from the texture it is evaluated
+    /// into.
     /// `like` is the context it stands in for (its adapter index and how it was chosen).
     pub fn on_device(
         adapter: &wgpu::Adapter,
@@ -342,12 +343,6 @@ impl Gpu {
             errors,
             lost,
         }
-    }
-
-    /// Make `gpu` the process-wide context [`Gpu::shared`] returns (the editor's window device,
-    /// [`Gpu::on_device`]), until its device is lost.
-    pub fn set_shared(gpu: Arc<Gpu>) {
-        *SHARED.lock().unwrap_or_else(|e| e.into_inner()) = Some(Ok(gpu));
     }
 
     /// The process-wide context (created on first use; validation on when
