@@ -1211,3 +1211,36 @@ fn the_viewer_draws_the_evaluated_texture_without_a_readback() {
     // The viewer (and the tonemap's thumbnail) got brighter: thousands of pixels.
     assert!(changed > 5_000, "only {changed} pixels changed");
 }
+
+/// The window's device lost while the evaluation shares it: the editor restarts its evaluation
+/// on a new device of its own (the process-wide one) and reads pictures back from then on; the
+/// window keeps running frames.
+#[test]
+fn a_lost_window_device_moves_evaluation_to_a_new_one_read_back() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
+    let mut h = common::editor::open_sharing(&path, (1200.0, 760.0));
+    h.state_mut().selected = Some("tonemap".into());
+    settle(&mut h);
+    if !h.state().shares_window_device() {
+        return; // GL: nothing shared to lose
+    }
+    let window = h.state().evaluation_gpu().expect("evaluating").clone();
+    window.simulate_loss();
+    h.state_mut()
+        .state
+        .set_param("tonemap", "exposure", ParamValue::Float(1.25))
+        .expect("param");
+    settle(&mut h);
+    assert_eq!(h.state().device_restarts, 1, "{}", h.state().status);
+    assert!(!h.state().shares_window_device());
+    let evaluation = h.state().evaluation_gpu().expect("a new worker").clone();
+    assert!(!Arc::ptr_eq(&evaluation, &window), "a new context");
+    let (_, pictures) = h.state().pictures.clone().expect("the viewer's picture");
+    assert!(pictures
+        .iter()
+        .all(|(_, p)| matches!(p, tyndall::editor::worker::Picture::Pixels(_))));
+    h.run_steps(3);
+}
