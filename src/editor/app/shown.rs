@@ -68,14 +68,15 @@ impl WindowGpu {
     /// The evaluation's context on the window's device, when they can be one: the window's
     /// adapter is the one `evaluation` runs on, not wgpu's GL backend (a long pass there holds
     /// the context lock the window's frames need), and its device was created with the
-    /// features Tyndall asks for ([`device_request`], which `run` passes to eframe).
+    /// features and limits Tyndall asks for ([`device_request`], which `run` passes to eframe).
     pub fn share(render: &RenderState, evaluation: &Gpu) -> Option<WindowGpu> {
         let info = render.adapter.get_info();
         let same = info.name == evaluation.info.name && info.backend == evaluation.info.backend;
-        let (features, _) = device_request(&render.adapter);
+        let (features, limits) = device_request(&render.adapter);
         if !same
             || !tyndall_engine::display::window_shares_device(evaluation)
             || !render.device.features().contains(features)
+            || !limits.check_limits(&render.device.limits())
         {
             return None;
         }

@@ -70,9 +70,12 @@ fn release_retired() {
 }
 
 /// Ends a batch when dropped (an early return or a panic in what it brackets), unless
-/// [`BatchScope::end`] ended it first.
+/// [`BatchScope::end`] ended it first; either way the batches begun inside it and not ended (a
+/// node that panicked between its `begin_batch` and `end_batch`) end with it.
 pub struct BatchScope<'a> {
     gpu: &'a Gpu,
+    /// The nesting depth this scope's `begin_batch` made.
+    depth: u32,
     ended: bool,
 }
 
@@ -80,6 +83,15 @@ impl BatchScope<'_> {
     /// End the batch: [`Gpu::end_batch`].
     pub fn end(mut self) -> Result<(), GpuError> {
         self.ended = true;
+        self.close()
+    }
+
+    fn close(&self) -> Result<(), GpuError> {
+        BATCH.with(|b| {
+            if let Some(batch) = b.borrow_mut().as_mut() {
+                batch.depth = batch.depth.min(self.depth);
+            }
+        });
         self.gpu.end_batch()
     }
 }
@@ -89,7 +101,7 @@ impl Drop for BatchScope<'_> {
         if !self.ended {
             // Already failing: what is recorded is submitted (it may hold earlier nodes'
             // work that later evaluations reuse), its error is the first error's consequence.
-            let _ = self.gpu.end_batch();
+            let _ = self.close();
         }
     }
 }
@@ -108,6 +120,7 @@ impl Gpu {
         self.begin_batch();
         BatchScope {
             gpu: self,
+            depth: BATCH.with(|b| b.borrow().as_ref().map_or(1, |b| b.depth)),
             ended: false,
         }
     }
