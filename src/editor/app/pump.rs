@@ -65,6 +65,8 @@ impl EditorApp {
             if out.view.is_some() {
                 self.pictures = out.view;
                 self.view_tex = None;
+                // The probe reads the new pictures at the pixel under the pointer.
+                self.probe_reads = shown::Probe::default();
             }
             if out.compare.is_some() || self.wipe.is_none() {
                 self.compare = out.compare;
