@@ -327,39 +327,6 @@ impl EditorApp {
         egui::Id::new(("tyndall-canvas", self.canvas_gen))
     }
 
-    /// On the first frame: when the window draws with the adapter the evaluation runs on (not
-    /// GL), move the evaluation onto the window's device, so pictures are drawn from the
-    /// textures they were evaluated into ([`shown::WindowGpu::share`]). The process-wide
-    /// [`Gpu::shared`] stays as it was: after a lost device the editor restarts on it.
-    fn share_window_device(&mut self, frame: &eframe::Frame) {
-        if std::mem::replace(&mut self.window_checked, true) {
-            return;
-        }
-        let (Some(render), Some(worker)) = (frame.wgpu_render_state(), self.worker.as_ref()) else {
-            return;
-        };
-        let Some(window) = shown::WindowGpu::share(render, worker.gpu()) else {
-            return;
-        };
-        if let Some(old) = self.worker.take() {
-            old.abandon();
-        }
-        self.worker = Some(Worker::start(self.registry.clone(), window.gpu.clone()));
-        self.requested.clear();
-        self.jobs.reset();
-        self.window = Some(window);
-    }
-
-    /// Whether the viewer draws evaluated textures on the window's device (no read-back).
-    pub fn shares_window_device(&self) -> bool {
-        self.window.is_some()
-    }
-
-    /// The context the document is evaluated on (the window's device while shared), if any.
-    pub fn evaluation_gpu(&self) -> Option<&Arc<Gpu>> {
-        self.worker.as_ref().map(Worker::gpu)
-    }
-
     /// Whether node `id` (a flattened id) has a thumbnail on the canvas.
     pub fn has_thumbnail(&self, id: &str) -> bool {
         self.thumbs.contains_key(id)

@@ -13,7 +13,7 @@ use tyndall_engine::gpu::{device_request, Gpu, GpuTexture, TexelRead};
 
 use crate::display::{Display, Look, Shown};
 use crate::view::Channel;
-use crate::worker::Picture;
+use crate::worker::{Picture, Worker};
 
 /// A picture as egui draws it.
 pub enum ShownTexture {
@@ -221,5 +221,40 @@ impl Probe {
     /// Whether reads are still in flight (the window draws again soon to take them).
     pub fn waiting(&self) -> bool {
         self.pending.is_some()
+    }
+}
+
+impl super::EditorApp {
+    /// On the first frame: when the window draws with the adapter the evaluation runs on (not
+    /// GL), move the evaluation onto the window's device, so pictures are drawn from the
+    /// textures they were evaluated into ([`WindowGpu::share`]). The process-wide
+    /// [`Gpu::shared`] stays as it was: after a lost device the editor restarts on it.
+    pub(super) fn share_window_device(&mut self, frame: &eframe::Frame) {
+        if std::mem::replace(&mut self.window_checked, true) {
+            return;
+        }
+        let (Some(render), Some(worker)) = (frame.wgpu_render_state(), self.worker.as_ref()) else {
+            return;
+        };
+        let Some(window) = WindowGpu::share(render, worker.gpu()) else {
+            return;
+        };
+        if let Some(old) = self.worker.take() {
+            old.abandon();
+        }
+        self.worker = Some(Worker::start(self.registry.clone(), window.gpu.clone()));
+        self.requested.clear();
+        self.jobs.reset();
+        self.window = Some(window);
+    }
+
+    /// Whether the viewer draws evaluated textures on the window's device (no read-back).
+    pub fn shares_window_device(&self) -> bool {
+        self.window.is_some()
+    }
+
+    /// The context the document is evaluated on (the window's device while shared), if any.
+    pub fn evaluation_gpu(&self) -> Option<&Arc<Gpu>> {
+        self.worker.as_ref().map(Worker::gpu)
     }
 }
