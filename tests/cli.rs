@@ -1354,7 +1354,9 @@ fn render_proxy_divides_the_size_and_the_light_space() {
 
 /// Pipelines compiled once per machine: a second process rendering the same graph compiles none
 /// (`--stats`), a corrupt cache file is ignored with a warning and rebuilt. On an adapter without
-/// a pipeline cache (wgpu's GL backend) no file is written and every process compiles.
+/// a pipeline cache (wgpu's GL backend) no such file is written and every process compiles. On
+/// every adapter the second process makes pipelines up front on worker threads (the recipes
+/// file), and its picture is the first's, byte for byte.
 #[test]
 fn a_second_render_compiles_no_pipeline_and_a_corrupt_cache_is_ignored() {
     if !gpu_available() {
@@ -1393,39 +1395,54 @@ fn a_second_render_compiles_no_pipeline_and_a_corrupt_cache_is_ignored() {
                 .and_then(|p| p.split_whitespace().find_map(|w| w.parse().ok()))
                 .unwrap_or_else(|| panic!("{line}"))
         };
-        (n("compiled"), n("from the cache"), err)
+        let up_front = out
+            .lines()
+            .find_map(|l| l.strip_prefix("pipelines made up front on worker threads: "))
+            .and_then(|l| l.split_whitespace().next()?.parse().ok())
+            .unwrap_or(0u64);
+        (n("compiled"), n("from the cache"), up_front, err)
     };
-    let (compiled, cached, _) = render();
+    let picture = || std::fs::read(dir.path().join("w.png")).expect("picture");
+    let (compiled, cached, up_front, _) = render();
     assert!(compiled > 0 && cached == 0, "first: {compiled}, {cached}");
+    assert_eq!(up_front, 0, "nothing is known before the first process");
+    let first = picture();
     let files: Vec<_> = std::fs::read_dir(cache.path())
         .expect("cache dir")
         .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "bin"))
         .collect();
+    // The second process makes (at least most of) the pipelines up front: every compute
+    // pipeline the first used; raster pipelines are made when their node runs.
+    let (second, from_cache, up_front, err) = render();
+    assert!(
+        up_front > 0 && up_front <= second + from_cache,
+        "up front {up_front} of {second} + {from_cache}: {err}"
+    );
+    assert!(
+        first == picture(),
+        "pipelines made up front change the picture"
+    );
     if files.is_empty() {
         // No pipeline cache on this adapter: the next process compiles them all again.
-        assert_eq!(
-            render().0,
-            compiled,
-            "without a cache every process compiles"
-        );
+        assert_eq!(second, compiled, "without a cache every process compiles");
         return;
     }
     assert_eq!(files.len(), 1, "{files:?}");
-    let (second, from_cache, err) = render();
     assert_eq!((second, from_cache), (0, compiled), "second process: {err}");
     // A corrupt file (one byte flipped): a warning, everything compiled, the file rebuilt.
     let mut bytes = std::fs::read(&files[0]).expect("read cache");
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x55;
     std::fs::write(&files[0], &bytes).expect("corrupt");
-    let (again, from_cache, err) = render();
+    let (again, from_cache, _, err) = render();
     assert_eq!((again, from_cache), (compiled, 0), "{err}");
     assert!(err.contains("ignoring the pipeline cache"), "{err}");
-    let (after, cached_after, err) = render();
+    let (after, cached_after, _, err) = render();
     assert_eq!((after, cached_after), (0, compiled), "rebuilt: {err}");
     // A foreign file (another program's bytes under the same name): the same.
     std::fs::write(&files[0], b"not a pipeline cache").expect("foreign");
-    let (foreign, _, err) = render();
+    let (foreign, _, _, err) = render();
     assert_eq!(foreign, compiled);
     assert!(err.contains("not a Tyndall pipeline cache"), "{err}");
 }

@@ -304,10 +304,16 @@ impl Evaluator {
         let order = graph.topo_order();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
         let pipelines = self.gpu.pipeline_counts();
+        let prepared = self.gpu.pipelines_prepared();
+        // The pipelines these nodes used before are created on worker threads meanwhile
+        // (gpu/prepare.rs).
+        let kinds = self.kinds_in(graph, &order, &plan)?;
+        let preparing = self.gpu.prepare_pipelines(&kinds);
         // The nodes' passes are submitted in chunks, not per node (gpu/batch.rs).
         let gpu = self.gpu.clone();
         let batch = gpu.batch_scope();
         let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
+        preparing.finish();
         let submitted = batch.end();
         let done = done.and_then(|d| submitted.map(|()| d).map_err(EvalError::Submit));
         // Every pass's GPU time, read once now that everything is submitted.
@@ -329,7 +335,8 @@ impl Evaluator {
         self.cache.evict();
         // The pipelines compiled by this evaluation go to the cache on disk for the next
         // process; a cache that cannot be written only costs that process the compilation.
-        if let Err(e) = self.gpu.save_pipeline_cache() {
+        let saved = self.gpu.save_pipeline_cache();
+        if let Err(e) = saved.and_then(|()| self.gpu.save_pipeline_recipes()) {
             if !self.cache_warned {
                 self.cache_warned = true;
                 eprintln!("warning: the pipeline cache was not saved: {e}");
@@ -339,7 +346,26 @@ impl Evaluator {
         let runs = self.earlier_runs;
         let mut r = report(graph, targets, &order, &done?.results, &stats, runs);
         r.stats.pipelines = (compiled - pipelines.0, cached - pipelines.1);
+        r.stats.prepared = self.gpu.pipelines_prepared() - prepared;
         Ok(r)
+    }
+
+    /// The kinds of the nodes `plan` needs, in the order they run, with their shaders.
+    fn kinds_in(
+        &self,
+        graph: &Graph,
+        order: &[String],
+        plan: &Plan,
+    ) -> Result<Vec<(&'static str, &'static [crate::gpu::Shader])>, EvalError> {
+        let mut kinds = Vec::new();
+        for id in order.iter().filter(|id| plan.needed.contains(*id)) {
+            let (k, _) = self.kind_of(graph, id)?;
+            let kind = (k.schema().kind, k.decl().shaders);
+            if !kinds.iter().any(|(n, _)| *n == kind.0) {
+                kinds.push(kind);
+            }
+        }
+        Ok(kinds)
     }
 
     /// Steps 2–4 for every node of `plan`, in `order`; `depth` counts the histories this
@@ -508,7 +534,7 @@ impl Evaluator {
             self.gpu.supports(*shader)?;
         }
         self.gpu.set_timing(opts.gpu_timings);
-        self.gpu.set_timed_node(ctx.id);
+        self.gpu.set_running_node(ctx.id, k.schema().kind);
         let start = Instant::now();
         let submitted = self.gpu.thread_submit_count();
         // The node's passes go into one command buffer, submitted with its neighbours' (see

@@ -76,6 +76,8 @@ pub struct Stats {
     /// Pipelines created during the evaluation: (compiled, taken from the pipeline cache on
     /// disk) — counted over the whole GPU context.
     pub pipelines: (u64, u64),
+    /// Of those, how many worker threads made up front ([`crate::gpu::Gpu::prepare_pipelines`]).
+    pub prepared: u64,
 }
 
 impl Stats {
@@ -139,6 +141,13 @@ impl fmt::Display for Stats {
             "pipelines: {} compiled, {} from the cache",
             self.pipelines.0, self.pipelines.1
         )?;
+        if self.prepared > 0 {
+            writeln!(
+                f,
+                "pipelines made up front on worker threads: {} (of those above)",
+                self.prepared
+            )?;
+        }
         if self.earlier_runs > 0 {
             writeln!(
                 f,
@@ -231,6 +240,7 @@ pub(super) fn report(
             nodes,
             earlier_runs,
             pipelines: (0, 0),
+            prepared: 0,
         },
     }
 }

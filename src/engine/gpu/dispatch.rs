@@ -2,6 +2,7 @@
 //! bindings checked against what the entry point uses, the workgroup count from the entry
 //! point's own `@workgroup_size`.
 
+use super::prepare::{Recipe, Slot};
 use super::shader_needs::BindingKind;
 use super::*;
 
@@ -62,6 +63,8 @@ impl Gpu {
             .collect()
     }
 
+    /// The pipeline of a dispatch: made once per [`Recipe`] (its key), remembered under the
+    /// running node's kind for [`Gpu::prepare_pipelines`].
     fn pipeline(
         &self,
         shader: Shader,
@@ -70,43 +73,92 @@ impl Gpu {
         constants: &[(&str, f64)],
         params_in_storage: bool,
     ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
-        let key = pipeline_key(shader, entry, binds, constants, params_in_storage);
-        let mut cache = match self.pipelines.lock() {
-            Ok(c) => c,
-            Err(p) => p.into_inner(),
+        let recipe = Recipe::of(shader, entry, binds, constants, params_in_storage);
+        let (pipeline, _) = self.obtain_pipeline(shader, &recipe)?;
+        Ok(pipeline)
+    }
+
+    /// Whether the pipeline of `key` was made (or is being made).
+    pub(crate) fn has_pipeline(&self, key: &str) -> bool {
+        let cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        cache.contains_key(key)
+    }
+
+    /// The pipeline `recipe` describes, and whether this call created it: made by the first
+    /// caller, waited for by others meanwhile (a worker of [`Gpu::prepare_pipelines`] and the
+    /// node that needs it), kept for the context's life. A failure is not kept: the next call
+    /// tries again.
+    pub(crate) fn obtain_pipeline(
+        &self,
+        shader: Shader,
+        recipe: &Recipe,
+    ) -> Result<(Arc<wgpu::ComputePipeline>, bool), GpuError> {
+        let key = recipe.key();
+        self.recipes.used(&key);
+        let cell = {
+            let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+            cache.entry(key.clone()).or_default().clone()
         };
-        if let Some(p) = cache.get(&key) {
-            return Ok(p.clone());
+        let mut created = false;
+        let made = cell.get_or_init(|| {
+            created = true;
+            self.create_pipeline(shader, recipe, &key)
+        });
+        match made {
+            Ok(p) => Ok((p.clone(), created)),
+            Err(e) => {
+                let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+                if cache.get(&key).is_some_and(|c| Arc::ptr_eq(c, &cell)) {
+                    cache.remove(&key);
+                }
+                Err(e.clone())
+            }
         }
-        check_binds(shader, &*self.entry_needs(shader, entry)?, binds)?;
+    }
+
+    fn create_pipeline(
+        &self,
+        shader: Shader,
+        recipe: &Recipe,
+        key: &str,
+    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
+        let entry = recipe.entry.as_str();
+        check_binds(shader, &*self.entry_needs(shader, entry)?, &recipe.slots)?;
         let source = shader.wgsl().map_err(GpuError::Validation)?;
         let created = std::time::Instant::now();
+        let params_in_storage = recipe.params_in_storage;
+        let constants: Vec<(&str, f64)> = recipe
+            .constants
+            .iter()
+            .map(|(n, v)| (n.as_str(), *v))
+            .collect();
         let p = self
-            .scoped(|| {
-                let entries: Vec<wgpu::BindGroupLayoutEntry> = binds
+            .scoped_here(|| {
+                let entries: Vec<wgpu::BindGroupLayoutEntry> = recipe
+                    .slots
                     .iter()
-                    .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                    .map(|(i, slot)| wgpu::BindGroupLayoutEntry {
                         binding: *i,
                         visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: self.binding_type(b, params_in_storage),
+                        ty: self.binding_type(*slot, params_in_storage),
                         count: None,
                     })
                     .collect();
                 let bgl = self
                     .device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some(&key),
+                        label: Some(key),
                         entries: &entries,
                     });
                 let layout = self
                     .device
                     .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(&key),
+                        label: Some(key),
                         bind_group_layouts: &[Some(&bgl)],
                         immediate_size: 0,
                     });
                 let adapted = self.caps.adapt_source(source, params_in_storage);
-                self.disk.note(&key, &adapted);
+                self.disk.note(key, &adapted);
                 let module = self
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -116,12 +168,12 @@ impl Gpu {
                 Arc::new(
                     self.device
                         .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(&key),
+                            label: Some(key),
                             layout: Some(&layout),
                             module: &module,
                             entry_point: Some(entry),
                             compilation_options: wgpu::PipelineCompilationOptions {
-                                constants,
+                                constants: &constants,
                                 ..Default::default()
                             },
                             cache: self.disk.cache.as_ref(),
@@ -134,13 +186,12 @@ impl Gpu {
                 }
                 other => other,
             })?;
-        crate::trace::pipeline_created(&key, created);
-        cache.insert(key, p.clone());
+        crate::trace::pipeline_created(key, created);
         Ok(p)
     }
 
     /// The layout type of one binding: what `b` is, on this adapter.
-    fn binding_type(&self, b: &Bind, params_in_storage: bool) -> wgpu::BindingType {
+    fn binding_type(&self, slot: Slot, params_in_storage: bool) -> wgpu::BindingType {
         let storage_buffer = wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Storage { read_only: false },
             has_dynamic_offset: false,
@@ -151,24 +202,24 @@ impl Gpu {
             view_dimension,
             multisampled: false,
         };
-        match b {
-            Bind::Uniform(_) => wgpu::BindingType::Buffer {
+        match slot {
+            Slot::Uniform => wgpu::BindingType::Buffer {
                 ty: adapter::Capabilities::params_binding(params_in_storage),
                 has_dynamic_offset: false,
                 min_binding_size: None,
             },
-            Bind::Texture(_) => texture(wgpu::TextureViewDimension::D2),
-            Bind::Storage(t) => wgpu::BindingType::StorageTexture {
+            Slot::Texture => texture(wgpu::TextureViewDimension::D2),
+            Slot::Storage(format) => wgpu::BindingType::StorageTexture {
                 access: wgpu::StorageTextureAccess::WriteOnly,
-                format: t.stored(),
+                format: format.wgpu(),
                 view_dimension: wgpu::TextureViewDimension::D2,
             },
-            Bind::Buffer(_) => storage_buffer,
-            Bind::Volume(_) | Bind::VolumeLevelRead(..) => texture(wgpu::TextureViewDimension::D3),
+            Slot::Buffer => storage_buffer,
+            Slot::Volume => texture(wgpu::TextureViewDimension::D3),
             // Written through its row buffer where the adapter cannot write every slice of a
             // 3D storage texture (see volume.rs).
-            Bind::VolumeLevel(..) if self.caps.volume_rows() => storage_buffer,
-            Bind::VolumeLevel(..) => wgpu::BindingType::StorageTexture {
+            Slot::VolumeLevel if self.caps.volume_rows() => storage_buffer,
+            Slot::VolumeLevel => wgpu::BindingType::StorageTexture {
                 access: wgpu::StorageTextureAccess::WriteOnly,
                 format: wgpu::TextureFormat::R32Float,
                 view_dimension: wgpu::TextureViewDimension::D3,
@@ -398,60 +449,13 @@ impl std::ops::Deref for EntryRef {
     }
 }
 
-/// The pipeline cache's key: shader, entry point, where the parameter block lives, the
-/// constants' values and the binding signature (numbers, kinds, storage channels).
-fn pipeline_key(
-    shader: Shader,
-    entry: &str,
-    binds: &[(u32, Bind)],
-    constants: &[(&str, f64)],
-    params_in_storage: bool,
-) -> String {
-    let mut key = format!("{}:{entry}", shader.stem);
-    if params_in_storage {
-        key.push_str(":params-storage");
-    }
-    for (name, value) in constants {
-        key.push_str(&format!(":{name}={value}"));
-    }
-    for (n, b) in binds {
-        key.push_str(&format!(":{n}"));
-        key.push_str(match b {
-            Bind::Uniform(_) => ":u",
-            Bind::Texture(_) => ":t",
-            Bind::Storage(t) => match t.stored_channels() {
-                1 => ":s1",
-                2 => ":s2",
-                _ => ":s4",
-            },
-            Bind::Buffer(_) => ":b",
-            Bind::Volume(_) => ":v",
-            Bind::VolumeLevel(..) => ":vs",
-            Bind::VolumeLevelRead(..) => ":v",
-        });
-    }
-    key
-}
-
-/// The kind of binding a resource fills.
-fn kind_of(b: &Bind) -> BindingKind {
-    match b {
-        Bind::Uniform(_) => BindingKind::Uniform,
-        Bind::Texture(_) => BindingKind::Texture2d,
-        Bind::Storage(_) => BindingKind::StorageTexture2d,
-        Bind::Buffer(_) => BindingKind::StorageBuffer,
-        Bind::Volume(_) | Bind::VolumeLevelRead(..) => BindingKind::Texture3d,
-        Bind::VolumeLevel(..) => BindingKind::StorageTexture3d,
-    }
-}
-
 /// The checked binding table: every binding the entry point uses is given, as a resource of
 /// its kind (a resource for a binding the entry point does not use is allowed: a node passes
 /// one list to the several entry points of a method).
 fn check_binds(
     shader: Shader,
     e: &adapter::EntryNeeds,
-    binds: &[(u32, Bind)],
+    slots: &[(u32, Slot)],
 ) -> Result<(), GpuError> {
     for (number, name, kind) in &e.bindings {
         let at = || {
@@ -460,19 +464,19 @@ fn check_binds(
                 shader.stem, e.entry
             )
         };
-        match binds.iter().find(|(n, _)| n == number) {
+        match slots.iter().find(|(n, _)| n == number) {
             None => {
                 return Err(GpuError::Validation(format!(
                     "{} is used but not bound",
                     at()
                 )))
             }
-            Some((_, b)) if kind_of(b) != *kind && *kind != BindingKind::Other => {
+            Some((_, s)) if s.kind() != *kind && *kind != BindingKind::Other => {
                 return Err(GpuError::Validation(format!(
                     "{} is {} but was given {}",
                     at(),
                     kind.name(),
-                    kind_of(b).name()
+                    s.kind().name()
                 )))
             }
             Some(_) => {}

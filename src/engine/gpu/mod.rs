@@ -11,6 +11,8 @@ mod options;
 mod params;
 mod pipeline_cache;
 mod pool;
+mod prepare;
+pub use prepare::{Preparing, MAX_WORKERS};
 mod raster;
 pub use pipeline_cache::cache_dir;
 mod readback;
@@ -182,7 +184,11 @@ pub struct Gpu {
     /// Values made once per content key while someone holds them ([`Gpu::shared_by_key`]).
     keyed: Mutex<HashMap<u64, std::sync::Weak<dyn std::any::Any + Send + Sync>>>,
     pool: Arc<TexturePool>,
-    pipelines: Mutex<HashMap<String, Arc<wgpu::ComputePipeline>>>,
+    /// Compute pipelines by key ([`prepare::Recipe::key`]), each made once (a worker of
+    /// [`Gpu::prepare_pipelines`] may be making it).
+    pipelines: Mutex<HashMap<String, Arc<PipelineCell>>>,
+    /// The pipelines each node kind used ([`Gpu::prepare_pipelines`]).
+    recipes: prepare::Recipes,
     render_pipelines: Mutex<HashMap<String, Arc<wgpu::RenderPipeline>>>,
     /// Pipelines compiled once per machine ([`Gpu::pipeline_counts`]).
     disk: pipeline_cache::DiskCache,
@@ -208,6 +214,9 @@ pub fn device_request(adapter: &wgpu::Adapter) -> (wgpu::Features, wgpu::Limits)
         | wgpu::Features::PIPELINE_CACHE;
     (adapter.features() & wanted, adapter.limits())
 }
+
+/// A compute pipeline, once made (or why it could not be).
+type PipelineCell = std::sync::OnceLock<Result<Arc<wgpu::ComputePipeline>, GpuError>>;
 
 /// The process-wide context of [`Gpu::shared`] (or the error that made it fail).
 static SHARED: Mutex<Option<Result<Arc<Gpu>, GpuError>>> = Mutex::new(None);
@@ -306,6 +315,7 @@ impl Gpu {
             }
         }));
         let info = adapter.get_info();
+        let recipes = prepare::Recipes::open(&info);
         let (disk, warning) = pipeline_cache::DiskCache::open(
             &device,
             &info,
@@ -338,6 +348,7 @@ impl Gpu {
             staging_created: Default::default(),
             keyed: Mutex::default(),
             pipelines: Mutex::new(HashMap::new()),
+            recipes,
             render_pipelines: Mutex::new(HashMap::new()),
             disk,
             errors,
@@ -432,6 +443,20 @@ impl Gpu {
     /// errors are attributed to this call even when several threads share the device), then
     /// report them with anything logged or uncaptured meanwhile.
     pub fn scoped<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let out = self.scoped_here(f);
+        let logged = self.take_errors();
+        match (out, logged) {
+            (Ok(out), Ok(())) => Ok(out),
+            (Err(GpuError::Validation(a)), Err(GpuError::Validation(b))) => {
+                Err(GpuError::Validation(format!("{a}; {b}")))
+            }
+            (Err(e), _) | (Ok(_), Err(e)) => Err(e),
+        }
+    }
+
+    /// [`Gpu::scoped`] without the errors wgpu reported outside any scope: only what `f`
+    /// caused (for work on a thread beside the evaluation's, which must not take its errors).
+    fn scoped_here<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuError> {
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         CAPTURING.with(|c| c.set(c.get() + 1));
@@ -440,14 +465,11 @@ impl Gpu {
         let v = pollster::block_on(validation.pop());
         let o = pollster::block_on(oom.pop());
         self.check_lost()?;
-        let mut msgs: Vec<String> = [v, o]
+        let msgs: Vec<String> = [v, o]
             .into_iter()
             .flatten()
             .map(|e| e.to_string())
             .collect();
-        if let Err(GpuError::Validation(m)) = self.take_errors() {
-            msgs.push(m);
-        }
         if msgs.is_empty() {
             Ok(out)
         } else {

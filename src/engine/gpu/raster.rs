@@ -330,31 +330,30 @@ impl Gpu {
             _ => ("to_rgba32float", 2),
         };
         let key = format!("raster-unbits:{entry}");
-        let pipeline = {
+        let cell = {
             let mut cache = self.pipelines.lock().unwrap_or_else(|p| p.into_inner());
-            cache
-                .entry(key)
-                .or_insert_with(|| {
-                    self.disk.note(&format!("raster-unbits:{entry}"), UNBITS);
-                    let module = self
-                        .device
-                        .create_shader_module(wgpu::ShaderModuleDescriptor {
-                            label: Some("raster-unbits"),
-                            source: wgpu::ShaderSource::Wgsl(UNBITS.into()),
-                        });
-                    Arc::new(self.device.create_compute_pipeline(
-                        &wgpu::ComputePipelineDescriptor {
-                            label: Some("raster-unbits"),
-                            layout: None,
-                            module: &module,
-                            entry_point: Some(entry),
-                            compilation_options: Default::default(),
-                            cache: self.disk.cache.as_ref(),
-                        },
-                    ))
-                })
-                .clone()
+            cache.entry(key).or_default().clone()
         };
+        let made = cell.get_or_init(|| {
+            self.disk.note(&format!("raster-unbits:{entry}"), UNBITS);
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some("raster-unbits"),
+                    source: wgpu::ShaderSource::Wgsl(UNBITS.into()),
+                });
+            Ok(Arc::new(self.device.create_compute_pipeline(
+                &wgpu::ComputePipelineDescriptor {
+                    label: Some("raster-unbits"),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: self.disk.cache.as_ref(),
+                },
+            )))
+        });
+        let pipeline = made.as_ref().map_err(Clone::clone)?;
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("raster-unbits"),
             layout: &pipeline.get_bind_group_layout(0),
@@ -373,7 +372,7 @@ impl Gpu {
             label: Some("raster-unbits"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(dst.width.div_ceil(8), dst.height.div_ceil(8), 1);
         Ok(())
