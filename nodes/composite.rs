@@ -9,7 +9,11 @@
 //! (0 when unconnected), `M` the light map's colour at the surface point (1 when unconnected:
 //! the same light-space texture SingleScattering multiplies the medium's light by, so sunlit
 //! patches under stained glass take its colours too). Surface shadows always use the
-//! unmodified map: only the scattering sees a manipulated one.
+//! unmodified map: only the scattering sees a manipulated one. When the map is a spot's or
+//! point light's, `E · max(0, n·l)` becomes `I · a(x) · max(0, n·l(x))`: its intensity (W/sr)
+//! times glTF's falloff at the surface point (inverse square, cone, range) and l(x) the
+//! direction from the point to the light. Several lights: one `Composite` per light, summed
+//! (`Math`, `op = add`), with the ambient in one of them.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -108,6 +112,24 @@ tyndall_engine::uniforms! {
         pub has_light_map: u32,
         /// World → light-map clip (identity without one).
         pub light_map_view_proj: [[f32; 4]; 4],
+        /// 0: the sun; 1: a spot, 2: a point light (lit by its falloff and direction per point).
+        pub local_kind: u32,
+        /// The spot's or point light's position.
+        pub light_pos: [f32; 3],
+        /// cos of a spot's inner cone half-angle.
+        pub cos_inner: f32,
+        /// A spot's unit direction.
+        pub spot_dir: [f32; 3],
+        /// cos of a spot's outer cone half-angle.
+        pub cos_outer: f32,
+        /// Range (m), 0 for unlimited.
+        pub range: f32,
+        /// The map's depth 0, m.
+        pub near: f32,
+        /// The map's depth 1, m.
+        pub far: f32,
+        /// Padding.
+        pub _pad0: u32,
     }
 }
 
@@ -143,7 +165,10 @@ pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf
     let (inv, eye) = (cam.view_proj().inverse(), cam.eye());
     let (lvp, to_sun) = (light.view_proj(), light.backward());
     let surface_shadow = |x: glam::Vec3| {
-        let uvz = light_uvz(lvp, x);
+        let uvz = match light.local {
+            Some(l) => l.uvz(lvp, x).unwrap_or(glam::Vec3::new(-1.0, -1.0, 2.0)),
+            None => light_uvz(lvp, x),
+        };
         let (sw, sh) = (shadow.width as i32, shadow.height as i32);
         let cx = (uvz.x * sw as f32).floor() as i32;
         let cy = (uvz.y * sh as f32).floor() as i32;
@@ -165,7 +190,7 @@ pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf
         None => [1.0f32; 3],
         Some((map, m)) => {
             let c = m.view_proj() * x.extend(1.0);
-            let uv = [c.x * 0.5 + 0.5, 0.5 - c.y * 0.5];
+            let uv = [c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5];
             let v = bilinear_texels(map, [uv[0] * map.width as f32, uv[1] * map.height as f32]);
             [v[0], v[1], v[2]]
         }
@@ -178,7 +203,14 @@ pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf
                 let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
                 let p = eye + dir * depth.pixel(x, y)[0];
                 let nrm = i.normal.pixel(x, y);
-                let lambert = glam::Vec3::new(nrm[0], nrm[1], nrm[2]).dot(to_sun).max(0.0);
+                let (to_light, falloff) = match light.local {
+                    Some(l) => ((l.position() - p).normalize(), l.falloff(p)),
+                    None => (to_sun, 1.0),
+                };
+                let lambert = glam::Vec3::new(nrm[0], nrm[1], nrm[2])
+                    .dot(to_light)
+                    .max(0.0)
+                    * falloff;
                 let (m, s) = (sun_colour(p), surface_shadow(p));
                 std::array::from_fn(|c| {
                     a[c] * (ambient[c] + light.radiance[c] * m[c] * lambert * s)
@@ -258,6 +290,15 @@ impl NodeKind for Composite {
                 .as_ref()
                 .map_or(glam::Mat4::IDENTITY, |(_, m)| m.view_proj())
                 .to_cols_array_2d(),
+            local_kind: light.local.map_or(0, |l| if l.point { 2 } else { 1 }),
+            light_pos: light.local.map_or([0.0; 3], |l| l.position),
+            cos_inner: light.local.map_or(1.0, |l| l.cos_inner),
+            spot_dir: light.local.map_or([0.0, -1.0, 0.0], |l| l.direction),
+            cos_outer: light.local.map_or(1.0, |l| l.cos_outer),
+            range: light.local.map_or(0.0, |l| l.range),
+            near: light.local.map_or(0.0, |l| l.near),
+            far: light.local.map_or(1.0, |l| l.far),
+            _pad0: 0,
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());

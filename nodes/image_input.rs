@@ -150,6 +150,7 @@ fn header_camera(h: &tyndall_engine::io::ExrHeader, file: &Raster) -> Option<Mat
         proj: (ndc * view.inverse()).to_cols_array_2d(),
         far: if far > 0.0 { far } else { 1000.0 },
         radiance: [0.0; 3],
+        local: None,
     })
 }
 

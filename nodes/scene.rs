@@ -2,11 +2,17 @@
 //!
 //! Without a `path`, the built-in scene `name` is built from `seed` (see [`tyndall_engine::scene::builtin`]
 //! for the list: torus, tree, window, fence, figure). With a `path`, the glTF file is loaded:
-//! meshes, node transforms, base colours, its first camera and its first directional light
-//! (`KHR_lights_punctual`, whose illuminance in lux is read as irradiance in W/m² by dividing by
-//! 683 lm/W, as Blender's glTF importer does); objects tagged `medium` are not drawn and bound
-//! the medium for `SingleScattering`'s `bounds = tagged`. `camera = custom` and `light = custom`
-//! replace the scene's own camera and sun with the parameters below (all key-frameable).
+//! meshes, node transforms, base colours, its first camera and every `KHR_lights_punctual`
+//! light — directional (illuminance in lux read as irradiance in W/m² by dividing by 683 lm/W,
+//! as Blender's glTF importer does; the first is the scene's sun), spot and point (candela / 683
+//! = W/sr), with their colour, position and direction from their node, a spot's cone angles and
+//! `range` —; objects tagged `medium` are not drawn and bound the medium for `SingleScattering`'s
+//! `bounds = tagged`. `camera = custom` and `light = custom` replace the scene's own camera and
+//! lights with the parameters below (all key-frameable): `light_type = directional` is the sun
+//! of `sun_*`, `spot` and `point` a lamp at `light_x/y/z` of `light_intensity` W/sr, coloured
+//! `sun_colour` (a spot aimed at `light_target_*` with cone `cone_inner`–`cone_outer`).
+//! `tyndall validate` lists the lights and refuses one with a negative intensity, a zero or
+//! negative range or a cone outside 0 ≤ inner ≤ outer, 0 < outer ≤ 90°.
 //!
 //! Animation: a glTF file's animation channels on nodes (translation, rotation, scale; `STEP`,
 //! `LINEAR` with slerped rotations, `CUBICSPLINE`) play, so the camera, the sun and meshes move
@@ -14,9 +20,10 @@
 //! exporter writes frame f (a 1–24 animation at 24 fps has keys from 1/24 s to 1 s), so
 //! `--frames` and the editor's timeline count the DCC's frames; before the first key and after
 //! the last the pose holds (and the node is not re-run: its cache key is the clamped time).
-//! `animation` chooses which plays: empty = the first, else a name or an index; `none` = the
-//! rest pose. Morph-target weights are not played. `tyndall validate` lists the animations and
-//! their frame ranges.
+//! `animation` chooses which plays: empty = every animation of the file together (Blender's
+//! exporter writes one per animated object: the camera's, the sun's, a lamp's…), else a name or
+//! an index; `none` = the rest pose. Morph-target weights are not played. `tyndall validate`
+//! lists the animations, their frame ranges and which play.
 //!
 //! The node uploads vertex and index buffers; it runs no shader pass (so it has no WGSL file).
 //!
@@ -29,7 +36,7 @@
 //! | `name` | Enum | torus | torus, tree, window, fence, figure | built-in scene |
 //! | `path` | Text | "" | | glTF file (.gltf/.glb); overrides `name` |
 //! | `seed` | Int | 1 | 0…2³¹ | variation of built-in scenes |
-//! | `animation` | Text | "" | | glTF animation that plays: empty = the first, a name, an index, or `none` |
+//! | `animation` | Text | "" | | glTF animations that play: empty = all, a name, an index, or `none` |
 //! | `fps` | Float | 24 | 0.001…1000 frames/s | frame f is f / fps seconds of the glTF animation |
 //! | `camera` | Enum | scene | scene, custom | use the scene's camera or the parameters |
 //! | `cam_x`, `cam_y`, `cam_z` | Float | 8, 3, 9 | ±1e5 m | camera position |
@@ -40,6 +47,12 @@
 //! | `sun_elevation` | Float | 45 | −90…90 ° | above the horizon |
 //! | `sun_colour` | Colour | (1, 0.95, 0.85, 1) | 0…1e6 | linear RGB (alpha unused) |
 //! | `sun_intensity` | Float | 3 | 0…1e6 W/m² | irradiance on a surface facing the sun, multiplying the colour |
+//! | `light_type` | Enum | directional | directional, spot, point | the custom light's kind (`light = custom`) |
+//! | `light_x`, `light_y`, `light_z` | Float | 0, 5, 0 | ±1e5 m | a spot's or point light's position |
+//! | `light_target_x`, `light_target_y`, `light_target_z` | Float | 0, 0, 0 | ±1e5 m | the point a spot aims at |
+//! | `cone_inner`, `cone_outer` | Float | 15, 25 | 0…90 ° | a spot's cone half-angles: full inside `cone_inner`, none outside `cone_outer` |
+//! | `light_intensity` | Float | 100 | 0…1e9 W/sr | a spot's or point light's radiant intensity, multiplying `sun_colour` |
+//! | `light_range` | Float | 0 | 0…1e6 m | distance beyond which it gives nothing (0: unlimited) |
 
 use std::path::Path;
 use std::sync::Arc;
@@ -49,7 +62,7 @@ use glam::Vec3;
 use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::{
-    builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Scene, Sun,
+    builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Light, LightKind, Scene, Sun,
 };
 
 /// The `Scene` node kind.
@@ -60,6 +73,11 @@ tyndall_engine::choice_enum! {
     pub enum Source { Scene = "scene", Custom = "custom" }
 }
 
+tyndall_engine::choice_enum! {
+    /// The kind of the custom light.
+    pub enum LightType { Directional = "directional", Spot = "spot", Point = "point" }
+}
+
 #[rustfmt::skip]
 tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
@@ -67,7 +85,7 @@ tyndall_engine::params! {
         name: Builtin = ParamSpec::choice("name", Builtin::NAMES, "torus", "Built-in scene used when `path` is empty."),
         path: String = ParamSpec::text("path", "", "glTF file (.gltf/.glb); overrides `name`."),
         seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Variation of the built-in scene."),
-        animation: String = ParamSpec::text("animation", "", "glTF animation that plays: empty = the file's first, a name, an index, or `none` for the rest pose."),
+        animation: String = ParamSpec::text("animation", "", "glTF animations that play: empty = every animation of the file together, a name, an index, or `none` for the rest pose."),
         fps: f64 = ParamSpec::float("fps", 24.0, 0.001, 1000.0, "frames/s", "Frames per second of the glTF animation: frame f is f / fps seconds (as Blender's exporter writes it)."),
         camera: Source = ParamSpec::choice("camera", Source::NAMES, "scene", "Use the scene's camera, or the cam_*/target_*/fov parameters."),
         cam_x: f32 = ParamSpec::float("cam_x", 8.0, -1e5, 1e5, "m", "Camera position x (camera = custom)."),
@@ -82,6 +100,17 @@ tyndall_engine::params! {
         sun_elevation: f32 = ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
         sun_colour: [f32; 4] = ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
         sun_intensity: f32 = ParamSpec::float("sun_intensity", 3.0, 0.0, 1e6, "W/m²", "Sun irradiance on a surface facing it, multiplying the colour (light = custom); a glTF sun's lux are read as lux / 683."),
+        light_type: LightType = ParamSpec::choice("light_type", LightType::NAMES, "directional", "Kind of the custom light (light = custom): the sun of sun_*, or a spot or point lamp."),
+        light_x: f32 = ParamSpec::float("light_x", 0.0, -1e5, 1e5, "m", "Spot or point light position x (light = custom)."),
+        light_y: f32 = ParamSpec::float("light_y", 5.0, -1e5, 1e5, "m", "Spot or point light position y (light = custom)."),
+        light_z: f32 = ParamSpec::float("light_z", 0.0, -1e5, 1e5, "m", "Spot or point light position z (light = custom)."),
+        light_target_x: f32 = ParamSpec::float("light_target_x", 0.0, -1e5, 1e5, "m", "Point a spot aims at, x (light = custom)."),
+        light_target_y: f32 = ParamSpec::float("light_target_y", 0.0, -1e5, 1e5, "m", "Point a spot aims at, y (light = custom)."),
+        light_target_z: f32 = ParamSpec::float("light_target_z", 0.0, -1e5, 1e5, "m", "Point a spot aims at, z (light = custom)."),
+        cone_inner: f32 = ParamSpec::float("cone_inner", 15.0, 0.0, 90.0, "°", "Spot cone half-angle of full intensity (light = custom)."),
+        cone_outer: f32 = ParamSpec::float("cone_outer", 25.0, 0.0, 90.0, "°", "Spot cone half-angle beyond which it gives nothing (light = custom); the intensity falls smoothly in between."),
+        light_intensity: f32 = ParamSpec::float("light_intensity", 100.0, 0.0, 1e9, "W/sr", "Spot or point radiant intensity, multiplying sun_colour (light = custom); a glTF lamp's candela are read as cd / 683."),
+        light_range: f32 = ParamSpec::float("light_range", 0.0, 0.0, 1e6, "m", "Distance beyond which the spot or point light gives nothing, with glTF's smooth window (0: unlimited)."),
     }
 }
 
@@ -89,9 +118,9 @@ tyndall_engine::params! {
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "Scene",
     category: "Scene",
-    doc: "A built-in procedural scene (torus, tree, window, fence, figure) or a glTF file, with camera and sun.",
+    doc: "A built-in procedural scene (torus, tree, window, fence, figure) or a glTF file, with camera and lights (sun, spot, point).",
     inputs: &[],
-    outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and sun.")],
+    outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and lights.")],
     params: Params::SPECS,
 })
 .files(&[("path", tyndall_engine::eval::FileRole::Read)]);
@@ -120,39 +149,51 @@ impl NodeKind for SceneNode {
         let Ok(p) = Params::from_params(params) else {
             return Vec::new();
         };
-        match chosen_animation(&p) {
+        let mut lines = match chosen_animation(&p) {
             Ok(None) => Vec::new(),
-            Ok(Some((asset, index))) => {
+            Ok(Some((asset, playing))) => {
+                let n = asset.animations.len();
+                let plays = if playing.is_empty() {
+                    "none (rest pose)".to_string()
+                } else if playing.len() == n && n > 1 {
+                    format!("all {n} together")
+                } else {
+                    let names: Vec<String> =
+                        playing.iter().map(|i| format!("animation {i}")).collect();
+                    names.join(", ")
+                };
                 let mut lines = vec![format!(
-                    "{}: {} animation{}; plays {}",
+                    "{}: {n} animation{}; plays {plays}",
                     p.path,
-                    asset.animations.len(),
-                    if asset.animations.len() == 1 { "" } else { "s" },
-                    index.map_or("none (rest pose)".to_string(), |i| format!("animation {i}"))
+                    if n == 1 { "" } else { "s" },
                 )];
                 lines.extend(asset.describe_animations(p.fps));
                 lines
             }
-            Err(e) => vec![format!("error: {e}")],
+            Err(e) => return vec![format!("error: {e}")],
+        };
+        match load(&p, 0.0) {
+            Ok(scene) => {
+                for l in scene.light_list() {
+                    match l.problem() {
+                        Some(problem) => lines.push(format!("error: {problem}")),
+                        None => lines.push(l.describe()),
+                    }
+                }
+            }
+            Err(e) => lines.push(format!("error: {e}")),
         }
+        lines
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let mut scene = load(&p, ctx.time)?;
-        if p.camera == Source::Custom {
-            scene.camera.position = Vec3::new(p.cam_x, p.cam_y, p.cam_z);
-            scene.camera.target = Vec3::new(p.target_x, p.target_y, p.target_z);
-            scene.camera.fov_y = p.fov;
-        }
-        if p.light == Source::Custom {
-            let c = p.sun_colour;
-            scene.sun = Sun {
-                azimuth: p.sun_azimuth,
-                elevation: p.sun_elevation,
-                colour: [c[0], c[1], c[2]],
-                intensity: p.sun_intensity,
-            };
+        let scene = load(&p, ctx.time)?;
+        if let Some(problem) = scene.lights.iter().find_map(Light::problem) {
+            return Err(NodeError::Param {
+                param: "path".into(),
+                message: format!("{}: {problem}", p.path),
+            });
         }
         let gpu_scene = GpuScene::upload(ctx.gpu, scene)?;
         ctx.set(
@@ -163,11 +204,10 @@ impl NodeKind for SceneNode {
     }
 }
 
-/// A parsed glTF file and the index of the animation that plays.
-type Chosen = (Arc<tyndall_engine::scene::GltfAsset>, Option<usize>);
+/// A parsed glTF file and the indices of the animations that play.
+type Chosen = (Arc<tyndall_engine::scene::GltfAsset>, Vec<usize>);
 
-/// The glTF file and the animation `p` chooses (`None` for a built-in scene, an empty path, or
-/// `animation = none`).
+/// The glTF file and the animations `p` chooses (`None` for a built-in scene or an empty path).
 fn chosen_animation(p: &Params) -> Result<Option<Chosen>, NodeError> {
     if p.path.is_empty() {
         return Ok(None);
@@ -177,46 +217,88 @@ fn chosen_animation(p: &Params) -> Result<Option<Chosen>, NodeError> {
         message,
     };
     let asset = load_gltf_asset(Path::new(&p.path)).map_err(|e| path_err(e.to_string()))?;
-    let which = p.animation.trim();
-    let index = if which.eq_ignore_ascii_case("none") {
-        None
-    } else {
-        find_animation(&asset.animations, which)
-            .map_err(|e| NodeError::Param {
-                param: "animation".into(),
-                message: format!("{}: {e}", p.path),
-            })?
-            .map(|(i, _)| i)
-    };
-    Ok(Some((asset, index)))
+    let playing =
+        find_animation(&asset.animations, &p.animation).map_err(|e| NodeError::Param {
+            param: "animation".into(),
+            message: format!("{}: {e}", p.path),
+        })?;
+    Ok(Some((asset, playing)))
 }
 
-/// The animation time (seconds, clamped to its keys) of frame `time`, or `None` when nothing
-/// moves.
+/// The animation time (seconds, clamped to the playing animations' keys) of frame `time`, or
+/// `None` when nothing moves.
 fn animated_seconds(p: &Params, time: f64) -> Result<Option<f32>, NodeError> {
-    let Some((asset, index)) = chosen_animation(p)? else {
+    let Some((asset, playing)) = chosen_animation(p)? else {
         return Ok(None);
     };
-    if !asset.moves(index) {
+    if !asset.moves(&playing) {
         return Ok(None);
     }
-    let (lo, hi) = index
-        .and_then(|i| asset.animations.get(i))
-        .map_or((0.0, 0.0), |a| a.range());
+    let (lo, hi) = asset.range(&playing);
     Ok(Some(((time / p.fps) as f32).clamp(lo, hi)))
 }
 
-/// The built-in scene, or the glTF file posed at frame `time`.
+/// The built-in scene, or the glTF file posed at frame `time`, with the camera and lights the
+/// parameters override.
 fn load(p: &Params, time: f64) -> Result<Scene, NodeError> {
-    let Some((asset, index)) = chosen_animation(p)? else {
-        return builtin(p.name.name(), p.seed as u64).map_err(|e| NodeError::Param {
+    let mut scene = match chosen_animation(p)? {
+        None => builtin(p.name.name(), p.seed as u64).map_err(|e| NodeError::Param {
             param: "name".into(),
             message: e.to_string(),
-        });
+        })?,
+        Some((asset, playing)) => {
+            let seconds = animated_seconds(p, time)?.unwrap_or(0.0);
+            asset
+                .pose(&playing, seconds)
+                .map_err(|e| NodeError::Param {
+                    param: "path".into(),
+                    message: e.to_string(),
+                })?
+        }
     };
-    let seconds = animated_seconds(p, time)?.unwrap_or(0.0);
-    asset.pose(index, seconds).map_err(|e| NodeError::Param {
-        param: "path".into(),
-        message: e.to_string(),
-    })
+    if p.camera == Source::Custom {
+        scene.camera.position = Vec3::new(p.cam_x, p.cam_y, p.cam_z);
+        scene.camera.target = Vec3::new(p.target_x, p.target_y, p.target_z);
+        scene.camera.fov_y = p.fov;
+    }
+    if p.light == Source::Custom {
+        let c = p.sun_colour;
+        let sun = Sun {
+            azimuth: p.sun_azimuth,
+            elevation: p.sun_elevation,
+            colour: [c[0], c[1], c[2]],
+            intensity: p.sun_intensity,
+        };
+        scene.sun = sun;
+        let position = Vec3::new(p.light_x, p.light_y, p.light_z);
+        let target = Vec3::new(p.light_target_x, p.light_target_y, p.light_target_z);
+        let kind = match p.light_type {
+            // The sun alone: the scene lit as before lights other than the sun existed.
+            LightType::Directional => {
+                scene.lights = Vec::new();
+                return Ok(scene);
+            }
+            LightType::Spot => LightKind::Spot {
+                position,
+                direction: (target - position).normalize_or(Vec3::NEG_Y),
+                inner: p.cone_inner.to_radians(),
+                outer: p.cone_outer.to_radians(),
+            },
+            LightType::Point => LightKind::Point { position },
+        };
+        scene.lights = vec![Light {
+            name: p.light_type.name().to_string(),
+            kind,
+            colour: [c[0], c[1], c[2]],
+            intensity: p.light_intensity,
+            range: (p.light_range > 0.0).then_some(p.light_range),
+        }];
+        if let Some(problem) = scene.lights[0].problem() {
+            return Err(NodeError::Param {
+                param: "cone_outer".into(),
+                message: problem,
+            });
+        }
+    }
+    Ok(scene)
 }

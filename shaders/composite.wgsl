@@ -20,6 +20,20 @@ struct Params {
     has_aerial_inscatter: u32,
     has_light_map: u32,
     light_map_view_proj: mat4x4<f32>,
+    local_kind: u32,
+    light_pos: vec3<f32>,
+    cos_inner: f32,
+    spot_dir: vec3<f32>,
+    cos_outer: f32,
+    range: f32,
+    near: f32,
+    far: f32,
+    _pad0: u32,
+}
+
+// The spot or point light of the shadow map (local_kind ≠ 0).
+fn local_light() -> LocalLight {
+    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -41,12 +55,15 @@ fn sun_colour(x: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(1.0);
     }
     let c = P.light_map_view_proj * vec4<f32>(x, 1.0);
-    let uv = vec2<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5);
+    let uv = vec2<f32>(c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5);
     return bilinear_texels(light_map, uv * vec2<f32>(textureDimensions(light_map))).rgb;
 }
 
 fn surface_shadow(x: vec3<f32>) -> f32 {
-    let uvz = light_uvz(P.light_view_proj, x);
+    var uvz = light_uvz(P.light_view_proj, x);
+    if P.local_kind != 0u {
+        uvz = light_uvz_local(local_light(), P.light_view_proj, x);
+    }
     let size = vec2<i32>(textureDimensions(shadow));
     let centre = vec2<i32>(floor(uvz.xy * vec2<f32>(size)));
     let r = i32(P.pcf);
@@ -78,7 +95,13 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
         let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
         let x = P.eye + dir * textureLoad(depth, id.xy, 0).r;
         let n = textureLoad(normal, id.xy, 0).xyz;
-        let direct = P.radiance * sun_colour(x) * max(dot(n, P.to_sun), 0.0) * surface_shadow(x);
+        var to_light = P.to_sun;
+        var falloff = 1.0;
+        if P.local_kind != 0u {
+            to_light = normalize(P.light_pos - x);
+            falloff = light_falloff(local_light(), x);
+        }
+        let direct = P.radiance * sun_colour(x) * (max(dot(n, to_light), 0.0) * falloff) * surface_shadow(x);
         colour = a.rgb * (P.ambient.rgb + direct);
     } else {
         colour = P.sky.rgb;

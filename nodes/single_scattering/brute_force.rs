@@ -1,4 +1,5 @@
-//! Method `BruteForce`: the CPU reference of one pixel (the oracle of every method).
+//! Method `BruteForce`: the CPU reference of one pixel (the oracle of every method), for the sun
+//! and for a spot or point light (`ScatterParams::local`).
 
 use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein};
 
@@ -38,6 +39,37 @@ pub fn reference_pixel_phase(
     let len = (t1 - t0).max(0.0);
     let hash = crate::algorithms::shader_lib::pixel_jitter(x, y) + p.jitter_phase;
     let offset = p.jitter * ((hash - hash.floor()) - 0.5);
+    if let Some(light) = p.local() {
+        let n = p.steps as f32;
+        let delta = len / n;
+        let (mut lit, mut acc) = (0u32, [0.0f32; 3]);
+        for i in 0..p.steps {
+            let t = t0 + (i as f32 + 0.5 + offset) / n * len;
+            let x = eye + dir * t;
+            let l = light.uvz(lvp, x).unwrap_or(Vec3::new(-1.0, -1.0, 2.0));
+            if !sun_reaches(shadow, l, p.bias) {
+                continue;
+            }
+            lit += 1;
+            let mut e = (-p.sigma_t * (t - t0)).exp();
+            if p.light_extinction != 0 {
+                e *= (-p.sigma_t * light_path(p, &light, x)).exp();
+            }
+            let cos = dir.dot((light.position() - x).normalize());
+            let f = phase.map_or([henyey_greenstein(p.g, cos); 3], |t| t.lookup(cos));
+            let k = light.falloff(x) * e * delta;
+            for c in 0..3 {
+                acc[c] += f[c] * k;
+            }
+        }
+        let vbar = if len > 0.0 || p.bounded == 0 {
+            lit as f32 / n
+        } else {
+            1.0
+        };
+        let rad = [0, 1, 2].map(|c| p.radiance[c] * (p.sigma_t * p.albedo) * acc[c]);
+        return (vbar, rad, (-len * p.sigma_t).exp());
+    }
     let mut lit = 0u32;
     let mut weighted = 0.0f32;
     let n = p.steps as f32;
@@ -65,4 +97,27 @@ pub fn reference_pixel_phase(
     };
     let rad = [0, 1, 2].map(|c| p.radiance[c] * p.sigma_t * p.albedo * f[c] * k);
     (vbar, rad, (-len * p.sigma_t).exp())
+}
+
+/// Distance from `x` (inside the medium's box) to the box's boundary towards the light, at
+/// most the distance to the light (the WGSL `local_light_path`).
+pub fn light_path(p: &ScatterParams, light: &tyndall_engine::scene::LocalLight, x: Vec3) -> f32 {
+    let l = light.position() - x;
+    let r = l.length();
+    if r <= 0.0 {
+        return 0.0;
+    }
+    let d = l / r;
+    let mut ell = r;
+    for k in 0..3 {
+        if d[k] != 0.0 {
+            let face = if d[k] > 0.0 {
+                p.box_max[k]
+            } else {
+                p.box_min[k]
+            };
+            ell = ell.min(((face - x[k]) / d[k]).max(0.0));
+        }
+    }
+    ell
 }

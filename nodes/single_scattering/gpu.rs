@@ -192,8 +192,11 @@ pub(super) fn scatter(
         ("EXTINCTION", on(u.light_extinction != 0)),
         ("LIGHT_MAP", on(i.light_map.is_some())),
         ("SOFT", on(i.soft.is_some())),
+        ("LOCAL", on(u.local_kind != 0)),
     ];
-    if p.method == Method::BruteForce {
+    // A spot or point light is marched by BruteForce whatever the method: MinMax's pyramid
+    // walk and Epipolar's rectified lines assume the sun's parallel light (see the node's docs).
+    if p.method == Method::BruteForce || u.local_kind != 0 {
         let no_map;
         let (map, lm) = match i.light_map {
             Some((t, m)) => (t, LightMapView::new(m.view_proj().to_cols_array_2d(), 1)),

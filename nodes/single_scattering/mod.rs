@@ -11,6 +11,20 @@
 //! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the
 //! `Scene`) times f (1/sr) times σt·length (dimensionless) gives `inscatter` in W/(m²·sr).
 //!
+//! Spot and point lights (seed 003 Fig. 5; seed 000 §5.3: the techniques need only a shadow
+//! map): when the `shadow` map is a spot's or point light's (`ShadowMap`'s `light`), each
+//! sample at distance t of the view ray adds `V(x) · I · a(x) · f(θ_x) · e^{−σt (t − t0)}`
+//! (`· e^{−σt ℓ(x)}` with light extinction, ℓ now the distance from x towards the light inside
+//! the box, at most the distance to the light; `· M(x)` with a light map in the spot's
+//! projection, a gobo) over its interval Δ = len/steps (the midpoint rule, converging as steps
+//! grow): `L_scat = σt ρ Σ_i …`, with I the light's intensity (W/sr), a glTF's attenuation —
+//! inverse square, a spot's smooth cone, the range window — and θ_x the angle between the view
+//! ray and the direction from x to the light. The factored form does not hold, so the method is
+//! always BruteForce: `MinMax` and `Epipolar` asked for with a spot or point light run
+//! BruteForce (their structures assume parallel light; the spot's epipolar variant is not yet
+//! built). A `soft` volume is refused with such a light. `visibility` is still the fraction of
+//! lit samples (outside the map or behind a spot counts as lit, as for the sun).
+//!
 //! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
 //! objects tagged `medium`, connected on `scene`) the view ray scatters only on [t0, t1], its
 //! part inside the box, and the transmittance of surfaces is e^{−σt (t1 − t0)}. With
@@ -291,6 +305,14 @@ impl NodeKind for SingleScattering {
         let soft = ctx.soft_shadow_opt("soft")?;
         let light_map = ctx.light_map_opt("light_map")?;
         check_method(p.method, soft.is_some(), light_map.is_some())?;
+        if light.local.is_some() && soft.is_some() {
+            return Err(NodeError::Input {
+                port: "soft".into(),
+                message: "a SoftVisibility volume works with the sun's map only; this shadow map \
+                          is a spot's or point light's"
+                    .into(),
+            });
+        }
         let extinction = p.light_extinction == Extinction::On;
         let bounds = medium_bounds(ctx, &p, extinction)?;
         let mut u = ScatterParams::new(&camera, &light, &p).with_bounds(bounds, extinction);

@@ -46,8 +46,25 @@ tyndall_engine::uniforms! {
         /// Added to the per-pixel jitter hash, modulo 1 (`jitter_pattern = frame`: a frame's
         /// phase, 0 otherwise).
         pub jitter_phase: f32,
+        /// 0: the sun (parallel light along `to_sun`); 1: a spot, 2: a point light at
+        /// `light_pos` (BruteForce marches it with falloff, cone and per-sample phase).
+        pub local_kind: u32,
+        /// A spot's or point light's position.
+        pub light_pos: [f32; 3],
+        /// cos of a spot's inner cone half-angle.
+        pub cos_inner: f32,
+        /// A spot's unit direction.
+        pub spot_dir: [f32; 3],
+        /// cos of a spot's outer cone half-angle.
+        pub cos_outer: f32,
+        /// Range (m), 0 for unlimited.
+        pub range: f32,
+        /// The map's depth 0, m along its axis.
+        pub near: f32,
+        /// The map's depth 1, m along its axis.
+        pub far: f32,
         /// Padding.
-        pub _pad2: u32,
+        pub _pad3: u32,
     }
 }
 
@@ -77,8 +94,43 @@ impl ScatterParams {
             phase_width: 0,
             soft_slices: 0,
             jitter_phase: 0.0,
-            _pad2: 0,
+            local_kind: 0,
+            light_pos: [0.0; 3],
+            cos_inner: 1.0,
+            spot_dir: [0.0, -1.0, 0.0],
+            cos_outer: 1.0,
+            range: 0.0,
+            near: 0.0,
+            far: 1.0,
+            _pad3: 0,
         }
+        .with_local(light.local)
+    }
+
+    /// Light from a spot or point light (`None`: the sun, as [`ScatterParams::new`] leaves it).
+    pub fn with_local(mut self, local: Option<tyndall_engine::scene::LocalLight>) -> Self {
+        if let Some(l) = local {
+            self.local_kind = if l.point { 2 } else { 1 };
+            self.light_pos = l.position;
+            self.spot_dir = l.direction;
+            (self.cos_inner, self.cos_outer) = (l.cos_inner, l.cos_outer);
+            (self.range, self.near, self.far) = (l.range, l.near, l.far);
+        }
+        self
+    }
+
+    /// The spot or point light these uniforms carry (`None`: the sun).
+    pub fn local(&self) -> Option<tyndall_engine::scene::LocalLight> {
+        (self.local_kind != 0).then_some(tyndall_engine::scene::LocalLight {
+            point: self.local_kind == 2,
+            position: self.light_pos,
+            direction: self.spot_dir,
+            cos_inner: self.cos_inner,
+            cos_outer: self.cos_outer,
+            range: self.range,
+            near: self.near,
+            far: self.far,
+        })
     }
 
     /// Bound the medium to the box `(min, max)` (`None`: it fills every view ray) and switch

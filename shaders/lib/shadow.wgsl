@@ -19,3 +19,78 @@ fn sun_reaches(shadow: texture_2d<f32>, l: vec3<f32>, bias: f32) -> bool {
     let t = min(vec2<u32>(l.xy * size), vec2<u32>(size) - 1u);
     return l.z <= textureLoad(shadow, t, 0).r + bias;
 }
+
+// ---- Spot and point lights (CPU twin: tyndall_engine::scene::LocalLight) --------------------
+
+// A spot (kind 1) or point light (kind 2) as a shadow map of it carries it.
+struct LocalLight {
+    kind: u32,
+    position: vec3<f32>,
+    direction: vec3<f32>,
+    cos_inner: f32,
+    cos_outer: f32,
+    range: f32,
+    near: f32,
+    far: f32,
+}
+
+// glTF's attenuation at x: inverse square, windowed by the range, times a spot's smooth cone.
+fn light_falloff(l: LocalLight, x: vec3<f32>) -> f32 {
+    let v = l.position - x;
+    let d2 = max(dot(v, v), 1e-12);
+    var a = 1.0 / d2;
+    if l.range > 0.0 {
+        let q = d2 / (l.range * l.range);
+        a *= clamp(1.0 - q * q, 0.0, 1.0);
+    }
+    if l.kind == 1u {
+        let cd = dot(l.direction, -v / sqrt(d2));
+        let s = clamp((cd - l.cos_outer) / max(l.cos_inner - l.cos_outer, 1e-3), 0.0, 1.0);
+        a *= s * s;
+    }
+    return a;
+}
+
+// Cube face of direction d from a point light: 0 +X, 1 −X, 2 +Y, 3 −Y, 4 +Z, 5 −Z.
+fn cube_face(d: vec3<f32>) -> u32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(0u, 1u, d.x < 0.0);
+    }
+    if a.y >= a.z {
+        return select(2u, 3u, d.y < 0.0);
+    }
+    return select(4u, 5u, d.z < 0.0);
+}
+
+// Light-space (u, v, depth) of x in a spot's map (world → clip `view_proj`, linear clip z) or
+// a point light's 3 × 2 cube atlas; a point behind a spot maps outside (lit, as outside any map;
+// its cone gives it nothing).
+fn light_uvz_local(l: LocalLight, view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
+    if l.kind == 2u {
+        let d = x - l.position;
+        let face = cube_face(d);
+        var f = vec3<f32>(0.0, 0.0, -1.0);
+        var up = vec3<f32>(0.0, 1.0, 0.0);
+        switch face {
+            case 0u: { f = vec3<f32>(1.0, 0.0, 0.0); }
+            case 1u: { f = vec3<f32>(-1.0, 0.0, 0.0); }
+            case 2u: { f = vec3<f32>(0.0, 1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
+            case 3u: { f = vec3<f32>(0.0, -1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
+            case 4u: { f = vec3<f32>(0.0, 0.0, 1.0); }
+            default: {}
+        }
+        let s = normalize(cross(f, up));
+        let u = cross(s, f);
+        let depth = dot(f, d);
+        let ndc = vec2<f32>(dot(s, d), dot(u, d)) / max(depth, 1e-12);
+        let uv = clamp(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2<f32>(0.0), vec2<f32>(0.999999));
+        let cell = vec2<f32>(f32(face % 3u), f32(face / 3u));
+        return vec3<f32>((cell.x + uv.x) / 3.0, (cell.y + uv.y) / 2.0, (depth - l.near) / (l.far - l.near));
+    }
+    let c = view_proj * vec4<f32>(x, 1.0);
+    if c.w <= 1e-9 {
+        return vec3<f32>(-1.0, -1.0, 2.0);
+    }
+    return vec3<f32>(c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5, c.z);
+}

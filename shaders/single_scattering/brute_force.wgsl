@@ -23,7 +23,8 @@ struct LightMapView {
 // edge (a point outside the map takes the nearest edge texel).
 fn light_map_at(x: vec3<f32>) -> vec3<f32> {
     let c = LM.view_proj * vec4<f32>(x, 1.0);
-    let uv = vec2<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5);
+    // w is 1 in an orthographic map; a spot's perspective one divides.
+    let uv = vec2<f32>(c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5);
     let size = vec2<i32>(textureDimensions(light_map));
     let q = uv * vec2<f32>(size) - 0.5;
     let f = q - floor(q);
@@ -51,6 +52,10 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let len = max(seg.y - seg.x, 0.0);
     let offset = P.jitter * (fract(pixel_jitter(id.x, id.y) + P.jitter_phase) - 0.5);
     let map = LIGHT_MAP && LM.enabled != 0u;
+    if LOCAL && P.local_kind != 0u {
+        brute_force_local(id.xy, dir, t0, len, offset, map);
+        return;
+    }
     var lit = 0.0;
     var weighted = 0.0;
     var acc = vec3<f32>(0.0);
@@ -82,4 +87,37 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     } else {
         store(id.xy, dir, vbar, len, weighted);
     }
+}
+
+// A spot or point light: each sample at distance t adds, over its interval Δ = len/steps (the
+// midpoint rule), V · a(x) · f(θ_x) · e^{−σt (t − t0)} (· e^{−σt ℓ(x)} with light extinction,
+// · M(x) with a light map) · Δ, where a is the light's falloff (inverse square, cone, range) and
+// θ_x the angle between the view ray and the direction to the light from x. The factored form
+// of the sun does not hold: phase and falloff change along the ray.
+fn brute_force_local(p: vec2<u32>, dir: vec3<f32>, t0: f32, len: f32, offset: f32, map: bool) {
+    var lit = 0.0;
+    var acc = vec3<f32>(0.0);
+    let delta = len / f32(P.steps);
+    for (var i = 0u; i < P.steps; i++) {
+        let t = t0 + (f32(i) + 0.5 + offset) / f32(P.steps) * len;
+        let x = P.eye + dir * t;
+        let v = visible(x);
+        lit += v;
+        if v > 0.0 {
+            let to_light = normalize(P.light_pos - x);
+            var e = exp(-P.sigma_t * (t - t0));
+            if extinction() {
+                e *= exp(-P.sigma_t * local_light_path(x));
+            }
+            var c = phase(dot(dir, to_light)) * (local_falloff(x) * e * delta);
+            if map {
+                c *= light_map_at(x);
+            }
+            acc += c;
+        }
+    }
+    let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
+    textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
+    textureStore(out_inscatter, p, vec4<f32>(P.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
+    textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
 }

@@ -26,7 +26,15 @@ struct Params {
     phase_width: u32,
     soft_slices: u32,
     jitter_phase: f32,
-    _pad2: u32,
+    local_kind: u32,
+    light_pos: vec3<f32>,
+    cos_inner: f32,
+    spot_dir: vec3<f32>,
+    cos_outer: f32,
+    range: f32,
+    near: f32,
+    far: f32,
+    _pad3: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -52,6 +60,8 @@ const PI: f32 = 3.14159265358979;
 override EXTINCTION: bool = true;
 override LIGHT_MAP: bool = true;
 override SOFT: bool = true;
+// Whether the light can be a spot or point light (`local_kind` ≠ 0; BruteForce only).
+override LOCAL: bool = true;
 
 // Light extinction on (the pipeline allows it and the uniforms ask for it).
 fn extinction() -> bool {
@@ -97,7 +107,43 @@ fn soft_visible(x: vec3<f32>) -> f32 {
     return 1.0 - mix(a0, a1, f);
 }
 
+// ---- Spot and point lights (LOCAL; lib/shadow.wgsl) ----------------------------------------
+
+fn local_light() -> LocalLight {
+    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
+}
+
+fn local_falloff(x: vec3<f32>) -> f32 {
+    return light_falloff(local_light(), x);
+}
+
+fn local_uvz(x: vec3<f32>) -> vec3<f32> {
+    return light_uvz_local(local_light(), P.light_view_proj, x);
+}
+
+// Distance from x (inside the medium's box) to the box's boundary towards the light, at most
+// the distance to the light: what the light crosses of the medium to reach x.
+fn local_light_path(x: vec3<f32>) -> f32 {
+    let l = P.light_pos - x;
+    let r = length(l);
+    if r <= 0.0 {
+        return 0.0;
+    }
+    let d = l / r;
+    var ell = r;
+    for (var k = 0; k < 3; k++) {
+        if d[k] != 0.0 {
+            let face = select(P.box_min[k], P.box_max[k], d[k] > 0.0);
+            ell = min(ell, max((face - x[k]) / d[k], 0.0));
+        }
+    }
+    return ell;
+}
+
 fn visible(x: vec3<f32>) -> f32 {
+    if LOCAL && P.local_kind != 0u {
+        return select(0.0, 1.0, sun_reaches(shadow, local_uvz(x), P.bias));
+    }
     if SOFT && P.soft_slices != 0u {
         return soft_visible(x);
     }

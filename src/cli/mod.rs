@@ -305,8 +305,17 @@ fn run_command(cli: Cli) -> Result<(), CliError> {
                 g.len(),
                 g.edges().len()
             );
-            for line in describe_files(&registry, &g, &graph) {
+            let notes = describe_files(&registry, &g, &graph);
+            for line in &notes {
                 println!("  {line}");
+            }
+            // A problem a node finds in its files (an unreadable file, a light that cannot be
+            // used) makes the graph invalid: exit 2 with the lines that say so.
+            let problems: Vec<&String> =
+                notes.iter().filter(|l| l.contains("': error: ")).collect();
+            if !problems.is_empty() {
+                let lines: Vec<&str> = problems.iter().map(|l| l.as_str()).collect();
+                return Err(bad(format!("{}: {}", graph.display(), lines.join("; "))));
             }
             Ok(())
         }

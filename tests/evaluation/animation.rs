@@ -318,7 +318,7 @@ fn animated_camera_and_sun_follow_each_interpolation() {
                 "{mode} frame {frame}: marker at {got:?}, the camera projects it to {want:?} ({err:.2} px)"
             );
             // The sun turns: the posed scene's sun points where the expected rotation does.
-            let scene = asset.pose(Some(0), frame / FPS).unwrap();
+            let scene = asset.pose(&[0], frame / FPS).unwrap();
             let q = Quat::from_array(expected(&sun_keys(), mode, frame, true));
             let to_sun = -(q * Vec3::NEG_Z);
             let angle = scene.sun.to_sun().angle_between(to_sun).to_degrees();
@@ -400,7 +400,7 @@ fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
     let path = write_scene(dir.path(), "LINEAR", 1); // node 1: the marker
     let asset = tyndall::scene::parse_gltf(&path).unwrap();
     let marker = |frame: f32| {
-        let s = asset.pose(Some(0), frame / FPS).unwrap();
+        let s = asset.pose(&[0], frame / FPS).unwrap();
         let o = s.objects.iter().find(|o| o.name == "Marker").unwrap();
         o.positions.iter().copied().sum::<Vec3>() / o.positions.len() as f32
     };
@@ -440,4 +440,160 @@ fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
     let (d24, s24) = at(24.0);
     assert_ne!(d1.data, d24.data, "the G-buffer sees the marker move");
     assert_ne!(s1.data, s24.data, "the shadow map sees the marker move");
+}
+
+/// A shot as Blender's exporter writes it with its defaults: one animation per animated object
+/// (`CameraAction`, `SunAction`) and lamps as `KHR_lights_punctual` spot and point lights.
+fn write_blender_shot(dir: &std::path::Path) -> std::path::PathBuf {
+    let mut g = Gltf::default();
+    let (ground_p, ground_i) = g.cuboid(Vec3::new(-10.0, -0.1, -10.0), Vec3::new(10.0, 0.0, 10.0));
+    let camera = sampler(&mut g, &camera_translation(), "LINEAR", false);
+    let sun = sampler(&mut g, &sun_keys(), "LINEAR", true);
+    let down = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "directional", "intensity": 2049.0},
+            {"type": "spot", "name": "Spot.001", "intensity": 683.0 * 50.0, "color": [1.0, 0.5, 0.25], "range": 20.0,
+             "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.4}},
+            {"type": "point", "intensity": 683.0 * 10.0},
+        ]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3, 4]}],
+        "nodes": [
+            {"name": "Ground", "mesh": 0},
+            {"name": "Camera", "camera": 0, "translation": [0.0, 1.2, 8.0]},
+            {"name": "Sun", "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "Spot", "translation": [1.0, 5.0, 0.0], "rotation": down.to_array(),
+             "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"name": "Lamp", "translation": [-2.0, 1.5, 0.5], "extensions": {"KHR_lights_punctual": {"light": 2}}},
+        ],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": YFOV, "znear": 0.05, "zfar": 100.0}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": ground_p}, "indices": ground_i}]}],
+        "animations": [
+            {"name": "CameraAction", "samplers": [camera], "channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}]},
+            {"name": "SunAction", "samplers": [sun], "channels": [{"sampler": 0, "target": {"node": 2, "path": "rotation"}}]},
+        ],
+        "accessors": g.accessors,
+        "bufferViews": g.views,
+        "buffers": [{
+            "byteLength": g.bin.len(),
+            "uri": format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&g.bin)),
+        }],
+    });
+    let path = dir.join("blender_shot.gltf");
+    std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap()).unwrap();
+    path
+}
+
+/// By default every animation of the file plays (the camera dollies *and* the sun turns), a
+/// name plays one; every light is read with Blender's units (lux / 683 = W/m², cd / 683 = W/sr),
+/// its cone, range and placement from its node; `ShadowMap`'s `light` finds them by name or
+/// index, and names them when it finds none.
+#[test]
+fn a_blender_shot_plays_every_animation_and_reads_every_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_blender_shot(dir.path());
+    let asset = tyndall::scene::parse_gltf(&path).unwrap();
+    let all = tyndall::scene::find_animation(&asset.animations, "").unwrap();
+    assert_eq!(all, vec![0, 1]);
+    assert_eq!(
+        tyndall::scene::find_animation(&asset.animations, "SunAction").unwrap(),
+        vec![1]
+    );
+    assert!(tyndall::scene::find_animation(&asset.animations, "none")
+        .unwrap()
+        .is_empty());
+    let t = 24.0 / FPS;
+    let both = asset.pose(&all, t).unwrap();
+    let camera_only = asset.pose(&[0], t).unwrap();
+    let rest = asset.pose(&[], t).unwrap();
+    let k = camera_translation().values[2];
+    assert!((both.camera.position - Vec3::new(k[0], k[1], k[2])).length() < 1e-4);
+    assert_eq!(both.camera.position, camera_only.camera.position);
+    assert_ne!(both.camera.position, rest.camera.position);
+    assert_ne!(
+        both.sun, camera_only.sun,
+        "the sun's own animation plays too"
+    );
+
+    let lights = &both.lights;
+    let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Sun", "Spot", "Lamp"], "node order");
+    assert_eq!(lights[0].intensity, 3.0, "2049 lux = 3 W/m²");
+    assert_eq!(both.sun, lights[0].as_sun().unwrap());
+    let spot = &lights[1];
+    assert!((spot.intensity - 50.0).abs() < 1e-4, "cd / 683 = W/sr");
+    assert_eq!(spot.colour, [1.0, 0.5, 0.25]);
+    assert_eq!(spot.range, Some(20.0));
+    match spot.kind {
+        tyndall::scene::LightKind::Spot {
+            position,
+            direction,
+            inner,
+            outer,
+        } => {
+            assert!((position - Vec3::new(1.0, 5.0, 0.0)).length() < 1e-5);
+            assert!((direction - Vec3::NEG_Y).length() < 1e-5, "{direction}");
+            assert_eq!((inner, outer), (0.2, 0.4));
+        }
+        k => panic!("{k:?}"),
+    }
+    assert!(
+        matches!(lights[2].kind, tyndall::scene::LightKind::Point { position } if (position - Vec3::new(-2.0, 1.5, 0.5)).length() < 1e-5)
+    );
+    assert_eq!(both.find_light("").unwrap().name, "Sun");
+    assert_eq!(both.find_light("2").unwrap().name, "Lamp");
+    assert_eq!(both.find_light("Spot").unwrap().type_name(), "spot");
+    let e = both.find_light("Moon").unwrap_err();
+    assert!(
+        e.contains("no light 'Moon'")
+            && e.contains("1 'Spot' (spot)")
+            && e.contains("2 'Lamp' (point)"),
+        "{e}"
+    );
+}
+
+/// `tyndall validate` lists the lights and what plays, and refuses a light it cannot use with
+/// the node and the value (exit 2).
+#[test]
+fn validate_lists_lights_and_refuses_a_bad_cone() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_blender_shot(dir.path());
+    let graph = dir.path().join("shot.ron");
+    std::fs::write(
+        &graph,
+        r#"(version: 2, nodes: {"scene": (kind: "Scene", params: {"path": "blender_shot.gltf"})}, edges: [])"#,
+    )
+    .unwrap();
+    let run = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_tyndall"))
+            .args(["validate", &graph.display().to_string()])
+            .output()
+            .unwrap()
+    };
+    let o = run();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(out.contains("plays all 2 together"), "{out}");
+    assert!(out.contains("light 'Spot': spot, 50"), "{out}");
+    assert!(out.contains("light 'Lamp': point, 10"), "{out}");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("\"innerConeAngle\": 0.2", "\"innerConeAngle\": 0.6");
+    std::fs::write(&path, text).unwrap();
+    let o = run();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("node 'scene'")
+            && err.contains("light 'Spot'")
+            && err.contains("inner 34.377°"),
+        "{err}"
+    );
 }

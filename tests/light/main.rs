@@ -7,6 +7,7 @@
 mod common;
 
 mod cycles;
+mod lights;
 mod phase;
 mod scattering;
 mod sky;

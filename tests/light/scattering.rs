@@ -15,14 +15,14 @@ use tyndall::nodes::single_scattering::{
 };
 
 /// What a scattering evaluation produced, read back.
-struct Run {
-    shadow: Raster,
-    light: Matrices,
-    depth: Raster,
-    camera: Matrices,
-    vis: Raster,
-    inscatter: Raster,
-    transmittance: Raster,
+pub(crate) struct Run {
+    pub(crate) shadow: Raster,
+    pub(crate) light: Matrices,
+    pub(crate) depth: Raster,
+    pub(crate) camera: Matrices,
+    pub(crate) vis: Raster,
+    pub(crate) inscatter: Raster,
+    pub(crate) transmittance: Raster,
 }
 
 /// Parameter list of one node.
@@ -36,7 +36,7 @@ fn p(v: f64) -> ParamValue {
 }
 
 /// Scene → ShadowMap → GBuffer → SingleScattering with the given parameters.
-fn run_scene(
+pub(crate) fn run_scene(
     gpu: &Arc<tyndall::gpu::Gpu>,
     scene: &[(&str, ParamValue)],
     map: i64,
@@ -132,7 +132,7 @@ fn medium(steps: u32, jitter: f32) -> ScatteringParams {
     .expect("declared parameters")
 }
 
-fn assert_finite(r: &Run, what: &str) {
+pub(crate) fn assert_finite(r: &Run, what: &str) {
     for (name, img) in [
         ("visibility", &r.vis),
         ("inscatter", &r.inscatter),
@@ -153,7 +153,7 @@ fn assert_finite(r: &Run, what: &str) {
 /// step, in-scatter to 1e-4 relative plus `slack(channel, depth)` where V̄ agrees,
 /// transmittance to 1e-6 plus `slack(3, depth)`. Returns the number of pixels whose V̄ differs
 /// and the reference transmittance of every pixel.
-fn compare_brute_force(
+pub(crate) fn compare_brute_force(
     r: &Run,
     params: &ScatterParams,
     steps: i64,
@@ -306,6 +306,7 @@ fn slit_matches_the_analytic_visibility() {
         proj: proj.to_cols_array_2d(),
         far: 10.0,
         radiance: [0.0; 3],
+        local: None,
     };
     let (w, h) = (16u32, 16u32);
     let mut depth = Raster::new(w, h, 1, 0.0);
@@ -374,6 +375,7 @@ fn synthetic(gpu: &Arc<tyndall::gpu::Gpu>, fill: f32, method: &str, steps: i64) 
         proj: proj.to_cols_array_2d(),
         far: 10.0,
         radiance: [0.0; 3],
+        local: None,
     };
     let depth = Raster::new(8, 8, 1, 0.6); // every ray stays inside the light box, above depth 0
     common::run_node(

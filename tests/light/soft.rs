@@ -19,6 +19,7 @@ fn light() -> Matrices {
         proj: proj.to_cols_array_2d(),
         far: 20.0,
         radiance: [1.0; 3],
+        local: None,
     }
 }
 

@@ -456,6 +456,7 @@ fn composite_follows_its_formula() {
     let light = tyndall::eval::Matrices {
         view: light_view.to_cols_array_2d(),
         radiance: [2.0, 2.0, 2.0],
+        local: None,
         ..Default::default()
     };
     let cam_view = glam::camera::rh::view::look_at_mat4(
@@ -469,6 +470,7 @@ fn composite_follows_its_formula() {
         proj: cam_proj.to_cols_array_2d(),
         far: 50.0,
         radiance: [0.0; 3],
+        local: None,
     };
     let ambient = [0.1, 0.2, 0.3];
     let sky = [0.7, 0.8, 0.9];

@@ -27,8 +27,12 @@ pub struct Matrices {
     pub proj: Mat4,
     /// For `Depth`: the linear depth given to sky pixels (the camera's far distance).
     pub far: f32,
-    /// For `ShadowMap`: the light's colour × intensity (zero for cameras).
+    /// For `ShadowMap`: the light's colour × intensity (zero for cameras): W/m² for the sun,
+    /// W/sr for a spot or point light.
     pub radiance: [f32; 3],
+    /// For a `ShadowMap` of a spot or point light: the light (its position, cone, range and the
+    /// map's depth range); `None` for the sun's orthographic map and for cameras.
+    pub local: Option<crate::scene::LocalLight>,
 }
 
 impl Default for Matrices {
@@ -39,6 +43,7 @@ impl Default for Matrices {
             proj: IDENTITY,
             far: 1.0,
             radiance: [1.0; 3],
+            local: None,
         }
     }
 }
@@ -52,6 +57,7 @@ impl Matrices {
             proj: camera.proj(w as f32 / h.max(1) as f32).to_cols_array_2d(),
             far: camera.far,
             radiance: [0.0; 3],
+            local: None,
         }
     }
 

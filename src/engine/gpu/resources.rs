@@ -178,6 +178,38 @@ impl Gpu {
         })
     }
 
+    /// Copy the whole of `src` into `dst` with its top-left corner at `(x, y)` (same format;
+    /// `dst` large enough), e.g. a cube face into its place in an atlas.
+    pub fn copy_into(
+        &self,
+        src: &GpuTexture,
+        dst: &GpuTexture,
+        x: u32,
+        y: u32,
+    ) -> Result<(), GpuError> {
+        self.scoped(|| {
+            self.encode(|enc| {
+                fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+                    wgpu::TexelCopyTextureInfo {
+                        texture: t.raw(),
+                        mip_level: 0,
+                        origin: wgpu::Origin3d { x, y, z: 0 },
+                        aspect: wgpu::TextureAspect::All,
+                    }
+                }
+                enc.copy_texture_to_texture(
+                    at(src, 0, 0),
+                    at(dst, x, y),
+                    wgpu::Extent3d {
+                        width: src.width,
+                        height: src.height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            })
+        })
+    }
+
     /// The value made by `make` for content `key`, made once and shared while anything holds
     /// it: a second request for the same key (a scene's unchanged geometry on the next frame)
     /// gets the same GPU resources instead of uploading them again. Keys are 64-bit content

@@ -238,6 +238,7 @@ fn torus_scene() -> Scene {
             intensity: 3.0,
         },
         medium: None,
+        lights: Vec::new(),
     }
 }
 
@@ -308,6 +309,7 @@ fn tree_scene(rng: &mut Rng, seed: u64) -> Scene {
             intensity: 3.0,
         },
         medium: None,
+        lights: Vec::new(),
     }
 }
 
@@ -396,6 +398,7 @@ fn window_scene(rng: &mut Rng) -> Scene {
             intensity: 4.0,
         },
         medium: None,
+        lights: Vec::new(),
     }
 }
 
@@ -434,6 +437,7 @@ fn fence_scene(rng: &mut Rng) -> Scene {
             intensity: 3.0,
         },
         medium: None,
+        lights: Vec::new(),
     }
 }
 
@@ -489,5 +493,6 @@ fn figure_scene(rng: &mut Rng) -> Scene {
             intensity: 3.0,
         },
         medium: None,
+        lights: Vec::new(),
     }
 }

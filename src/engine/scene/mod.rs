@@ -4,6 +4,7 @@
 mod builtin;
 mod gltf;
 mod gpu;
+mod light;
 mod parts;
 
 use glam::{Mat4, Vec3};
@@ -15,6 +16,9 @@ pub use gltf::{
     MEDIUM_TAG,
 };
 pub use gpu::{GpuScene, MeshVertex};
+pub use light::{
+    cube_face, face_basis, face_view, local_proj, spot_view, Light, LightKind, LocalLight,
+};
 pub use parts::{PartKeys, ScenePart};
 
 /// Errors building or loading a scene.
@@ -131,8 +135,13 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// The camera (the file's or the built-in's; node parameters may override it).
     pub camera: Camera,
-    /// The sun (the file's or the built-in's; node parameters may override it).
+    /// The sun (the file's first directional light or the built-in's; node parameters may
+    /// override it): what sky and radial blur read.
     pub sun: Sun,
+    /// Every light of a glTF file (directional, spot, point) in node order, or the lights node
+    /// parameters set; empty when the scene is lit by [`Scene::sun`] alone (the built-in
+    /// scenes). [`Scene::light_list`] is what a shadow map chooses from.
+    pub lights: Vec<Light>,
     /// Bounds `(min, max)` of the objects tagged `medium` in a glTF file (those objects are not
     /// part of `objects`: they bound the participating medium and are not drawn); `None` when
     /// the scene has none.
@@ -155,6 +164,41 @@ impl Scene {
         } else {
             (lo, hi)
         }
+    }
+
+    /// The lights a shadow map can be made for: [`Scene::lights`], or the sun named `sun`
+    /// when there are none.
+    pub fn light_list(&self) -> Vec<Light> {
+        if self.lights.is_empty() {
+            vec![Light::sun("sun", self.sun)]
+        } else {
+            self.lights.clone()
+        }
+    }
+
+    /// The light `which` names: empty = the first of [`Scene::light_list`], else a light's name
+    /// or its index in that list. The error lists the scene's lights.
+    pub fn find_light(&self, which: &str) -> Result<Light, String> {
+        let list = self.light_list();
+        let which = which.trim();
+        let found = if which.is_empty() {
+            list.first()
+        } else {
+            list.iter()
+                .find(|l| l.name == which)
+                .or_else(|| which.parse::<usize>().ok().and_then(|i| list.get(i)))
+        };
+        found.cloned().ok_or_else(|| {
+            let names: Vec<String> = list
+                .iter()
+                .enumerate()
+                .map(|(i, l)| format!("{i} '{}' ({})", l.name, l.type_name()))
+                .collect();
+            format!(
+                "no light '{which}' in the scene; its lights: {}",
+                names.join(", ")
+            )
+        })
     }
 
     /// Number of triangles.

@@ -11,7 +11,7 @@ use super::Scene;
 pub enum ScenePart {
     /// The camera: position, target, field of view, near and far.
     Camera,
-    /// The sun: direction, colour and intensity.
+    /// The lights: the sun's direction, colour and intensity, and every other light.
     Sun,
     /// The objects: names, vertices, normals, indices, colours and tags.
     Geometry,
@@ -50,6 +50,9 @@ impl PartKeys {
                 bits(&[c.fov_y, c.near, c.far], h);
             }),
             sun: key(&|h| {
+                for l in &scene.lights {
+                    format!("{l:?}").hash(h);
+                }
                 bits(
                     &[
                         s.azimuth,

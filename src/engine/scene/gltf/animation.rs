@@ -144,8 +144,8 @@ pub struct Trs {
 
 impl Trs {
     /// This transform with the animation's channels for `node` applied at `t` seconds.
-    pub fn animated(mut self, node: usize, anim: Option<&Animation>, t: f32) -> Self {
-        for c in anim.iter().flat_map(|a| a.channels.iter()) {
+    pub fn animated(mut self, node: usize, anims: &[&Animation], t: f32) -> Self {
+        for c in anims.iter().flat_map(|a| a.channels.iter()) {
             if c.node != node {
                 continue;
             }

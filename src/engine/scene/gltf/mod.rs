@@ -1,12 +1,13 @@
 //! glTF 2.0 (`.gltf` with embedded or external buffers, `.glb`): meshes with node transforms,
-//! base colours, the first camera and the first directional light (`KHR_lights_punctual`), and
-//! animations of node translation, rotation and scale ([`animation`]), so the camera, the sun
-//! and meshes move over time.
+//! base colours, the first camera, every `KHR_lights_punctual` light (directional, spot, point;
+//! the first directional one is the scene's sun), and animations of node translation, rotation
+//! and scale ([`animation`]), so the camera, the lights and meshes move over time.
 //!
 //! Tags come from a node's `extras`: `{"tags": ["a", "b"]}`, or `{"tyndall_tag": "a, b"}` (a
 //! Blender object's custom property `tyndall_tag`, which Blender's exporter writes as extras);
 //! objects tagged `medium` are not drawn but give the scene's medium bounds. A directional
-//! light's intensity (lux) is read as irradiance in W/m² (÷ 683, [`LUX_PER_WATT`]).
+//! light's intensity (lux) is read as irradiance in W/m² (÷ 683, [`LUX_PER_WATT`]), a spot or
+//! point light's (candela) as radiant intensity in W/sr (÷ 683 too).
 //!
 //! A file is parsed once into a [`GltfAsset`] (cached by path, size and modification time,
 //! [`load_gltf_asset`]); [`GltfAsset::pose`] places it at a time.
@@ -22,7 +23,7 @@ use base64::Engine;
 use glam::{Mat3, Mat4, Quat, Vec3};
 
 use self::animation::{Animation, Channel, Interpolation, Target, Trs};
-use super::{Camera, Object, Scene, SceneError, Sun};
+use super::{Camera, Light, LightKind, Object, Scene, SceneError, Sun};
 
 /// Luminous efficacy used to read a glTF directional light's illuminance (lux) as irradiance
 /// (W/m²), as Blender's glTF importer does in its default ("Standard") lighting mode.
@@ -102,9 +103,21 @@ struct AssetNode {
     tags: Vec<String>,
     /// Vertical field of view (radians), near and far, of a perspective camera on the node.
     camera: Option<(f32, f32, f32)>,
-    /// Colour and intensity (lux) of a directional light on the node.
-    sun: Option<([f32; 3], f32)>,
+    /// The `KHR_lights_punctual` light on the node.
+    light: Option<NodeLight>,
     primitives: Vec<Primitive>,
+}
+
+/// A `KHR_lights_punctual` light as the file gives it (placed by its node when posed).
+#[derive(Debug, Clone)]
+struct NodeLight {
+    /// `None`: directional; `Some(None)`: point; `Some(Some((inner, outer)))`: a spot's cone
+    /// half-angles (radians).
+    local: Option<Option<(f32, f32)>>,
+    colour: [f32; 3],
+    /// lux (directional) or candela (spot, point).
+    intensity: f32,
+    range: Option<f32>,
 }
 
 /// A parsed glTF file: its node tree, meshes in local space and animations, ready to be posed
@@ -118,22 +131,23 @@ pub struct GltfAsset {
     pub animations: Vec<Animation>,
 }
 
-/// Which animation plays: the `animation` parameter of `Scene` — empty (the first, if any), a
-/// name, or an index.
-pub fn find_animation<'a>(
-    animations: &'a [Animation],
-    which: &str,
-) -> Result<Option<(usize, &'a Animation)>, String> {
+/// Which animations play: the `animation` parameter of `Scene` — empty (every animation of
+/// the file, together: Blender's exporter writes one per animated object), a name, an index, or
+/// `none` (the rest pose). The indices, in file order; the error lists the file's animations.
+pub fn find_animation(animations: &[Animation], which: &str) -> Result<Vec<usize>, String> {
     let which = which.trim();
     if which.is_empty() {
-        return Ok(animations.first().map(|a| (0, a)));
+        return Ok((0..animations.len()).collect());
     }
-    if let Some(found) = animations.iter().enumerate().find(|(_, a)| a.name == which) {
-        return Ok(Some(found));
+    if which.eq_ignore_ascii_case("none") {
+        return Ok(Vec::new());
+    }
+    if let Some(i) = animations.iter().position(|a| a.name == which) {
+        return Ok(vec![i]);
     }
     if let Ok(i) = which.parse::<usize>() {
-        if let Some(a) = animations.get(i) {
-            return Ok(Some((i, a)));
+        if i < animations.len() {
+            return Ok(vec![i]);
         }
     }
     let names: Vec<String> = animations
@@ -313,9 +327,18 @@ pub fn parse_gltf(path: &Path) -> Result<GltfAsset, SceneError> {
             }
             gltf::camera::Projection::Orthographic(_) => None,
         });
-        let sun = node.light().and_then(|l| match l.kind() {
-            gltf::khr_lights_punctual::Kind::Directional => Some((l.color(), l.intensity())),
-            _ => None,
+        let light = node.light().map(|l| NodeLight {
+            local: match l.kind() {
+                gltf::khr_lights_punctual::Kind::Directional => None,
+                gltf::khr_lights_punctual::Kind::Point => Some(None),
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => Some(Some((inner_cone_angle, outer_cone_angle))),
+            },
+            colour: l.color(),
+            intensity: l.intensity(),
+            range: l.range(),
         });
         let primitives = match node.mesh() {
             Some(mesh) => read_primitives(&mesh, &bufs, &name, path)?,
@@ -330,7 +353,7 @@ pub fn parse_gltf(path: &Path) -> Result<GltfAsset, SceneError> {
             children: node.children().map(|c| c.index()).collect(),
             tags: tags_of(&node),
             camera,
-            sun,
+            light,
             primitives,
             name,
         });
@@ -346,7 +369,7 @@ pub fn parse_gltf(path: &Path) -> Result<GltfAsset, SceneError> {
         animations: read_animations(&doc, &bufs, path)?,
     };
     // Fail at load, not at some frame: the rest pose must have something to draw.
-    asset.pose(None, 0.0)?;
+    asset.pose(&[], 0.0)?;
     Ok(asset)
 }
 
@@ -381,12 +404,16 @@ impl GltfAsset {
     /// animation's channels applied, meshes in world space, the first camera and first
     /// directional light in the scene's node order. Camera and sun default to a view of the
     /// bounds and a high sun when the file has none.
-    pub fn pose(&self, animation: Option<usize>, seconds: f32) -> Result<Scene, SceneError> {
+    pub fn pose(&self, animations: &[usize], seconds: f32) -> Result<Scene, SceneError> {
         let path = Path::new(&self.path);
-        let anim = animation.and_then(|i| self.animations.get(i));
+        let anim: Vec<&Animation> = animations
+            .iter()
+            .filter_map(|i| self.animations.get(*i))
+            .collect();
         let mut objects = Vec::new();
         let mut camera = None;
         let mut sun = None;
+        let mut lights = Vec::new();
         let mut stack: Vec<(usize, Mat4)> =
             self.roots.iter().map(|n| (*n, Mat4::IDENTITY)).collect();
         // A node listed twice (a cycle or shared child, invalid glTF) is visited once.
@@ -398,7 +425,7 @@ impl GltfAsset {
             if std::mem::replace(&mut seen[index], true) {
                 continue;
             }
-            let world = parent * node.rest.animated(index, anim, seconds).matrix();
+            let world = parent * node.rest.animated(index, &anim, seconds).matrix();
             for child in &node.children {
                 stack.push((*child, world));
             }
@@ -413,14 +440,31 @@ impl GltfAsset {
                     far,
                 });
             }
-            if let (Some((colour, lux)), None) = (node.sun, sun) {
-                let (azimuth, elevation) = Sun::angles_of(-forward);
-                sun = Some(Sun {
-                    azimuth,
-                    elevation,
-                    colour,
-                    intensity: lux / LUX_PER_WATT,
-                });
+            if let Some(l) = &node.light {
+                let kind = match l.local {
+                    None => {
+                        let (azimuth, elevation) = Sun::angles_of(-forward);
+                        LightKind::Directional { azimuth, elevation }
+                    }
+                    Some(None) => LightKind::Point { position: pos },
+                    Some(Some((inner, outer))) => LightKind::Spot {
+                        position: pos,
+                        direction: forward,
+                        inner,
+                        outer,
+                    },
+                };
+                let light = Light {
+                    name: node.name.clone(),
+                    kind,
+                    colour: l.colour,
+                    intensity: l.intensity / LUX_PER_WATT,
+                    range: l.range,
+                };
+                if sun.is_none() {
+                    sun = light.as_sun();
+                }
+                lights.push((index, light));
             }
             let normal_m = Mat3::from_mat4(world).inverse().transpose();
             for (pi, prim) in node.primitives.iter().enumerate() {
@@ -442,6 +486,10 @@ impl GltfAsset {
                 Some(b.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))))
             },
         );
+        // Lights in the file's node order (the traversal above is depth first from the last
+        // root), so that an index names the same light in every pose.
+        lights.sort_by_key(|(index, _)| *index);
+        let lights = lights.into_iter().map(|(_, l)| l).collect();
         let mut s = Scene {
             objects,
             medium,
@@ -458,6 +506,7 @@ impl GltfAsset {
                 colour: [1.0; 3],
                 intensity: 3.0,
             }),
+            lights,
         };
         s.camera = camera.unwrap_or_else(|| {
             let (lo, hi) = s.bounds();
@@ -474,11 +523,30 @@ impl GltfAsset {
         Ok(s)
     }
 
-    /// Whether anything moves: some channel of `animation` has two or more keys.
-    pub fn moves(&self, animation: Option<usize>) -> bool {
-        animation
-            .and_then(|i| self.animations.get(i))
-            .is_some_and(|a| a.channels.iter().any(|c| c.times.len() > 1))
+    /// Whether anything moves: some channel of one of `animations` has two or more keys.
+    pub fn moves(&self, animations: &[usize]) -> bool {
+        animations
+            .iter()
+            .filter_map(|i| self.animations.get(*i))
+            .any(|a| a.channels.iter().any(|c| c.times.len() > 1))
+    }
+
+    /// First and last key time, seconds, over `animations` together (`(0, 0)` for none).
+    pub fn range(&self, animations: &[usize]) -> (f32, f32) {
+        let ranges: Vec<(f32, f32)> = animations
+            .iter()
+            .filter_map(|i| self.animations.get(*i))
+            .filter(|a| !a.channels.is_empty())
+            .map(Animation::range)
+            .collect();
+        if ranges.is_empty() {
+            return (0.0, 0.0);
+        }
+        ranges
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), r| {
+                (lo.min(r.0), hi.max(r.1))
+            })
     }
 
     /// One line per animation: name, channels, and the frame range at `fps` (frame = seconds ×
@@ -546,5 +614,5 @@ fn posed(node: &AssetNode, pi: usize, prim: &Primitive, world: Mat4, normal_m: M
 /// Load a glTF scene in its rest pose (no animation applied). Camera and sun default to a
 /// view of the bounds and a high sun when the file has none.
 pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
-    parse_gltf(path)?.pose(None, 0.0)
+    parse_gltf(path)?.pose(&[], 0.0)
 }
