@@ -7,6 +7,7 @@ cargo build --release --quiet
 for scene in torus tree window fence figure window_room cathedral forest workshop; do
   ./target/release/tyndall render "graphs/physical/$scene.ron" -o "docs/physical/$scene.png" --size 960x540
 done
+./target/release/tyndall render graphs/lights/tree_spot.ron -o docs/lights/tree_spot.png --size 480x270
 ./target/release/tyndall render tests/fixtures/gltf_scene.ron -o docs/physical/gltf_scene.png --size 960x540
 for preset in tree_hole_filling torus_closure figure_silhouette window_soft_glow; do
   ./target/release/tyndall render "graphs/stylize/$preset.ron" -o "docs/stylize/$preset.png" --size 960x540
