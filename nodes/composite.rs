@@ -112,14 +112,14 @@ tyndall_engine::uniforms! {
         pub has_light_map: u32,
         /// World → light-map clip (identity without one).
         pub light_map_view_proj: [[f32; 4]; 4],
-        /// 0: the sun; 1: a spot, 2: a point light (lit by its falloff and direction per point).
-        pub local_kind: u32,
         /// The spot's or point light's position.
         pub light_pos: [f32; 3],
-        /// cos of a spot's inner cone half-angle.
-        pub cos_inner: f32,
+        /// 0: the sun; 1: a spot, 2: a point light (lit by its falloff and direction per point).
+        pub local_kind: u32,
         /// A spot's unit direction.
         pub spot_dir: [f32; 3],
+        /// cos of a spot's inner cone half-angle.
+        pub cos_inner: f32,
         /// cos of a spot's outer cone half-angle.
         pub cos_outer: f32,
         /// Range (m), 0 for unlimited.
@@ -128,8 +128,6 @@ tyndall_engine::uniforms! {
         pub near: f32,
         /// The map's depth 1, m.
         pub far: f32,
-        /// Padding.
-        pub _pad0: u32,
     }
 }
 
@@ -298,7 +296,6 @@ impl NodeKind for Composite {
             range: light.local.map_or(0.0, |l| l.range),
             near: light.local.map_or(0.0, |l| l.near),
             far: light.local.map_or(1.0, |l| l.far),
-            _pad0: 0,
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());

@@ -20,15 +20,14 @@ struct Params {
     has_aerial_inscatter: u32,
     has_light_map: u32,
     light_map_view_proj: mat4x4<f32>,
-    local_kind: u32,
     light_pos: vec3<f32>,
-    cos_inner: f32,
+    local_kind: u32,
     spot_dir: vec3<f32>,
+    cos_inner: f32,
     cos_outer: f32,
     range: f32,
     near: f32,
     far: f32,
-    _pad0: u32,
 }
 
 // The spot or point light of the shadow map (local_kind ≠ 0).
