@@ -155,27 +155,7 @@ impl Gpu {
         width: u32,
         height: u32,
     ) -> Result<(), GpuError> {
-        self.scoped(|| {
-            self.encode(|enc| {
-                fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
-                    wgpu::TexelCopyTextureInfo {
-                        texture: t.raw(),
-                        mip_level: 0,
-                        origin: wgpu::Origin3d { x, y, z: 0 },
-                        aspect: wgpu::TextureAspect::All,
-                    }
-                }
-                enc.copy_texture_to_texture(
-                    at(src, x, y),
-                    at(dst, x, y),
-                    wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                );
-            })
-        })
+        self.copy_block(src, (x, y), dst, (x, y), (width, height))
     }
 
     /// Copy the whole of `src` into `dst` with its top-left corner at `(x, y)` (same format;
@@ -187,9 +167,21 @@ impl Gpu {
         x: u32,
         y: u32,
     ) -> Result<(), GpuError> {
+        self.copy_block(src, (0, 0), dst, (x, y), (src.width, src.height))
+    }
+
+    /// Copy a `size` block from `src` at `from` to `dst` at `to` (same format).
+    fn copy_block(
+        &self,
+        src: &GpuTexture,
+        from: (u32, u32),
+        dst: &GpuTexture,
+        to: (u32, u32),
+        (width, height): (u32, u32),
+    ) -> Result<(), GpuError> {
         self.scoped(|| {
             self.encode(|enc| {
-                fn at(t: &GpuTexture, x: u32, y: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+                fn at(t: &GpuTexture, (x, y): (u32, u32)) -> wgpu::TexelCopyTextureInfo<'_> {
                     wgpu::TexelCopyTextureInfo {
                         texture: t.raw(),
                         mip_level: 0,
@@ -198,11 +190,11 @@ impl Gpu {
                     }
                 }
                 enc.copy_texture_to_texture(
-                    at(src, 0, 0),
-                    at(dst, x, y),
+                    at(src, from),
+                    at(dst, to),
                     wgpu::Extent3d {
-                        width: src.width,
-                        height: src.height,
+                        width,
+                        height,
                         depth_or_array_layers: 1,
                     },
                 );

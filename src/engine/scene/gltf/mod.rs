@@ -15,6 +15,8 @@
 pub mod animation;
 mod checks;
 
+pub use self::animation::find_animation;
+
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -129,40 +131,6 @@ pub struct GltfAsset {
     roots: Vec<usize>,
     /// The file's animations, in file order.
     pub animations: Vec<Animation>,
-}
-
-/// Which animations play: the `animation` parameter of `Scene` — empty (every animation of
-/// the file, together: Blender's exporter writes one per animated object), a name, an index, or
-/// `none` (the rest pose). The indices, in file order; the error lists the file's animations.
-pub fn find_animation(animations: &[Animation], which: &str) -> Result<Vec<usize>, String> {
-    let which = which.trim();
-    if which.is_empty() {
-        return Ok((0..animations.len()).collect());
-    }
-    if which.eq_ignore_ascii_case("none") {
-        return Ok(Vec::new());
-    }
-    if let Some(i) = animations.iter().position(|a| a.name == which) {
-        return Ok(vec![i]);
-    }
-    if let Ok(i) = which.parse::<usize>() {
-        if i < animations.len() {
-            return Ok(vec![i]);
-        }
-    }
-    let names: Vec<String> = animations
-        .iter()
-        .enumerate()
-        .map(|(i, a)| format!("{i} '{}'", a.name))
-        .collect();
-    Err(format!(
-        "no animation '{which}' in the file (animations: {})",
-        if names.is_empty() {
-            "none".to_string()
-        } else {
-            names.join(", ")
-        }
-    ))
 }
 
 fn tags_of(node: &gltf::Node) -> Vec<String> {
