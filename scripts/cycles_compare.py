@@ -2,17 +2,23 @@
 
 Run (Debian: apt-get install blender), from the repository root, after `cargo build --release`:
 
-    blender -b --factory-startup --python scripts/cycles_compare.py [-- --samples N --out DIR]
+    blender -b --factory-startup --python scripts/cycles_compare.py [-- --scene S --samples N --out DIR]
 
-It builds a small scene — ground, a wall with a vertical slit, a sun behind the wall, and a box of
-homogeneous fog (Volume Scatter: density σ = σt, albedo 1, anisotropy g) on the camera's side —
-renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the sun, shadowed,
+`--scene` picks the light (default `sun`):
+
+- `sun`: ground, a wall with a vertical slit, a sun behind the wall, and a box of homogeneous fog
+  (Volume Scatter: density σ = σt, albedo 1, anisotropy g) on the camera's side;
+- `spot`: a spot light (hard cone: blend 0, radius 0) above a grille of bars over a fog box;
+- `point`: a point light (radius 0) in a cage of vertical bars with a solid floor, above a fog box.
+
+For each it
+renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the light, shadowed,
 attenuated on the way in and on the way out, which is Tyndall's `bounds = tagged`,
 `light_extinction = on`), exports the same scene as glTF (the fog box tagged `medium`, the sun's
-W/m² written as lux × 683), renders it with `target/release/tyndall`, and prints the correlation
+W/m² written as lux × 683, a lamp's P watts as P / 4π × 683 cd by Blender's exporter), renders it with `target/release/tyndall`, and prints the correlation
 and the mean relative error over the pixels whose Cycles in-scatter is above 10 % of its maximum.
 
-Default output is tests/fixtures/cycles/: `scene.gltf`, `cycles_volume_direct.exr` (what the test
+Default output is tests/fixtures/cycles/ (`cycles_spot/`, `cycles_point/` for the lamps): `scene.gltf`, `cycles_volume_direct.exr` (what the test
 `tests/light/cycles.rs` compares against, so CI needs no Blender) and `compare.ron` (the Tyndall graph).
 """
 import math
@@ -28,6 +34,7 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 SIGMA = 0.25        # 1/m, Volume Scatter density = σt (albedo 1)
 G = 0.5             # Henyey–Greenstein anisotropy
 SUN_W_M2 = 5.0      # sun irradiance, W/m²
+LAMP_W = 600.0      # spot and point light power, W (Blender's Standard units: P / 4π W/sr)
 WIDTH, HEIGHT = 160, 90
 FOG_MIN = (-4.0, -6.0, 0.0)   # Blender coordinates (z up)
 FOG_MAX = (4.0, -0.2, 4.0)
@@ -35,13 +42,20 @@ FOG_MAX = (4.0, -0.2, 4.0)
 
 def args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    samples, out = 2048, os.path.join(ROOT, "tests", "fixtures", "cycles")
+    samples, out, which = 2048, None, "sun"
     for i, a in enumerate(argv):
         if a == "--samples":
             samples = int(argv[i + 1])
         if a == "--out":
             out = os.path.abspath(argv[i + 1])
-    return samples, out
+        if a == "--scene":
+            which = argv[i + 1]
+    if which not in ("sun", "spot", "point"):
+        sys.exit(f"--scene {which}: expected sun, spot or point")
+    if out is None:
+        name = "cycles" if which == "sun" else f"cycles_{which}"
+        out = os.path.join(ROOT, "tests", "fixtures", name)
+    return samples, out, which
 
 
 def box(name, lo, hi):
@@ -73,21 +87,57 @@ def material(name, colour=None, volume=False):
     return m
 
 
-def build():
+def start():
+    """An empty scene with a black world and a ground plane."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     ground = box("ground", (-10, -12, -0.1), (10, 8, 0.0))
     ground.data.materials.append(material("ground", (0.6, 0.58, 0.55, 1)))
+    ground["tags"] = ["ground"]
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    return scene
+
+
+def fog(lo, hi):
+    f = box("fog", lo, hi)
+    f.data.materials.append(material("fog", volume=True))
+    f["tags"] = ["medium"]
+
+
+def camera(scene, location, target):
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.lens_unit = "FOV"
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.angle_y = math.radians(40)
+    cam_data.clip_start, cam_data.clip_end = 0.1, 60.0
+    cam = bpy.data.objects.new("camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = location
+    cam.rotation_mode = "QUATERNION"
+    cam.rotation_quaternion = look(tuple(t - c for t, c in zip(target, cam.location)))
+    scene.camera = cam
+
+
+def occluders(boxes):
+    m = material("occluder", (0.3, 0.3, 0.32, 1))
+    for i, (lo, hi) in enumerate(boxes):
+        o = box(f"occluder_{i}", lo, hi)
+        o.data.materials.append(m)
+        o["tags"] = ["occluder"]
+
+
+def build_sun():
+    scene = start()
     wall = material("wall", (0.7, 0.4, 0.3, 1))
     for name, lo, hi in (("wall_left", (-7, -0.1, 0), (-0.35, 0.1, 9.0)),
                          ("wall_right", (0.35, -0.1, 0), (7, 0.1, 9.0))):
         w = box(name, lo, hi)
         w.data.materials.append(wall)
         w["tags"] = ["wall", "occluder"]
-    ground["tags"] = ["ground"]
-    fog = box("fog", FOG_MIN, FOG_MAX)
-    fog.data.materials.append(material("fog", volume=True))
-    fog["tags"] = ["medium"]
+    fog(FOG_MIN, FOG_MAX)
 
     sun_data = bpy.data.lights.new("sun", type="SUN")
     sun_data.energy = SUN_W_M2
@@ -98,23 +148,67 @@ def build():
     travel = (-0.25, -1.0, -0.45)
     sun.rotation_mode = "QUATERNION"
     sun.rotation_quaternion = look(travel)
+    camera(scene, (6.0, -13.0, 2.2), (0.0, -1.0, 2.0))
+    return scene
 
-    cam_data = bpy.data.cameras.new("camera")
-    cam_data.lens_unit = "FOV"
-    cam_data.sensor_fit = "VERTICAL"
-    cam_data.angle_y = math.radians(40)
-    cam_data.clip_start, cam_data.clip_end = 0.1, 60.0
-    cam = bpy.data.objects.new("camera", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (6.0, -13.0, 2.2)
-    cam.rotation_mode = "QUATERNION"
-    cam.rotation_quaternion = look(tuple(t - c for t, c in zip((0.0, -1.0, 2.0), cam.location)))
-    scene.camera = cam
 
-    world = bpy.data.worlds.new("black")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    scene.world = world
+def lamp(scene, kind, location, travel=None):
+    data = bpy.data.lights.new(kind, type=kind.upper())
+    data.energy = LAMP_W
+    data.shadow_soft_size = 0.0
+    if kind == "spot":
+        data.spot_size = math.radians(70)
+        data.spot_blend = 0.0
+        # Cycles (3.4, measured: a spot over a plane against a point light, ratio = cos θ to
+        # 4 digits out to 71°) multiplies a spot's intensity by cos θ, θ from its axis; glTF's
+        # spot (and Blender's exporter, which writes P / 4π × 683 cd regardless) has no such
+        # factor. The light's strength 1 / cos θ (Texture Coordinate's Normal is the direction
+        # in the light's frame, z = −cos θ) makes Cycles render glTF's spot. The exporter finds
+        # no Light Falloff node behind the strength and writes the lamp's power as usual.
+        data.use_nodes = True
+        nt = data.node_tree
+        coord = nt.nodes.new("ShaderNodeTexCoord")
+        xyz = nt.nodes.new("ShaderNodeSeparateXYZ")
+        nt.links.new(coord.outputs["Normal"], xyz.inputs[0])
+        inv = nt.nodes.new("ShaderNodeMath")
+        inv.operation = "DIVIDE"
+        inv.inputs[0].default_value = -1.0
+        nt.links.new(xyz.outputs["Z"], inv.inputs[1])
+        nt.links.new(inv.outputs[0], nt.nodes["Emission"].inputs["Strength"])
+    o = bpy.data.objects.new(kind, data)
+    scene.collection.objects.link(o)
+    o.location = location
+    if travel is not None:
+        o.rotation_mode = "QUATERNION"
+        o.rotation_quaternion = look(travel)
+
+
+def build_spot():
+    """A spot 2 m above a fog box, shining down through a grille of bars and two cross bars."""
+    scene = start()
+    fog((-4, -4, 0), (4, 4, 4))
+    bars = [((x, -1.6, 4.5), (x + 0.35, 1.6, 4.6)) for x in (-1.55, -0.75, 0.05, 0.85)]
+    bars += [((-1.6, y, 4.6), (1.6, y + 0.3, 4.7)) for y in (-0.9, 0.5)]
+    occluders(bars)
+    lamp(scene, "spot", (0.0, 0.0, 6.0), travel=(0.1, 0.05, -1.0))
+    # Looking along the bars, whose shadows are sheets seen edge-on.
+    camera(scene, (0.6, -10.5, 2.6), (0.0, 0.0, 2.2))
+    return scene
+
+
+def build_point():
+    """A point light 1 m above a fog box, in a cage of twelve vertical bars with a solid floor."""
+    scene = start()
+    fog((-4, -4, 0), (4, 4, 4))
+    cage = []
+    for k in range(12):
+        a = 2 * math.pi * k / 12
+        cx, cy = 0.45 * math.cos(a), 0.45 * math.sin(a)
+        cage.append(((cx - 0.06, cy - 0.06, 4.1), (cx + 0.06, cy + 0.06, 5.9)))
+    cage.append(((-0.5, -0.5, 4.05), (0.5, 0.5, 4.15)))
+    occluders(cage)
+    lamp(scene, "point", (0.0, 0.0, 5.0))
+    camera(scene, (8.0, -11.0, 3.5), (0.0, 0.0, 2.0))
     return scene
 
 
@@ -174,7 +268,7 @@ GRAPH = """(
         "scene": (kind: "Scene", params: {{"path": "{gltf}"}}),
         "shadow": (kind: "ShadowMap", params: {{"resolution": 2048}}),
         "gbuffer": (kind: "GBuffer"),
-        "scatter": (kind: "SingleScattering", params: {{"sigma_t": {sigma}, "albedo": 1.0, "g": {g}, "method": "MinMax", "bias": 0.0005, "bounds": "tagged", "light_extinction": "on"}}),
+        "scatter": (kind: "SingleScattering", params: {{"sigma_t": {sigma}, "albedo": 1.0, "g": {g}, {method}, "bias": 0.0005, "bounds": "tagged", "light_extinction": "on"}}),
         "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),
     }},
     edges: [
@@ -189,19 +283,22 @@ GRAPH = """(
 """
 
 
-def export_and_render_tyndall(out):
+def export_and_render_tyndall(out, which):
     gltf = os.path.join(out, "scene.gltf")
     bpy.ops.export_scene.gltf(filepath=gltf, export_format="GLTF_EMBEDDED", export_cameras=True,
                               export_lights=True, export_extras=True, export_yup=True,
                               export_apply=True)
-    rel = os.path.relpath(gltf, ROOT)
-    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, exr="out/cycles/tyndall_inscatter.exr")
+    rel = "scene.gltf"  # graph paths are relative to the graph's folder
+    # A lamp's falloff and phase change along the ray: BruteForce with many samples.
+    method = '"method": "MinMax"' if which == "sun" else '"method": "BruteForce", "steps": 1024'
+    exr = f"out/{os.path.basename(out)}/tyndall_inscatter.exr"
+    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, method=method, exr=exr)
     with open(os.path.join(out, "compare.ron"), "w") as f:
         f.write(graph)
     exe = os.path.join(ROOT, "target", "release", "tyndall")
-    subprocess.run([exe, "render", os.path.join(out, "compare.ron"), "--size", f"{WIDTH}x{HEIGHT}"],
-                   cwd=ROOT, check=True)
-    return os.path.join(ROOT, "out", "cycles", "tyndall_inscatter.exr")
+    subprocess.run([exe, "render", os.path.join(out, "compare.ron"), "--size", f"{WIDTH}x{HEIGHT}",
+                    "--output-dir", ROOT], cwd=ROOT, check=True)
+    return os.path.join(ROOT, exr)
 
 
 def pixels(path):
@@ -234,11 +331,11 @@ def compare(cycles_exr, tyndall_exr):
 
 
 def main():
-    samples, out = args()
+    samples, out, which = args()
     os.makedirs(out, exist_ok=True)
-    scene = build()
+    scene = {"sun": build_sun, "spot": build_spot, "point": build_point}[which]()
     cycles_exr = render_cycles(scene, samples, out)
-    tyndall_exr = export_and_render_tyndall(out)
+    tyndall_exr = export_and_render_tyndall(out, which)
     compare(cycles_exr, tyndall_exr)
 
 
