@@ -17,6 +17,10 @@
 //! the polygon is from the disk is measured in `benches/morphology.ron` and bounded in
 //! `tests/filters/morphology.rs`.
 //!
+//! Any light's map: a spot's perspective map is filtered like a sun's (radii in its texels); a
+//! point light's cube atlas is filtered face by face with a gutter taken from the neighbouring
+//! faces (`nodes/cube_atlas.rs`), so a hole straddling two faces closes as one hole.
+//!
 //! | port | dir | type |
 //! |---|---|---|
 //! | `map` | in | ShadowMap \| Scalar (required) |
@@ -26,12 +30,14 @@
 //! |---|---|---|---|---|
 //! | `shape` | Enum | Circle | Circle, Square | footprint |
 //! | `radius` | Float | 4 | 0…4096 | r, rounded to whole texels (kernel 2r + 1); 0 is the identity |
-//! | `unit` | Enum | texels | texels, metres | metres: r is a world size, converted with the map's light matrices, so a preset keeps its look at any map resolution |
+//! | `unit` | Enum | texels | texels, metres | metres: r is a world size, converted with the map's light matrices, so a preset keeps its look at any map resolution (a sun's map only: a lamp's is perspective, refused) |
 //! | `method` | Enum | Fast | Fast, Exact, BruteForce | algorithm: Fast = the polygon for a circle of r ≥ 8 (cost flat in r), Exact = the exact disk (chords, linear in r), BruteForce = whole footprint |
 
 mod polygon;
 
 use std::sync::Arc;
+
+use crate::cube_atlas;
 
 pub use polygon::{
     disk_support, footprint_difference, polygon, polygon_pays, polygon_span, reference_lines,
@@ -110,10 +116,14 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
         params: Params::SPECS,
     };
     NodeDecl::new(schema)
-        .shaders(&[SHADER, SHADER_LINES])
+        .shaders(&[SHADER, SHADER_LINES, cube_atlas::SHADER])
         .uniforms(UNIFORMS)
 }
-const UNIFORMS: &[UniformLayout] = &[MorphParams::LAYOUT, LineParams::LAYOUT];
+const UNIFORMS: &[UniformLayout] = &[
+    MorphParams::LAYOUT,
+    LineParams::LAYOUT,
+    cube_atlas::UNIFORMS,
+];
 
 static DILATE: NodeDecl = decl(
     "Dilate2D",
@@ -223,6 +233,14 @@ pub fn radius_texels(
     width: u32,
 ) -> Result<i32, NodeError> {
     let texels = match (unit, m) {
+        (Unit::Metres, Some(m)) if m.local.is_some() => {
+            return Err(NodeError::Param {
+                param: "unit".into(),
+                message: "metres needs a sun's (orthographic) map: a spot's or point light's \
+                          texel grows with the distance from the light, so give the radius in texels"
+                    .into(),
+            })
+        }
         (Unit::Metres, Some(m)) => {
             // Orthographic: clip x = proj[0][0] · view x, over 2 clip units = width texels.
             let sx = m.proj[0][0].abs() as f64;
@@ -404,13 +422,28 @@ impl NodeKind for Morphology2D {
         let r = radius_texels(p.radius, p.unit, m.as_ref(), tex.width)?;
         let circle = p.shape == Shape::Circle;
         let method = p.method;
-        let out = match self.0 {
-            Op::Dilate => filter(ctx.gpu, &tex, r, circle, false, method)?,
-            Op::Erode => filter(ctx.gpu, &tex, r, circle, true, method)?,
-            Op::Closure => {
-                let d = filter(ctx.gpu, &tex, r, circle, false, method)?;
-                filter(ctx.gpu, &d, r, circle, true, method)?
+        let op = |src: &Arc<GpuTexture>| -> Result<Arc<GpuTexture>, GpuError> {
+            Ok(match self.0 {
+                Op::Dilate => filter(ctx.gpu, src, r, circle, false, method)?,
+                Op::Erode => filter(ctx.gpu, src, r, circle, true, method)?,
+                Op::Closure => {
+                    let d = filter(ctx.gpu, src, r, circle, false, method)?;
+                    filter(ctx.gpu, &d, r, circle, true, method)?
+                }
+            })
+        };
+        // A point light's cube atlas: every face padded with what lies past its edges on the
+        // cube, filtered, cropped — no seams (nodes/cube_atlas.rs). A closure reads 2r deep.
+        let cube = m.and_then(|m| m.local).filter(|l| l.point);
+        let out = match cube {
+            Some(light) if r > 0 => {
+                let face = tex.width / 3;
+                let reach = if self.0 == Op::Closure { 2 * r } else { r };
+                let padded =
+                    cube_atlas::pad(ctx.gpu, &tex, &light, cube_atlas::gutter_for(reach, face))?;
+                cube_atlas::crop(ctx.gpu, &*op(&padded)?, face, &light)?
             }
+            _ => op(&tex)?,
         };
         ctx.set(
             "map",

@@ -63,6 +63,23 @@ fn cube_face(d: vec3<f32>) -> u32 {
     return select(4u, 5u, d.z < 0.0);
 }
 
+// The frame of cube face `face` (see `cube_face`): columns forward f, right s, up u; the face
+// shows direction f + a·s + b·u at ndc (a, b), v down (CPU twin: scene::face_basis).
+fn cube_frame(face: u32) -> mat3x3<f32> {
+    var f = vec3<f32>(0.0, 0.0, -1.0);
+    var up = vec3<f32>(0.0, 1.0, 0.0);
+    switch face {
+        case 0u: { f = vec3<f32>(1.0, 0.0, 0.0); }
+        case 1u: { f = vec3<f32>(-1.0, 0.0, 0.0); }
+        case 2u: { f = vec3<f32>(0.0, 1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
+        case 3u: { f = vec3<f32>(0.0, -1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
+        case 4u: { f = vec3<f32>(0.0, 0.0, 1.0); }
+        default: {}
+    }
+    let s = normalize(cross(f, up));
+    return mat3x3<f32>(f, s, cross(s, f));
+}
+
 // Light-space (u, v, depth) of x in a spot's map (world → clip `view_proj`, linear clip z) or
 // a point light's 3 × 2 cube atlas; a point behind a spot maps outside (lit, as outside any map;
 // its cone gives it nothing).
@@ -70,18 +87,10 @@ fn light_uvz_local(l: LocalLight, view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<
     if l.kind == 2u {
         let d = x - l.position;
         let face = cube_face(d);
-        var f = vec3<f32>(0.0, 0.0, -1.0);
-        var up = vec3<f32>(0.0, 1.0, 0.0);
-        switch face {
-            case 0u: { f = vec3<f32>(1.0, 0.0, 0.0); }
-            case 1u: { f = vec3<f32>(-1.0, 0.0, 0.0); }
-            case 2u: { f = vec3<f32>(0.0, 1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
-            case 3u: { f = vec3<f32>(0.0, -1.0, 0.0); up = vec3<f32>(0.0, 0.0, 1.0); }
-            case 4u: { f = vec3<f32>(0.0, 0.0, 1.0); }
-            default: {}
-        }
-        let s = normalize(cross(f, up));
-        let u = cross(s, f);
+        let frame = cube_frame(face);
+        let f = frame[0];
+        let s = frame[1];
+        let u = frame[2];
         let depth = dot(f, d);
         let ndc = vec2<f32>(dot(s, d), dot(u, d)) / max(depth, 1e-12);
         let uv = clamp(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2<f32>(0.0), vec2<f32>(0.999999));

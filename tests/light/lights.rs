@@ -3,7 +3,9 @@
 
 use crate::scattering::{assert_finite, compare_brute_force, run_scene};
 
+use crate::common;
 use glam::Vec3;
+use tyndall::eval::download;
 use tyndall::graph::ParamValue;
 use tyndall::io::Raster;
 use tyndall::nodes::algorithms::shader_lib::henyey_greenstein;
@@ -210,4 +212,127 @@ fn a_point_light_in_a_clear_medium_matches_the_closed_form() {
         "point light in-scatter {} vs closed form {want}",
         ins[1]
     );
+}
+
+/// A point light at the origin (depth 0.1–20 m along each face's axis) and its 3 × 2 atlas of
+/// faces `n` texels wide, ray-cast on the CPU: a wall on the plane x + z = 3 — seen by the +X
+/// and +Z faces, their seam along the direction (1, y, 1) — with a square hole of `hole` m
+/// centred on that seam (direction (1, 0, 1)); nothing behind it (depth 1).
+fn wall_across_a_seam(n: u32, hole: f32) -> (tyndall::scene::LocalLight, Raster) {
+    let light = tyndall::scene::LocalLight {
+        point: true,
+        position: [0.0; 3],
+        direction: [0.0, -1.0, 0.0],
+        cos_inner: -1.0,
+        cos_outer: -1.0,
+        range: 0.0,
+        near: 0.1,
+        far: 20.0,
+    };
+    let mut atlas = Raster::new(3 * n, 2 * n, 1, 1.0);
+    let normal = Vec3::new(1.0, 0.0, 1.0) / 2f32.sqrt();
+    let centre = Vec3::new(1.5, 0.0, 1.5);
+    let along = Vec3::new(1.0, 0.0, -1.0) / 2f32.sqrt();
+    for y in 0..2 * n {
+        for x in 0..3 * n {
+            let face = (x / n + 3 * (y / n)) as usize;
+            let (f, s, u) = tyndall::scene::face_basis(face);
+            let a = ((x % n) as f32 + 0.5) / n as f32 * 2.0 - 1.0;
+            let b = 1.0 - ((y % n) as f32 + 0.5) / n as f32 * 2.0;
+            let dir = f + a * s + b * u;
+            let den = dir.dot(normal);
+            if den <= 1e-6 {
+                continue;
+            }
+            let p = dir * (3.0 / 2f32.sqrt() / den);
+            let q = p - centre;
+            if q.dot(along).abs() < hole / 2.0 && q.y.abs() < hole / 2.0 {
+                continue;
+            }
+            // Depth along the face's axis, f · p, in the map's 0–1 range.
+            atlas.data[(y * 3 * n + x) as usize] =
+                (f.dot(p) - light.near) / (light.far - light.near);
+        }
+    }
+    (light, atlas)
+}
+
+#[test]
+fn the_cube_atlas_gutter_matches_its_cpu_reference() {
+    let gpu = require_gpu!();
+    let (light, atlas) = wall_across_a_seam(64, 0.4);
+    let tex = match common::upload(&gpu, &atlas, tyndall::graph::PortType::ShadowMap) {
+        tyndall::eval::PortValue::ShadowMap(t, _) => t,
+        _ => unreachable!(),
+    };
+    let padded = tyndall::nodes::cube_atlas::pad(&gpu, &tex, &light, 12).expect("pad");
+    let got = download(&gpu, &tyndall::eval::PortValue::Scalar(padded.clone())).expect("download");
+    let want = tyndall::nodes::cube_atlas::pad_reference(&atlas, &light, 12);
+    assert_eq!((got.width, got.height), (3 * 88, 2 * 88));
+    // The same float operations in the same order; a texel whose direction falls within
+    // rounding of a face edge may pick the neighbouring texel, so compare values to 1e-5
+    // (0.2 mm of 20 m) and allow a few edge picks.
+    let off = got
+        .data
+        .iter()
+        .zip(&want.data)
+        .filter(|(a, b)| (*a - *b).abs() > 1e-5)
+        .count();
+    assert!(
+        off * 1000 <= got.data.len(),
+        "{off} of {} texels differ",
+        got.data.len()
+    );
+    let crop = tyndall::nodes::cube_atlas::crop(&gpu, &padded, 64, &light).expect("crop");
+    let back = download(&gpu, &tyndall::eval::PortValue::Scalar(crop)).expect("download");
+    assert_eq!(back.data, atlas.data, "crop ∘ pad is the identity");
+}
+
+#[test]
+fn closure2d_closes_a_hole_that_straddles_two_cube_faces() {
+    let gpu = require_gpu!();
+    let n = 96;
+    let (light, atlas) = wall_across_a_seam(n, 0.5);
+    let input = match common::upload(&gpu, &atlas, tyndall::graph::PortType::ShadowMap) {
+        tyndall::eval::PortValue::ShadowMap(t, m) => tyndall::eval::PortValue::ShadowMap(
+            t,
+            tyndall::eval::Matrices {
+                local: Some(light),
+                ..m
+            },
+        ),
+        _ => unreachable!(),
+    };
+    let holes = |r: &Raster| r.data.iter().filter(|v| **v >= 1.0).count();
+    // The wall covers parts of the +X and +Z faces only; everything else sees nothing (1).
+    let open = holes(&atlas);
+    let closed = common::run_node(
+        &gpu,
+        "Closure2D",
+        &[("radius", f(12.0)), ("shape", e("Circle"))],
+        vec![("map", input)],
+        &["map"],
+        (1, 1),
+    )
+    .expect("Closure2D")
+    .remove("map")
+    .expect("map");
+    // The hole spans about 0.5 m at 2.1 m: ~13 texels on each face (96 texels over 90°), so a
+    // 12-texel closure closes it. Counting the texels with nothing behind them: the hole's
+    // are gone, the open sky beside the wall stays (a closure never opens anything).
+    let hole_texels = open - holes(&wall_across_a_seam(n, 0.0).1);
+    assert!(hole_texels > 100, "the hole covers {hole_texels} texels");
+    assert_eq!(
+        holes(&closed),
+        open - hole_texels,
+        "after the closure {} texels see nothing, not the {} beside the wall: the hole \
+         ({hole_texels} texels) is not closed as one, or the closure ate open sky at a seam",
+        holes(&closed),
+        open - hole_texels
+    );
+    // Min then max never raises a texel's depth: it only fills holes (and evens the wall's
+    // depth where it changes within a kernel).
+    for (c, a) in closed.data.iter().zip(&atlas.data) {
+        assert!(*c <= *a + 1e-6, "{c} > {a}");
+    }
 }
