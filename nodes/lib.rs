@@ -18,7 +18,6 @@ pub mod blend_volume;
 pub mod blur;
 pub mod composite;
 pub mod constant;
-pub mod cube_atlas;
 pub mod depth_upsample;
 pub mod downsample;
 pub mod epipolar;

@@ -19,7 +19,7 @@
 //!
 //! Any light's map: a spot's perspective map is filtered like a sun's (radii in its texels); a
 //! point light's cube atlas is filtered face by face with a gutter taken from the neighbouring
-//! faces (`nodes/cube_atlas.rs`), so a hole straddling two faces closes as one hole.
+//! faces (`nodes/algorithms/cube_atlas.rs`), so a hole straddling two faces closes as one hole.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -37,7 +37,7 @@ mod polygon;
 
 use std::sync::Arc;
 
-use crate::cube_atlas;
+use crate::algorithms::cube_atlas;
 
 pub use polygon::{
     disk_support, footprint_difference, polygon, polygon_pays, polygon_span, reference_lines,
@@ -433,7 +433,7 @@ impl NodeKind for Morphology2D {
             })
         };
         // A point light's cube atlas: every face padded with what lies past its edges on the
-        // cube, filtered, cropped — no seams (nodes/cube_atlas.rs). A closure reads 2r deep.
+        // cube, filtered, cropped — no seams (nodes/algorithms/cube_atlas.rs). A closure reads 2r deep.
         let cube = m.and_then(|m| m.local).filter(|l| l.point);
         let out = match cube {
             Some(light) if r > 0 => {

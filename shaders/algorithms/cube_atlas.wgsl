@@ -1,5 +1,5 @@
 // A point light's 3 × 2 cube atlas with gutters, so neighbourhood filters cross the faces'
-// seams (nodes/cube_atlas.rs; CPU reference there). `pad` widens every face by `gutter` texels
+// seams (nodes/algorithms/cube_atlas.rs; CPU reference there). `pad` widens every face by `gutter` texels
 // on each side: a gutter texel is the face's own image plane extended (the direction
 // f + a·s + b·u at |a| or |b| > 1), looked up in whichever face that direction falls on, its
 // depth re-measured along this face's axis — what rendering the face with a wider field of
@@ -8,7 +8,7 @@
 
 #import lib/shadow
 
-struct Params {
+struct CubeParams {
     // Face size, texels.
     face: u32,
     // Gutter width, texels.
@@ -18,7 +18,7 @@ struct Params {
     far: f32,
 }
 
-@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(0) var<uniform> P: CubeParams;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var out_map: texture_storage_2d<r32float, write>;
 

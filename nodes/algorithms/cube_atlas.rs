@@ -11,7 +11,7 @@
 //! `k (f'·dir) = d'`, and `f·dir = 1`, so its depth here is `k`). A filter of radius ≤ `g` then
 //! runs on the padded atlas as on any map, and [`crop`] takes each face's inner square back.
 //! "No occluder" (depth ≥ 1) stays as it is. [`pad_reference`] / [`crop_reference`] are the
-//! CPU twins; `shaders/cube_atlas.wgsl` the GPU passes.
+//! CPU twins; `shaders/algorithms/cube_atlas.wgsl` the GPU passes.
 
 use std::sync::Arc;
 
@@ -21,11 +21,14 @@ use tyndall_engine::io::Raster;
 use tyndall_engine::scene::{cube_face, face_basis, LocalLight};
 
 /// The pad and crop passes.
-pub const SHADER: Shader = crate::shader("cube_atlas", include_str!("../shaders/cube_atlas.wgsl"));
+pub const SHADER: Shader = crate::shader(
+    "algorithms/cube_atlas",
+    include_str!("../../shaders/algorithms/cube_atlas.wgsl"),
+);
 
 tyndall_engine::uniforms! {
-    /// Uniforms of `shaders/cube_atlas.wgsl` (struct `Params`).
-    pub struct CubeParams as "Params" {
+    /// Uniforms of `shaders/algorithms/cube_atlas.wgsl` (struct `CubeParams`).
+    pub struct CubeParams as "CubeParams" {
         /// Face size, texels.
         pub face: u32,
         /// Gutter width, texels.
