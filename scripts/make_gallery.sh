@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 files=()
-for d in physical stylize color medium atmosphere plate; do
+for d in physical stylize color medium atmosphere plate lights; do
   for f in docs/$d/*.png; do
     case "$f" in *_000[1-9].png|*blender_before_after.png) continue;; esac
     files+=("$f")

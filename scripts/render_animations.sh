@@ -11,6 +11,9 @@
 #   forest_temporal.webp graphs/medium/forest_temporal.ron: the forest walk marched with 24
 #                       jittered steps, left as it is, right through TemporalAccumulate; every
 #                       frame 24–71 at 24 fps (2 s: shimmer is a frame-to-frame change)
+#   street_lantern.webp graphs/lights/street_lamps.ron: the lantern swings once on its wire, its
+#                       fans sweeping the fog, while the camera creeps up the street (left
+#                       physical, right stylized), frames 1–48 at 24 fps (2 s)
 # Usage: scripts/render_animations.sh [SIZE]   (SIZE per picture, default 480x270)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,3 +36,4 @@ anim forest_holes graphs/stylize/tree_holes_animated.ron 1-96x2
 anim sunrise graphs/color/sunrise.ron 0-48
 anim cathedral_sun graphs/color/cathedral_stained_glass.ron 1-96x2
 anim forest_temporal graphs/medium/forest_temporal.ron 24-71 24
+anim street_lantern graphs/lights/street_lamps.ron 1-48 24

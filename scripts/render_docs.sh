@@ -8,6 +8,11 @@ for scene in torus tree window fence figure window_room cathedral forest worksho
   ./target/release/tyndall render "graphs/physical/$scene.ron" -o "docs/physical/$scene.png" --size 960x540
 done
 ./target/release/tyndall render graphs/lights/tree_spot.ron -o docs/lights/tree_spot.png --size 480x270
+# The lamp scenes are animated: their first frame.
+for preset in street_lamps stage_gobos stage_window; do
+  ./target/release/tyndall render "graphs/lights/$preset.ron" -o "out/$preset.png" --size 960x540 --frames 1
+  cp "out/${preset}_0001.png" "docs/lights/$preset.png"
+done
 ./target/release/tyndall render tests/fixtures/gltf_scene.ron -o docs/physical/gltf_scene.png --size 960x540
 for preset in tree_hole_filling torus_closure figure_silhouette window_soft_glow; do
   ./target/release/tyndall render "graphs/stylize/$preset.ron" -o "docs/stylize/$preset.png" --size 960x540

@@ -43,6 +43,21 @@ fn every_stylize_preset_changes_at_least_5_percent_of_its_pixels() {
     // The new scenes' looks outside graphs/stylize are held to the same rule.
     presets.push(root.join("graphs/color/cathedral_stained_glass.ron"));
     presets.push(root.join("graphs/medium/workshop_dust.ron"));
+    // Issue #44's lamp scenes: every side-by-side preset of graphs/lights.
+    let mut lights: Vec<_> = std::fs::read_dir(root.join("graphs/lights"))
+        .expect("graphs/lights")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "ron")
+                && std::fs::read_to_string(p).is_ok_and(|t| t.contains("\"SideBySide\""))
+        })
+        .collect();
+    lights.sort();
+    assert!(
+        !lights.is_empty(),
+        "no side-by-side preset in graphs/lights"
+    );
+    presets.extend(lights);
     let dir = tempfile::tempdir().expect("tempdir");
     let mut report = Vec::new();
     for preset in &presets {

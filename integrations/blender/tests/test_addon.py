@@ -8,11 +8,15 @@ the add-on from a zip as a user would, builds a small scene whose camera moves o
 1–3, runs "Render shafts" on graphs/plate/colonnade.ron, and checks: Blender's plate and
 Tyndall's EXRs exist for each frame with the AOV layers, the camera in Tyndall's EXR header
 moves with Blender's, the compositor holds the Image node wired over the Render Layers, and a
-missing tyndall binary is a clear error."""
+missing tyndall binary is a clear error. Then the same shot lit by a spot light instead of the
+sun: the exported glTF carries it (KHR_lights_punctual, P / 4π × 683 cd, its cone) and
+Tyndall's in-scatter layer shows its cone over the plate."""
 
+import json
 import math
 import os
 import struct
+import subprocess
 import sys
 import tempfile
 import zipfile
@@ -107,6 +111,47 @@ def check_missing_binary():
     p.binary = BINARY
 
 
+def glb_json(path):
+    """The JSON chunk of a binary glTF."""
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:4] == b"glTF", f"{path} is not a .glb"
+    length, kind = struct.unpack("<I4s", data[12:20])
+    assert kind == b"JSON"
+    return json.loads(data[20:20 + length])
+
+
+def lamp_run(sc):
+    """The shot lit by a 2000 W spot (cone 60°) 4 m above the cubes, shining straight down."""
+    bpy.data.objects.remove(bpy.data.objects["Sun"])
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "SPOT"))
+    sc.collection.objects.link(lamp)
+    lamp.data.energy = 2000.0
+    lamp.data.spot_size = math.radians(60.0)
+    lamp.data.spot_blend = 0.1
+    lamp.location = (0.0, 3.0, 4.0)
+    out = os.path.join(TMP, "lamp")
+    sc.tyndall.output_dir = out
+    assert bpy.ops.tyndall.render_shafts() == {"FINISHED"}
+    lights = glb_json(os.path.join(out, "shot.glb"))["extensions"]["KHR_lights_punctual"]["lights"]
+    assert len(lights) == 1 and lights[0]["type"] == "spot", lights
+    want = 2000.0 / (4.0 * math.pi) * 683.0
+    assert abs(lights[0]["intensity"] / want - 1.0) < 1e-4, (lights[0]["intensity"], want)
+    assert abs(lights[0]["spot"]["outerConeAngle"] - math.radians(30.0)) < 1e-4, lights[0]
+    # Tyndall's in-scatter layer of frame 2, written alone by `tyndall node`, read by Blender.
+    shafts = os.path.join(out, "shafts_0002.exr")
+    alone = os.path.join(out, "inscatter_0002.exr")
+    subprocess.run([BINARY, "node", "ImageInput", "--param", f"path={shafts}",
+                    "--param", "layer=inscatter", "--output", f"image={alone}"], check=True)
+    px = bpy.data.images.load(alone).pixels[:]
+    lum = [sum(px[i:i + 3]) / 3 for i in range(0, len(px), 4)]
+    lit = sum(v > 0.02 * max(lum) for v in lum) / len(lum)
+    print(f"lamp: in-scatter max {max(lum):.4g} W/(m²·sr), {lit * 100:.1f} % of pixels lit")
+    # The cone (2.3 m wide at the ground) covers part of the view, not all of it, not nothing.
+    assert max(lum) > 1e-2, max(lum)
+    assert 0.05 < lit < 0.7, lit
+
+
 def main():
     install_addon()
     build_scene()
@@ -153,6 +198,7 @@ def main():
     # Running again reuses the nodes instead of adding more.
     assert bpy.ops.tyndall.render_shafts() == {"FINISHED"}
     assert sum(n.name.startswith("Tyndall") for n in tree.nodes) == 3
+    lamp_run(sc)
     print("TYNDALL_ADDON_TEST OK")
 
 
