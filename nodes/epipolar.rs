@@ -13,6 +13,14 @@
 //! The epipole comes from the `camera` input (a Depth's camera, projected with the map's light
 //! matrices) when connected, else from the parameters.
 //!
+//! Any light's map: on a spot's perspective map eq. 3 holds for q = 1 − near / w (w the
+//! distance along the spot's axis; 1/w, not the linear depth, is affine across a perspective
+//! map), so the passes run on q and convert back ([`Perspective`]); a camera behind the spot's
+//! plane swaps the sides each operation samples. `method = Fast` runs the definition there. A
+//! point light's cube atlas is refused (its epipolar lines cross the faces). Test:
+//! `cargo test --test filters -- spot`: every filled texel lies on the view ray through the
+//! occluder, within its footprint (129 texels off without the conversion).
+//!
 //! | port | dir | type |
 //! |---|---|---|
 //! | `map` | in | ShadowMap (required) |
@@ -99,7 +107,7 @@ const fn decl(kind: &'static str, doc: &'static str) -> NodeDecl {
     };
     NodeDecl::new(schema).shaders(&[SHADER]).uniforms(UNIFORMS)
 }
-const UNIFORMS: &[UniformLayout] = &[EpiParams::LAYOUT, RectParams::LAYOUT];
+const UNIFORMS: &[UniformLayout] = &[EpiParams::LAYOUT, RectParams::LAYOUT, PerspParams::LAYOUT];
 
 static DILATION: NodeDecl = decl(
     "EpipolarDilation",
@@ -121,8 +129,8 @@ tyndall_engine::uniforms! {
         pub length: i32,
         /// 0 dilation (min towards l), 1 erosion (max away from l).
         pub op: u32,
-        /// Padding.
-        pub _pad0: u32,
+        /// 1: each operation samples the other side of the texel (see [`Perspective`]).
+        pub reverse: u32,
         /// Padding.
         pub _pad1: u32,
         /// Padding.
@@ -133,6 +141,18 @@ tyndall_engine::uniforms! {
 /// CPU reference of one pass (`erode = false`: the dilation of eq. 3), in the same f32 steps as
 /// the shader.
 pub fn reference(map: &Raster, l: [f32; 2], z_l: f32, length: i32, erode: bool) -> Raster {
+    reference_sides(map, l, z_l, length, erode, false)
+}
+
+/// [`reference`] with the sides swapped when `reverse` (the `reverse` uniform).
+pub fn reference_sides(
+    map: &Raster,
+    l: [f32; 2],
+    z_l: f32,
+    length: i32,
+    erode: bool,
+    reverse: bool,
+) -> Raster {
     let (w, h) = (map.width as i32, map.height as i32);
     let mut out = map.clone();
     for y in 0..h {
@@ -144,14 +164,15 @@ pub fn reference(map: &Raster, l: [f32; 2], z_l: f32, length: i32, erode: bool) 
             if d_t <= 0.0 {
                 continue;
             }
-            let (dx, dy) = if erode {
-                (-tx / d_t, -ty / d_t)
-            } else {
+            let towards = erode == reverse;
+            let (dx, dy) = if towards {
                 (tx / d_t, ty / d_t)
+            } else {
+                (-tx / d_t, -ty / d_t)
             };
             let mut k = (z - z_l) / d_t;
             for i in 1..=length {
-                if !erode && i as f32 >= d_t {
+                if towards && i as f32 >= d_t {
                     break;
                 }
                 let (sx, sy) = (
@@ -422,6 +443,150 @@ fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, Gp
     Ok(out)
 }
 
+/// A spot's perspective map in eq. 3's slope space. Its depth z is linear in the distance
+/// w = near + z (far − near) along the spot's axis, and a perspective projection keeps 1/w,
+/// not w, affine across the map: along the image of a view ray (a line through the epipole),
+/// q = 1 − near / w changes linearly with the distance from the epipole, so the passes run on
+/// q with the camera's q_l and the depths are converted back (texels the filter left alone keep
+/// their depth bit for bit). A camera behind the spot's plane (distance w_c < 0 along its axis)
+/// projects through the light onto the far side: its view rays' images run *towards* the
+/// epipole as they leave the camera, so each operation samples the other side (`reverse`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Perspective {
+    /// Distance along the spot's axis of depth 0, m.
+    pub near: f32,
+    /// Distance along the spot's axis of depth 1, m.
+    pub far: f32,
+}
+
+impl Perspective {
+    /// q of depth `z`.
+    pub fn q(&self, z: f32) -> f32 {
+        1.0 - self.near / (self.near + z * (self.far - self.near))
+    }
+
+    /// The depth of q (the inverse of [`Perspective::q`]).
+    pub fn z(&self, q: f32) -> f32 {
+        (self.near / (1.0 - q) - self.near) / (self.far - self.near)
+    }
+}
+
+tyndall_engine::uniforms! {
+    /// Uniforms of the perspective passes (struct `Persp` of `shaders/epipolar.wgsl`).
+    pub struct PerspParams as "Persp" {
+        /// [`Perspective::near`].
+        pub near: f32,
+        /// [`Perspective::far`].
+        pub far: f32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+    }
+}
+
+/// The epipole of a spot's `w × h` map seen from `camera`: texel position, q_l and whether the
+/// sides are reversed (camera behind the spot's plane); an error when the camera lies in that
+/// plane (the epipole is at infinity).
+pub fn spot_epipole(
+    light: &Matrices,
+    camera: &Matrices,
+    persp: Perspective,
+    w: u32,
+    h: u32,
+) -> Result<([f32; 2], f32, bool), String> {
+    let c = light.view_proj() * camera.eye().extend(1.0);
+    if c.w.abs() < 1e-4 {
+        return Err(format!(
+            "the camera lies in the spot's plane ({} m along its axis): the epipole is at infinity",
+            c.w
+        ));
+    }
+    let (x, y) = (c.x / c.w, c.y / c.w);
+    Ok((
+        [(x * 0.5 + 0.5) * w as f32, (0.5 - y * 0.5) * h as f32],
+        1.0 - persp.near / c.w,
+        c.w < 0.0,
+    ))
+}
+
+/// CPU reference of the node on a spot's map: [`reference_sides`] on q, converted back;
+/// `closure`: the dilation then the erosion.
+pub fn reference_spot(
+    map: &Raster,
+    persp: Perspective,
+    (l, q_l, reverse): ([f32; 2], f32, bool),
+    length: i32,
+    closure: bool,
+) -> Raster {
+    let mut q = map.clone();
+    for v in &mut q.data {
+        *v = persp.q(*v);
+    }
+    let mut r = reference_sides(&q, l, q_l, length, false, reverse);
+    if closure {
+        r = reference_sides(&r, l, q_l, length, true, reverse);
+    }
+    let mut out = map.clone();
+    for ((o, before), after) in out.data.iter_mut().zip(&q.data).zip(&r.data) {
+        if after != before {
+            *o = persp.z(*after);
+        }
+    }
+    out
+}
+
+fn to_q(gpu: &Gpu, src: &GpuTexture, persp: Perspective) -> Result<GpuTexture, GpuError> {
+    let out = gpu.texture(src.width, src.height, TexFormat::R32F)?;
+    let u = persp_params(persp);
+    gpu.dispatch(
+        SHADER,
+        "to_q",
+        &[
+            ("Q", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("src", Bind::Texture(src)),
+            ("out_map", Bind::Storage(&out)),
+        ],
+        src.width,
+        src.height,
+    )?;
+    Ok(out)
+}
+
+fn from_q(
+    gpu: &Gpu,
+    depth: &GpuTexture,
+    before: &GpuTexture,
+    after: &GpuTexture,
+    persp: Perspective,
+) -> Result<GpuTexture, GpuError> {
+    let out = gpu.texture(depth.width, depth.height, TexFormat::R32F)?;
+    let u = persp_params(persp);
+    gpu.dispatch(
+        SHADER,
+        "from_q",
+        &[
+            ("Q", Bind::Uniform(bytemuck::bytes_of(&u))),
+            ("src", Bind::Texture(depth)),
+            ("q_in", Bind::Texture(before)),
+            ("kappa_in", Bind::Texture(after)),
+            ("out_map", Bind::Storage(&out)),
+        ],
+        depth.width,
+        depth.height,
+    )?;
+    Ok(out)
+}
+
+fn persp_params(p: Perspective) -> PerspParams {
+    PerspParams {
+        near: p.near,
+        far: p.far,
+        _pad0: 0,
+        _pad1: 0,
+    }
+}
+
 fn pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
     let out = gpu.texture(src.width, src.height, TexFormat::R32F)?;
     gpu.dispatch(
@@ -449,9 +614,38 @@ impl NodeKind for Epipolar {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
         let (tex, light) = ctx.shadow_map("map")?;
-        let (l, z_l) = match ctx.depth_opt("camera")? {
-            Some((_, cam)) => epipole(&light, &cam, tex.width, tex.height),
-            None => ([prm.epipole_x, prm.epipole_y], prm.epipole_depth),
+        let persp = match light.local {
+            Some(l) if l.point => {
+                return Err(NodeError::Input {
+                    port: "map".into(),
+                    message: "is a point light's cube atlas: its epipolar lines cross the six \
+                              faces, which this node does not follow yet (Dilate2D, Erode2D and \
+                              Closure2D do)"
+                        .into(),
+                })
+            }
+            Some(l) => Some(Perspective {
+                near: l.near,
+                far: l.far,
+            }),
+            None => None,
+        };
+        let (l, z_l, reverse) = match (ctx.depth_opt("camera")?, persp) {
+            (Some((_, cam)), Some(p)) => spot_epipole(&light, &cam, p, tex.width, tex.height)
+                .map_err(|message| NodeError::Input {
+                    port: "camera".into(),
+                    message,
+                })?,
+            (Some((_, cam)), None) => {
+                let (l, z) = epipole(&light, &cam, tex.width, tex.height);
+                (l, z, false)
+            }
+            (None, Some(p)) => (
+                [prm.epipole_x, prm.epipole_y],
+                p.q(prm.epipole_depth),
+                false,
+            ),
+            (None, None) => ([prm.epipole_x, prm.epipole_y], prm.epipole_depth, false),
         };
         let length = prm.length as i32;
         if length == 0 {
@@ -463,18 +657,26 @@ impl NodeKind for Epipolar {
             z_l,
             length,
             op: 0,
-            _pad0: 0,
+            reverse: reverse as u32,
             _pad1: 0,
             _pad2: 0,
         };
-        let run_pass = if prm.method == Method::Fast {
+        // The fast path's grid is built for a sun's map; a spot's runs the definition.
+        let run_pass = if prm.method == Method::Fast && persp.is_none() {
             fast_pass
         } else {
             pass
         };
-        let mut out = run_pass(ctx.gpu, &tex, p)?;
+        let src = match persp {
+            Some(q) => Arc::new(to_q(ctx.gpu, &tex, q)?),
+            None => tex.clone(),
+        };
+        let mut out = run_pass(ctx.gpu, &src, p)?;
         if self.0 == EpiOp::Closure {
             out = run_pass(ctx.gpu, &out, EpiParams { op: 1, ..p })?;
+        }
+        if let Some(q) = persp {
+            out = from_q(ctx.gpu, &tex, &src, &out, q)?;
         }
         ctx.set("map", PortValue::ShadowMap(Arc::new(out), light));
         Ok(())

@@ -11,7 +11,9 @@ struct Params {
     z_l: f32,
     length: i32,
     op: u32,
-    _pad0: u32,
+    // 1: samples on the other side (a spot's map seen by a camera behind the spot's plane,
+    // whose view rays' images run towards the epipole as they leave the camera).
+    reverse: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -45,11 +47,13 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(out_map, id.xy, vec4<f32>(z, 0.0, 0.0, 1.0));
         return;
     }
-    // Dilation walks towards l and stops before reaching it; erosion walks away from l.
-    let dir = select(to_l / d_t, -to_l / d_t, P.op == 1u);
+    // Dilation walks towards l and stops before reaching it; erosion walks away from l
+    // (`reverse` swaps the sides, not the operations).
+    let towards = (P.op == 0u) != (P.reverse == 1u);
+    let dir = select(-to_l / d_t, to_l / d_t, towards);
     var k = (z - P.z_l) / d_t;
     for (var i = 1; i <= P.length; i++) {
-        if P.op == 0u && f32(i) >= d_t {
+        if towards && f32(i) >= d_t {
             break;
         }
         let s = sample_texel(c, dir, i);
@@ -329,4 +333,49 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     textureStore(out_map, id.xy, vec4<f32>(R.z_l + d_t * acc, 0.0, 0.0, 1.0));
+}
+
+// ---- A spot's perspective map (nodes/epipolar.rs, `Perspective`) ----------------------------
+//
+// Its depth z is linear in the distance w = near + z (far − near) along the spot's axis, and in
+// a perspective projection 1/w, not w, is affine across the map: along a view ray's image
+// (a line through the epipole) q = 1 − near / w changes linearly with the distance from the
+// epipole. The passes above run on q; `to_q` converts before, `from_q` after (a texel the
+// filter left as it was keeps its depth bit for bit).
+
+struct Persp {
+    near: f32,
+    far: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(12) var<uniform> Q: Persp;
+@group(0) @binding(13) var q_in: texture_2d<f32>;
+
+@compute @workgroup_size(8, 8)
+fn to_q(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(src);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let z = textureLoad(src, id.xy, 0).r;
+    let w = Q.near + z * (Q.far - Q.near);
+    textureStore(out_map, id.xy, vec4<f32>(1.0 - Q.near / w, 0.0, 0.0, 1.0));
+}
+
+// `src`: the original depths; `q_in`: their q before the filter; `kappa_in`: q after it.
+@compute @workgroup_size(8, 8)
+fn from_q(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(src);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let before = textureLoad(q_in, id.xy, 0).r;
+    let after = textureLoad(kappa_in, id.xy, 0).r;
+    var z = textureLoad(src, id.xy, 0).r;
+    if after != before {
+        z = (Q.near / (1.0 - after) - Q.near) / (Q.far - Q.near);
+    }
+    textureStore(out_map, id.xy, vec4<f32>(z, 0.0, 0.0, 1.0));
 }

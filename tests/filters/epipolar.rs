@@ -266,3 +266,187 @@ fn fast_path_equals_the_definition_on_noise_and_edge_cases() {
     ];
     assert_fast_equals_reference(&gpu, "noise", &map, &epipoles, &[1, 6, 7, 9, 33]);
 }
+
+/// A spot at (0, 6, 0) shining straight down (60° cone, depth 0.5–20 m), its 128² perspective
+/// map empty but for one occluder texel, and a camera; EpipolarDilation on the map with the
+/// camera as epipole. Returns (light matrices, map, dilated map, the occluder's world point,
+/// the camera's eye).
+fn spot_dilation(eye: glam::Vec3) -> (Matrices, Raster, Raster, glam::Vec3, glam::Vec3) {
+    use tyndall::scene::{local_proj, spot_view, LocalLight};
+    let gpu = common::gpu().expect("gpu");
+    let res = 128u32;
+    let (pos, dir) = (glam::Vec3::new(0.0, 6.0, 0.0), glam::Vec3::NEG_Y);
+    let (near, far, half) = (0.5f32, 20.0f32, 30f32.to_radians());
+    let local = LocalLight {
+        point: false,
+        position: pos.to_array(),
+        direction: dir.to_array(),
+        cos_inner: half.cos(),
+        cos_outer: half.cos(),
+        range: 0.0,
+        near,
+        far,
+    };
+    let light = Matrices {
+        view: spot_view(pos, dir).to_cols_array_2d(),
+        proj: local_proj(half, near, far).to_cols_array_2d(),
+        local: Some(local),
+        ..Default::default()
+    };
+    // The occluder: texel (70, 60) at 3 m along the axis.
+    let (ox, oy, ow) = (70u32, 60u32, 3.0f32);
+    let mut map = Raster::new(res, res, 1, 1.0);
+    map.data[(oy * res + ox) as usize] = (ow - near) / (far - near);
+    let occluder = unproject(&light, ox as f32 + 0.5, oy as f32 + 0.5, ow, res);
+    let cam = camera_at(eye);
+    let input = match common::upload(&gpu, &map, tyndall::graph::PortType::ShadowMap) {
+        PortValue::ShadowMap(t, _) => PortValue::ShadowMap(t, light),
+        _ => unreachable!(),
+    };
+    let camera = match common::upload(
+        &gpu,
+        &Raster::new(1, 1, 1, 1.0),
+        tyndall::graph::PortType::Depth,
+    ) {
+        PortValue::Depth(t, _) => PortValue::Depth(t, cam),
+        _ => unreachable!(),
+    };
+    let out = common::run_node(
+        &gpu,
+        "EpipolarDilation",
+        &[("length", ParamValue::Int(400))],
+        vec![("map", input), ("camera", camera)],
+        &["map"],
+        (1, 1),
+    )
+    .expect("EpipolarDilation on a spot's map")
+    .remove("map")
+    .expect("map");
+    (light, map, out, occluder, cam.eye())
+}
+
+/// World point of texel centre (x, y) at distance `w` along a spot map's axis.
+fn unproject(light: &Matrices, x: f32, y: f32, w: f32, res: u32) -> glam::Vec3 {
+    let ndc = glam::Vec2::new(x / res as f32 * 2.0 - 1.0, 1.0 - y / res as f32 * 2.0);
+    let k = light.proj[0][0];
+    let view_point = glam::Vec3::new(ndc.x * w / k, ndc.y * w / k, -w);
+    glam::Mat4::from_cols_array_2d(&light.view)
+        .inverse()
+        .transform_point3(view_point)
+}
+
+/// A camera at `eye` looking at (0, 2, 0) (only its position matters here: the epipole).
+fn camera_at(eye: glam::Vec3) -> Matrices {
+    let view = tyndall::scene::spot_view(eye, glam::Vec3::new(0.0, 2.0, 0.0) - eye);
+    Matrices {
+        view: view.to_cols_array_2d(),
+        ..Default::default()
+    }
+}
+
+/// On a spot's perspective map the extrusion follows the camera's view rays (issue #44,
+/// item 4): every texel the dilation fills holds a point on the view ray from the camera through
+/// the occluder, within the texel's own footprint (the sample walk lands on the occluder from
+/// texels up to a texel off the exact line); for a camera in front of the spot's plane and one
+/// behind it (whose rays' images run towards the epipole). Extruding the map's linear depth as a
+/// sun's (eq. 3 on z, not on 1/w) misses the ray by metres.
+#[test]
+fn epipolar_dilation_on_a_spot_follows_the_view_rays() {
+    if common::gpu().is_none() {
+        return;
+    }
+    for eye in [
+        glam::Vec3::new(-4.0, 1.5, 5.0),
+        glam::Vec3::new(-3.0, 7.5, 4.0),
+    ] {
+        let (light, map, out, occluder, c) = spot_dilation(eye);
+        let local = light.local.expect("spot");
+        let res = map.width;
+        let mut filled = 0;
+        let mut worst = 0.0f32;
+        for y in 0..res {
+            for x in 0..res {
+                let i = (y * res + x) as usize;
+                if out.data[i] == map.data[i] {
+                    continue;
+                }
+                filled += 1;
+                let w = local.near + out.data[i] * (local.far - local.near);
+                let p = unproject(&light, x as f32 + 0.5, y as f32 + 0.5, w, res);
+                let axis = (occluder - c).normalize();
+                let off = (p - c) - axis * (p - c).dot(axis);
+                // One texel at distance w spans 2 tan 30° · w / 128; allow 1.5 of them.
+                let texel = 2.0 * 30f32.to_radians().tan() * w / res as f32;
+                worst = worst.max(off.length() / texel);
+            }
+        }
+        eprintln!("camera {eye}: {filled} texels filled, worst {worst:.2} texels off the ray");
+        assert!(filled >= 10, "camera {eye}: only {filled} texels filled");
+        assert!(
+            worst <= 1.5,
+            "camera {eye}: a filled texel lies {worst} texels off the view ray through the occluder"
+        );
+    }
+}
+
+/// The GPU passes on a spot's map equal their CPU reference (`reference_spot`): the same
+/// filled texels, depths within 1e-5 (WGSL's division may be 2.5 ulp off the CPU's correctly
+/// rounded one in the q conversions; a texel filled from another sample differs by far more).
+#[test]
+fn epipolar_dilation_on_a_spot_matches_its_cpu_reference() {
+    if common::gpu().is_none() {
+        return;
+    }
+    for eye in [
+        glam::Vec3::new(-4.0, 1.5, 5.0),
+        glam::Vec3::new(-3.0, 7.5, 4.0),
+    ] {
+        let (light, map, out, _, _) = spot_dilation(eye);
+        let local = light.local.expect("spot");
+        let persp = tyndall::nodes::epipolar::Perspective {
+            near: local.near,
+            far: local.far,
+        };
+        let cam = camera_at(eye);
+        let epi =
+            tyndall::nodes::epipolar::spot_epipole(&light, &cam, persp, map.width, map.height)
+                .expect("epipole");
+        let want = tyndall::nodes::epipolar::reference_spot(&map, persp, epi, 400, false);
+        for (i, (a, b)) in out.data.iter().zip(&want.data).enumerate() {
+            assert_eq!(
+                *a == map.data[i],
+                *b == map.data[i],
+                "texel {i}: filled on one side only ({a} vs {b})"
+            );
+            assert!((a - b).abs() <= 1e-5, "texel {i}: {a} vs {b}");
+        }
+    }
+}
+
+/// A point light's cube atlas is refused with the port and the reason (its epipolar lines
+/// cross the faces), not filtered across the seams as if it were one picture.
+#[test]
+fn epipolar_dilation_refuses_a_point_lights_cube_atlas() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let (mut light, map, _, _, _) = spot_dilation(glam::Vec3::new(-4.0, 1.5, 5.0));
+    if let Some(l) = light.local.as_mut() {
+        l.point = true;
+    }
+    let input = match common::upload(&gpu, &map, tyndall::graph::PortType::ShadowMap) {
+        PortValue::ShadowMap(t, _) => PortValue::ShadowMap(t, light),
+        _ => unreachable!(),
+    };
+    let e = common::run_node(
+        &gpu,
+        "EpipolarClosure",
+        &[("length", ParamValue::Int(10))],
+        vec![("map", input)],
+        &["map"],
+        (1, 1),
+    )
+    .expect_err("a cube atlas is refused")
+    .to_string();
+    assert!(e.contains("map") && e.contains("cube atlas"), "{e}");
+}
