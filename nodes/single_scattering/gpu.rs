@@ -194,9 +194,11 @@ pub(super) fn scatter(
         ("SOFT", on(i.soft.is_some())),
         ("LOCAL", on(u.local_kind != 0)),
     ];
-    // A spot or point light is marched by BruteForce whatever the method: MinMax's pyramid
-    // walk and Epipolar's rectified lines assume the sun's parallel light (see the node's docs).
-    if p.method == Method::BruteForce || u.local_kind != 0 {
+    // A spot: MinMax walks its perspective map's pyramid (min_max.wgsl, `min_max_spot`), for
+    // Epipolar too (its rectified lines assume the sun's parallel light); with a light map, and
+    // for a point light's cube atlas, BruteForce marches whatever the method (the node's docs).
+    let spot_min_max = u.local_kind == 1 && i.light_map.is_none();
+    if p.method == Method::BruteForce || (u.local_kind != 0 && !spot_min_max) {
         let no_map;
         let (map, lm) = match i.light_map {
             Some((t, m)) => (t, LightMapView::new(m.view_proj().to_cols_array_2d(), 1)),
@@ -214,7 +216,7 @@ pub(super) fn scatter(
     let (levels, atlas) = build_pyramid(gpu, i.shadow)?;
     binds.push(("atlas", Bind::Texture(&atlas)));
     binds.push(("L", Bind::Uniform(bytemuck::bytes_of(&levels))));
-    if p.method == Method::MinMax {
+    if p.method == Method::MinMax || spot_min_max {
         gpu.dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
     } else {
         let knobs = EpiKnobs {

@@ -19,11 +19,19 @@
 //! projection, a gobo) over its interval Δ = len/steps (the midpoint rule, converging as steps
 //! grow): `L_scat = σt ρ Σ_i …`, with I the light's intensity (W/sr), a glTF's attenuation —
 //! inverse square, a spot's smooth cone, the range window — and θ_x the angle between the view
-//! ray and the direction from x to the light. The factored form does not hold, so the method is
-//! always BruteForce: `MinMax` and `Epipolar` asked for with a spot or point light run
-//! BruteForce (their structures assume parallel light; the spot's epipolar variant is not yet
-//! built). A `soft` volume is refused with such a light. `visibility` is still the fraction of
-//! lit samples (outside the map or behind a spot counts as lit, as for the sun).
+//! ray and the direction from x to the light. The factored form does not hold. `MinMax` with a
+//! spot walks the pyramid of its perspective map along the ray's image (a line in the map; the
+//! map's line parameter σ and the ray's t are related by t(σ) = t_a + (t_b − t_a) σ w_a /
+//! ((1 − σ) w_b + σ w_a), w the clip w, and the linear depth is affine in t, so a cell is settled
+//! by its two ends as for the sun): the lit stretches are exact, and each run of them is
+//! integrated equiangularly (θ seen from the light's closest approach to the ray, so dt/d² =
+//! dθ/h and what is left is smooth) with `steps` midpoint nodes per π of θ, at least one per
+//! run; `visibility` is then the exact lit fraction (`min_max.wgsl`, `min_max_spot`;
+//! `cargo test --test light -- spot_min_max`). `Epipolar` asked for with a spot runs that
+//! MinMax (its rectified lines assume parallel light). A point light's cube atlas, and a spot
+//! with a light map, are marched by BruteForce whatever the method. A `soft` volume is refused
+//! with such a light. BruteForce's `visibility` is the fraction of lit samples (outside the map
+//! or behind a spot counts as lit, as for the sun).
 //!
 //! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
 //! objects tagged `medium`, connected on `scene`) the view ray scatters only on [t0, t1], its
