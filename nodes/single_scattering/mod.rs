@@ -87,7 +87,7 @@
 //! | `g` | Float | 0.5 | −0.999…0.999 | Henyey–Greenstein asymmetry |
 //! | `tint` | Colour | (1, 1, 1, 1) | 0…1e6 | multiplies the sun's colour |
 //! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's irradiance |
-//! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob) |
+//! | `steps` | Int | 128 | 1…8192 | samples per view ray (quality knob); MinMax with a spot: equiangular nodes per π integrating its lit stretches |
 //! | `jitter` | Float | 0 | 0…1 | per-pixel offset of the samples, in intervals |
 //! | `jitter_pattern` | Enum | screen | screen, frame | screen: the per-pixel offset is the same every frame; frame: the hash h(x, y) becomes fract(h + φ·⌊t⌋), φ = 0.618… (golden-ratio steps), so consecutive frames put the samples elsewhere and a `TemporalAccumulate` window of n frames sees n evenly spread offsets |
 //! | `bias` | Float | 0.002 | 0…0.1 | depth bias of the shadow test |
@@ -160,7 +160,7 @@ tyndall_engine::params! {
         g: f32 = ParamSpec::float("g", 0.5, -0.999, 0.999, "", "Henyey–Greenstein asymmetry (>0 forward scattering)."),
         tint: [f32; 4] = ParamSpec::colour("tint", [1.0; 4], 0.0, 1e6, "linear RGB", "Multiplies the sun's colour."),
         intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
-        steps: i64 = ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob)."),
+        steps: i64 = ParamSpec::int("steps", 128, 1, 8192, "samples", "Samples per view ray (quality knob); with a spot and MinMax: the equiangular nodes per π of angle seen from the light that integrate its lit stretches."),
         jitter: f32 = ParamSpec::float("jitter", 0.0, 0.0, 1.0, "intervals", "Per-pixel random offset of the samples."),
         jitter_pattern: JitterPattern = ParamSpec::choice("jitter_pattern", JitterPattern::NAMES, "screen", "screen: the jitter is fixed on the screen (the same every frame); frame: its phase moves on by the golden ratio each frame, so a TemporalAccumulate window of n frames sees n evenly spread offsets per pixel.").when("method", &["BruteForce"]),
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
