@@ -14,7 +14,13 @@ struct Params {
     // occluders' mean age in slices (linear = 0: growth = seed, the stencil).
     step_var: vec2<f32>,
     linear: u32,
-    _pad0: u32,
+    // 1: a spot's perspective map, whose slices are equal steps of q = 1 − near / w (w the
+    // distance along its axis) instead of equal steps of depth.
+    persp: u32,
+    near: f32,
+    far: f32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -51,8 +57,19 @@ fn pair_offset(v: f32) -> f32 {
     return m + (max(v, 0.0) - m * m) / (2.0 * m + 1.0);
 }
 
+// Where depth z falls along the slices, 0…1: z itself (the sun's box), or for a spot
+// q / q_far, q = 1 − near / w and w = near + z (far − near) (1/w, not w, is affine across a
+// perspective map, and a sphere of light's penumbra grows linearly in 1/w behind an occluder).
+fn slice_coord(z: f32) -> f32 {
+    if P.persp == 0u {
+        return z;
+    }
+    let w = P.near + z * (P.far - P.near);
+    return (1.0 - P.near / w) / (1.0 - P.near / P.far);
+}
+
 // The part of texel p's footprint in the shadow map whose occluder (map depth + bias) lies in
-// slice k: [k, k + 1)/slices of light depth.
+// slice k: [k, k + 1)/slices of `slice_coord`.
 fn coverage(p: vec2<u32>) -> f32 {
     let lo = f32(P.slice) / f32(P.slices);
     let hi = f32(P.slice + 1u) / f32(P.slices);
@@ -63,7 +80,7 @@ fn coverage(p: vec2<u32>) -> f32 {
             let u = (f32(p.x) + (f32(i) + 0.5) / f32(n)) / f32(P.res);
             let v = (f32(p.y) + (f32(j) + 0.5) / f32(n)) / f32(P.res);
             let t = min(vec2<u32>(vec2<f32>(u, v) * vec2<f32>(P.map_size)), P.map_size - 1u);
-            let d = textureLoad(shadow, t, 0).r + P.bias;
+            let d = slice_coord(textureLoad(shadow, t, 0).r + P.bias);
             if d >= lo && d < hi {
                 hit += 1.0;
             }

@@ -168,12 +168,14 @@ pub(super) fn scatter(
             &no_soft
         }
     };
+    let soft_light = i.soft.map_or(i.light, |(_, m)| m);
+    let (near, far) = soft_light.local.map_or((0.0, 1.0), |l| (l.near, l.far));
     let sv = SoftView {
-        view_proj: i
-            .soft
-            .map_or(i.light, |(_, m)| m)
-            .view_proj()
-            .to_cols_array_2d(),
+        view_proj: soft_light.view_proj().to_cols_array_2d(),
+        persp: soft_light.local.is_some() as u32,
+        near,
+        far,
+        _pad0: 0,
     };
     let mut binds = vec![
         ("P", Bind::Uniform(bytemuck::bytes_of(u))),

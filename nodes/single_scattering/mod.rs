@@ -29,8 +29,9 @@
 //! run; `visibility` is then the exact lit fraction (`min_max.wgsl`, `min_max_spot`;
 //! `cargo test --test light -- spot_min_max`). `Epipolar` asked for with a spot runs that
 //! MinMax (its rectified lines assume parallel light). A point light's cube atlas, and a spot
-//! with a light map, are marched by BruteForce whatever the method. A `soft` volume is refused
-//! with such a light. BruteForce's `visibility` is the fraction of lit samples (outside the map
+//! with a light map, are marched by BruteForce whatever the method. A spot's `soft` volume
+//! (SoftVisibility of radius `light_radius`) is read with the perspective divide and its
+//! slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
 //! or behind a spot counts as lit, as for the sun).
 //!
 //! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
@@ -313,13 +314,15 @@ impl NodeKind for SingleScattering {
         let soft = ctx.soft_shadow_opt("soft")?;
         let light_map = ctx.light_map_opt("light_map")?;
         check_method(p.method, soft.is_some(), light_map.is_some())?;
-        if light.local.is_some() && soft.is_some() {
-            return Err(NodeError::Input {
-                port: "soft".into(),
-                message: "a SoftVisibility volume works with the sun's map only; this shadow map \
-                          is a spot's or point light's"
-                    .into(),
-            });
+        if let Some((_, sm)) = &soft {
+            if sm.local.is_some() != light.local.is_some() {
+                return Err(NodeError::Input {
+                    port: "soft".into(),
+                    message: "the SoftVisibility volume was built from another light's map than \
+                              `shadow`: connect both to the same ShadowMap"
+                        .into(),
+                });
+            }
         }
         let extinction = p.light_extinction == Extinction::On;
         let bounds = medium_bounds(ctx, &p, extinction)?;

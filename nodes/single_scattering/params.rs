@@ -149,6 +149,14 @@ tyndall_engine::uniforms! {
     pub struct SoftView as "SoftView" {
         /// World → light clip of the soft volume.
         pub view_proj: [[f32; 4]; 4],
+        /// 1: a spot's perspective volume (uv divided by w, slices in q = 1 − near / w).
+        pub persp: u32,
+        /// A spot map's depth-0 distance, m.
+        pub near: f32,
+        /// A spot map's depth-1 distance, m.
+        pub far: f32,
+        /// Padding.
+        pub _pad0: u32,
     }
 }
 

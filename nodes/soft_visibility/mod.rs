@@ -40,6 +40,13 @@
 //! pair has variance v). The kernel choice and `rotation` do not apply to it; several
 //! occluders at different depths share one mean age (as PCSS shares one blocker distance).
 //!
+//! A spot of radius `light_radius` (issue #44): its perspective map is sliced in equal steps of
+//! q = 1 − near / w (w the distance along its axis), in which a sphere of light's penumbra grows
+//! linearly behind an occluder (map offset L (1/w_o − 1/w_r), L on the light's disc), so
+//! `growth = linear` with one slice's variance ((R/2) Δq / near)² (tangent units, then texels)
+//! is exact at every distance behind one occluder plane ([`spot_step_variance`]); a spot always
+//! grows so. A point light's cube atlas is refused.
+//!
 //! | port | dir | type | |
 //! |---|---|---|---|
 //! | `shadow` | in | ShadowMap (required) | the occluders and the light's box |
@@ -58,7 +65,8 @@
 //! | `size` | Int | 5 | 2…15 | Gaussian taps per axis |
 //! | `seed` | Int | 1 | 0…2³¹ | stochastic kernels |
 //! | `bias` | Float | 0.002 | 0…0.1 | added to the map depth |
-//! | `growth` | Enum | seed | seed, linear | penumbra ∝ √d (seed 004) or ∝ d |
+//! | `growth` | Enum | seed | seed, linear | penumbra ∝ √d (seed 004) or ∝ d (a spot: always ∝ d) |
+//! | `light_radius` | Float | 0.1 | 0…100 m | a spot's sphere of light |
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -103,7 +111,8 @@ tyndall_engine::params! {
         size: i64 = ParamSpec::int("size", 5, 2, 15, "taps", "Gaussian taps per axis."),
         seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
-        growth: Growth = ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane)."),
+        growth: Growth = ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane). A spot's map always grows linearly."),
+        light_radius: f64 = ParamSpec::float("light_radius", 0.1, 0.0, 100.0, "m", "Radius of a spot light's sphere of light, m (a spot's map; the sun's size is sun_radius)."),
     }
 }
 
@@ -145,8 +154,16 @@ tyndall_engine::uniforms! {
         pub step_var: [f32; 2],
         /// 1 for growth = linear.
         pub linear: u32,
+        /// 1 for a spot's perspective map (slices in q = 1 − near / w).
+        pub persp: u32,
+        /// A spot map's depth-0 distance, m.
+        pub near: f32,
+        /// A spot map's depth-1 distance, m.
+        pub far: f32,
         /// Padding.
-        pub _pad0: u32,
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
     }
 }
 
@@ -206,8 +223,44 @@ pub fn step_variance(
     ]
 }
 
+/// One slice's per-axis variance in texels² on a spot's perspective map (always linear growth):
+/// a ray from a point L of a sphere of light (radius R, per-axis standard deviation R/2 over
+/// its disc) through an occluder at distance w_o along the axis meets depth w_r at map offset
+/// L (1/w_o − 1/w_r) in tangent units, and 1/w_o − 1/w_r = Δq / near with q = 1 − near / w.
+/// Slices are equal steps Δq = (1 − near / far) / slices, so each adds ((R/2) Δq / near)² in
+/// tangent units², times (k res / 2)² in texels² (k = 1 / tan of the map's half-angle).
+pub fn spot_step_variance(
+    light: &Matrices,
+    res: u32,
+    slices: u32,
+    radius_m: f64,
+    shape: [f64; 2],
+) -> [f64; 2] {
+    let Some(l) = light.local else {
+        return [0.0; 2];
+    };
+    let (near, far) = (l.near as f64, l.far as f64);
+    let dq = (1.0 - near / far) / slices.max(1) as f64;
+    let k = light.proj[0][0] as f64;
+    let sigma = radius_m / 2.0 * dq / near * k * res as f64 / 2.0;
+    [sigma * sigma * shape[0], sigma * sigma * shape[1]]
+}
+
+/// Where light depth `z` falls along the slices (the shader's `slice_coord`): `z`, or on a
+/// spot's map (`persp` = (near, far)) q / q_far with q = 1 − near / w.
+pub fn slice_coord(z: f32, persp: Option<(f32, f32)>) -> f32 {
+    match persp {
+        None => z,
+        Some((near, far)) => {
+            let w = near + z * (far - near);
+            (1.0 - near / w) / (1.0 - near / far)
+        }
+    }
+}
+
 /// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map; with
-/// `linear` = Some(per-axis step variance), the distance-aware Dirac pairs instead of `spec`.
+/// `linear` = Some(per-axis step variance), the distance-aware Dirac pairs instead of `spec`;
+/// `persp`: a spot's (near, far), its slices in [`slice_coord`].
 pub fn reference(
     map: &Raster,
     res: u32,
@@ -215,6 +268,7 @@ pub fn reference(
     spec: &KernelSpec,
     bias: f32,
     linear: Option<[f32; 2]>,
+    persp: Option<(f32, f32)>,
 ) -> Vec<f32> {
     let slices = slices.max(1);
     let n = footprint(map.width.max(map.height), res);
@@ -285,7 +339,7 @@ pub fn reference(
                         let v = (y as f32 + (j as f32 + 0.5) / n as f32) / res as f32;
                         let tx = ((u * map.width as f32) as u32).min(map.width - 1);
                         let ty = ((v * map.height as f32) as u32).min(map.height - 1);
-                        let d = map.pixel(tx, ty)[0] + bias;
+                        let d = slice_coord(map.pixel(tx, ty)[0] + bias, persp);
                         if d >= lo && d < hi {
                             hit += 1.0;
                         }
@@ -329,6 +383,18 @@ impl NodeKind for SoftVisibility {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let (map, light) = ctx.shadow_map("shadow")?;
+        let persp = match light.local {
+            Some(l) if l.point => {
+                return Err(NodeError::Input {
+                    port: "shadow".into(),
+                    message: "is a point light's cube atlas: soft visibility is built for a \
+                              sun's or a spot's map (a point light's shafts stay hard)"
+                        .into(),
+                })
+            }
+            Some(l) => Some((l.near, l.far)),
+            None => None,
+        };
         let res = ctx.side("resolution", p.resolution, 3)?;
         let slices = p.slices.clamp(1, 1024) as u32;
         tyndall_engine::eval::check_side(
@@ -363,15 +429,19 @@ impl NodeKind for SoftVisibility {
         let a = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
         let b = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
         let bias = p.bias;
-        let linear = p.growth == Growth::Linear;
-        let step_var = step_variance(
-            &light,
-            res,
-            slices,
-            p.sun_radius,
-            [p.ellipse_x, p.ellipse_y],
-        )
-        .map(|v| v as f32);
+        let shape = [p.ellipse_x, p.ellipse_y];
+        let (linear, step_var) = match persp {
+            Some(_) => (
+                true,
+                spot_step_variance(&light, res, slices, p.light_radius, shape),
+            ),
+            None => (
+                p.growth == Growth::Linear,
+                step_variance(&light, res, slices, p.sun_radius, shape),
+            ),
+        };
+        let step_var = step_var.map(|v| v as f32);
+        let (near, far) = persp.unwrap_or((0.0, 1.0));
         for k in 0..slices {
             let (prev, next) = if k % 2 == 0 { (&a, &b) } else { (&b, &a) };
             let u = SoftParams {
@@ -384,7 +454,11 @@ impl NodeKind for SoftVisibility {
                 bias,
                 step_var,
                 linear: linear as u32,
-                _pad0: 0,
+                persp: persp.is_some() as u32,
+                near,
+                far,
+                _pad1: 0,
+                _pad2: 0,
             };
             ctx.gpu.dispatch(
                 SHADER,

@@ -47,6 +47,10 @@ struct Params {
 
 struct SoftView {
     view_proj: mat4x4<f32>,
+    persp: u32,
+    near: f32,
+    far: f32,
+    _pad0: u32,
 }
 
 @group(0) @binding(14) var soft_volume: texture_3d<f32>;
@@ -89,7 +93,15 @@ fn phase(cos_theta: f32) -> vec3<f32> {
 // the slices' far ends (0 at light depth 0).
 fn soft_visible(x: vec3<f32>) -> f32 {
     let c = SV.view_proj * vec4<f32>(x, 1.0);
-    let uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    var uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
+    if SV.persp != 0u {
+        // A spot's volume: the perspective divide, and slices in q = 1 − near / w.
+        if c.w <= 1e-6 {
+            return 1.0;
+        }
+        uvz = vec3<f32>(c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5,
+            (1.0 - SV.near / c.w) / (1.0 - SV.near / SV.far));
+    }
     if uvz.x < 0.0 || uvz.x >= 1.0 || uvz.y < 0.0 || uvz.y >= 1.0 || uvz.z < 0.0 || uvz.z > 1.0 {
         return 1.0;
     }
@@ -141,11 +153,11 @@ fn local_light_path(x: vec3<f32>) -> f32 {
 }
 
 fn visible(x: vec3<f32>) -> f32 {
-    if LOCAL && P.local_kind != 0u {
-        return select(0.0, 1.0, sun_reaches(shadow, local_uvz(x), P.bias));
-    }
     if SOFT && P.soft_slices != 0u {
         return soft_visible(x);
+    }
+    if LOCAL && P.local_kind != 0u {
+        return select(0.0, 1.0, sun_reaches(shadow, local_uvz(x), P.bias));
     }
     return select(0.0, 1.0, sun_reaches(shadow, light_uvz(P.light_view_proj, x), P.bias));
 }
