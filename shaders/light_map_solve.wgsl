@@ -23,6 +23,19 @@ struct View {
     map_size: vec2<u32>,
     bias: f32,
     row_offset: u32,
+    // A spot (local_kind 1): its falloff and HG g weigh each sample.
+    light_pos: vec3<f32>,
+    local_kind: u32,
+    spot_dir: vec3<f32>,
+    cos_inner: f32,
+    cos_outer: f32,
+    range: f32,
+    near: f32,
+    far: f32,
+    g: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // The resident solve's vector passes (`combine`, `mask_frozen`, `reduce`, `decode`, `clear`).
@@ -60,7 +73,40 @@ fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
 // Light-space (u, v, depth) of a world point, and whether the sun reaches it (nearest texel,
 // depth bias; outside the map or the light box: lit).
 fn light_uv(x: vec3<f32>) -> vec3<f32> {
+    if P.local_kind != 0u {
+        return light_uvz_local(spot(), P.light_view_proj, x);
+    }
     return light_uvz(P.light_view_proj, x);
+}
+
+fn spot() -> LocalLight {
+    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
+}
+
+// A spot's falloff and phase at distance t along the ray (1 for the sun: one factor of every
+// row, which cancels).
+fn lamp(dir: vec3<f32>, t: f32) -> f32 {
+    if P.local_kind == 0u {
+        return 1.0;
+    }
+    let x = P.eye + dir * t;
+    let l = P.light_pos - x;
+    let to_light = select(vec3<f32>(0.0), l / length(l), dot(l, l) > 0.0);
+    return light_falloff(spot(), x) * henyey_greenstein(P.g, dot(dir, to_light));
+}
+
+// The row's normaliser: ∫_0^s e^{−σt t} dt for the sun; for a spot the sum of every sample's
+// falloff × phase × interval weight, lit or not (so Σ_i ŵ_i ≤ 1 still holds).
+fn row_total(dir: vec3<f32>, s: f32) -> f32 {
+    if P.local_kind == 0u {
+        return decay_integral(s, P.sigma_t);
+    }
+    let n = f32(P.steps);
+    var sum = 0.0;
+    for (var i = 0u; i < P.steps; i++) {
+        sum += lamp(dir, (f32(i) + 0.5) / n * s) * exp(-P.sigma_t * (f32(i) / n * s));
+    }
+    return sum * decay_integral(s / n, P.sigma_t);
 }
 
 fn visible(l: vec3<f32>) -> bool {
@@ -92,15 +138,15 @@ struct Sample {
     w: f32,
 }
 
-fn sample_at(dir: vec3<f32>, s: f32, i: u32) -> Sample {
+fn sample_at(dir: vec3<f32>, s: f32, i: u32, total: f32) -> Sample {
     let n = f32(P.steps);
-    let total = decay_integral(s, P.sigma_t);
+    let t = (f32(i) + 0.5) / n * s;
     var m: Sample;
-    m.l = light_uv(P.eye + dir * ((f32(i) + 0.5) / n * s));
+    m.l = light_uv(P.eye + dir * t);
     m.w = 0.0;
     if visible(m.l) && total > 0.0 {
         let a = f32(i) / n * s;
-        m.w = exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
+        m.w = lamp(dir, t) * exp(-P.sigma_t * a) * decay_integral(s / n, P.sigma_t) / total;
     }
     return m;
 }
@@ -123,8 +169,9 @@ fn forward(@builtin(global_invocation_id) id: vec3<u32>) {
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
     var sum = vec3<f32>(0.0);
+    let total = row_total(dir, s);
     for (var i = 0u; i < P.steps; i++) {
-        let m = sample_at(dir, s, i);
+        let m = sample_at(dir, s, i, total);
         if m.w <= 0.0 {
             continue;
         }
@@ -174,8 +221,9 @@ fn adjoint(@builtin(global_invocation_id) id: vec3<u32>) {
     let r = textureLoad(residual, id.xy, 0).rgb;
     let dir = view_ray(id.xy, size);
     let s = textureLoad(depth, id.xy, 0).r;
+    let total = row_total(dir, s);
     for (var i = 0u; i < P.steps; i++) {
-        let m = sample_at(dir, s, i);
+        let m = sample_at(dir, s, i, total);
         if m.w <= 0.0 {
             continue;
         }
@@ -213,8 +261,9 @@ fn forward_rows(@builtin(global_invocation_id) id: vec3<u32>) {
     var sum = vec3<f32>(0.0);
     var cur = vec4<i32>(-1);
     var wc = vec4<f32>(0.0);
+    let total = row_total(dir, s);
     for (var i = 0u; i < P.steps; i++) {
-        let m = sample_at(dir, s, i);
+        let m = sample_at(dir, s, i, total);
         if m.w <= 0.0 {
             continue;
         }
@@ -256,8 +305,9 @@ fn adjoint_rows(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = textureLoad(depth, px, 0).r;
     var cur = vec4<i32>(-1);
     var wc = vec4<f32>(0.0);
+    let total = row_total(dir, s);
     for (var i = 0u; i < P.steps; i++) {
-        let m = sample_at(dir, s, i);
+        let m = sample_at(dir, s, i, total);
         if m.w <= 0.0 {
             continue;
         }

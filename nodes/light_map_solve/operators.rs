@@ -5,7 +5,7 @@ use super::{
     Bind, Gpu, GpuError, GpuTexture, Matrices, NodeError, Operator, Raster, TexFormat, SHADER,
 };
 
-use crate::algorithms::shader_lib::{decay_integral, light_uvz, sun_reaches};
+use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein, light_uvz, sun_reaches};
 
 /// Medium and sampling of the solve.
 #[derive(Debug, Clone, Copy)]
@@ -16,6 +16,9 @@ pub struct Sampling {
     pub steps: u32,
     /// Shadow bias.
     pub bias: f32,
+    /// Henyey–Greenstein g of the medium: used with a spot, whose phase changes along the ray
+    /// (the sun's is one factor of every row and cancels).
+    pub g: f32,
 }
 
 /// One view, ready to solve: camera matrices, linear depth, and the rasterised targets.
@@ -54,21 +57,47 @@ pub(super) fn row(
     let eye = v.camera.eye();
     let dir = v.camera.pixel_ray(x, y, w, h);
     let depth = v.depth.data[k];
-    let total = decay_integral(depth, s.sigma_t);
     let steps = s.steps as f32;
+    // A spot: each sample weighs its falloff and phase too (they change along the ray), and
+    // the row is normalised by the sum over all its samples, lit or not (so Σ ŵ_i ≤ 1 still).
+    let lamp = |t: f32| -> f32 {
+        light.local.map_or(1.0, |l| {
+            let p = eye + dir * t;
+            let to_light = (l.position() - p).normalize_or_zero();
+            l.falloff(p) * henyey_greenstein(s.g, dir.dot(to_light))
+        })
+    };
+    let total = match light.local {
+        None => decay_integral(depth, s.sigma_t),
+        Some(_) => {
+            (0..s.steps)
+                .map(|i| {
+                    let t = (i as f32 + 0.5) / steps * depth;
+                    lamp(t) * (-s.sigma_t * (i as f32 / steps * depth)).exp()
+                })
+                .sum::<f32>()
+                * decay_integral(depth / steps, s.sigma_t)
+        }
+    };
     let mut out = Vec::new();
     if total <= 0.0 {
         return out;
     }
     for i in 0..s.steps {
         let t = (i as f32 + 0.5) / steps * depth;
-        let l = light_uvz(lvp, eye + dir * t);
+        let l = match light.local {
+            None => light_uvz(lvp, eye + dir * t),
+            Some(local) => local
+                .uvz(lvp, eye + dir * t)
+                .unwrap_or(glam::Vec3::new(-1.0, -1.0, 2.0)),
+        };
         if !sun_reaches(shadow, l, s.bias) {
             continue;
         }
         let (u, vv) = (l.x, l.y);
         let a = i as f32 / steps * depth;
-        let wi = (-s.sigma_t * a).exp() * decay_integral(depth / steps, s.sigma_t) / total;
+        let wi =
+            lamp(t) * (-s.sigma_t * a).exp() * decay_integral(depth / steps, s.sigma_t) / total;
         let q = [u * n as f32 - 0.5, vv * n as f32 - 0.5];
         let f = [q[0] - q[0].floor(), q[1] - q[1].floor()];
         let i0 = [q[0].floor() as i64, q[1].floor() as i64];
@@ -205,6 +234,69 @@ tyndall_engine::uniforms! {
         /// The view's first row in the resident solve's row vectors (`forward_rows`,
         /// `adjoint_rows`; unused by `forward` and `adjoint`).
         pub row_offset: u32,
+        /// A spot's position (local_kind 1), m.
+        pub light_pos: [f32; 3],
+        /// 0 the sun, 1 a spot.
+        pub local_kind: u32,
+        /// A spot's unit direction.
+        pub spot_dir: [f32; 3],
+        /// cos of a spot's inner cone half-angle.
+        pub cos_inner: f32,
+        /// cos of a spot's outer cone half-angle.
+        pub cos_outer: f32,
+        /// Range, m (0: unlimited).
+        pub range: f32,
+        /// The spot map's depth 0, m.
+        pub near: f32,
+        /// The spot map's depth 1, m.
+        pub far: f32,
+        /// Henyey–Greenstein g (a spot's rows).
+        pub g: f32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+    }
+}
+
+impl ViewParams {
+    /// The uniforms of one view: its camera, the light (a spot's falloff and cone when its map
+    /// is a spot's), the sampling, the map's side `n`, the adjoint's `scale` and the view's
+    /// first row.
+    pub fn new(
+        camera: &Matrices,
+        light: &Matrices,
+        s: Sampling,
+        n: u32,
+        scale: [f32; 3],
+        row_offset: u32,
+    ) -> Self {
+        let l = light.local;
+        ViewParams {
+            inv_view_proj: camera.view_proj().inverse().to_cols_array_2d(),
+            light_view_proj: light.view_proj().to_cols_array_2d(),
+            eye: camera.eye().to_array(),
+            steps: s.steps,
+            scale,
+            sigma_t: s.sigma_t,
+            map_size: [n, n],
+            bias: s.bias,
+            row_offset,
+            light_pos: l.map_or([0.0; 3], |l| l.position),
+            local_kind: l.is_some() as u32,
+            spot_dir: l.map_or([0.0, -1.0, 0.0], |l| l.direction),
+            cos_inner: l.map_or(-1.0, |l| l.cos_inner),
+            cos_outer: l.map_or(-1.0, |l| l.cos_outer),
+            range: l.map_or(0.0, |l| l.range),
+            near: l.map_or(0.0, |l| l.near),
+            far: l.map_or(1.0, |l| l.far),
+            g: s.g,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+        }
     }
 }
 
@@ -276,17 +368,7 @@ impl<'a> GpuOperator<'a> {
     }
 
     fn params(&self, v: &ViewProblem, scale: [f32; 3]) -> ViewParams {
-        ViewParams {
-            inv_view_proj: v.camera.view_proj().inverse().to_cols_array_2d(),
-            light_view_proj: self.light.view_proj().to_cols_array_2d(),
-            eye: v.camera.eye().to_array(),
-            steps: self.sampling.steps,
-            scale,
-            sigma_t: self.sampling.sigma_t,
-            map_size: [self.n, self.n],
-            bias: self.sampling.bias,
-            row_offset: 0,
-        }
+        ViewParams::new(&v.camera, &self.light, self.sampling, self.n, scale, 0)
     }
 
     fn upload_map(&self, x: &[[f32; 3]]) -> Result<GpuTexture, GpuError> {

@@ -159,17 +159,14 @@ impl<'a> Resident<'a> {
     }
 
     fn view_params(&self, v: &View, scale: [f32; 3]) -> ViewParams {
-        ViewParams {
-            inv_view_proj: v.problem.camera.view_proj().inverse().to_cols_array_2d(),
-            light_view_proj: self.light.view_proj().to_cols_array_2d(),
-            eye: v.problem.camera.eye().to_array(),
-            steps: self.sampling.steps,
+        ViewParams::new(
+            &v.problem.camera,
+            &self.light,
+            self.sampling,
+            self.n,
             scale,
-            sigma_t: self.sampling.sigma_t,
-            map_size: [self.n, self.n],
-            bias: self.sampling.bias,
-            row_offset: v.offset,
-        }
+            v.offset,
+        )
     }
 
     fn rows_buffer(&self) -> Result<GpuBuffer, GpuError> {

@@ -54,7 +54,31 @@ const SAMPLING: Sampling = Sampling {
     sigma_t: 0.08,
     steps: 48,
     bias: 0.002,
+    g: 0.5, // SingleScattering's default, which renders the targets
 };
+
+/// A spot 6 m above the origin shining down (cone 50°, map depth 0.5–12 m along its axis).
+fn spot() -> Matrices {
+    use tyndall::scene::{local_proj, spot_view, LocalLight};
+    let (pos, dir) = (Vec3::new(0.0, 6.0, 0.0), Vec3::NEG_Y);
+    let half = 50f32.to_radians();
+    Matrices {
+        view: spot_view(pos, dir).to_cols_array_2d(),
+        proj: local_proj(half, 0.5, 12.0).to_cols_array_2d(),
+        far: 12.0,
+        radiance: [1.0; 3],
+        local: Some(LocalLight {
+            point: false,
+            position: pos.to_array(),
+            direction: dir.to_array(),
+            cos_inner: 45f32.to_radians().cos(),
+            cos_outer: half.cos(),
+            range: 0.0,
+            near: 0.5,
+            far: 12.0,
+        }),
+    }
+}
 
 /// The known light map: smooth, different per channel, within [0.2, 1.6].
 fn known_map(n: u32) -> Raster {
@@ -73,7 +97,11 @@ fn known_map(n: u32) -> Raster {
 
 /// Render each view with `SingleScattering` (BruteForce, no jitter) with the known map and with
 /// a white one; the desired colour of every pixel is their ratio (so b = T x*).
-fn views_from_render(gpu: &Arc<tyndall::gpu::Gpu>, map: &Raster) -> Vec<ViewProblem> {
+fn views_from_render(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    map: &Raster,
+    light: Matrices,
+) -> Vec<ViewProblem> {
     let (w, h) = (40, 30);
     let sh = Arc::new(gpu.upload(16, 16, 1, &shadow().data).expect("upload"));
     let map_tex = Arc::new(
@@ -96,9 +124,9 @@ fn views_from_render(gpu: &Arc<tyndall::gpu::Gpu>, map: &Raster) -> Vec<ViewProb
                         ("sigma_t", ParamValue::Float(SAMPLING.sigma_t as f64)),
                     ],
                     vec![
-                        ("shadow", PortValue::ShadowMap(sh.clone(), light())),
+                        ("shadow", PortValue::ShadowMap(sh.clone(), light)),
                         ("depth", PortValue::Depth(d.clone(), cam)),
-                        ("light_map", PortValue::LightMap(lm.clone(), light())),
+                        ("light_map", PortValue::LightMap(lm.clone(), light)),
                     ],
                     &["inscatter"],
                     (8, 8),
@@ -130,8 +158,8 @@ fn views_from_render(gpu: &Arc<tyndall::gpu::Gpu>, map: &Raster) -> Vec<ViewProb
 }
 
 /// Texels whose total constraint weight (column sum of T) is at least `frac` of the largest.
-fn covered(views: &[ViewProblem], n: u32, frac: f32) -> Vec<bool> {
-    let mut op = lms::CpuOperator::new(views, &shadow(), &light(), n, SAMPLING);
+fn covered(views: &[ViewProblem], n: u32, frac: f32, light: &Matrices) -> Vec<bool> {
+    let mut op = lms::CpuOperator::new(views, &shadow(), light, n, SAMPLING);
     use lms::Operator;
     let rows = op.rows();
     let col = op.adjoint(&vec![[1.0; 3]; rows]).expect("adjoint");
@@ -193,29 +221,51 @@ fn light_map_scales_inscatter_per_channel_and_minmax_is_refused() {
 #[test]
 fn solve_recovers_a_known_light_map() {
     let gpu = require_gpu!();
+    recover_known_map(&gpu, light(), "sun");
+}
+
+/// The same through a spot (issue #44): its light map is a gobo over the cone, and each sample
+/// of a constraint ray weighs the spot's falloff and phase (they change along the ray); the
+/// CPU operator agrees with the GPU's rows.
+#[test]
+fn solve_recovers_a_known_light_map_through_a_spot() {
+    let gpu = require_gpu!();
+    recover_known_map(&gpu, spot(), "spot");
+    let views = views_from_render(&gpu, &known_map(8), spot());
+    let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
+    let g =
+        lms::solve_gpu(&gpu, views.clone(), &sh, spot(), 8, SAMPLING, settings(20)).expect("gpu");
+    let c =
+        lms::solve_reference(&views, &shadow(), &spot(), 8, SAMPLING, settings(20)).expect("cpu");
+    let last = |r: &[f64]| *r.last().expect("residual");
+    let (rg, rc) = (last(&g.residuals), last(&c.residuals));
+    // The same operator on both sides (f32 on the GPU, fixed-point adjoint): residuals within
+    // 1 % of the start after 20 iterations.
+    assert!(
+        (rg - rc).abs() <= 0.01 * c.residuals[0],
+        "GPU residual {rg} vs CPU {rc} (start {})",
+        c.residuals[0]
+    );
+}
+
+/// Render three views with the known map through `light`, solve, and hold the covered texels
+/// to 1 % (the issue's bound) with a residual that never rises.
+fn recover_known_map(gpu: &Arc<tyndall::gpu::Gpu>, light: Matrices, what: &str) {
     let n = 8;
     let truth = known_map(n);
-    let views = views_from_render(&gpu, &truth);
+    let views = views_from_render(gpu, &truth, light);
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
-    let sol = lms::solve_gpu(
-        &gpu,
-        views.clone(),
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        settings(300),
-    )
-    .expect("solve");
+    let sol =
+        lms::solve_gpu(gpu, views.clone(), &sh, light, n, SAMPLING, settings(300)).expect("solve");
     for w in sol.residuals.windows(2) {
         // Rounding only: the fixed-point adjoint and f32 sums (relative 1e-6 of the start).
         assert!(
             w[1] <= w[0] + 1e-6 * sol.residuals[0],
-            "residual rose: {:?}",
+            "{what}: residual rose: {:?}",
             w
         );
     }
-    let cov = covered(&views, n, 0.2);
+    let cov = covered(&views, n, 0.2, &light);
     let mut worst = 0.0f32;
     for (i, c) in cov.iter().enumerate() {
         if *c {
@@ -226,11 +276,12 @@ fn solve_recovers_a_known_light_map() {
         }
     }
     let count = cov.iter().filter(|c| **c).count();
-    assert!(count >= 16, "only {count} covered texels");
+    eprintln!("{what}: {count} covered texels, worst relative error {worst:.2e}");
+    assert!(count >= 16, "{what}: only {count} covered texels");
     // The issue's bound: 1 % relative error on the covered texels.
     assert!(
         worst <= 0.01,
-        "worst relative error {worst} over {count} texels"
+        "{what}: worst relative error {worst} over {count} texels"
     );
 }
 
@@ -239,7 +290,7 @@ fn solve_recovers_a_known_light_map() {
 fn gpu_and_cpu_solves_agree() {
     let gpu = require_gpu!();
     let n = 8;
-    let views = views_from_render(&gpu, &known_map(n));
+    let views = views_from_render(&gpu, &known_map(n), light());
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let set = settings(20);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
@@ -267,7 +318,7 @@ fn unreached_texels_keep_the_start_value() {
     let gpu = require_gpu!();
     let n = 24;
     // One view, a 4×4-pixel stroke: its rays cross a narrow band of the map.
-    let mut views = views_from_render(&gpu, &known_map(n));
+    let mut views = views_from_render(&gpu, &known_map(n), light());
     views.truncate(1);
     let w = views[0].targets.width as usize;
     for (k, px) in views[0].targets.data.chunks_mut(4).enumerate() {
@@ -282,7 +333,7 @@ fn unreached_texels_keep_the_start_value() {
     let mut set = settings(20);
     set.start = 0.7;
     let g = lms::solve_gpu(&gpu, views.clone(), &sh, light(), n, SAMPLING, set).expect("gpu");
-    let reached = covered(&views, n, 0.0);
+    let reached = covered(&views, n, 0.0, &light());
     assert!(
         reached.iter().any(|c| !c),
         "every texel is reached: the check is empty"
@@ -304,7 +355,7 @@ fn degenerate_problems_end_finite() {
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let none = lms::solve_gpu(&gpu, vec![], &sh, light(), n, SAMPLING, settings(10)).expect("none");
     assert!(none.x.iter().all(|v| *v == [1.0; 3]));
-    let mut one = views_from_render(&gpu, &known_map(n));
+    let mut one = views_from_render(&gpu, &known_map(n), light());
     one.truncate(1);
     for (k, px) in one[0].targets.data.chunks_mut(4).enumerate() {
         px[3] = if k == 615 { 1.0 } else { 0.0 };
@@ -313,7 +364,7 @@ fn degenerate_problems_end_finite() {
         lms::solve_gpu(&gpu, one.clone(), &sh, light(), n, SAMPLING, settings(10)).expect("one");
     assert!(s1.x.iter().flatten().all(|v| v.is_finite()));
     // Contradictory: the second and third views want the opposite red of the first.
-    let mut contra = views_from_render(&gpu, &known_map(n));
+    let mut contra = views_from_render(&gpu, &known_map(n), light());
     for v in contra.iter_mut().skip(1) {
         for px in v.targets.data.chunks_mut(4) {
             px[0] = 2.0 - px[0];
@@ -388,7 +439,7 @@ fn node_solves_strokes_in_a_graph() {
 fn resident_solve_reaches_the_cpu_residual() {
     let gpu = require_gpu!();
     let n = 24;
-    let views = views_from_render(&gpu, &known_map(n));
+    let views = views_from_render(&gpu, &known_map(n), light());
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let set = settings(40);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
