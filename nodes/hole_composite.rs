@@ -3,7 +3,9 @@
 //! map — so light bursts through the objects (foliage) while everything else still occludes.
 //!
 //! `out = min(H > 0.5 ? 1 : object, rest)`. The hole map is sampled at the same normalised
-//! position (nearest texel) when its size differs.
+//! position (nearest texel) when its size differs. Any light: `object` and `rest` must be maps
+//! of the same one (the same `ShadowMap.light`; a sun's, a spot's or a point light's cube
+//! atlas, texel by texel), else the node refuses them.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -75,8 +77,18 @@ impl NodeKind for HoleComposite {
     }
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
-        let (object, _) = map(ctx, "object")?;
+        let (object, om) = map(ctx, "object")?;
         let (rest, m) = map(ctx, "rest")?;
+        // Both maps must be of the same light (a sun's box, a spot's cone, a point light's
+        // cube): a texel-wise minimum of two lights' maps means nothing.
+        if om.view_proj() != m.view_proj() || om.local != m.local {
+            return Err(NodeError::Input {
+                port: "object".into(),
+                message: "is a map of another light (or another light box) than rest's: give \
+                          both ShadowMaps the same light"
+                    .into(),
+            });
+        }
         let holes = ctx.require_texture("holes")?;
         if (object.width, object.height) != (rest.width, rest.height) {
             return Err(NodeError::Input {

@@ -234,3 +234,90 @@ fn hole_composite_matches_reference() {
     .expect("composite");
     assert_eq!(out["map"], hole_composite::reference(&object, &h, &rest));
 }
+
+/// Holes per light (issue #44, item 4): the tree's foliage (tag `foliage`) and the rest drawn
+/// into a spot's map each, Perlin holes punched in the foliage's: the composite is the spot's
+/// map (it carries the lamp), equal to its CPU reference, with light through the holes — the
+/// first occluder lies deeper (the trunk or the ground behind the leaves) where a hole is
+/// punched, and nowhere nearer than in the full map; maps of two different lights are refused.
+#[test]
+fn hole_composite_works_in_a_spots_map_and_refuses_two_lights() {
+    let gpu = require_gpu!();
+    let spot = r#""name": "tree", "light": "custom", "light_type": "spot", "light_x": 2.0,
+        "light_y": 6.5, "light_z": 1.5, "light_target_x": 0.0, "light_target_y": 1.0,
+        "light_target_z": 0.0, "cone_inner": 18.0, "cone_outer": 30.0"#;
+    let graph = |rest_light: &str| {
+        format!(
+            r#"(version: 3, nodes: {{
+            "scene": (kind: "Scene", params: {{{spot}}}),
+            "sun_scene": (kind: "Scene", params: {{"name": "tree"}}),
+            "all": (kind: "ShadowMap", params: {{"resolution": 256}}),
+            "object": (kind: "ShadowMap", params: {{"resolution": 256, "include": "foliage"}}),
+            "rest": (kind: "ShadowMap", params: {{"resolution": 256, "exclude": "foliage"}}),
+            "noise": (kind: "PerlinNoise2D", params: {{"width": 256, "height": 256, "frequency": 24.0}}),
+            "holes": (kind: "HoleMap", params: {{"probability": 0.4}}),
+            "comp": (kind: "HoleComposite"),
+        }}, edges: [
+            ("scene.scene", "all.scene"), ("scene.scene", "object.scene"),
+            ("{rest_light}.scene", "rest.scene"),
+            ("noise.noise", "holes.noise"), ("object.map", "comp.object"),
+            ("holes.holes", "comp.holes"), ("rest.map", "comp.rest"),
+        ])"#
+        )
+    };
+    let ports = [
+        ("all", "map"),
+        ("object", "map"),
+        ("rest", "map"),
+        ("holes", "holes"),
+        ("comp", "map"),
+    ];
+    let out = common::eval_ron(&gpu, &graph("scene"), &ports, (32, 18));
+    match out.get("comp", "map") {
+        PortValue::ShadowMap(_, m) => assert!(
+            m.local.is_some_and(|l| !l.point),
+            "the composite carries the spot"
+        ),
+        other => panic!("comp.map: {other:?}"),
+    }
+    let (object, holes, rest, all) = (
+        out.read("object", "map"),
+        out.read("holes", "holes"),
+        out.read("rest", "map"),
+        out.read("all", "map"),
+    );
+    let comp = out.read("comp", "map");
+    assert_eq!(comp, hole_composite::reference(&object, &holes, &rest));
+    // The full map is the minimum of the two parts (drawn the same way), so exactly.
+    let deeper = comp
+        .data
+        .iter()
+        .zip(&all.data)
+        .inspect(|(c, a)| assert!(**c >= **a, "a hole made an occluder nearer: {c} < {a}"))
+        .filter(|(c, a)| **c > **a)
+        .count();
+    assert!(
+        deeper > 100,
+        "holes should let light through the foliage: only {deeper} texels deeper"
+    );
+    // The rest drawn for the sun instead: refused, naming the port.
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let g = tyndall::graph::load_str(
+        &graph("sun_scene"),
+        std::path::Path::new("g.ron"),
+        registry.catalog(),
+    )
+    .expect("graph");
+    let e = tyndall::eval::Evaluator::new(registry, gpu.clone())
+        .evaluate(
+            &g,
+            &[tyndall::eval::Target::Port("comp".into(), "map".into())],
+            &tyndall::eval::EvalOptions {
+                size: (32, 18),
+                ..Default::default()
+            },
+        )
+        .expect_err("two lights' maps")
+        .to_string();
+    assert!(e.contains("object") && e.contains("another light"), "{e}");
+}
