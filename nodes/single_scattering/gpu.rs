@@ -195,11 +195,13 @@ pub(super) fn scatter(
         ("LIGHT_MAP", on(i.light_map.is_some())),
         ("SOFT", on(i.soft.is_some())),
         ("LOCAL", on(u.local_kind != 0)),
+        ("POINT", on(u.local_kind == 2)),
     ];
-    // A spot: MinMax walks its perspective map's pyramid (min_max.wgsl, `min_max_spot`), for
-    // Epipolar too (its rectified lines assume the sun's parallel light); with a light map, and
-    // for a point light's cube atlas, BruteForce marches whatever the method (the node's docs).
-    let spot_min_max = u.local_kind == 1 && i.light_map.is_none();
+    // A spot or point light: MinMax walks its perspective map's pyramid, face by face for a
+    // point light's atlas (min_max.wgsl, `min_max_local`), for Epipolar too (its rectified
+    // lines assume the sun's parallel light); with a light map BruteForce marches whatever the
+    // method (the node's docs).
+    let spot_min_max = u.local_kind != 0 && i.light_map.is_none();
     if p.method == Method::BruteForce || (u.local_kind != 0 && !spot_min_max) {
         let no_map;
         let (map, lm) = match i.light_map {

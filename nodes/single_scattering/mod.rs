@@ -26,10 +26,12 @@
 //! by its two ends as for the sun): the lit stretches are exact, and each run of them is
 //! integrated equiangularly (θ seen from the light's closest approach to the ray, so dt/d² =
 //! dθ/h and what is left is smooth) with `steps` midpoint nodes per π of θ, at least one per
-//! run; `visibility` is then the exact lit fraction (`min_max.wgsl`, `min_max_spot`;
-//! `cargo test --test light -- spot_min_max`). `Epipolar` asked for with a spot runs that
-//! MinMax (its rectified lines assume parallel light). A point light's cube atlas, and a spot
-//! with a light map, are marched by BruteForce whatever the method. A spot's `soft` volume
+//! run; `visibility` is then the exact lit fraction (`min_max.wgsl`, `min_max_local`;
+//! `cargo test --test light -- min_max_converges`). A point light's cube atlas is walked face
+//! by face (each face a 90° perspective map whose pyramid cells stay inside it), in order along
+//! the ray, the runs carried across the faces' seams. `Epipolar` asked for with a lamp runs that
+//! MinMax (its rectified lines assume parallel light). A lamp with a light map is marched by
+//! BruteForce whatever the method. A spot's `soft` volume
 //! (SoftVisibility of radius `light_radius`) is read with the perspective divide and its
 //! slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
 //! or behind a spot counts as lit, as for the sun).

@@ -66,6 +66,8 @@ override LIGHT_MAP: bool = true;
 override SOFT: bool = true;
 // Whether the light can be a spot or point light (`local_kind` ≠ 0; BruteForce only).
 override LOCAL: bool = true;
+// Whether the light can be a point light (its cube atlas walked face by face in MinMax).
+override POINT: bool = true;
 
 // Light extinction on (the pipeline allows it and the uniforms ask for it).
 fn extinction() -> bool {

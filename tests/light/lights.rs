@@ -132,15 +132,37 @@ fn spot_and_point_light_brute_force_match_the_cpu_reference() {
 /// 8192 steps: a shadow edge moves V̄ by at most 1/8192 per crossing, and a ray crosses a
 /// handful) and in-scatter within 3e-3 of the brightest pixel (MinMax's 64 nodes per π against
 /// the brute force's midpoints leave a small quadrature gap; measured on lavapipe: V̄ 2.0e-4,
-/// in-scatter 7.6e-4). A wrong conversion between the map's line and the ray (σ ↔ t) moves
+/// in-scatter 1.9e-3 — lit runs merge across the frustum's edge, so fewer nodes than when the
+/// outside was integrated apart, 7.6e-4). A wrong conversion between the map's line and the ray (σ ↔ t) moves
 /// whole shadows: far beyond these bounds.
 #[test]
 fn spot_min_max_converges_to_the_brute_force_limit() {
     let gpu = require_gpu!();
+    min_max_against_brute_force(&gpu, "spot", 1e-3, 3e-3);
+}
+
+/// The same for a point light (its cube atlas walked face by face, in order along the ray):
+/// the lamp sits in the tree's crown, so rays pass close to it where the brute force's own
+/// midpoint error on the inverse square is largest — measured on lavapipe: V̄ 2.6e-4, in-scatter
+/// 2.5e-3 of the brightest; the same bounds.
+#[test]
+fn point_min_max_converges_to_the_brute_force_limit() {
+    let gpu = require_gpu!();
+    min_max_against_brute_force(&gpu, "point", 1e-3, 3e-3);
+}
+
+/// MinMax (64 nodes per π) against 8192 brute-force steps on the same `kind` of lamp: the
+/// largest V̄ and in-scatter (of the brightest pixel) differences must stay within the bounds.
+fn min_max_against_brute_force(
+    gpu: &std::sync::Arc<tyndall::gpu::Gpu>,
+    kind: &str,
+    v_max: f32,
+    l_max: f32,
+) {
     let run = |method: &str, steps: i64| {
         run_scene(
-            &gpu,
-            &lamp("spot"),
+            gpu,
+            &lamp(kind),
             256,
             (64, 36),
             &[("steps", ParamValue::Int(steps)), ("method", e(method))],
@@ -158,15 +180,15 @@ fn spot_min_max_converges_to_the_brute_force_limit() {
             worst_l = worst_l.max((a - b).abs() / brightest);
         }
     }
-    eprintln!("spot MinMax vs 8192 brute-force steps: V̄ {worst_v:.2e}, in-scatter {worst_l:.2e} of the brightest");
+    eprintln!("{kind} MinMax vs 8192 brute-force steps: V̄ {worst_v:.2e}, in-scatter {worst_l:.2e} of the brightest");
     assert!(
         mm.vis.data.iter().any(|v| *v < 0.9),
-        "the tree should shadow some rays"
+        "{kind}: the tree should shadow some rays"
     );
-    assert!(worst_v <= 2e-3, "V̄ differs by {worst_v}");
+    assert!(worst_v <= v_max, "{kind}: V̄ differs by {worst_v}");
     assert!(
-        worst_l <= 1e-2,
-        "in-scatter differs by {worst_l} of the brightest pixel"
+        worst_l <= l_max,
+        "{kind}: in-scatter differs by {worst_l} of the brightest pixel"
     );
 }
 
