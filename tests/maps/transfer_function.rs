@@ -786,3 +786,57 @@ fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
         .expect("image");
     assert_eq!(auto.data, manual.data);
 }
+
+/// A transfer function on a lamp's shafts (issue #44, item 4): the tree lit by a custom spot
+/// (MinMax, its exact V̄) and a point light, recoloured by a gradient along V̄ (black at 0,
+/// white at 1, Replace): every pixel's output is its own V̄ — bilinear between the 256 table
+/// texels reproduces a linear ramp exactly except within half a texel of the ends (clamped:
+/// 1/512) — so the table is indexed by the lamp's V̄ as by the sun's.
+#[test]
+fn a_transfer_function_reads_a_lamps_visibility() {
+    let gpu = require_gpu!();
+    for kind in ["spot", "point"] {
+        let text = format!(
+            r#"(version: 3, nodes: {{
+            "scene": (kind: "Scene", params: {{"name": "tree", "light": "custom",
+                "light_type": "{kind}", "light_x": 2.0, "light_y": 6.5, "light_z": 1.5,
+                "light_target_x": 0.0, "light_target_y": 1.0, "light_target_z": 0.0,
+                "cone_inner": 18.0, "cone_outer": 30.0, "light_intensity": 400.0}}),
+            "shadow": (kind: "ShadowMap", params: {{"resolution": 256}}),
+            "gbuffer": (kind: "GBuffer"),
+            "scatter": (kind: "SingleScattering", params: {{"method": "MinMax", "steps": 32}}),
+            "tf": (kind: "TransferFunction", params: {{"mode": "Replace"}}, data: (layers: [
+                (layer: Gradient(from: (0.0, 0.0), to: (1.0, 0.0),
+                                 from_colour: (0.0, 0.0, 0.0, 1.0), to_colour: (1.0, 1.0, 1.0, 1.0))),
+            ])),
+        }}, edges: [
+            ("scene.scene", "shadow.scene"), ("scene.scene", "gbuffer.scene"),
+            ("shadow.map", "scatter.shadow"), ("gbuffer.depth", "scatter.depth"),
+            ("scatter.visibility", "tf.visibility"), ("gbuffer.depth", "tf.depth"),
+        ])"#
+        );
+        let out = common::eval_ron(
+            &gpu,
+            &text,
+            &[("scatter", "visibility"), ("tf", "image")],
+            (48, 27),
+        );
+        let (v, img) = (out.read("scatter", "visibility"), out.read("tf", "image"));
+        let lo = v.data.iter().cloned().fold(1.0f32, f32::min);
+        let hi = v.data.iter().cloned().fold(0.0f32, f32::max);
+        assert!(
+            hi - lo > 0.2,
+            "{kind}: V̄ should vary over the picture ({lo}…{hi})"
+        );
+        let worst = v
+            .data
+            .iter()
+            .enumerate()
+            .map(|(i, x)| (img.data[i * 4] - x).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst <= 1.0 / 512.0 + 1e-5,
+            "{kind}: TF(V̄) differs from V̄ by {worst}"
+        );
+    }
+}
