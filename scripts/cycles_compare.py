@@ -9,7 +9,9 @@ Run (Debian: apt-get install blender), from the repository root, after `cargo bu
 - `sun`: ground, a wall with a vertical slit, a sun behind the wall, and a box of homogeneous fog
   (Volume Scatter: density σ = σt, albedo 1, anisotropy g) on the camera's side;
 - `spot`: a spot light (hard cone: blend 0, radius 0) above a grille of bars over a fog box;
-- `point`: a point light (radius 0) in a cage of vertical bars with a solid floor, above a fog box.
+- `point`: a point light (radius 0) in a cage of vertical bars with a solid floor, above a fog box;
+- `spot_soft`: `spot` with a light of radius 0.2 m (soft shadows), which Tyndall renders through
+  `SoftVisibility` (`light_radius` 0.2, 256 slices).
 
 For each it
 renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the light, shadowed,
@@ -35,6 +37,7 @@ SIGMA = 0.25        # 1/m, Volume Scatter density = σt (albedo 1)
 G = 0.5             # Henyey–Greenstein anisotropy
 SUN_W_M2 = 5.0      # sun irradiance, W/m²
 LAMP_W = 600.0      # spot and point light power, W (Blender's Standard units: P / 4π W/sr)
+SOFT_RADIUS = 0.2   # the soft spot's radius, m
 WIDTH, HEIGHT = 160, 90
 FOG_MIN = (-4.0, -6.0, 0.0)   # Blender coordinates (z up)
 FOG_MAX = (4.0, -0.2, 4.0)
@@ -50,8 +53,8 @@ def args():
             out = os.path.abspath(argv[i + 1])
         if a == "--scene":
             which = argv[i + 1]
-    if which not in ("sun", "spot", "point"):
-        sys.exit(f"--scene {which}: expected sun, spot or point")
+    if which not in ("sun", "spot", "point", "spot_soft"):
+        sys.exit(f"--scene {which}: expected sun, spot, point or spot_soft")
     if out is None:
         name = "cycles" if which == "sun" else f"cycles_{which}"
         out = os.path.join(ROOT, "tests", "fixtures", name)
@@ -152,10 +155,10 @@ def build_sun():
     return scene
 
 
-def lamp(scene, kind, location, travel=None):
+def lamp(scene, kind, location, travel=None, radius=0.0):
     data = bpy.data.lights.new(kind, type=kind.upper())
     data.energy = LAMP_W
-    data.shadow_soft_size = 0.0
+    data.shadow_soft_size = radius
     if kind == "spot":
         data.spot_size = math.radians(70)
         data.spot_blend = 0.0
@@ -183,14 +186,14 @@ def lamp(scene, kind, location, travel=None):
         o.rotation_quaternion = look(travel)
 
 
-def build_spot():
+def build_spot(radius=0.0):
     """A spot 2 m above a fog box, shining down through a grille of bars and two cross bars."""
     scene = start()
     fog((-4, -4, 0), (4, 4, 4))
     bars = [((x, -1.6, 4.5), (x + 0.35, 1.6, 4.6)) for x in (-1.55, -0.75, 0.05, 0.85)]
     bars += [((-1.6, y, 4.6), (1.6, y + 0.3, 4.7)) for y in (-0.9, 0.5)]
     occluders(bars)
-    lamp(scene, "spot", (0.0, 0.0, 6.0), travel=(0.1, 0.05, -1.0))
+    lamp(scene, "spot", (0.0, 0.0, 6.0), travel=(0.1, 0.05, -1.0), radius=radius)
     # Looking along the bars, whose shadows are sheets seen edge-on.
     camera(scene, (0.6, -10.5, 2.6), (0.0, 0.0, 2.2))
     return scene
@@ -269,7 +272,7 @@ GRAPH = """(
         "shadow": (kind: "ShadowMap", params: {{"resolution": 2048}}),
         "gbuffer": (kind: "GBuffer"),
         "scatter": (kind: "SingleScattering", params: {{"sigma_t": {sigma}, "albedo": 1.0, "g": {g}, {method}, "bias": 0.0005, "bounds": "tagged", "light_extinction": "on"}}),
-        "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),
+        "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),{soft_node}
     }},
     edges: [
         ("scene.scene", "shadow.scene"),
@@ -277,7 +280,7 @@ GRAPH = """(
         ("scene.scene", "scatter.scene"),
         ("shadow.map", "scatter.shadow"),
         ("gbuffer.depth", "scatter.depth"),
-        ("scatter.inscatter", "out.image"),
+        ("scatter.inscatter", "out.image"),{soft_edges}
     ],
 )
 """
@@ -292,7 +295,14 @@ def export_and_render_tyndall(out, which):
     # A lamp's falloff and phase change along the ray: BruteForce with many samples.
     method = '"method": "MinMax"' if which == "sun" else '"method": "BruteForce", "steps": 1024'
     exr = f"out/{os.path.basename(out)}/tyndall_inscatter.exr"
-    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, method=method, exr=exr)
+    soft_node, soft_edges = "", ""
+    if which == "spot_soft":
+        soft_node = ('\n        "soft": (kind: "SoftVisibility", params: {"resolution": 512, '
+                     f'"slices": 256, "light_radius": {SOFT_RADIUS}, "bias": 0.0005}}),')
+        soft_edges = ('\n        ("shadow.map", "soft.shadow"),'
+                      '\n        ("soft.soft", "scatter.soft"),')
+    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, method=method, exr=exr,
+                         soft_node=soft_node, soft_edges=soft_edges)
     with open(os.path.join(out, "compare.ron"), "w") as f:
         f.write(graph)
     exe = os.path.join(ROOT, "target", "release", "tyndall")
@@ -333,7 +343,8 @@ def compare(cycles_exr, tyndall_exr):
 def main():
     samples, out, which = args()
     os.makedirs(out, exist_ok=True)
-    scene = {"sun": build_sun, "spot": build_spot, "point": build_point}[which]()
+    scene = {"sun": build_sun, "spot": build_spot, "point": build_point,
+             "spot_soft": lambda: build_spot(SOFT_RADIUS)}[which]()
     cycles_exr = render_cycles(scene, samples, out)
     tyndall_exr = export_and_render_tyndall(out, which)
     compare(cycles_exr, tyndall_exr)

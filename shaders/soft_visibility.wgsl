@@ -19,7 +19,9 @@ struct Params {
     persp: u32,
     near: f32,
     far: f32,
-    _pad1: u32,
+    // Where a spot's slices start, m along its axis: its nearest occluder (nothing nearer
+    // casts a shadow, so no slice is spent there).
+    start: f32,
     _pad2: u32,
 }
 
@@ -58,14 +60,14 @@ fn pair_offset(v: f32) -> f32 {
 }
 
 // Where depth z falls along the slices, 0…1: z itself (the sun's box), or for a spot
-// q / q_far, q = 1 − near / w and w = near + z (far − near) (1/w, not w, is affine across a
+// q / q_far, q = 1 − start / w and w = near + z (far − near) (1/w, not w, is affine across a
 // perspective map, and a sphere of light's penumbra grows linearly in 1/w behind an occluder).
 fn slice_coord(z: f32) -> f32 {
     if P.persp == 0u {
         return z;
     }
     let w = P.near + z * (P.far - P.near);
-    return (1.0 - P.near / w) / (1.0 - P.near / P.far);
+    return (1.0 - P.start / w) / (1.0 - P.start / P.far);
 }
 
 // The part of texel p's footprint in the shadow map whose occluder (map depth + bias) lies in

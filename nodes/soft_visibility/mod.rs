@@ -41,9 +41,11 @@
 //! occluders at different depths share one mean age (as PCSS shares one blocker distance).
 //!
 //! A spot of radius `light_radius` (issue #44): its perspective map is sliced in equal steps of
-//! q = 1 − near / w (w the distance along its axis), in which a sphere of light's penumbra grows
+//! q = 1 − s / w (w the distance along its axis, s its nearest occluder's: the map's smallest
+//! depth, selected on the GPU — nothing nearer casts a shadow, and a map's near is a thousandth
+//! of its far, so slices from there would be wasted), in which a sphere of light's penumbra grows
 //! linearly behind an occluder (map offset L (1/w_o − 1/w_r), L on the light's disc), so
-//! `growth = linear` with one slice's variance ((R/2) Δq / near)² (tangent units, then texels)
+//! `growth = linear` with one slice's variance ((R/2) Δq / s)² (tangent units, then texels)
 //! is exact at every distance behind one occluder plane ([`spot_step_variance`]); a spot always
 //! grows so. A point light's cube atlas is refused.
 //!
@@ -71,6 +73,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use crate::algorithms::quantile;
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
@@ -125,8 +128,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("soft", &[PortType::SoftShadow], "Occlusion per light texel and depth slice.")],
     params: Params::SPECS,
 })
-.shaders(&[SHADER])
-.uniforms(&[SoftParams::LAYOUT]);
+.shaders(&[SHADER, quantile::SHADER])
+.uniforms(&[SoftParams::LAYOUT, quantile::QuantileParams::LAYOUT]);
 
 const SHADER: Shader = crate::shader(
     "soft_visibility",
@@ -160,8 +163,8 @@ tyndall_engine::uniforms! {
         pub near: f32,
         /// A spot map's depth-1 distance, m.
         pub far: f32,
-        /// Padding.
-        pub _pad1: u32,
+        /// Where a spot's slices start, m: its nearest occluder.
+        pub start: f32,
         /// Padding.
         pub _pad2: u32,
     }
@@ -226,41 +229,51 @@ pub fn step_variance(
 /// One slice's per-axis variance in texels² on a spot's perspective map (always linear growth):
 /// a ray from a point L of a sphere of light (radius R, per-axis standard deviation R/2 over
 /// its disc) through an occluder at distance w_o along the axis meets depth w_r at map offset
-/// L (1/w_o − 1/w_r) in tangent units, and 1/w_o − 1/w_r = Δq / near with q = 1 − near / w.
-/// Slices are equal steps Δq = (1 − near / far) / slices, so each adds ((R/2) Δq / near)² in
-/// tangent units², times (k res / 2)² in texels² (k = 1 / tan of the map's half-angle).
+/// L (1/w_o − 1/w_r) in tangent units, and 1/w_o − 1/w_r = Δq / s with q = 1 − s / w, s the
+/// distance where the slices start ([`spot_start`]). Slices are equal steps
+/// Δq = (1 − s / far) / slices, so each adds ((R/2) Δq / s)² in tangent units², times
+/// (k res / 2)² in texels² (k = 1 / tan of the map's half-angle).
 pub fn spot_step_variance(
     light: &Matrices,
     res: u32,
     slices: u32,
     radius_m: f64,
+    start: f64,
     shape: [f64; 2],
 ) -> [f64; 2] {
     let Some(l) = light.local else {
         return [0.0; 2];
     };
-    let (near, far) = (l.near as f64, l.far as f64);
-    let dq = (1.0 - near / far) / slices.max(1) as f64;
+    let far = l.far as f64;
+    let dq = (1.0 - start / far) / slices.max(1) as f64;
     let k = light.proj[0][0] as f64;
-    let sigma = radius_m / 2.0 * dq / near * k * res as f64 / 2.0;
+    let sigma = radius_m / 2.0 * dq / start * k * res as f64 / 2.0;
     [sigma * sigma * shape[0], sigma * sigma * shape[1]]
 }
 
+/// Where a spot's slices start: the distance along its axis of the map's nearest occluder
+/// (`z_min`, its smallest depth), at least the map's near and at most 0.99 of its far — so the
+/// slices cover the occluders' range of 1/w, not the empty space near the lamp (a map's near is
+/// a thousandth of its far).
+pub fn spot_start(near: f32, far: f32, z_min: f32) -> f32 {
+    (near + z_min * (far - near)).max(near).min(0.99 * far)
+}
+
 /// Where light depth `z` falls along the slices (the shader's `slice_coord`): `z`, or on a
-/// spot's map (`persp` = (near, far)) q / q_far with q = 1 − near / w.
-pub fn slice_coord(z: f32, persp: Option<(f32, f32)>) -> f32 {
+/// spot's map (`persp` = (near, far, start)) q / q_far with q = 1 − start / w.
+pub fn slice_coord(z: f32, persp: Option<(f32, f32, f32)>) -> f32 {
     match persp {
         None => z,
-        Some((near, far)) => {
+        Some((near, far, start)) => {
             let w = near + z * (far - near);
-            (1.0 - near / w) / (1.0 - near / far)
+            (1.0 - start / w) / (1.0 - start / far)
         }
     }
 }
 
 /// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map; with
 /// `linear` = Some(per-axis step variance), the distance-aware Dirac pairs instead of `spec`;
-/// `persp`: a spot's (near, far), its slices in [`slice_coord`].
+/// `persp`: a spot's (near, far, start), its slices in [`slice_coord`].
 pub fn reference(
     map: &Raster,
     res: u32,
@@ -268,7 +281,7 @@ pub fn reference(
     spec: &KernelSpec,
     bias: f32,
     linear: Option<[f32; 2]>,
-    persp: Option<(f32, f32)>,
+    persp: Option<(f32, f32, f32)>,
 ) -> Vec<f32> {
     let slices = slices.max(1);
     let n = footprint(map.width.max(map.height), res);
@@ -392,7 +405,13 @@ impl NodeKind for SoftVisibility {
                         .into(),
                 })
             }
-            Some(l) => Some((l.near, l.far)),
+            Some(l) => {
+                // The nearest occluder: the map's smallest depth, selected on the GPU.
+                let form = quantile::Histogram::for_adapter(ctx.gpu);
+                let sel = quantile::select(ctx.gpu, &map, 0.0, quantile::Rank::Floor, None, form)?;
+                let z_min = quantile::read_value(ctx.gpu, &sel)?.unwrap_or(1.0);
+                Some((l.near, l.far, spot_start(l.near, l.far, z_min)))
+            }
             None => None,
         };
         let res = ctx.side("resolution", p.resolution, 3)?;
@@ -431,9 +450,9 @@ impl NodeKind for SoftVisibility {
         let bias = p.bias;
         let shape = [p.ellipse_x, p.ellipse_y];
         let (linear, step_var) = match persp {
-            Some(_) => (
+            Some((_, _, start)) => (
                 true,
-                spot_step_variance(&light, res, slices, p.light_radius, shape),
+                spot_step_variance(&light, res, slices, p.light_radius, start as f64, shape),
             ),
             None => (
                 p.growth == Growth::Linear,
@@ -441,7 +460,7 @@ impl NodeKind for SoftVisibility {
             ),
         };
         let step_var = step_var.map(|v| v as f32);
-        let (near, far) = persp.unwrap_or((0.0, 1.0));
+        let (near, far, start) = persp.unwrap_or((0.0, 1.0, 0.0));
         for k in 0..slices {
             let (prev, next) = if k % 2 == 0 { (&a, &b) } else { (&b, &a) };
             let u = SoftParams {
@@ -457,7 +476,7 @@ impl NodeKind for SoftVisibility {
                 persp: persp.is_some() as u32,
                 near,
                 far,
-                _pad1: 0,
+                start,
                 _pad2: 0,
             };
             ctx.gpu.dispatch(
@@ -478,7 +497,13 @@ impl NodeKind for SoftVisibility {
                 ctx.report(k as u64 + 1, slices as u64, "slices");
             }
         }
-        ctx.set("soft", PortValue::SoftShadow(Arc::new(volume), light));
+        // A spot's volume carries its light with `near` = where its slices start, which is
+        // what a lookup needs (q = 1 − near / w; the map's own near played no other part).
+        let mut carried = light;
+        if let (Some(l), Some((_, _, start))) = (carried.local.as_mut(), persp) {
+            l.near = start;
+        }
+        ctx.set("soft", PortValue::SoftShadow(Arc::new(volume), carried));
         Ok(())
     }
 }

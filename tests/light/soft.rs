@@ -496,8 +496,12 @@ fn a_spot_of_radius_r_casts_the_exact_penumbra() {
         spot,
     )
     .expect("run");
+    // The slices start at the occluder (the map's smallest depth, 0.1: w_o).
+    let start = sv::spot_start(l.near, l.far, 0.1);
+    assert!((start as f64 - w_o).abs() < 1e-5, "slices start at {start}");
     // The same on the CPU.
-    let step = sv::spot_step_variance(&spot, res, slices, radius, [1.0, 1.0]).map(|v| v as f32);
+    let step = sv::spot_step_variance(&spot, res, slices, radius, start as f64, [1.0, 1.0])
+        .map(|v| v as f32);
     let want = sv::reference(
         &map,
         res,
@@ -505,7 +509,7 @@ fn a_spot_of_radius_r_casts_the_exact_penumbra() {
         &spec_for(Kernel::Dirac2, res, slices, 1.0, 1.0),
         0.002,
         Some(step),
-        Some((l.near, l.far)),
+        Some((l.near, l.far, start)),
     );
     let d = got
         .iter()
@@ -514,14 +518,14 @@ fn a_spot_of_radius_r_casts_the_exact_penumbra() {
         .fold(0.0f32, f32::max);
     assert!(d <= 1e-4, "GPU vs CPU: {d}");
     let tan_half = 1.0 / spot.proj[0][0] as f64;
-    let q_far = 1.0 - near / far;
+    let q_far = 1.0 - w_o / far;
     let row = res / 2;
     let mut worst = 0.0f64;
     let mut checked = 0;
     for k in 0..slices {
         // The slice's far end: q̂ = (k + 1) / slices.
         let q = (k + 1) as f64 / slices as f64 * q_far;
-        let w_r = near / (1.0 - q);
+        let w_r = w_o / (1.0 - q);
         if !(w_o + 3.0..=w_o + 12.0).contains(&w_r) {
             continue;
         }
