@@ -67,10 +67,11 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
         // Without a light map and light extinction (pipeline constants off) this compiles away.
         if map || extinction() {
             if v > 0.0 {
-                // Sample i stands for its interval of the segment.
+                // Sample i stands for its interval of the segment, weighted by its visibility
+                // (1 with the hard test; a soft volume's fraction otherwise).
                 let a = t0 + f32(i) / f32(P.steps) * len;
                 let b = t0 + f32(i + 1u) / f32(P.steps) * len;
-                let w = weight(dir, t0, a, b);
+                let w = weight(dir, t0, a, b) * v;
                 weighted += w;
                 if map {
                     acc += w * light_map_at(x);
@@ -109,7 +110,8 @@ fn brute_force_local(p: vec2<u32>, dir: vec3<f32>, t0: f32, len: f32, offset: f3
             if extinction() {
                 e *= exp(-P.sigma_t * local_light_path(x));
             }
-            var c = phase(dot(dir, to_light)) * (local_falloff(x) * e * delta);
+            // v: 1 with the hard test, a soft volume's fraction otherwise.
+            var c = phase(dot(dir, to_light)) * (local_falloff(x) * e * delta * v);
             if map {
                 c *= light_map_at(x);
             }

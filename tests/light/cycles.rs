@@ -130,6 +130,25 @@ fn a_spot_light_agrees_with_cycles() {
     assert!((level - 1.0).abs() <= 0.05, "level {level}");
 }
 
+/// A spot of radius 0.2 m (soft shadows) against Cycles' (`--scene spot_soft`): Tyndall through
+/// `SoftVisibility` (`light_radius` 0.2, slices in 1/w from the nearest occluder). The iterative
+/// convolution matches the penumbra's variance, not its shape (see `tests/light/soft.rs`), so
+/// the shape agrees less than the hard lamps' (measured when the fixture was made, 4096
+/// samples: correlation 0.9958, level 1.0269, mean relative error 6.3 %); the bounds
+/// hold it.
+#[test]
+fn a_soft_spot_light_agrees_with_cycles() {
+    let Some((lit, corr, _rel, level)) = against_cycles("cycles_spot_soft") else {
+        return;
+    };
+    assert!(
+        lit >= 500,
+        "only {lit} lit pixels: the lit fog should fill part of the view"
+    );
+    assert!(corr >= 0.98, "correlation {corr}");
+    assert!((level - 1.0).abs() <= 0.05, "level {level}");
+}
+
 #[test]
 fn a_point_light_agrees_with_cycles() {
     let Some((lit, corr, _rel, level)) = against_cycles("cycles_point") else {
