@@ -11,7 +11,8 @@ Run (Debian: apt-get install blender), from the repository root, after `cargo bu
 - `spot`: a spot light (hard cone: blend 0, radius 0) above a grille of bars over a fog box;
 - `point`: a point light (radius 0) in a cage of vertical bars with a solid floor, above a fog box;
 - `spot_soft`: `spot` with a light of radius 0.2 m (soft shadows), which Tyndall renders through
-  `SoftVisibility` (`light_radius` 0.2, 256 slices).
+  `SoftVisibility` (`light_radius` 0.2, 256² × 256 slices: 64 MiB, within GL's 128 MiB storage
+  buffers).
 
 For each it
 renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the light, shadowed,
@@ -297,7 +298,7 @@ def export_and_render_tyndall(out, which):
     exr = f"out/{os.path.basename(out)}/tyndall_inscatter.exr"
     soft_node, soft_edges = "", ""
     if which == "spot_soft":
-        soft_node = ('\n        "soft": (kind: "SoftVisibility", params: {"resolution": 512, '
+        soft_node = ('\n        "soft": (kind: "SoftVisibility", params: {"resolution": 256, '
                      f'"slices": 256, "light_radius": {SOFT_RADIUS}, "bias": 0.0005}}),')
         soft_edges = ('\n        ("shadow.map", "soft.shadow"),'
                       '\n        ("soft.soft", "scatter.soft"),')
