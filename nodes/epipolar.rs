@@ -144,7 +144,7 @@ pub fn reference(map: &Raster, l: [f32; 2], z_l: f32, length: i32, erode: bool) 
     reference_sides(map, l, z_l, length, erode, false)
 }
 
-/// [`reference`] with the sides swapped when `reverse` (the `reverse` uniform).
+/// [`reference()`] with the sides swapped when `reverse` (the `reverse` uniform).
 pub fn reference_sides(
     map: &Raster,
     l: [f32; 2],
