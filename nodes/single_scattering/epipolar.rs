@@ -158,9 +158,17 @@ pub fn epipolar_geometry(
     let size = DVec2::new(w as f64, h as f64);
     let msize = DVec2::new(map.0 as f64, map.1 as f64);
     let centre = size * 0.5;
-    // The epipole: the image of the point at infinity towards the sun (projective, so a sun
-    // behind the camera gives the point the lines converge to on the other side).
-    let c = vp * sun.extend(0.0);
+    // A spot: its light converges on its position, not on a direction.
+    let spot = p.local_kind == 1;
+    let light_pos = Vec3::from(p.light_pos).as_dvec3();
+    // The epipole: the image of the point at infinity towards the sun, or of the spot's
+    // position (projective, so a light behind the camera gives the point the lines converge to
+    // on the other side).
+    let c = if spot {
+        vp * light_pos.extend(1.0)
+    } else {
+        vp * sun.extend(0.0)
+    };
     let towards = DVec2::new(c.x * size.x * 0.5, -c.y * size.y * 0.5);
     let mut e = centre + towards / c.w;
     if !e.is_finite() || (e - centre).length() > EPIPOLE_FAR {
@@ -201,24 +209,29 @@ pub fn epipolar_geometry(
             } else {
                 (b - e).normalize_or(DVec2::X)
             };
-            // The slice's plane holds the sun and the view ray through b; its image in the map
-            // is the image of the in-plane direction at right angles to the sun.
             let q = DVec4::new(b.x / size.x * 2.0 - 1.0, 1.0 - b.y / size.y * 2.0, 1.0, 1.0);
             let far = inv * q;
             let v = far.truncate() / far.w - eye;
-            let across = sun.cross(v).cross(sun);
-            let line_d =
-                (light_texel(eye + across.normalize_or_zero()) - eye_texel).normalize_or(DVec2::X);
-            // Every ray of the slice leaves the eye's texel towards +line_d (its component
-            // across the sun points the way `across` does), so the line before the eye's texel
-            // is never walked.
-            let (s_in, s_out) = clip_line(eye_texel, line_d, msize);
-            let s_in = s_in.max(0.0);
-            let chord = (s_out - s_in).max(0.0);
-            let line_o = if chord > 0.0 {
-                eye_texel + line_d * s_in
+            let ((line_o, line_d), chord) = if spot {
+                spot_line(&lvp, msize, eye - light_pos, v)
             } else {
-                DVec2::ZERO
+                // The slice's plane holds the sun and the view ray through b; its image in the
+                // map is the image of the in-plane direction at right angles to the sun.
+                let across = sun.cross(v).cross(sun);
+                let line_d = (light_texel(eye + across.normalize_or_zero()) - eye_texel)
+                    .normalize_or(DVec2::X);
+                // Every ray of the slice leaves the eye's texel towards +line_d (its component
+                // across the sun points the way `across` does), so the line before the eye's
+                // texel is never walked.
+                let (s_in, s_out) = clip_line(eye_texel, line_d, msize);
+                let s_in = s_in.max(0.0);
+                let chord = (s_out - s_in).max(0.0);
+                let o = if chord > 0.0 {
+                    eye_texel + line_d * s_in
+                } else {
+                    DVec2::ZERO
+                };
+                ((o, line_d), chord)
             };
             longest = longest.max(chord);
             EpiSlice {
@@ -240,6 +253,44 @@ pub fn epipolar_geometry(
         slices: list,
         tree_n: ((longest.ceil() as u32) + 1).next_power_of_two().max(2),
     }
+}
+
+/// A spot's slice line: the plane through the spot's position holding the directions `a` (to
+/// the eye) and `v` (a view ray) is imaged by the spot's perspective map (`lvp`, `msize`
+/// texels) as one line, whatever the distance along those directions: every ray of the slice
+/// lies on it. Returns its chord through the map as ((origin, unit direction), length), texels;
+/// length 0 when it misses the map (a plane at right angles to the spot's axis).
+fn spot_line(
+    lvp: &glam::DMat4,
+    msize: glam::DVec2,
+    a: glam::DVec3,
+    v: glam::DVec3,
+) -> ((glam::DVec2, glam::DVec2), f64) {
+    use glam::{DVec2, DVec3};
+    // The map's clip (x, y, w) of a direction d from the light is linear in d (the light's own
+    // position has x = y = w = 0), so the plane's image is the homogeneous line through the
+    // images of a and v.
+    let image = |d: DVec3| {
+        let c = *lvp * d.extend(0.0);
+        DVec3::new(c.x, c.y, c.w)
+    };
+    let l = image(a).cross(image(v));
+    let n = DVec2::new(l.x, l.y);
+    let miss = ((DVec2::ZERO, DVec2::X), 0.0);
+    if n.length_squared() == 0.0 {
+        return miss;
+    }
+    // In NDC: n·(x, y) + l.z = 0; its point nearest the centre and its direction, to texels
+    // (x right, y down).
+    let p = -n * (l.z / n.length_squared());
+    let d = DVec2::new(-n.y, n.x);
+    let o = DVec2::new((p.x * 0.5 + 0.5) * msize.x, (0.5 - p.y * 0.5) * msize.y);
+    let dir = DVec2::new(d.x * 0.5 * msize.x, -d.y * 0.5 * msize.y).normalize_or(DVec2::X);
+    let (s_in, s_out) = clip_line(o, dir, msize);
+    if s_out <= s_in {
+        return miss;
+    }
+    ((o + dir * s_in, dir), s_out - s_in)
 }
 
 /// WGSL's `sign`: −1, 0 or 1 per component (Rust's `signum` gives 1 for 0).

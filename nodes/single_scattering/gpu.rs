@@ -81,6 +81,8 @@ pub(super) fn dispatch_epipolar(
         ("EXTINCTION", u.light_extinction as f64),
         ("LIGHT_MAP", 0.0),
         ("SOFT", 0.0),
+        ("LOCAL", if u.local_kind == 1 { 1.0 } else { 0.0 }),
+        ("POINT", 0.0),
     ];
     let pass = |entry: &str, level: u32, extra: Option<(&str, Bind)>, size: (u32, u32)| {
         let e = EpiParams { level, ..base };
@@ -198,11 +200,13 @@ pub(super) fn scatter(
         ("POINT", on(u.local_kind == 2)),
     ];
     // A spot or point light: MinMax walks its perspective map's pyramid, face by face for a
-    // point light's atlas (min_max.wgsl, `min_max_local`), for Epipolar too (its rectified
-    // lines assume the sun's parallel light); with a light map BruteForce marches whatever the
+    // point light's atlas (min_max.wgsl, `min_max_local`), for a point light's Epipolar too
+    // (the atlas has no single projection to rectify); Epipolar runs for a spot as for the sun
+    // (its slices' planes hold the spot); with a light map BruteForce marches whatever the
     // method (the node's docs).
-    let spot_min_max = u.local_kind != 0 && i.light_map.is_none();
-    if p.method == Method::BruteForce || (u.local_kind != 0 && !spot_min_max) {
+    let lamp_light_map = u.local_kind != 0 && i.light_map.is_some();
+    let point_min_max = u.local_kind == 2 && p.method == Method::Epipolar;
+    if p.method == Method::BruteForce || lamp_light_map {
         let no_map;
         let (map, lm) = match i.light_map {
             Some((t, m)) => (t, LightMapView::new(m.view_proj().to_cols_array_2d(), 1)),
@@ -220,7 +224,7 @@ pub(super) fn scatter(
     let (levels, atlas) = build_pyramid(gpu, i.shadow)?;
     binds.push(("atlas", Bind::Texture(&atlas)));
     binds.push(("L", Bind::Uniform(bytemuck::bytes_of(&levels))));
-    if p.method == Method::MinMax || spot_min_max {
+    if p.method == Method::MinMax || point_min_max {
         gpu.dispatch_with(MIN_MAX, "min_max", &binds, (w, h), &constants)?;
     } else {
         let knobs = EpiKnobs {

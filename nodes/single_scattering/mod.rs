@@ -29,8 +29,13 @@
 //! run; `visibility` is then the exact lit fraction (`min_max.wgsl`, `min_max_local`;
 //! `cargo test --test light -- min_max_converges`). A point light's cube atlas is walked face
 //! by face (each face a 90° perspective map whose pyramid cells stay inside it), in order along
-//! the ray, the runs carried across the faces' seams. `Epipolar` asked for with a lamp runs that
-//! MinMax (its rectified lines assume parallel light). A lamp with a light map is marched by
+//! the ray, the runs carried across the faces' seams. `Epipolar` with a spot places its slices
+//! through the spot's screen position: each slice's rays lie in one plane through the spot,
+//! which its perspective map images as one line, rectified and treed as the sun's; a sample ray
+//! walks its tree in σ (a mixed leaf's texels one by one) and keeps ρ, the lit share of its
+//! in-scatter integral; a pixel takes ρ from the samples and integrates its own unshadowed
+//! in-scatter (`epipolar_lamp.wgsl`; `cargo test --test light -- spot_epipolar`). With a point
+//! light (six projections, no single epipole) `Epipolar` runs MinMax. A lamp with a light map is marched by
 //! BruteForce whatever the method. A spot's `soft` volume
 //! (SoftVisibility of radius `light_radius`) is read with the perspective divide and its
 //! slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
@@ -65,7 +70,7 @@
 //! and `jitter` do not apply to it; its cost grows with the number of light/shadow transitions
 //! along a ray, not with the ray's length in texels. `Epipolar` (the fast method, after
 //! Engelhardt & Dachsbacher 2010, Yusov 2013 and Chen et al. 2011) traces only `epi_slices` ×
-//! `epi_samples` rays placed on epipolar lines through the sun's screen position, each through a
+//! `epi_samples` rays placed on epipolar lines through the light's screen position, each through a
 //! 1D min-max tree over its line's rectified shadow-map texels, and interpolates every pixel from
 //! the four nearest samples whose depth is within `epi_threshold` of its own; pixels without one
 //! (depth discontinuities) trace their own ray as `MinMax` does. See "Method Epipolar" below.
@@ -169,7 +174,7 @@ tyndall_engine::params! {
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Shadow test bias in light-space depth."),
         method: Method = ParamSpec::choice("method", Method::NAMES, "BruteForce", "Visibility algorithm. On an NVIDIA H200 at 1080p Epipolar's fixed cost (~2 ms) makes it 0.3–0.6× the speed of BruteForce at equal error; MinMax 0.4–1×: BruteForce is the GPU default (BENCHMARKS.md, per adapter)."),
         min_level: i64 = ParamSpec::int("min_level", 0, 0, 14, "level", "MinMax quality knob: blocks of 2^level texels at and below this level are estimated, not refined (0 = exact).").when("method", &["MinMax", "Epipolar"]),
-        epi_slices: i64 = ParamSpec::int("epi_slices", 512, 4, 2048, "slices", "Epipolar quality knob: lines through the sun's screen position whose rays are traced.").when("method", &["Epipolar"]),
+        epi_slices: i64 = ParamSpec::int("epi_slices", 512, 4, 2048, "slices", "Epipolar quality knob: lines through the light's screen position (the sun's, or a spot's) whose rays are traced.").when("method", &["Epipolar"]),
         epi_samples: i64 = ParamSpec::int("epi_samples", 256, 2, 4096, "samples", "Epipolar quality knob: traced rays per slice, end points included.").when("method", &["Epipolar"]),
         epi_threshold: f32 = ParamSpec::float("epi_threshold", 0.02, 0.0, 100.0, "relative", "Epipolar quality knob: a sample whose camera depth (or medium length) differs from a pixel's by more than this share is not used for it; a pixel left with none traces its own ray (0: every pixel does).").when("method", &["Epipolar"]),
         tree_level: i64 = ParamSpec::int("tree_level", 0, 0, 14, "level", "Epipolar quality knob: nodes of the 1D min-max trees spanning 2^level texels at and below this level are estimated, not refined (0 = exact).").when("method", &["Epipolar"]),

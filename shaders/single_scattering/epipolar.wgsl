@@ -1,108 +1,6 @@
-// SingleScattering, method Epipolar (nodes/single_scattering/epipolar.rs); its fall-back pixels
-// trace the MinMax traversal, hence the import.
-#import single_scattering/min_max
-
-// ---- Method Epipolar: epipolar sampling with 1D min-max trees (see the node's doc) ----------
-//
-// The slice table (width = slices): row 0 (entry.xy, dir.xy) of the slice's screen segment,
-// row 1 (length, chord), row 2 (origin.xy, direction.xy) of its line in the map (texels). The
-// trees: row k of `tree` holds 2n entries (min, max), level j (n/2^j wide) at 2n − 2n/2^j.
-
-struct Epi {
-    epipole: vec2<f32>,
-    u_start: f32,
-    arc: f32,
-    size: vec2<f32>,
-    slices: u32,
-    samples: u32,
-    inside: u32,
-    tree_n: u32,
-    tree_top: u32,
-    tree_level: u32,
-    threshold: f32,
-    // Level being built (epi_tree).
-    level: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
-
-@group(0) @binding(16) var<uniform> E: Epi;
-@group(0) @binding(17) var slice_table: texture_2d<f32>;
-@group(0) @binding(18) var<storage, read_write> tree: array<vec2<f32>>;
-@group(0) @binding(19) var out_samples: texture_storage_2d<rgba32float, write>;
-@group(0) @binding(20) var samples_in: texture_2d<f32>;
-
-// Depth of texels outside the map and of leaves past a chord's end: always lit.
-const FAR_DEPTH: f32 = 3.0e38;
-// Texels one leaf's stretch of a ray can cross (three, and one for rounding left-overs).
-const LEAF_CELLS: u32 = 4u;
-
-// The map's depth at the texel whose corner is `cell` (floored texel coordinates).
-fn map_depth(cell: vec2<f32>) -> f32 {
-    let size = vec2<f32>(textureDimensions(shadow));
-    if !(cell.x >= 0.0 && cell.y >= 0.0 && cell.x < size.x && cell.y < size.y) {
-        return FAR_DEPTH;
-    }
-    let t = min(vec2<u32>(cell), vec2<u32>(size) - 1u);
-    return textureLoad(shadow, t, 0).r;
-}
-
-// Leaf i of slice k: (min, max) depth over the texels the slice's map line crosses between
-// distances i and i + 1 from its origin, walked texel by texel.
-@compute @workgroup_size(8, 8)
-fn epi_rectify(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= E.tree_n || id.y >= E.slices {
-        return;
-    }
-    let chord = textureLoad(slice_table, vec2<u32>(id.y, 1u), 0).y;
-    let line = textureLoad(slice_table, vec2<u32>(id.y, 2u), 0);
-    var leaf = vec2<f32>(FAR_DEPTH);
-    let i = f32(id.x);
-    if i < chord {
-        let d = line.zw;
-        let start = line.xy + d * i;
-        let len = min(chord - i, 1.0);
-        let nudge = sign(d) * 1e-4;
-        var mn = FAR_DEPTH;
-        var mx = -FAR_DEPTH;
-        var t = 0.0;
-        for (var it = 0; it < 4; it++) {
-            if t >= len {
-                break;
-            }
-            let cell = floor(start + d * t + nudge);
-            var te = len;
-            for (var k = 0; k < 2; k++) {
-                if d[k] > 1e-9 {
-                    te = min(te, (cell[k] + 1.0 - start[k]) / d[k]);
-                } else if d[k] < -1e-9 {
-                    te = min(te, (cell[k] - start[k]) / d[k]);
-                }
-            }
-            let z = map_depth(cell);
-            mn = min(mn, z);
-            mx = max(mx, z);
-            t = max(te, t + 1e-4);
-        }
-        leaf = vec2<f32>(mn, mx);
-    }
-    tree[id.y * 2u * E.tree_n + id.x] = leaf;
-}
-
-// Level E.level of every slice's tree from the level below.
-@compute @workgroup_size(8, 8)
-fn epi_tree(@builtin(global_invocation_id) id: vec3<u32>) {
-    let width = E.tree_n >> E.level;
-    if id.x >= width || id.y >= E.slices {
-        return;
-    }
-    let row = id.y * 2u * E.tree_n;
-    let src = row + 2u * E.tree_n - 4u * width;
-    let dst = row + 2u * E.tree_n - 2u * width;
-    let a = tree[src + 2u * id.x];
-    let b = tree[src + 2u * id.x + 1u];
-    tree[dst + id.x] = vec2<f32>(min(a.x, b.x), max(a.y, b.y));
-}
+// SingleScattering, method Epipolar (nodes/single_scattering/epipolar.rs): the sun's sample
+// rays through the slices' trees, the gather and the fall-back; a spot's walk is imported.
+#import single_scattering/epipolar_lamp
 
 // Lit length and lit weight of the stretch [from, to] of a ray, texel by texel (at most
 // `max_cells` texels; the last one taken takes the rest of the stretch).
@@ -247,7 +145,8 @@ fn lit_fraction(dir: vec3<f32>, len: f32, weighted: f32, s: f32) -> f32 {
     return 1.0;
 }
 
-// Sample (id.x) of slice (id.y): (V̄, lit fraction of the weight, camera depth, medium length).
+// Sample (id.x) of slice (id.y): (V̄, lit fraction of the weight, camera depth, medium length);
+// for a spot the lit share of its in-scatter integral.
 @compute @workgroup_size(8, 8)
 fn epi_sample(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= E.samples || id.y >= E.slices {
@@ -262,6 +161,12 @@ fn epi_sample(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = min(vec2<u32>(max(floor(q), vec2<f32>(0.0))), size - 1u);
     let s = textureLoad(depth, px, 0).r;
     let dir = screen_ray(q, size);
+    if LOCAL && P.local_kind != 0u {
+        // A spot: (V̄, lit share of the in-scatter integral, medium length).
+        let res = lamp_tree_ray(id.y, line, dir, s);
+        textureStore(out_samples, id.xy, vec4<f32>(res.x, res.y, s, res.z));
+        return;
+    }
     let res = tree_ray(id.y, line, dir, s);
     let frac = lit_fraction(dir, res.y, res.z, s);
     textureStore(out_samples, id.xy, vec4<f32>(res.x, frac, s, res.y));
@@ -373,7 +278,9 @@ fn epi_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let seg = medium_segment(dir, s);
     let len = max(seg.y - seg.x, 0.0);
     let got = epi_interpolate(vec2<f32>(id.xy) + 0.5, s, len);
-    if got.z > 0.5 {
+    if got.z > 0.5 && LOCAL && P.local_kind != 0u {
+        store_lamp(id.xy, got.x, len, got.y * lamp_unshadowed(dir, s));
+    } else if got.z > 0.5 {
         var weighted = 0.0;
         if extinction() {
             weighted = got.y * weight(dir, seg.x, seg.x, seg.x + len);
@@ -411,6 +318,10 @@ fn epi_fallback(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = fallback[i];
     let p = vec2<u32>(index % size.x, min(index / size.x, size.y - 1u));
     let dir = view_ray(p, size);
+    if LOCAL && P.local_kind != 0u {
+        min_max_local(p, dir, textureLoad(depth, p, 0).r);
+        return;
+    }
     let r = min_max_ray(dir, textureLoad(depth, p, 0).r);
     store(p, dir, r.x, r.y, r.z);
 }

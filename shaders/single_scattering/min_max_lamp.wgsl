@@ -84,6 +84,53 @@ fn close_run(dir: vec3<f32>, t0: f32, run: ptr<function, vec2<f32>>, acc: ptr<fu
     }
 }
 
+// One settled step [t, t_exit] (`step`) of a lamp's walk: its lit piece [la, lb] (`piece`;
+// lb ≤ la: none), whether a shadow precedes the piece (`opens`: the run so far ends first) or
+// follows it (`closes`), or (`frac` > 0, or both flags) a mixed block lit by share `frac`,
+// integrated alone. The run and the sums are the walk's locals. At most one integral per step
+// (each inlined integral costs lavapipe registers and time).
+fn settle(dir: vec3<f32>, t0: f32, step: vec2<f32>, piece: vec2<f32>, opens: bool, closes: bool, frac: f32, run_a: ptr<function, f32>, run_b: ptr<function, f32>, lit_sum: ptr<function, f32>, acc_sum: ptr<function, vec3<f32>>) {
+    let t = step.x;
+    let t_exit = step.y;
+    let la = piece.x;
+    let lb = piece.y;
+    var fa = -1.0;
+    var fb = -1.0;
+    var weight = 1.0;
+    if (opens || (lb > la && *run_a >= 0.0 && *run_b != la)) && *run_a >= 0.0 {
+        fa = *run_a;
+        fb = *run_b;
+        *run_a = -1.0;
+    }
+    if frac > 0.0 || (opens && closes) {
+        // The weighted block: integrated alone (after the run before it).
+        *lit_sum += (t_exit - t) * frac;
+        if fa < 0.0 {
+            fa = t;
+            fb = t_exit;
+            weight = frac;
+        } else {
+            *acc_sum += lamp_integral(dir, t0, t, t_exit) * frac;
+        }
+    } else {
+        if lb > la {
+            *lit_sum += lb - la;
+            if *run_a < 0.0 {
+                *run_a = la;
+            }
+            *run_b = lb;
+        }
+        if closes && *run_a >= 0.0 && fa < 0.0 {
+            fa = *run_a;
+            fb = *run_b;
+            *run_a = -1.0;
+        }
+    }
+    if fa >= 0.0 {
+        *acc_sum += lamp_integral(dir, t0, fa, fb) * weight;
+    }
+}
+
 // [t_a, t_b]: the part of [t0, t1] inside a map's frustum, the ray's clip position c0 + dc t
 // (|x|, |y| ≤ w, 0 ≤ z ≤ 1, w > 0); t_b ≤ t_a when it misses.
 fn frustum_part(t0: f32, t1: f32, c0: vec4<f32>, dc: vec4<f32>) -> vec2<f32> {
@@ -201,42 +248,7 @@ fn walk_map(dir: vec3<f32>, t0: f32, ta: f32, tb: f32, c0: vec4<f32>, dc: vec4<f
             level -= 1u;
         }
         if settled {
-            // At most one integral per step: the run that ends here.
-            var fa = -1.0;
-            var fb = -1.0;
-            var weight = 1.0;
-            if (opens || (lb > la && run_a >= 0.0 && run_b != la)) && run_a >= 0.0 {
-                fa = run_a;
-                fb = run_b;
-                run_a = -1.0;
-            }
-            if frac > 0.0 || (opens && closes) {
-                // The weighted block: integrated alone (after the run before it).
-                lit_sum += (t_exit - t) * frac;
-                if fa < 0.0 {
-                    fa = t;
-                    fb = t_exit;
-                    weight = frac;
-                } else {
-                    acc_sum += lamp_integral(dir, t0, t, t_exit) * frac;
-                }
-            } else {
-                if lb > la {
-                    lit_sum += lb - la;
-                    if run_a < 0.0 {
-                        run_a = la;
-                    }
-                    run_b = lb;
-                }
-                if closes && run_a >= 0.0 && fa < 0.0 {
-                    fa = run_a;
-                    fb = run_b;
-                    run_a = -1.0;
-                }
-            }
-            if fa >= 0.0 {
-                acc_sum += lamp_integral(dir, t0, fa, fb) * weight;
-            }
+            settle(dir, t0, vec2<f32>(t, t_exit), vec2<f32>(la, lb), opens, closes, frac, &run_a, &run_b, &lit_sum, &acc_sum);
             sg = s_exit;
             t = t_exit;
             if go_up {
@@ -327,7 +339,12 @@ fn min_max_local(p: vec2<u32>, dir: vec3<f32>, s: f32) {
     }
     add_lit(dir, t0, cursor, t1, &run, &lit, &acc);
     close_run(dir, t0, &run, &acc);
-    let vbar = select(1.0, clamp(lit / len, 0.0, 1.0), len > 0.0);
+    store_lamp(p, select(1.0, clamp(lit / len, 0.0, 1.0), len > 0.0), len, acc);
+}
+
+// The outputs of pixel p lit by a lamp: V̄, the in-scatter from the integral `acc` (without
+// radiance, σt and albedo) and the transmittance over the medium length `len`.
+fn store_lamp(p: vec2<u32>, vbar: f32, len: f32, acc: vec3<f32>) {
     textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
     textureStore(out_inscatter, p, vec4<f32>(P.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
     textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
