@@ -174,10 +174,12 @@ pub(super) fn scatter(
     let (near, far) = soft_light.local.map_or((0.0, 1.0), |l| (l.near, l.far));
     let sv = SoftView {
         view_proj: soft_light.view_proj().to_cols_array_2d(),
-        persp: soft_light.local.is_some() as u32,
+        position: soft_light.local.map_or([0.0; 3], |l| l.position),
+        persp: soft_light.local.map_or(0, |l| if l.point { 2 } else { 1 }),
         near,
         far,
         _pad0: 0,
+        _pad1: 0,
     };
     let mut binds = vec![
         ("P", Bind::Uniform(bytemuck::bytes_of(u))),

@@ -36,9 +36,9 @@
 //! in-scatter integral; a pixel takes ρ from the samples and integrates its own unshadowed
 //! in-scatter (`epipolar_lamp.wgsl`; `cargo test --test light -- spot_epipolar`). With a point
 //! light (six projections, no single epipole) `Epipolar` runs MinMax. A lamp with a light map is marched by
-//! BruteForce whatever the method. A spot's `soft` volume
-//! (SoftVisibility of radius `light_radius`) is read with the perspective divide and its
-//! slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
+//! BruteForce whatever the method. A lamp's `soft` volume
+//! (SoftVisibility of radius `light_radius`) is read with the perspective divide (a point
+//! light's: on the face the sample lies in) and its slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
 //! or behind a spot counts as lit, as for the sun).
 //!
 //! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
@@ -322,7 +322,7 @@ impl NodeKind for SingleScattering {
         let light_map = ctx.light_map_opt("light_map")?;
         check_method(p.method, soft.is_some(), light_map.is_some())?;
         if let Some((_, sm)) = &soft {
-            if sm.local.is_some() != light.local.is_some() {
+            if sm.local.map(|l| l.point) != light.local.map(|l| l.point) {
                 return Err(NodeError::Input {
                     port: "soft".into(),
                     message: "the SoftVisibility volume was built from another light's map than \

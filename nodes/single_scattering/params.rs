@@ -149,14 +149,19 @@ tyndall_engine::uniforms! {
     pub struct SoftView as "SoftView" {
         /// World → light clip of the soft volume.
         pub view_proj: [[f32; 4]; 4],
-        /// 1: a spot's perspective volume (uv divided by w, slices in q = 1 − near / w).
+        /// A point light's position, m (`persp` = 2).
+        pub position: [f32; 3],
+        /// 1: a spot's perspective volume (uv divided by w, slices in q = 1 − near / w); 2: a
+        /// point light's six faces, 3 × 2, each such a volume over 90°; 0: the sun's box.
         pub persp: u32,
-        /// A spot map's depth-0 distance, m.
+        /// Where a lamp's slices start (q = 0), m.
         pub near: f32,
-        /// A spot map's depth-1 distance, m.
+        /// A lamp map's depth-1 distance, m.
         pub far: f32,
         /// Padding.
         pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
     }
 }
 

@@ -47,7 +47,16 @@
 //! linearly behind an occluder (map offset L (1/w_o − 1/w_r), L on the light's disc), so
 //! `growth = linear` with one slice's variance ((R/2) Δq / s)² (tangent units, then texels)
 //! is exact at every distance behind one occluder plane ([`spot_step_variance`]); a spot always
-//! grows so. A point light's cube atlas is refused.
+//! grows so. A point light's cube atlas is six such 90° maps: each face is padded with a gutter
+//! (`algorithms::cube_atlas`: its neighbours' occluders re-measured along its axis) as wide as
+//! its penumbrae spread ([`cube_gutter`]), convolved within itself, and its inner part kept, so a
+//! penumbra crosses the cube's seams; `resolution` is then per face (the volume 3 × 2 faces).
+//! Off a lamp's axis, at map tangent m, a sphere of light spreads an edge by (1 + m²) the
+//! variance on the axis ([`off_axis`]: twice at a face's edge), and each tap takes the offset
+//! of the occluder it gathers from, so the half shadow stays put where the spread changes.
+//! An occluder nearer to a lamp than `light_radius` lies inside its sphere of light: the
+//! slices start there and every penumbra grows as 1 / that distance, so such a scene blurs
+//! its shadows away (keep the lamp clear of geometry by more than its radius).
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
@@ -68,7 +77,7 @@
 //! | `seed` | Int | 1 | 0…2³¹ | stochastic kernels |
 //! | `bias` | Float | 0.002 | 0…0.1 | added to the map depth |
 //! | `growth` | Enum | seed | seed, linear | penumbra ∝ √d (seed 004) or ∝ d (a spot: always ∝ d) |
-//! | `light_radius` | Float | 0.1 | 0…100 m | a spot's sphere of light |
+//! | `light_radius` | Float | 0.1 | 0…100 m | a spot's or point light's sphere of light |
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -103,7 +112,7 @@ tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
         slices: i64 = ParamSpec::int("slices", 64, 0, 1024, "slices", "Depth slices of the light's box (quality knob; 0 acts as 1)."),
-        resolution: i64 = ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer.").light_texels(),
+        resolution: i64 = ParamSpec::int("resolution", 256, 16, 2048, "texels", "Light texels per side of the buffer (per cube face for a point light's map).").light_texels(),
         kernel: Kernel = ParamSpec::choice("kernel", Kernel::NAMES, "TopHat", "Convolution kernel; all share the mean and variance of seed 004 eq. 7."),
         sun_radius: f64 = ParamSpec::float("sun_radius", 1.0, 0.0, 10.0, "°", "Angular radius of the sun (the real sun: 0.27°)."),
         d1: f64 = ParamSpec::float("d1", 4.0, 0.01, 1e4, "m", "Distance behind an occluder where the penumbra is exact (seed 004's optimal distance)."),
@@ -114,8 +123,8 @@ tyndall_engine::params! {
         size: i64 = ParamSpec::int("size", 5, 2, 15, "taps", "Gaussian taps per axis."),
         seed: i64 = ParamSpec::int("seed", 1, 0, 2147483647, "", "Seed of the stochastic kernels."),
         bias: f32 = ParamSpec::float("bias", 0.002, 0.0, 0.1, "depth", "Added to the map depth before binning occluders."),
-        growth: Growth = ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane). A spot's map always grows linearly."),
-        light_radius: f64 = ParamSpec::float("light_radius", 0.1, 0.0, 100.0, "m", "Radius of a spot light's sphere of light, m (a spot's map; the sun's size is sun_radius)."),
+        growth: Growth = ParamSpec::choice("growth", Growth::NAMES, "seed", "seed: the kernel of eq. 7 every slice (penumbra exact at d1, ∝ √d); linear: distance-aware Dirac pairs (penumbra ∝ d, exact at every distance behind one occluder plane). A lamp's map (spot or point) always grows linearly."),
+        light_radius: f64 = ParamSpec::float("light_radius", 0.1, 0.0, 100.0, "m", "Radius of a spot or point light's sphere of light, m (a lamp's map; the sun's size is sun_radius)."),
     }
 }
 
@@ -123,7 +132,7 @@ tyndall_engine::params! {
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "SoftVisibility",
     category: "Scattering",
-    doc: "Soft shadows of a sun of finite size by iterative convolution of light-space slices (seed 004), for SingleScattering's `soft` input.",
+    doc: "Soft shadows of a sun, spot or point light of finite size by iterative convolution of light-space slices (seed 004), for SingleScattering's `soft` input.",
     inputs: &[PortSpec::required("shadow", &[PortType::ShadowMap], "The occluders and the light's box.")],
     outputs: &[PortSpec::output("soft", &[PortType::SoftShadow], "Occlusion per light texel and depth slice.")],
     params: Params::SPECS,
@@ -147,8 +156,8 @@ tyndall_engine::uniforms! {
         pub slices: u32,
         /// Stencil entries per slice.
         pub taps: u32,
-        /// Shadow map size.
-        pub map_size: [u32; 2],
+        /// One tile of the shadow map (the whole map but for a cube atlas), texels.
+        pub map_tile: [u32; 2],
         /// Footprint samples per axis.
         pub footprint: u32,
         /// Depth bias.
@@ -165,8 +174,14 @@ tyndall_engine::uniforms! {
         pub far: f32,
         /// Where a spot's slices start, m: its nearest occluder.
         pub start: f32,
-        /// Padding.
-        pub _pad2: u32,
+        /// Each tile's gutter, buffer texels (a cube atlas's faces; 0 otherwise).
+        pub gutter: u32,
+        /// Tiles across and down: (1, 1), or (3, 2) for a cube atlas.
+        pub tiles: [u32; 2],
+        /// Each map tile's gutter, map texels.
+        pub map_gutter: u32,
+        /// Tangent of a lamp map's half-angle (1 on a cube face): the texels' off-axis spread.
+        pub tan_half: f32,
     }
 }
 
@@ -226,13 +241,14 @@ pub fn step_variance(
     ]
 }
 
-/// One slice's per-axis variance in texels² on a spot's perspective map (always linear growth):
+/// One slice's per-axis variance in texels² on a spot's perspective map or a point light's cube
+/// face (always linear growth):
 /// a ray from a point L of a sphere of light (radius R, per-axis standard deviation R/2 over
 /// its disc) through an occluder at distance w_o along the axis meets depth w_r at map offset
 /// L (1/w_o − 1/w_r) in tangent units, and 1/w_o − 1/w_r = Δq / s with q = 1 − s / w, s the
 /// distance where the slices start ([`spot_start`]). Slices are equal steps
 /// Δq = (1 − s / far) / slices, so each adds ((R/2) Δq / s)² in tangent units², times
-/// (k res / 2)² in texels² (k = 1 / tan of the map's half-angle).
+/// (k res / 2)² in texels² (k = 1 / tan of the map's half-angle; 1 on a cube face).
 pub fn spot_step_variance(
     light: &Matrices,
     res: u32,
@@ -246,9 +262,24 @@ pub fn spot_step_variance(
     };
     let far = l.far as f64;
     let dq = (1.0 - start / far) / slices.max(1) as f64;
-    let k = light.proj[0][0] as f64;
+    // A cube face spans 90°: tan of its half-angle is 1.
+    let k = if l.point {
+        1.0
+    } else {
+        light.proj[0][0] as f64
+    };
     let sigma = radius_m / 2.0 * dq / start * k * res as f64 / 2.0;
     [sigma * sigma * shape[0], sigma * sigma * shape[1]]
+}
+
+/// The gutter, in buffer texels, a point light's faces need (at most `res`): the probe of the
+/// occluders' age reaches two standard deviations of the widest spread (all `slices` steps of
+/// [`spot_step_variance`], twice the variance at a face's edge: [`off_axis`]) plus a texel,
+/// and a texel more.
+pub fn cube_gutter(light: &Matrices, res: u32, slices: u32, radius_m: f64, start: f64) -> u32 {
+    let v = spot_step_variance(light, res, slices, radius_m, start, [1.0, 1.0]);
+    let spread = slices as f64 * (2.0 * v[0].max(v[1])).sqrt();
+    ((2.0 * spread).ceil() as u32 + 2).min(res)
 }
 
 /// Where a spot's slices start: the distance along its axis of the map's nearest occluder
@@ -259,21 +290,44 @@ pub fn spot_start(near: f32, far: f32, z_min: f32) -> f32 {
     (near + z_min * (far - near)).max(near).min(0.99 * far)
 }
 
+/// How a lamp's map is sliced: slices in equal steps of q = 1 − `start` / w.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LampSlices {
+    /// The map's depth-0 distance along its axis, m.
+    pub near: f32,
+    /// The map's depth-1 distance, m.
+    pub far: f32,
+    /// Where the slices start (q = 0), m: the nearest occluder ([`spot_start`]).
+    pub start: f32,
+    /// Tangent of the map's half-angle (1 on a cube face).
+    pub tan_half: f32,
+}
+
 /// Where light depth `z` falls along the slices (the shader's `slice_coord`): `z`, or on a
-/// spot's map (`persp` = (near, far, start)) q / q_far with q = 1 − start / w.
-pub fn slice_coord(z: f32, persp: Option<(f32, f32, f32)>) -> f32 {
-    match persp {
+/// lamp's map q / q_far with q = 1 − start / w.
+pub fn slice_coord(z: f32, lamp: Option<LampSlices>) -> f32 {
+    match lamp {
         None => z,
-        Some((near, far, start)) => {
-            let w = near + z * (far - near);
-            (1.0 - start / w) / (1.0 - start / far)
+        Some(l) => {
+            let w = l.near + z * (l.far - l.near);
+            (1.0 - l.start / w) / (1.0 - l.start / l.far)
         }
     }
 }
 
+/// The per-axis factor on a lamp's per-slice variance at buffer position `(x, y)` of a
+/// `res`-texel map (texel centres at integers): a sphere of light seen off the axis, at map
+/// tangent m, spreads a shadow edge by (1/w_o − 1/w_r)(m ℓ_f − ℓ_⊥) (ℓ the light point's offsets
+/// along and across the axis), whose variance over the sphere's silhouette (at right angles to
+/// the ray) is (R/2)² (1 + m²) per axis: twice the on-axis spread at a cube face's edge.
+pub fn off_axis(x: f32, y: f32, res: u32, tan_half: f32) -> [f32; 2] {
+    let m = [x, y].map(|t| ((t + 0.5) / res as f32 * 2.0 - 1.0) * tan_half);
+    [1.0 + m[0] * m[0], 1.0 + m[1] * m[1]]
+}
+
 /// CPU reference: the occlusion volume (x fastest, then y, then slice) for a shadow map; with
 /// `linear` = Some(per-axis step variance), the distance-aware Dirac pairs instead of `spec`;
-/// `persp`: a spot's (near, far, start), its slices in [`slice_coord`].
+/// `lamp`: a spot's slicing, its slices in [`slice_coord`] and its variance [`off_axis`].
 pub fn reference(
     map: &Raster,
     res: u32,
@@ -281,7 +335,7 @@ pub fn reference(
     spec: &KernelSpec,
     bias: f32,
     linear: Option<[f32; 2]>,
-    persp: Option<(f32, f32, f32)>,
+    lamp: Option<LampSlices>,
 ) -> Vec<f32> {
     let slices = slices.max(1);
     let n = footprint(map.width.max(map.height), res);
@@ -316,7 +370,14 @@ pub fn reference(
                 let mut acc = [0.0f32; 2];
                 if k > 0 {
                     match linear {
-                        Some(sv) => {
+                        Some(step) => {
+                            let factor = |px: f32, py: f32| match lamp {
+                                Some(l) => off_axis(px, py, res, l.tan_half),
+                                None => [1.0, 1.0],
+                            };
+                            let (px, py) = (x as f32, y as f32);
+                            let here = factor(px, py);
+                            let sv = [step[0] * here[0], step[1] * here[1]];
                             let rad = [
                                 2.0 * k as f32 * sv[0].sqrt() + 1.0,
                                 2.0 * k as f32 * sv[1].sqrt() + 1.0,
@@ -331,9 +392,23 @@ pub fn reference(
                             } else {
                                 0.0
                             };
-                            let s = [0, 1].map(|a| pair_offset((2.0 * age - 1.0).max(1.0) * sv[a]));
-                            for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
-                                let b = bilinear(&prev, x, y, [sx * s[0], sy * s[1]]);
+                            let base = step.map(|v| (2.0 * age - 1.0).max(1.0) * v);
+                            let offsets = |f: [f32; 2]| [0, 1].map(|a| pair_offset(base[a] * f[a]));
+                            let mut lo = offsets(here);
+                            let mut hi = lo;
+                            if lamp.is_some() {
+                                // Each tap's offset is the one at its source (the shader's note).
+                                let l0 = lo;
+                                lo = offsets(factor(px - l0[0], py - l0[1]));
+                                hi = offsets(factor(px + l0[0], py + l0[1]));
+                            }
+                            for (ox, oy) in [
+                                (-lo[0], -lo[1]),
+                                (hi[0], -lo[1]),
+                                (-lo[0], hi[1]),
+                                (hi[0], hi[1]),
+                            ] {
+                                let b = bilinear(&prev, x, y, [ox, oy]);
                                 acc = [acc[0] + 0.25 * b[0], acc[1] + 0.25 * b[1]];
                             }
                         }
@@ -352,7 +427,7 @@ pub fn reference(
                         let v = (y as f32 + (j as f32 + 0.5) / n as f32) / res as f32;
                         let tx = ((u * map.width as f32) as u32).min(map.width - 1);
                         let ty = ((v * map.height as f32) as u32).min(map.height - 1);
-                        let d = slice_coord(map.pixel(tx, ty)[0] + bias, persp);
+                        let d = slice_coord(map.pixel(tx, ty)[0] + bias, lamp).max(0.0);
                         if d >= lo && d < hi {
                             hit += 1.0;
                         }
@@ -388,6 +463,92 @@ fn spec_of(ctx: &RunCtx, light: &Matrices, res: u32, slices: u32) -> Result<Kern
     })
 }
 
+/// How a run lays out its buffers over the map: one tile, or a point light's six faces.
+struct Tiles {
+    /// The map the occluders are read from (a cube atlas padded with `map_gutter`).
+    map: Arc<tyndall_engine::gpu::GpuTexture>,
+    /// Tiles across and down.
+    count: [u32; 2],
+    /// Each buffer tile's gutter, texels.
+    gutter: u32,
+    /// Each map tile's gutter, map texels.
+    map_gutter: u32,
+    /// The side of one face of the map without its gutter, map texels.
+    map_face: u32,
+    /// A lamp's slicing.
+    lamp: Option<LampSlices>,
+}
+
+/// The nearest occluder's depth: the map's smallest, selected on the GPU.
+fn nearest(ctx: &RunCtx, map: &tyndall_engine::gpu::GpuTexture) -> Result<f32, NodeError> {
+    let form = quantile::Histogram::for_adapter(ctx.gpu);
+    let sel = quantile::select(ctx.gpu, map, 0.0, quantile::Rank::Floor, None, form)?;
+    Ok(quantile::read_value(ctx.gpu, &sel)?.unwrap_or(1.0))
+}
+
+/// The tiles of a run: the sun's or a spot's map as one tile; a point light's cube atlas as six
+/// faces, each padded (`cube_atlas::pad`) with the gutter its penumbrae spread into, so a
+/// penumbra crosses a seam. The slices start at the faces' own nearest occluder: a gutter shows
+/// a face its neighbours' occluders obliquely, nearer along its axis than along their own (a
+/// point 1.5 m below the lamp is 0.7 m along a side face's axis, seen 2.2 tangents out), and
+/// starting there would spend the slices near the lamp and widen every spread; such an
+/// occluder falls in the first slice.
+fn tiles_of(
+    ctx: &RunCtx,
+    map: &Arc<tyndall_engine::gpu::GpuTexture>,
+    light: &Matrices,
+    res: u32,
+    slices: u32,
+    radius: f64,
+) -> Result<Tiles, NodeError> {
+    let one = |lamp| Tiles {
+        map: map.clone(),
+        count: [1, 1],
+        gutter: 0,
+        map_gutter: 0,
+        map_face: map.width.max(map.height),
+        lamp,
+    };
+    let Some(l) = light.local else {
+        return Ok(one(None));
+    };
+    let start = spot_start(l.near, l.far, nearest(ctx, map)?);
+    let slicing = |start| LampSlices {
+        near: l.near,
+        far: l.far,
+        start,
+        tan_half: if l.point { 1.0 } else { 1.0 / light.proj[0][0] },
+    };
+    if !l.point {
+        return Ok(one(Some(slicing(start))));
+    }
+    let limit = ctx.gpu.limits.max_texture_dimension_3d;
+    if 3 * res > limit {
+        return Err(NodeError::Param {
+            param: "resolution".into(),
+            message: format!(
+                "a point light's volume is 3 × {res} texels wide, beyond this adapter's limit \
+                 of {limit} (max_texture_dimension_3d): use at most {}",
+                limit / 3
+            ),
+        });
+    }
+    let face = map.width / 3;
+    let mut tiles = Tiles {
+        map: map.clone(),
+        count: [3, 2],
+        gutter: 0,
+        map_gutter: 0,
+        map_face: face,
+        lamp: None,
+    };
+    tiles.gutter = cube_gutter(light, res, slices, radius, start as f64);
+    tiles.map_gutter = (tiles.gutter * face).div_ceil(res).min(face);
+    tiles.map = crate::algorithms::cube_atlas::pad(ctx.gpu, map, &l, tiles.map_gutter)?;
+    tiles.lamp = Some(slicing(start));
+    Ok(tiles)
+}
+
 impl NodeKind for SoftVisibility {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -396,24 +557,6 @@ impl NodeKind for SoftVisibility {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let (map, light) = ctx.shadow_map("shadow")?;
-        let persp = match light.local {
-            Some(l) if l.point => {
-                return Err(NodeError::Input {
-                    port: "shadow".into(),
-                    message: "is a point light's cube atlas: soft visibility is built for a \
-                              sun's or a spot's map (a point light's shafts stay hard)"
-                        .into(),
-                })
-            }
-            Some(l) => {
-                // The nearest occluder: the map's smallest depth, selected on the GPU.
-                let form = quantile::Histogram::for_adapter(ctx.gpu);
-                let sel = quantile::select(ctx.gpu, &map, 0.0, quantile::Rank::Floor, None, form)?;
-                let z_min = quantile::read_value(ctx.gpu, &sel)?.unwrap_or(1.0);
-                Some((l.near, l.far, spot_start(l.near, l.far, z_min)))
-            }
-            None => None,
-        };
         let res = ctx.side("resolution", p.resolution, 3)?;
         let slices = p.slices.clamp(1, 1024) as u32;
         tyndall_engine::eval::check_side(
@@ -422,11 +565,17 @@ impl NodeKind for SoftVisibility {
             ctx.gpu.limits.max_texture_dimension_3d,
             3,
         )?;
-        // The Rg32F volume of the light's box: resolution² × slices texels of 8 bytes.
+        let tiles = tiles_of(ctx, &map, &light, res, slices, p.light_radius)?;
+        let [tx, ty] = tiles.count;
+        let side = res + 2 * tiles.gutter;
+        // The R32F volume (the tiles' inner res² × slices) and the two Rg32F buffers.
         ctx.check_bytes(
             "resolution, slices",
-            u64::from(res).pow(2) * u64::from(slices) * 8,
+            u64::from(tx * ty)
+                * (u64::from(res).pow(2) * u64::from(slices) * 4 + u64::from(side).pow(2) * 16),
         )?;
+        let lamp = tiles.lamp;
+        let map = tiles.map;
         let spec = spec_of(ctx, &light, res, slices)?;
         let stencils: Vec<Stencil> = (0..slices).map(|k| stencil(&spec, k)).collect();
         let taps = stencils.iter().map(Vec::len).max().unwrap_or(1).max(1);
@@ -444,15 +593,15 @@ impl NodeKind for SoftVisibility {
             }
         }
         let stencil_tex = ctx.gpu.upload(taps as u32, slices, 4, &texels)?;
-        let volume = ctx.gpu.volume([res, res, slices])?;
-        let a = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
-        let b = ctx.gpu.texture(res, res, TexFormat::Rg32F)?;
+        let volume = ctx.gpu.volume([tx * res, ty * res, slices])?;
+        let a = ctx.gpu.texture(tx * side, ty * side, TexFormat::Rg32F)?;
+        let b = ctx.gpu.texture(tx * side, ty * side, TexFormat::Rg32F)?;
         let bias = p.bias;
         let shape = [p.ellipse_x, p.ellipse_y];
-        let (linear, step_var) = match persp {
-            Some((_, _, start)) => (
+        let (linear, step_var) = match lamp {
+            Some(l) => (
                 true,
-                spot_step_variance(&light, res, slices, p.light_radius, start as f64, shape),
+                spot_step_variance(&light, res, slices, p.light_radius, l.start as f64, shape),
             ),
             None => (
                 p.growth == Growth::Linear,
@@ -460,7 +609,12 @@ impl NodeKind for SoftVisibility {
             ),
         };
         let step_var = step_var.map(|v| v as f32);
-        let (near, far, start) = persp.unwrap_or((0.0, 1.0, 0.0));
+        let l = lamp.unwrap_or(LampSlices {
+            near: 0.0,
+            far: 1.0,
+            start: 0.0,
+            tan_half: 0.0,
+        });
         for k in 0..slices {
             let (prev, next) = if k % 2 == 0 { (&a, &b) } else { (&b, &a) };
             let u = SoftParams {
@@ -468,16 +622,19 @@ impl NodeKind for SoftVisibility {
                 slice: k,
                 slices,
                 taps: taps as u32,
-                map_size: [map.width, map.height],
-                footprint: footprint(map.width.max(map.height), res),
+                map_tile: [map.width / tx, map.height / ty],
+                footprint: footprint(tiles.map_face, res),
                 bias,
                 step_var,
                 linear: linear as u32,
-                persp: persp.is_some() as u32,
-                near,
-                far,
-                start,
-                _pad2: 0,
+                persp: lamp.is_some() as u32,
+                near: l.near,
+                far: l.far,
+                start: l.start,
+                gutter: tiles.gutter,
+                tiles: tiles.count,
+                map_gutter: tiles.map_gutter,
+                tan_half: l.tan_half,
             };
             ctx.gpu.dispatch(
                 SHADER,
@@ -490,18 +647,18 @@ impl NodeKind for SoftVisibility {
                     ("next", Bind::Storage(next)),
                     ("volume", Bind::VolumeLevel(&volume, 0)),
                 ],
-                res,
-                res,
+                tx * side,
+                ty * side,
             )?;
             if k % 16 == 15 {
                 ctx.report(k as u64 + 1, slices as u64, "slices");
             }
         }
-        // A spot's volume carries its light with `near` = where its slices start, which is
+        // A lamp's volume carries its light with `near` = where its slices start, which is
         // what a lookup needs (q = 1 − near / w; the map's own near played no other part).
         let mut carried = light;
-        if let (Some(l), Some((_, _, start))) = (carried.local.as_mut(), persp) {
-            l.near = start;
+        if let (Some(c), Some(l)) = (carried.local.as_mut(), lamp) {
+            c.near = l.start;
         }
         ctx.set("soft", PortValue::SoftShadow(Arc::new(volume), carried));
         Ok(())

@@ -47,10 +47,14 @@ struct Params {
 
 struct SoftView {
     view_proj: mat4x4<f32>,
+    // A point light's position (persp = 2).
+    position: vec3<f32>,
+    // 0: the sun's box; 1: a spot's perspective volume; 2: a point light's six faces (3 × 2).
     persp: u32,
     near: f32,
     far: f32,
     _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(14) var soft_volume: texture_3d<f32>;
@@ -96,7 +100,21 @@ fn phase(cos_theta: f32) -> vec3<f32> {
 fn soft_visible(x: vec3<f32>) -> f32 {
     let c = SV.view_proj * vec4<f32>(x, 1.0);
     var uvz = vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
-    if SV.persp != 0u {
+    if POINT && SV.persp == 2u {
+        // A point light's faces: the face x lies in, w along its axis.
+        let d = x - SV.position;
+        let face = cube_face(d);
+        let frame = cube_frame(face);
+        let w = dot(frame[0], d);
+        if w <= 1e-6 {
+            return 1.0;
+        }
+        let ndc = vec2<f32>(dot(frame[1], d), dot(frame[2], d)) / w;
+        let uv = clamp(vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5), vec2<f32>(0.0), vec2<f32>(0.999999));
+        let cell = vec2<f32>(f32(face % 3u), f32(face / 3u));
+        uvz = vec3<f32>((cell.x + uv.x) / 3.0, (cell.y + uv.y) / 2.0,
+            (1.0 - SV.near / w) / (1.0 - SV.near / SV.far));
+    } else if SV.persp != 0u {
         // A spot's volume: the perspective divide, and slices in q = 1 − near / w.
         if c.w <= 1e-6 {
             return 1.0;
