@@ -1,5 +1,5 @@
 // EpipolarDilation / EpipolarClosure: 1D min (then max) along epipolar rays in slope space
-// (nodes/epipolar.rs; SPEC §4 eq. 3, seed 001 §4.1).
+// (nodes/epipolar/; SPEC §4 eq. 3, seed 001 §4.1).
 //
 // Each texel t (centre c_t, distance d_t from the epipole l) has the slope
 // κ_t = (z_t − z_l) / d_t. Dilation: κ'_t = min(κ_t, κ_s over the `length` samples s from t
@@ -14,16 +14,19 @@ struct Params {
     // 1: samples on the other side (a spot's map seen by a camera behind the spot's plane,
     // whose view rays' images run towards the epipole as they leave the camera).
     reverse: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Tiles across and down: (1, 1), or (3, 2) for a point light's padded cube faces, each its
+    // own map with its own epipole (`faces`); a walk stops at its tile's border.
+    tiles: vec2<u32>,
+    // Per face of a cube atlas: epipole (texels from the tile's corner), z_l, reverse (0 or 1).
+    faces: array<vec4<f32>, 6>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var out_map: texture_storage_2d<r32float, write>;
 
-fn slope(texel: vec2<i32>, d: f32) -> f32 {
-    return (textureLoad(src, texel, 0).r - P.z_l) / d;
+fn slope(texel: vec2<i32>, d: f32, z_l: f32) -> f32 {
+    return (textureLoad(src, texel, 0).r - z_l) / d;
 }
 
 // The texel a sample lands on: the reference's exact f32 steps, shared by both methods.
@@ -34,14 +37,28 @@ fn sample_texel(c: vec2<f32>, dir: vec2<f32>, i: i32) -> vec2<i32> {
 // The reference definition: `length` nearest-texel samples along the exact line, O(length).
 @compute @workgroup_size(8, 8)
 fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = vec2<i32>(textureDimensions(src));
-    if i32(id.x) >= size.x || i32(id.y) >= size.y {
+    let full = vec2<i32>(textureDimensions(src));
+    if i32(id.x) >= full.x || i32(id.y) >= full.y {
         return;
+    }
+    // The tile this texel lies in: the whole map, or one padded cube face.
+    let size = full / vec2<i32>(P.tiles);
+    let cell = vec2<i32>(id.xy) / size;
+    let lo = cell * size;
+    let hi = lo + size;
+    var epipole = P.epipole;
+    var z_l = P.z_l;
+    var reverse = P.reverse;
+    if P.tiles.x * P.tiles.y > 1u {
+        let f = P.faces[cell.x + 3 * cell.y];
+        epipole = f.xy + vec2<f32>(lo);
+        z_l = f.z;
+        reverse = u32(f.w);
     }
     let t = vec2<i32>(id.xy);
     let c = vec2<f32>(t) + 0.5;
     let z = textureLoad(src, t, 0).r;
-    let to_l = P.epipole - c;
+    let to_l = epipole - c;
     let d_t = length(to_l);
     if d_t <= 0.0 {
         textureStore(out_map, id.xy, vec4<f32>(z, 0.0, 0.0, 1.0));
@@ -49,25 +66,25 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // Dilation walks towards l and stops before reaching it; erosion walks away from l
     // (`reverse` swaps the sides, not the operations).
-    let towards = (P.op == 0u) != (P.reverse == 1u);
+    let towards = (P.op == 0u) != (reverse == 1u);
     let dir = select(-to_l / d_t, to_l / d_t, towards);
-    var k = (z - P.z_l) / d_t;
+    var k = (z - z_l) / d_t;
     for (var i = 1; i <= P.length; i++) {
         if towards && f32(i) >= d_t {
             break;
         }
         let s = sample_texel(c, dir, i);
-        if s.x < 0 || s.y < 0 || s.x >= size.x || s.y >= size.y {
+        if s.x < lo.x || s.y < lo.y || s.x >= hi.x || s.y >= hi.y {
             break;
         }
-        let d_s = length(P.epipole - (vec2<f32>(s) + 0.5));
+        let d_s = length(epipole - (vec2<f32>(s) + 0.5));
         if d_s <= 0.0 {
             continue;
         }
-        let ks = slope(s, d_s);
+        let ks = slope(s, d_s, z_l);
         k = select(min(k, ks), max(k, ks), P.op == 1u);
     }
-    textureStore(out_map, id.xy, vec4<f32>(P.z_l + d_t * k, 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(z_l + d_t * k, 0.0, 0.0, 1.0));
 }
 
 // ---- Fast path: exact, with a cost flat in `length` on shadow maps -------------------------
@@ -335,7 +352,7 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(out_map, id.xy, vec4<f32>(R.z_l + d_t * acc, 0.0, 0.0, 1.0));
 }
 
-// ---- A spot's perspective map (nodes/epipolar.rs, `Perspective`) ----------------------------
+// ---- A spot's perspective map (nodes/epipolar/lamp.rs, `Perspective`) ----------------------------
 //
 // Its depth z is linear in the distance w = near + z (far − near) along the spot's axis, and in
 // a perspective projection 1/w, not w, is affine across the map: along a view ray's image
