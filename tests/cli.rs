@@ -1599,3 +1599,55 @@ fn a_sequence_written_in_the_background_equals_its_frames_rendered_alone() {
         "each frame's picture read back by its writer"
     );
 }
+
+/// The colour config (issue #45): `tyndall info` names the one in use (the built-in ACES 2.0 CG
+/// config by default, `--ocio` or `$OCIO` another) with its displays, views and looks; a config
+/// that cannot be read is bad input (exit 2) naming it.
+#[test]
+fn info_names_the_colour_config_and_a_bad_one_is_refused() {
+    let o = tyndall(&["info", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let colour = &v["colour"];
+    assert_eq!(
+        colour["config"], "ocio://cg-config-v4.0.0_aces-v2.0_ocio-v2.5",
+        "{colour}"
+    );
+    assert_eq!(colour["working_space"], "Linear Rec.709 (sRGB)");
+    let displays = colour["displays"].as_array().expect("displays");
+    assert_eq!(displays[0]["name"], "sRGB - Display", "{colour}");
+    assert!(
+        displays[0]["views"]
+            .as_array()
+            .expect("views")
+            .iter()
+            .any(|v| v == "Un-tone-mapped"),
+        "{colour}"
+    );
+    let text = String::from_utf8_lossy(
+        &tyndall(&[
+            "--ocio",
+            "ocio://studio-config-v4.0.0_aces-v2.0_ocio-v2.5",
+            "info",
+        ])
+        .stdout,
+    )
+    .into_owned();
+    assert!(
+        text.contains("colour config: ocio://studio-config-v4.0.0_aces-v2.0_ocio-v2.5"),
+        "{text}"
+    );
+    let o = tyndall(&["--ocio", "/no/such/config.ocio", "info"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("/no/such/config.ocio"), "{err}");
+    let o = Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .args(["info"])
+        .env("OCIO", "ocio://cg-config-v2.2.0_aces-v1.3_ocio-v2.4")
+        .output()
+        .expect("run");
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("colour config: ocio://cg-config-v2.2.0_aces-v1.3_ocio-v2.4"),
+        "{text}"
+    );
+}

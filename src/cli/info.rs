@@ -75,8 +75,19 @@ pub fn report(registry: &Registry, json: bool) -> String {
             Ok((i, c)) => (Some(*i), Some(why_chosen(c)), None),
             Err(e) => (None, None, Some(e.message.clone())),
         };
+        let colour = match tyndall_engine::colour::current() {
+            Ok(c) => serde_json::json!({
+                "config": c.source(),
+                "working_space": tyndall_engine::colour::WORKING_SPACE,
+                "displays": c.displays().iter().map(|d| serde_json::json!({
+                    "name": d, "views": c.views(d)})).collect::<Vec<_>>(),
+                "looks": c.looks(),
+            }),
+            Err(e) => serde_json::json!({ "error": e.to_string() }),
+        };
         let v = serde_json::json!({
             "tyndall": version,
+            "colour": colour,
             "graph_format": format,
             "wgpu_backend": backends,
             "tyndall_adapter": pick,
@@ -130,6 +141,12 @@ pub fn report(registry: &Registry, json: bool) -> String {
         }
         Err(e) => {
             let _ = writeln!(s, "used: none\n{}", e.message);
+        }
+    }
+    match tyndall_engine::colour::current() {
+        Ok(c) => s.push_str(&c.describe()),
+        Err(e) => {
+            let _ = writeln!(s, "colour config: {e}");
         }
     }
     s

@@ -54,6 +54,12 @@ pub struct Cli {
     /// (ui.perfetto.dev) or chrome://tracing.
     #[arg(long, global = true, value_name = "FILE")]
     pub trace: Option<PathBuf>,
+    /// OpenColorIO config for every colour conversion: a file (`.ocio`, `.ocioz`) or a
+    /// built-in `ocio://…` name; default `$OCIO`, else
+    /// `ocio://cg-config-v4.0.0_aces-v2.0_ocio-v2.5`. `tyndall info` lists its displays,
+    /// views and looks; one that cannot be read is refused (exit 2).
+    #[arg(long, global = true, value_name = "CONFIG")]
+    pub ocio: Option<String>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -261,6 +267,9 @@ fn run_command(cli: Cli) -> Result<(), CliError> {
     let registry = Arc::new(crate::nodes::registry());
     if cli.adapter.is_some() {
         crate::gpu::set_adapter_choice(cli.adapter.clone());
+    }
+    if let Some(spec) = &cli.ocio {
+        tyndall_engine::colour::set_current(spec).map_err(|e| bad(format!("--ocio: {e}")))?;
     }
     match cli.command {
         Command::Info { json } => {

@@ -8,6 +8,7 @@
 //! the repository is the map.
 #![deny(missing_docs)]
 
+pub mod colour;
 pub mod display;
 pub mod eval;
 pub mod gpu;
