@@ -16,9 +16,11 @@ pub mod algorithms;
 pub mod bilateral_filter;
 pub mod blend_volume;
 pub mod blur;
+pub mod colour_space;
 pub mod composite;
 pub mod constant;
 pub mod depth_upsample;
+pub mod display_view;
 pub mod downsample;
 pub mod epipolar;
 pub mod g_buffer;
@@ -119,6 +121,8 @@ pub fn registry() -> Registry {
     r.add(Arc::new(soft_visibility::SoftVisibility));
     r.add(Arc::new(temporal_accumulate::TemporalAccumulate));
     r.add(Arc::new(tonemap::Tonemap));
+    r.add(Arc::new(colour_space::ColourSpace));
+    r.add(Arc::new(display_view::DisplayView));
     r.add(Arc::new(transfer_function::TransferFunction));
     r
 }

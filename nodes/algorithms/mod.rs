@@ -11,6 +11,7 @@ pub mod cube_atlas;
 pub mod g_buffer;
 pub mod lorenz_mie;
 pub mod multigrid;
+pub mod ocio;
 pub mod phase_function;
 pub mod point_sample;
 pub mod quantile;

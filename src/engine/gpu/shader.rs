@@ -43,6 +43,29 @@ impl Shader {
         }
     }
 
+    /// A shader whose text is made at run time (OpenColorIO's WGSL for one colour transform,
+    /// wrapped in a node's entry point): interned by its text, so each distinct text is one
+    /// `Shader` for the life of the process, with the stem `<prefix>/<hash of the text>` under
+    /// which its pipelines are cached like any other's. It has no `#import` lines. Pipelines
+    /// made up front in a later process skip it (its text is not known before its node runs).
+    pub fn runtime(prefix: &str, text: &str) -> Shader {
+        use std::hash::{Hash, Hasher};
+        static INTERNED: OnceLock<Mutex<HashMap<String, Shader>>> = OnceLock::new();
+        let interned = INTERNED.get_or_init(Default::default);
+        let mut interned = interned.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(s) = interned.get(text) {
+            return *s;
+        }
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        text.hash(&mut h);
+        let stem: &'static str =
+            Box::leak(format!("{prefix}/{:016x}", h.finish()).into_boxed_str());
+        let source: &'static str = Box::leak(text.to_string().into_boxed_str());
+        let shader = Shader::new(stem, source, &[]);
+        interned.insert(text.to_string(), shader);
+        shader
+    }
+
     /// The node stem this shader belongs to: the first component of [`Shader::stem`].
     pub fn node_stem(&self) -> &'static str {
         self.stem.split('/').next().unwrap_or(self.stem)
