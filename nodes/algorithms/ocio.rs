@@ -7,7 +7,8 @@
 //! when the transform has dynamic properties, its LUT textures from binding 3) with an entry
 //! point that reads `src` (binding 1) and writes `out_image` (binding 2), one invocation per
 //! pixel; alpha goes through OpenColorIO as it does on the CPU. 1D LUTs are asked for as 2D
-//! textures (wgpu's 1D textures are of no help here). The text is a runtime shader
+//! textures (wgpu's 1D textures are of no help here), 3D LUTs are RGBA 3D textures
+//! (`Gpu::lut_volume`; OpenColorIO's shader interpolates them itself). The text is a runtime shader
 //! ([`Shader::runtime`]): one per distinct transform, its pipeline cached.
 
 use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
@@ -37,9 +38,11 @@ pub struct OcioPass {
     uniform: Option<(String, Vec<u8>)>,
     /// Each LUT texture: variable name, width, height, channels (1 or 4), values.
     textures: Vec<(String, u32, u32, u32, Vec<f32>)>,
+    /// Each 3D LUT: variable name, edge length, RGBA values (x fastest).
+    volumes: Vec<(String, u32, Vec<f32>)>,
 }
 
-/// The GPU form of `processor`, or why it has none here (a 3D LUT: not yet on the GPU).
+/// The GPU form of `processor`, or why OpenColorIO could not write one.
 pub fn prepare(processor: &ocio::Processor) -> Result<OcioPass, String> {
     let gpu = processor
         .default_gpu_processor()
@@ -53,11 +56,6 @@ pub fn prepare(processor: &ocio::Processor) -> Result<OcioPass, String> {
         .map_err(|e| e.to_string())?;
     gpu.extract_gpu_shader_info(&mut desc)
         .map_err(|e| e.to_string())?;
-    if desc.num_3d_textures() > 0 {
-        return Err(
-            "the transform has a 3D LUT, which Tyndall does not run on the GPU yet".to_string(),
-        );
-    }
     let bindings = desc
         .wgsl_bindings()
         .ok_or("OpenColorIO wrote no WGSL bindings")?;
@@ -93,10 +91,26 @@ pub fn prepare(processor: &ocio::Processor) -> Result<OcioPass, String> {
         };
         textures.push((t.texture_name.clone(), b.width, b.height, channels, data));
     }
+    let mut volumes = Vec::new();
+    for i in 0..desc.num_3d_textures() {
+        let t = desc.texture_3d(i).map_err(|e| e.to_string())?;
+        let values = desc.texture_3d_values(i).map_err(|e| e.to_string())?;
+        let n = t.width;
+        let texels = (n * n * n) as usize;
+        if values.len() < texels * 3 {
+            return Err(format!("3D LUT `{}`: too few values", t.texture_name));
+        }
+        let rgba = values[..texels * 3]
+            .chunks(3)
+            .flat_map(|c| [c[0], c[1], c[2], 1.0])
+            .collect();
+        volumes.push((t.texture_name.clone(), n, rgba));
+    }
     Ok(OcioPass {
         shader: Shader::runtime("ocio", &text),
         uniform,
         textures,
+        volumes,
     })
 }
 
@@ -118,6 +132,10 @@ pub fn apply(gpu: &Gpu, pass: &OcioPass, src: &GpuTexture) -> Result<GpuTexture,
     for (name, w, h, channels, data) in &pass.textures {
         luts.push((name.as_str(), gpu.upload(*w, *h, *channels, data)?));
     }
+    let mut cubes = Vec::with_capacity(pass.volumes.len());
+    for (name, n, rgba) in &pass.volumes {
+        cubes.push((name.as_str(), gpu.lut_volume([*n; 3], rgba)?));
+    }
     let mut binds = vec![
         ("src", Bind::Texture(src)),
         ("out_image", Bind::Storage(&out)),
@@ -127,6 +145,9 @@ pub fn apply(gpu: &Gpu, pass: &OcioPass, src: &GpuTexture) -> Result<GpuTexture,
     }
     for (name, t) in &luts {
         binds.push((name, Bind::Texture(t)));
+    }
+    for (name, v) in &cubes {
+        binds.push((name, Bind::Volume(v)));
     }
     gpu.dispatch(pass.shader, "apply", &binds, src.width, src.height)?;
     Ok(out)

@@ -197,3 +197,80 @@ fn unknown_names_are_refused_with_what_the_config_has() {
     .to_string();
     assert!(e.contains("view") && e.contains("Un-tone-mapped"), "{e}");
 }
+
+/// A small config of our own (`tests/fixtures/ocio/config.ocio`): its `Graded` view is a 5³
+/// `.cube` 3D LUT (out = (r², (g + b) / 2, 1 − b) on the lattice) and its look `Warm` a CDL
+/// slope (1.2, 1, 0.8). On the GPU (the LUT a 3D texture that OpenColorIO's shader
+/// interpolates) equal to the CPU processor within 1e-3 of max(1, |value|), as above; inputs on
+/// the lattice give the table's own values (1e-5: its six decimals), and the look scales before
+/// the LUT: (0.5, 0.25, 0.5) becomes (0.6, 0.25, 0.4) then the LUT at an off-lattice point,
+/// checked against the CPU only.
+#[test]
+fn a_custom_config_with_a_cube_lut_and_a_look() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let config = format!(
+        "{}/tests/fixtures/ocio/config.ocio",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let px: &[[f32; 4]] = &[
+        [0.0, 0.0, 0.0, 1.0],
+        [0.5, 0.25, 0.75, 1.0],
+        [1.0, 0.5, 0.25, 1.0],
+        [0.25, 1.0, 1.0, 1.0],
+        [0.5, 0.25, 0.5, 1.0],
+        [0.3, 0.6, 0.9, 1.0],
+    ];
+    let mut image = Raster::new(3, 2, 4, 0.0);
+    for (i, p) in px.iter().enumerate() {
+        image.data[i * 4..i * 4 + 4].copy_from_slice(p);
+    }
+    for look in ["", "Warm"] {
+        let params = [
+            ("config", ParamValue::Text(config.clone())),
+            ("source", ParamValue::Text("linear".into())),
+            ("view", ParamValue::Text("Graded".into())),
+            ("look", ParamValue::Text(look.into())),
+        ];
+        let input = common::upload(&gpu, &image, PortType::Image);
+        let got = common::run_node(
+            &gpu,
+            "DisplayView",
+            &params,
+            vec![("image", input)],
+            &["image"],
+            (3, 2),
+        )
+        .expect("run")
+        .remove("image")
+        .expect("image");
+        let p = tyndall::nodes::display_view::Params::with_overrides(&params).expect("params");
+        let processor = tyndall::nodes::display_view::processor(&p).expect("processor");
+        let want = tyndall::nodes::algorithms::ocio::reference(&processor, &image);
+        let w = worst(&got, &want);
+        eprintln!("custom config, look `{look}`: GPU vs CPU {w:.2e}");
+        assert!(w <= 1e-3, "look `{look}`: GPU differs from the CPU by {w}");
+        if look.is_empty() {
+            for (i, p) in px[..4].iter().enumerate() {
+                let table = [p[0] * p[0], (p[1] + p[2]) / 2.0, 1.0 - p[2]];
+                for c in 0..3 {
+                    let v = got.data[i * 4 + c];
+                    assert!(
+                        (v - table[c]).abs() <= 1e-5,
+                        "lattice input {p:?}, channel {c}: {v} vs the table's {}",
+                        table[c]
+                    );
+                }
+            }
+        } else {
+            // The look moved the input: (0.5, 0.25, 0.5) → (0.6, 0.25, 0.4) before the LUT,
+            // so blue's output is 1 − 0.4 (the LUT is linear in b there).
+            assert!(
+                (got.data[4 * 4 + 2] - 0.6).abs() <= 1e-4,
+                "{}",
+                got.data[4 * 4 + 2]
+            );
+        }
+    }
+}

@@ -16,7 +16,8 @@
 
 use super::{Gpu, GpuError};
 
-/// A one-channel 3D texture with its mip chain.
+/// A one-channel 3D texture with its mip chain (or a read-only RGBA lookup table:
+/// [`Gpu::lut_volume`]).
 pub struct GpuVolume {
     raw: wgpu::Texture,
     all: wgpu::TextureView,
@@ -316,6 +317,76 @@ impl Gpu {
             all,
             levels,
             rows,
+            dirty: std::sync::atomic::AtomicU32::new(0),
+            size,
+        })
+    }
+
+    /// A read-only RGBA 3D lookup table of `size` texels (one level), `rgba` x fastest, then
+    /// y, then z — what a colour transform's 3D LUT is read from (`textureLoad`; no sampler,
+    /// not filterable). Not for [`Gpu::read_volume`], which reads one-channel volumes.
+    pub fn lut_volume(&self, size: [u32; 3], rgba: &[f32]) -> Result<GpuVolume, GpuError> {
+        let limit = self.limits.max_texture_dimension_3d;
+        if size.iter().any(|&s| s == 0 || s > limit) {
+            return Err(GpuError::TooLarge {
+                width: size[0],
+                height: size[1],
+                limit,
+            });
+        }
+        let texels = size.iter().map(|&s| s as usize).product::<usize>();
+        if rgba.len() != texels * 4 {
+            return Err(GpuError::BadData(format!(
+                "{} values for a {}×{}×{} RGBA lookup table ({} expected)",
+                rgba.len(),
+                size[0],
+                size[1],
+                size[2],
+                texels * 4
+            )));
+        }
+        let extent = wgpu::Extent3d {
+            width: size[0],
+            height: size[1],
+            depth_or_array_layers: size[2],
+        };
+        let raw = self.scoped(|| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("lut volume"),
+                size: extent,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        })?;
+        // A queue write runs before the next submission: submit what is recorded first (as
+        // `Gpu::upload` does), though a new texture has no earlier reader.
+        self.flush()?;
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &raw,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(rgba),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size[0] * 16),
+                rows_per_image: Some(size[1]),
+            },
+            extent,
+        );
+        let all = raw.create_view(&Default::default());
+        let levels = vec![raw.create_view(&Default::default())];
+        Ok(GpuVolume {
+            raw,
+            all,
+            levels,
+            rows: Vec::new(),
             dirty: std::sync::atomic::AtomicU32::new(0),
             size,
         })
