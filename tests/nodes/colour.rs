@@ -254,12 +254,11 @@ fn a_custom_config_with_a_cube_lut_and_a_look() {
         if look.is_empty() {
             for (i, p) in px[..4].iter().enumerate() {
                 let table = [p[0] * p[0], (p[1] + p[2]) / 2.0, 1.0 - p[2]];
-                for c in 0..3 {
+                for (c, t) in table.iter().enumerate() {
                     let v = got.data[i * 4 + c];
                     assert!(
-                        (v - table[c]).abs() <= 1e-5,
-                        "lattice input {p:?}, channel {c}: {v} vs the table's {}",
-                        table[c]
+                        (v - t).abs() <= 1e-5,
+                        "lattice input {p:?}, channel {c}: {v} vs the table's {t}"
                     );
                 }
             }
