@@ -124,7 +124,7 @@ fn a_spot_light_agrees_with_cycles() {
 
 /// A spot of radius 0.2 m (soft shadows) against Cycles' (`--scene spot_soft`): Tyndall through
 /// `SoftVisibility` (`light_radius` 0.2, slices in 1/w from the nearest occluder). The iterative
-/// convolution matches the penumbra's variance, not its shape (see `tests/light/soft.rs`), so
+/// convolution matches the penumbra's variance, not its shape (see `tests/light/soft_lamps.rs`), so
 /// the shape agrees less than the hard lamps' (measured when the fixture was made, 4096
 /// samples: correlation 0.9959, level 1.0225, mean relative error 6.1 %; since the off-axis
 /// spread, `soft_visibility::off_axis`: 0.9946, 1.0310, 7.3 %); the bounds hold it. The volume is 256² × 256 slices (64 MiB): GL's storage buffers stop at 128 MiB.

@@ -12,4 +12,5 @@ mod phase;
 mod scattering;
 mod sky;
 mod soft;
+mod soft_lamps;
 mod volumes;
