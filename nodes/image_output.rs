@@ -13,9 +13,11 @@
 //! | `path` | Text | "out.exr" | file to write; the extension chooses EXR or PNG |
 //! | `precision` | Enum | auto | auto (EXR f32, PNG u8), f32, f16 (EXR), u8, u16 (PNG) |
 //! | `srgb` | Bool | true | encode PNG colour to sRGB (EXR stays linear) |
+//! | `display`, `view`, `look` | Text | "" | PNG: write through this OpenColorIO display / view / look of the current config (from the working space) instead of the plain sRGB encoding; all empty: the sRGB encoding (= the built-in config's `sRGB - Display` / `Un-tone-mapped`, within an 8-bit step) |
 //!
-//! `path`, `precision` and `srgb` only affect the file, so changing them does not re-run the
-//! GPU pass (they are exempt from the cache key).
+//! `path`, `precision`, `srgb`, `display`, `view` and `look` only affect the file (the view is
+//! applied as it is written), so changing them does not re-run the sanitizing pass (they are
+//! exempt from the cache key).
 //!
 //! `AovOutput` (same file, same pass): the compositing hand-off. It writes every connected port
 //! as a named layer of one single-part EXR, the way Nuke and Blender read layers: `rgba` as
@@ -80,6 +82,9 @@ tyndall_engine::params! {
         path: String = ParamSpec::text("path", "out.exr", "File to write (.exr or .png)."),
         precision: Storage = ParamSpec::choice("precision", Storage::NAMES, "auto", "Sample storage: auto (EXR f32, PNG u8), f32, f16, u8, u16."),
         srgb: bool = ParamSpec::flag("srgb", true, "Encode PNG colour to sRGB; turn off for data maps."),
+        display: String = ParamSpec::text("display", "", "PNG: an OpenColorIO display to write for (with `view`, `look`) instead of the plain sRGB encoding; empty with `view` empty: the sRGB encoding, which is the built-in config's sRGB - Display / Un-tone-mapped."),
+        view: String = ParamSpec::text("view", "", "PNG: the display's view (e.g. ACES 2.0 - SDR 100 nits (Rec.709)); empty: the display's default when `display` is set."),
+        look: String = ParamSpec::text("look", "", "PNG: a look applied before the view; empty: none."),
     }
 }
 
@@ -93,7 +98,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: OutParams::SPECS,
 })
 .shaders(&[SHADER])
-.key_exempt(&["path", "precision", "srgb"])
+.key_exempt(&["path", "precision", "srgb", "display", "view", "look"])
 .files(&[("path", tyndall_engine::eval::FileRole::Write)])
 .sink();
 
@@ -176,11 +181,62 @@ impl NodeKind for ImageOutput {
             .get("written")
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;
         // Read back while the next frame is recorded when writes are deferred (a sequence).
+        let viewed;
+        let value = match view_for_png(&p, &path)? {
+            Some(pass) => {
+                let tex = value
+                    .texture()
+                    .ok_or_else(|| NodeError::Other("no image to view".into()))?;
+                viewed = PortValue::Image(Arc::new(crate::algorithms::ocio::apply(
+                    ctx.gpu, &pass, tex,
+                )?));
+                &viewed
+            }
+            None => value,
+        };
         let pending = download_later(ctx.gpu, value)?;
         let raster = Box::new(move || pending.wait().map_err(|e| e.to_string()));
-        write_image_later(&path, raster, precision, p.srgb)?;
+        // Through a view the values are already encoded for the display.
+        let srgb = p.srgb && p.display.is_empty() && p.view.is_empty();
+        write_image_later(&path, raster, precision, srgb)?;
         Ok(())
     }
+}
+
+/// The OpenColorIO pass a PNG is written through: `display` / `view` / `look` of the current
+/// config from the working space, when one of `display` and `view` is set, `srgb` is on and the
+/// file is a PNG (an EXR stays scene-linear; `srgb = false` writes data raw).
+fn view_for_png(
+    p: &OutParams,
+    path: &std::path::Path,
+) -> Result<Option<crate::algorithms::ocio::OcioPass>, NodeError> {
+    if !p.srgb || (p.display.is_empty() && p.view.is_empty()) {
+        return Ok(None);
+    }
+    if !matches!(file_kind(path), Ok(FileKind::Png)) {
+        return Ok(None);
+    }
+    let params = crate::display_view::Params::with_overrides(&[
+        (
+            "display",
+            tyndall_engine::graph::ParamValue::Text(p.display.clone()),
+        ),
+        (
+            "view",
+            tyndall_engine::graph::ParamValue::Text(p.view.clone()),
+        ),
+        (
+            "look",
+            tyndall_engine::graph::ParamValue::Text(p.look.clone()),
+        ),
+    ])?;
+    let processor = crate::display_view::processor(&params)?;
+    crate::algorithms::ocio::prepare(&processor)
+        .map(Some)
+        .map_err(|message| NodeError::Param {
+            param: "view".into(),
+            message,
+        })
 }
 
 /// The `AovOutput` node kind: connected ports as named layers of one EXR.

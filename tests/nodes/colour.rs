@@ -273,3 +273,78 @@ fn a_custom_config_with_a_cube_lut_and_a_look() {
         }
     }
 }
+
+/// `ImageOutput` writes a PNG through a display / view (issue #45, item 4): with `view` set the
+/// file holds the view's 8-bit values (the CPU processor's, within one 8-bit step: rounding),
+/// not sRGB-encoded again; with none set, the plain sRGB encoding, which is the built-in
+/// config's `sRGB - Display` / `Un-tone-mapped` within one step (measured: 0 and 0 steps, on
+/// A.exr's grey ramp from 0.5 to far past 1).
+#[test]
+fn image_output_writes_a_png_through_a_view() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let src = format!("{}/tests/fixtures/A.exr", env!("CARGO_MANIFEST_DIR"));
+    let write = |name: &str, view: &str| -> Raster {
+        let path = dir.path().join(name);
+        let text = format!(
+            r#"(version: 3, nodes: {{
+                "in": (kind: "ImageInput", params: {{"path": "{src}"}}),
+                "out": (kind: "ImageOutput", params: {{"path": "{}", "view": "{view}"}}),
+            }}, edges: [("in.image", "out.image")])"#,
+            path.display()
+        );
+        let registry = std::sync::Arc::new(tyndall::nodes::registry());
+        let g = tyndall::graph::load_str(&text, &dir.path().join("g.ron"), registry.catalog())
+            .expect("graph");
+        let mut ev = tyndall::eval::Evaluator::new(registry, gpu.clone());
+        let sinks = ev.sinks(&g);
+        ev.evaluate(&g, &sinks, &Default::default())
+            .expect("render");
+        // Read back as stored (8-bit codes / 255), no decoding.
+        tyndall::io::read_image(&path, false).expect("png")
+    };
+    // A.exr is one channel: ImageInput reads it as grey with alpha 1.
+    let scalar = tyndall::io::read_image(std::path::Path::new(&src), false).expect("exr");
+    assert_eq!(scalar.channels, 1);
+    let mut input = Raster::new(scalar.width, scalar.height, 4, 1.0);
+    for (i, v) in scalar.data.iter().enumerate() {
+        input.data[i * 4..i * 4 + 3].copy_from_slice(&[*v; 3]);
+    }
+    let steps = |a: &Raster, b: &Raster| {
+        a.data
+            .iter()
+            .zip(&b.data)
+            .enumerate()
+            .filter(|(i, _)| i % 4 != 3)
+            .map(|(_, (x, y))| ((x - y) * 255.0).abs().round() as i32)
+            .max()
+            .unwrap_or(0)
+    };
+    let aces = write("aces.png", "ACES 2.0 - SDR 100 nits (Rec.709)");
+    let p = tyndall::nodes::display_view::Params::with_overrides(&[(
+        "view",
+        ParamValue::Text("ACES 2.0 - SDR 100 nits (Rec.709)".into()),
+    )])
+    .expect("params");
+    let mut want = tyndall::nodes::algorithms::ocio::reference(
+        &tyndall::nodes::display_view::processor(&p).expect("processor"),
+        &input,
+    );
+    for v in &mut want.data {
+        *v = v.clamp(0.0, 1.0);
+    }
+    let s = steps(&aces, &want);
+    eprintln!("ImageOutput through ACES 2.0 SDR: {s} 8-bit steps from the CPU processor");
+    assert!(s <= 1, "{s} steps");
+    let plain = write("plain.png", "");
+    let untonemapped = write("untonemapped.png", "Un-tone-mapped");
+    let s = steps(&plain, &untonemapped);
+    eprintln!("sRGB encoding vs Un-tone-mapped: {s} 8-bit steps");
+    assert!(s <= 1, "{s} steps");
+    assert!(
+        steps(&plain, &aces) > 1,
+        "the ACES view should change the picture"
+    );
+}
