@@ -22,6 +22,12 @@ fi
 new="target/release/tyndall"
 same=0 differ=0
 for g in $(ls graphs/*/*.ron | grep -v '^graphs/\(lights\|lib\|bench\)/'); do
+  # Presets added after BASE (e.g. graphs/color/window_aces.ron, whose nodes BASE lacks) have
+  # nothing to compare with.
+  if ! git cat-file -e "$base:$g" 2>/dev/null; then
+    echo "new since $base: $g"
+    continue
+  fi
   n="$(echo "$g" | tr / _)"
   for side in old new; do
     bin="$old"; [ "$side" = new ] && bin="$new"
