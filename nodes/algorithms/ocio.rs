@@ -79,6 +79,13 @@ pub fn prepare(processor: &ocio::Processor) -> Result<OcioPass, String> {
             .texture(&t.texture_name)
             .ok_or_else(|| format!("no binding for LUT `{}`", t.texture_name))?;
         let texels = (b.width * b.height) as usize;
+        let per_texel = match b.format {
+            ocio::gpu::wgsl::WgslTextureFormat::R32Float => 1,
+            ocio::gpu::wgsl::WgslTextureFormat::Rgba32Float => 3,
+        };
+        if values.len() < texels * per_texel {
+            return Err(format!("LUT `{}`: too few values", t.texture_name));
+        }
         let (channels, data) = match b.format {
             ocio::gpu::wgsl::WgslTextureFormat::R32Float => (1, values[..texels].to_vec()),
             ocio::gpu::wgsl::WgslTextureFormat::Rgba32Float => (

@@ -58,8 +58,12 @@ impl Shader {
         }
         let mut h = std::collections::hash_map::DefaultHasher::new();
         text.hash(&mut h);
-        let stem: &'static str =
-            Box::leak(format!("{prefix}/{:016x}", h.finish()).into_boxed_str());
+        // Two texts whose hashes collide still get two stems (two pipelines).
+        let mut name = format!("{prefix}/{:016x}", h.finish());
+        while interned.values().any(|s| s.stem == name) {
+            name.push('+');
+        }
+        let stem: &'static str = Box::leak(name.into_boxed_str());
         let source: &'static str = Box::leak(text.to_string().into_boxed_str());
         let shader = Shader::new(stem, source, &[]);
         interned.insert(text.to_string(), shader);
