@@ -20,7 +20,6 @@
 
 use std::sync::Arc;
 
-use tyndall_engine::colour::{self, ColourError};
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
@@ -49,24 +48,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 });
 
-/// A colour error as the node's: the parameter it came from.
-pub(crate) fn param_error(param: &str) -> impl Fn(ColourError) -> NodeError + '_ {
-    move |e| NodeError::Param {
-        param: param.to_string(),
-        message: e.to_string(),
-    }
-}
-
 /// The processor the parameters ask for.
 pub fn processor(p: &Params) -> Result<::ocio::Processor, NodeError> {
-    let config = colour::load(&p.config).map_err(param_error("config"))?;
-    let from = config
-        .colour_space(&p.from, colour::WORKING_SPACE)
-        .map_err(param_error("from"))?;
-    let to = config
-        .colour_space(&p.to, colour::WORKING_SPACE)
-        .map_err(param_error("to"))?;
-    config.processor(&from, &to).map_err(param_error("to"))
+    ocio::colour_space_processor(&p.config, &p.from, &p.to)
 }
 
 impl NodeKind for ColourSpace {

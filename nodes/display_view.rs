@@ -22,12 +22,10 @@
 
 use std::sync::Arc;
 
-use tyndall_engine::colour;
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 use crate::algorithms::ocio;
-use crate::colour_space::param_error;
 
 /// The `DisplayView` node kind.
 pub struct DisplayView;
@@ -56,22 +54,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 
 /// The processor the parameters ask for.
 pub fn processor(p: &Params) -> Result<::ocio::Processor, NodeError> {
-    let config = colour::load(&p.config).map_err(param_error("config"))?;
-    let source = config
-        .colour_space(&p.source, colour::WORKING_SPACE)
-        .map_err(param_error("source"))?;
-    let display = config.display(&p.display).map_err(param_error("display"))?;
-    let view = config
-        .view(&display, &p.view)
-        .map_err(param_error("view"))?;
-    let look = if p.look.is_empty() {
-        String::new()
-    } else {
-        config.look(&p.look).map_err(param_error("look"))?
-    };
-    config
-        .display_view_processor(&source, &display, &view, &look)
-        .map_err(param_error("view"))
+    ocio::display_view_processor(&p.config, &p.source, &p.display, &p.view, &p.look)
 }
 
 impl NodeKind for DisplayView {

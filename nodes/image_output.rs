@@ -216,21 +216,8 @@ fn view_for_png(
     if !matches!(file_kind(path), Ok(FileKind::Png)) {
         return Ok(None);
     }
-    let params = crate::display_view::Params::with_overrides(&[
-        (
-            "display",
-            tyndall_engine::graph::ParamValue::Text(p.display.clone()),
-        ),
-        (
-            "view",
-            tyndall_engine::graph::ParamValue::Text(p.view.clone()),
-        ),
-        (
-            "look",
-            tyndall_engine::graph::ParamValue::Text(p.look.clone()),
-        ),
-    ])?;
-    let processor = crate::display_view::processor(&params)?;
+    let processor =
+        crate::algorithms::ocio::display_view_processor("", "", &p.display, &p.view, &p.look)?;
     crate::algorithms::ocio::prepare(&processor)
         .map(Some)
         .map_err(|message| NodeError::Param {

@@ -11,6 +11,8 @@
 //! (`Gpu::lut_volume`; OpenColorIO's shader interpolates them itself). The text is a runtime shader
 //! ([`Shader::runtime`]): one per distinct transform, its pipeline cached.
 
+use tyndall_engine::colour::{self, ColourError};
+use tyndall_engine::eval::NodeError;
 use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::io::Raster;
 
@@ -30,6 +32,57 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>) {
     textureStore(out_image, id.xy, ocio_main(textureLoad(src, id.xy, 0)));
 }
 ";
+
+/// A colour error as a node's: the parameter it came from.
+pub fn param_error(param: &str) -> impl Fn(ColourError) -> NodeError + '_ {
+    move |e| NodeError::Param {
+        param: param.to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// The processor from colour space `from` to `to` of `config` (empty: the current config; an
+/// empty space: the working space), errors naming the parameters `config`, `from`, `to`.
+pub fn colour_space_processor(
+    config: &str,
+    from: &str,
+    to: &str,
+) -> Result<ocio::Processor, NodeError> {
+    let config = colour::load(config).map_err(param_error("config"))?;
+    let from = config
+        .colour_space(from, colour::WORKING_SPACE)
+        .map_err(param_error("from"))?;
+    let to = config
+        .colour_space(to, colour::WORKING_SPACE)
+        .map_err(param_error("to"))?;
+    config.processor(&from, &to).map_err(param_error("to"))
+}
+
+/// The processor from colour space `source` through `display` / `view` with `look` of
+/// `config` (empties: the current config, the working space, the config's default display,
+/// the display's default view, no look), errors naming the parameters of those names.
+pub fn display_view_processor(
+    config: &str,
+    source: &str,
+    display: &str,
+    view: &str,
+    look: &str,
+) -> Result<ocio::Processor, NodeError> {
+    let config = colour::load(config).map_err(param_error("config"))?;
+    let source = config
+        .colour_space(source, colour::WORKING_SPACE)
+        .map_err(param_error("source"))?;
+    let display = config.display(display).map_err(param_error("display"))?;
+    let view = config.view(&display, view).map_err(param_error("view"))?;
+    let look = if look.is_empty() {
+        String::new()
+    } else {
+        config.look(look).map_err(param_error("look"))?
+    };
+    config
+        .display_view_processor(&source, &display, &view, &look)
+        .map_err(param_error("view"))
+}
 
 /// A processor made ready for the GPU: its shader, uniform buffer and LUT textures.
 pub struct OcioPass {
