@@ -65,10 +65,7 @@ impl NodeKind for DisplayView {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let tex = ctx.require_texture("image")?;
-        let pass = ocio::prepare(&processor(&p)?).map_err(|message| NodeError::Param {
-            param: "view".into(),
-            message,
-        })?;
+        let pass = ocio::prepare(&processor(&p)?, "view")?;
         let out = ocio::apply(ctx.gpu, &pass, &tex)?;
         ctx.set("image", PortValue::Image(Arc::new(out)));
         Ok(())

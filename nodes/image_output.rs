@@ -218,12 +218,7 @@ fn view_for_png(
     }
     let processor =
         crate::algorithms::ocio::display_view_processor("", "", &p.display, &p.view, &p.look)?;
-    crate::algorithms::ocio::prepare(&processor)
-        .map(Some)
-        .map_err(|message| NodeError::Param {
-            param: "view".into(),
-            message,
-        })
+    crate::algorithms::ocio::prepare(&processor, "view").map(Some)
 }
 
 /// The `AovOutput` node kind: connected ports as named layers of one EXR.

@@ -95,8 +95,16 @@ pub struct OcioPass {
     volumes: Vec<(String, u32, Vec<f32>)>,
 }
 
-/// The GPU form of `processor`, or why OpenColorIO could not write one.
-pub fn prepare(processor: &ocio::Processor) -> Result<OcioPass, String> {
+/// The GPU form of `processor`; why OpenColorIO could not write one is an error on the node's
+/// parameter `param` (the one that chose the transform).
+pub fn prepare(processor: &ocio::Processor, param: &str) -> Result<OcioPass, NodeError> {
+    gpu_form(processor).map_err(|message| NodeError::Param {
+        param: param.to_string(),
+        message,
+    })
+}
+
+fn gpu_form(processor: &ocio::Processor) -> Result<OcioPass, String> {
     let gpu = processor
         .default_gpu_processor()
         .map_err(|e| e.to_string())?;

@@ -119,6 +119,7 @@ use tyndall_engine::io::Raster;
 
 mod brute_force;
 mod epipolar;
+mod epipolar_lines;
 mod gpu;
 mod map_ray;
 mod medium;
