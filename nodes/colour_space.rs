@@ -20,6 +20,7 @@
 
 use std::sync::Arc;
 
+use tyndall_engine::colour::ColourCtx;
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
@@ -46,11 +47,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     inputs: &[PortSpec::required("image", &[PortType::Image], "The image, in `from`.")],
     outputs: &[PortSpec::output("image", &[PortType::Image], "The image, in `to`.")],
     params: Params::SPECS,
-});
+})
+.colour();
 
-/// The processor the parameters ask for.
-pub fn processor(p: &Params) -> Result<::ocio::Processor, NodeError> {
-    ocio::colour_space_processor(&p.config, &p.from, &p.to)
+/// The processor the parameters ask for, under the evaluation's colour settings.
+pub fn processor(colour: &ColourCtx, p: &Params) -> Result<::ocio::Processor, NodeError> {
+    ocio::colour_space_processor(colour, &p.config, &p.from, &p.to)
 }
 
 impl NodeKind for ColourSpace {
@@ -61,7 +63,7 @@ impl NodeKind for ColourSpace {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let tex = ctx.require_texture("image")?;
-        let pass = ocio::prepare(&processor(&p)?, "to")?;
+        let pass = ocio::prepare(&processor(ctx.colour, &p)?, "to")?;
         let out = ocio::apply(ctx.gpu, &pass, &tex)?;
         ctx.set("image", PortValue::Image(Arc::new(out)));
         Ok(())

@@ -22,6 +22,7 @@
 
 use std::sync::Arc;
 
+use tyndall_engine::colour::ColourCtx;
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
@@ -50,11 +51,12 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     inputs: &[PortSpec::required("image", &[PortType::Image], "Scene-linear image, in `source`.")],
     outputs: &[PortSpec::output("image", &[PortType::Image], "Display-referred values for `display`.")],
     params: Params::SPECS,
-});
+})
+.colour();
 
-/// The processor the parameters ask for.
-pub fn processor(p: &Params) -> Result<::ocio::Processor, NodeError> {
-    ocio::display_view_processor(&p.config, &p.source, &p.display, &p.view, &p.look)
+/// The processor the parameters ask for, under the evaluation's colour settings.
+pub fn processor(colour: &ColourCtx, p: &Params) -> Result<::ocio::Processor, NodeError> {
+    ocio::display_view_processor(colour, &p.config, &p.source, &p.display, &p.view, &p.look)
 }
 
 impl NodeKind for DisplayView {
@@ -65,7 +67,7 @@ impl NodeKind for DisplayView {
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
         let tex = ctx.require_texture("image")?;
-        let pass = ocio::prepare(&processor(&p)?, "view")?;
+        let pass = ocio::prepare(&processor(ctx.colour, &p)?, "view")?;
         let out = ocio::apply(ctx.gpu, &pass, &tex)?;
         ctx.set("image", PortValue::Image(Arc::new(out)));
         Ok(())

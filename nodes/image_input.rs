@@ -16,7 +16,8 @@
 //! |---|---|---|---|
 //! | `path` | Text | "" | file to read (`.exr`, `.png`) |
 //! | `channel` | Enum | luminance | luminance, r, g, b, a: Scalar of an RGBA file |
-//! | `srgb` | Bool | true | decode PNG colour from sRGB |
+//! | `srgb` | Bool | true | decode PNG colour from sRGB; off: the file is data (no colour conversion) |
+//! | `colourspace` | Text | "" | colour space of the file (a name, alias or role of the config); empty: the config's file rules (see below) |
 //! | `layer` | Text | "" | layer of a multi-layer EXR: `ViewLayer.Combined` (its R, G, B, A), `ViewLayer.Depth` (its one channel) or a full channel name `ViewLayer.Depth.Z`; empty: the main image |
 //! | `reduce` | Int | 1 | 1…64: read at ⌈w/r⌉ × ⌈h/r⌉ (point sampling, `Downsample`'s rule); a proxy evaluation multiplies it by its factor, so a plate stays the size of the proxied pictures |
 //!
@@ -28,6 +29,14 @@
 //! that camera (projection = worldToNDC · worldToCamera⁻¹, far = the largest finite depth)
 //! instead of identity matrices.
 //!
+//! Colour (issue #45): an RGBA file's colour is converted from `colourspace` to the graph's
+//! working space on read (an OpenColorIO pass on the GPU). Empty `colourspace`: the config's
+//! file rules — with the built-in config, whose rules call every EXR ACES2065-1, Tyndall's own
+//! rule instead: an EXR is `Linear Rec.709 (sRGB)` (what Blender and Tyndall's default working
+//! space write), a PNG `sRGB Encoded Rec.709 (sRGB)`; in the default working space that is the
+//! reading of old (bit-identical). `srgb = false` reads the file as data: no decoding, no
+//! conversion. One-channel files are data too (only `srgb` decodes a grey PNG).
+//!
 //! The cache key includes the file's size and modification time, so editing the file on disk
 //! re-runs the node.
 //!
@@ -38,6 +47,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use tyndall_engine::colour::ColourCtx;
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
@@ -62,6 +72,7 @@ tyndall_engine::params! {
         channel: Channel = ParamSpec::choice("channel", Channel::NAMES, "luminance", "Which channel of an RGBA file the one-channel outputs carry."),
         srgb: bool = ParamSpec::flag("srgb", true, "Decode 8/16-bit PNG colour from sRGB to linear (EXR is always linear)."),
         layer: String = ParamSpec::text("layer", "", "Layer of a multi-layer EXR: `ViewLayer.Combined` (R, G, B, A), `ViewLayer.Depth` (one channel) or a full channel name; empty: the main image."),
+        colourspace: String = ParamSpec::text("colourspace", "", "Colour space of the file's colour (a name, alias or role of the OpenColorIO config), converted to the working space on read; empty: the config's file rules (built-in config: EXR = Linear Rec.709 (sRGB), PNG = sRGB Encoded Rec.709 (sRGB))."),
         reduce: i64 = ParamSpec::int("reduce", 1, 1, 64, "×", "Read the file at 1/reduce per axis (point sampling, as Downsample: ⌈w/r⌉ × ⌈h/r⌉); a proxy evaluation multiplies it.").proxy_reduction(),
     }
 }
@@ -82,7 +93,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .files(&[("path", tyndall_engine::eval::FileRole::Read)])
 .shaders(&[SHADER])
-.uniforms(&[ImageInputParams::LAYOUT]);
+.uniforms(&[ImageInputParams::LAYOUT])
+.colour();
 
 const SHADER: Shader = crate::shader("image_input", include_str!("../shaders/image_input.wgsl"));
 
@@ -161,6 +173,48 @@ fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
     tyndall_engine::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
 }
 
+/// The colour space an RGBA file at `path` is in: `named` when set, else the config's file
+/// rules (Tyndall's rule with the built-in config: EXR linear Rec.709, PNG sRGB-encoded).
+pub fn file_colour_space(
+    colour: &ColourCtx,
+    named: &str,
+    path: &Path,
+) -> Result<String, NodeError> {
+    let config = colour
+        .config("")
+        .map_err(crate::algorithms::ocio::param_error("colourspace"))?;
+    let name = if !named.trim().is_empty() {
+        named.trim().to_string()
+    } else if config.source() == tyndall_engine::colour::BUILTIN {
+        match tyndall_engine::io::file_kind(path)? {
+            tyndall_engine::io::FileKind::Exr => tyndall_engine::colour::WORKING_SPACE,
+            tyndall_engine::io::FileKind::Png => SRGB_ENCODED,
+        }
+        .to_string()
+    } else {
+        config
+            .ocio()
+            .color_space_from_filepath(&path.to_string_lossy())
+    };
+    config
+        .colour_space(&name, colour.working_space())
+        .map_err(crate::algorithms::ocio::param_error("colourspace"))
+}
+
+/// The sRGB-encoded Rec.709 colour space of the built-in config (PNGs' file rule).
+pub const SRGB_ENCODED: &str = "sRGB Encoded Rec.709 (sRGB)";
+
+/// Whether reading `path` as `space` into the working space is the reading of old: the sRGB
+/// decoding of a PNG (or nothing, for an EXR) in the default working space.
+fn plain_reading(colour: &ColourCtx, space: &str, path: &Path) -> bool {
+    colour.is_default_space()
+        && match tyndall_engine::io::file_kind(path) {
+            Ok(tyndall_engine::io::FileKind::Png) => space == SRGB_ENCODED,
+            Ok(tyndall_engine::io::FileKind::Exr) => space == tyndall_engine::colour::WORKING_SPACE,
+            Err(_) => false,
+        }
+}
+
 impl NodeKind for ImageInput {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -187,9 +241,24 @@ impl NodeKind for ImageInput {
                 message: "is empty: set the file to read".into(),
             });
         }
+        // The OpenColorIO conversion to the working space, unless the file is data or read as
+        // it always was.
+        let convert = if prm.srgb {
+            let space = file_colour_space(ctx.colour, &prm.colourspace, Path::new(path))?;
+            if plain_reading(ctx.colour, &space, Path::new(path)) {
+                None
+            } else {
+                let to = ctx.colour.working_space().to_string();
+                let processor =
+                    crate::algorithms::ocio::colour_space_processor(ctx.colour, "", &space, &to)?;
+                Some(crate::algorithms::ocio::prepare(&processor, "colourspace")?)
+            }
+        } else {
+            None
+        };
         let (file, header) = if prm.layer.trim().is_empty() {
             (
-                tyndall_engine::io::read_image(Path::new(path), prm.srgb)?,
+                tyndall_engine::io::read_image(Path::new(path), prm.srgb && convert.is_none())?,
                 None,
             )
         } else {
@@ -205,6 +274,19 @@ impl NodeKind for ImageInput {
             }
             tyndall_engine::io::read_exr_layer(Path::new(path), prm.layer.trim())?
         };
+        let mut file = file;
+        if convert.is_some()
+            && file.channels == 1
+            && matches!(
+                tyndall_engine::io::file_kind(Path::new(path)),
+                Ok(tyndall_engine::io::FileKind::Png)
+            )
+        {
+            // A grey PNG is data, decoded as `srgb` says (read raw above for the conversion).
+            file.data
+                .iter_mut()
+                .for_each(|v| *v = tyndall_engine::io::srgb_to_linear(*v));
+        }
         let camera = header.and_then(|h| header_camera(&h, &file));
         let file = if prm.reduce > 1 {
             crate::algorithms::point_sample::reference(&file, prm.reduce as u32)
@@ -215,6 +297,12 @@ impl NodeKind for ImageInput {
         let src = ctx
             .gpu
             .upload(file.width, file.height, file.channels, &file.data)?;
+        let src = match &convert {
+            Some(pass) if file.channels == 4 => {
+                crate::algorithms::ocio::apply(ctx.gpu, pass, &src)?
+            }
+            _ => src,
+        };
         let u = ImageInputParams {
             channels: file.channels,
             channel: channel as u32,

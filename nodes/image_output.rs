@@ -13,7 +13,11 @@
 //! | `path` | Text | "out.exr" | file to write; the extension chooses EXR or PNG |
 //! | `precision` | Enum | auto | auto (EXR f32, PNG u8), f32, f16 (EXR), u8, u16 (PNG) |
 //! | `srgb` | Bool | true | encode PNG colour to sRGB (EXR stays linear) |
-//! | `display`, `view`, `look` | Text | "" | PNG: write through this OpenColorIO display / view / look of the current config (from the working space) instead of the plain sRGB encoding; all empty: the sRGB encoding (= the built-in config's `sRGB - Display` / `Un-tone-mapped`, within an 8-bit step) |
+//! | `display`, `view`, `look` | Text | "" | PNG: write through this OpenColorIO display / view / look of the evaluation's config (from the working space) instead of the plain sRGB encoding; all empty: the sRGB encoding (= the built-in config's `sRGB - Display` / `Un-tone-mapped`, within an 8-bit step) of the image converted to linear Rec.709 |
+//!
+//! Colour (issue #45): an EXR stays scene-linear in the graph's working space; in a working
+//! space other than the default it carries that space's standard `chromaticities` attribute
+//! (an EXR without one means Rec.709 / D65, the default's, so default files are unchanged).
 //!
 //! `path`, `precision`, `srgb`, `display`, `view` and `look` only affect the file (the view is
 //! applied as it is written), so changing them does not re-run the sanitizing pass (they are
@@ -26,7 +30,8 @@
 //! Image as `.R/G/B/A`, a Scalar as `.Y`, Depth or ShadowMap as `.Z`). Layers are half floats
 //! unless listed in `float_layers` (default: depth, whose metres need more than half's 11 bits);
 //! the header carries the camera's `worldToCamera` and `worldToNDC` matrices (from `depth`, or
-//! the first connected Depth) and the frame (`frame`, int).
+//! the first connected Depth), the frame (`frame`, int) and, as `ImageOutput`'s, the working
+//! space's `chromaticities`.
 //!
 //! | port | dir | type |
 //! |---|---|---|
@@ -99,6 +104,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "srgb", "display", "view", "look"])
+.colour()
 .files(&[("path", tyndall_engine::eval::FileRole::Write)])
 .sink();
 
@@ -182,8 +188,10 @@ impl NodeKind for ImageOutput {
             .ok_or_else(|| NodeError::Other("no sanitized image to write".into()))?;
         // Read back while the next frame is recorded when writes are deferred (a sequence).
         let viewed;
-        let value = match view_for_png(&p, &path)? {
-            Some(pass) => {
+        let mut srgb = p.srgb;
+        let value = match view_for_png(ctx, &p, &path)? {
+            Some((pass, encode)) => {
+                srgb = encode;
                 let tex = value
                     .texture()
                     .ok_or_else(|| NodeError::Other("no image to view".into()))?;
@@ -196,29 +204,47 @@ impl NodeKind for ImageOutput {
         };
         let pending = download_later(ctx.gpu, value)?;
         let raster = Box::new(move || pending.wait().map_err(|e| e.to_string()));
-        // Through a view the values are already encoded for the display.
-        let srgb = p.srgb && p.display.is_empty() && p.view.is_empty();
-        write_image_later(&path, raster, precision, srgb)?;
+        write_image_later(&path, raster, precision, srgb, chromaticities(ctx)?)?;
         Ok(())
     }
 }
 
-/// The OpenColorIO pass a PNG is written through: `display` / `view` / `look` of the current
-/// config from the working space, when one of `display` and `view` is set, `srgb` is on and the
-/// file is a PNG (an EXR stays scene-linear; `srgb = false` writes data raw).
+/// The OpenColorIO pass a PNG is written through, and whether the sRGB encoding follows it.
+/// With `display` or `view` set: that display / view / look of the evaluation's config from
+/// the working space, already encoded. Both empty: nothing in the default working space (the
+/// plain sRGB encoding, = `sRGB - Display` / `Un-tone-mapped`); in another working space, its
+/// conversion to linear Rec.709 before that encoding. None for an EXR (scene-linear in the
+/// working space) or `srgb = false` (data written raw).
 fn view_for_png(
+    ctx: &RunCtx,
     p: &OutParams,
     path: &std::path::Path,
-) -> Result<Option<crate::algorithms::ocio::OcioPass>, NodeError> {
-    if !p.srgb || (p.display.is_empty() && p.view.is_empty()) {
+) -> Result<Option<(crate::algorithms::ocio::OcioPass, bool)>, NodeError> {
+    if !p.srgb || !matches!(file_kind(path), Ok(FileKind::Png)) {
         return Ok(None);
     }
-    if !matches!(file_kind(path), Ok(FileKind::Png)) {
-        return Ok(None);
+    use crate::algorithms::ocio;
+    if p.display.is_empty() && p.view.is_empty() {
+        if ctx.colour.is_default_space() {
+            return Ok(None);
+        }
+        let to_rec709 = ocio::colour_space_processor(
+            ctx.colour,
+            "",
+            "",
+            tyndall_engine::colour::WORKING_SPACE,
+        )?;
+        return ocio::prepare(&to_rec709, "path").map(|pass| Some((pass, true)));
     }
-    let processor =
-        crate::algorithms::ocio::display_view_processor("", "", &p.display, &p.view, &p.look)?;
-    crate::algorithms::ocio::prepare(&processor, "view").map(Some)
+    let processor = ocio::display_view_processor(ctx.colour, "", "", &p.display, &p.view, &p.look)?;
+    ocio::prepare(&processor, "view").map(|pass| Some((pass, false)))
+}
+
+/// An EXR's `chromaticities` attribute: the working space's, when it is not the default.
+fn chromaticities(ctx: &RunCtx) -> Result<Option<[f32; 8]>, NodeError> {
+    ctx.colour
+        .chromaticities()
+        .map_err(crate::algorithms::ocio::param_error("path"))
 }
 
 /// The `AovOutput` node kind: connected ports as named layers of one EXR.
@@ -266,6 +292,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
 })
 .shaders(&[SHADER])
 .key_exempt(&["path", "precision", "float_layers", "aov1_name", "aov2_name"])
+.colour()
 .files(&[("path", tyndall_engine::eval::FileRole::Write)])
 .sink();
 
@@ -374,6 +401,7 @@ impl NodeKind for AovOutput {
                 .map(|m| glam::Mat4::from_cols_array_2d(&m.view).to_cols_array()),
             world_to_ndc: camera.map(|m| m.view_proj().to_cols_array()),
             frame: Some(ctx.time.round() as i32),
+            chromaticities: chromaticities(ctx)?,
         };
         let size = size.unwrap_or((1, 1));
         write_exr_layers(&path, size, &layers, &header)?;

@@ -25,6 +25,11 @@
 //! an index; `none` = the rest pose. Morph-target weights are not played. `tyndall validate`
 //! lists the animations, their frame ranges and which play.
 //!
+//! Colour: a glTF file's base colours and light colours (linear Rec.709, as glTF defines them)
+//! are converted to the graph's working space (`colour: (working_space: …)`) through the
+//! evaluation's OpenColorIO config; the built-in scenes' colours and the `sun_colour` parameter
+//! are the graph's own, already in the working space.
+//!
 //! The node uploads vertex and index buffers; it runs no shader pass (so it has no WGSL file).
 //!
 //! | port | dir | type |
@@ -59,6 +64,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use tyndall_engine::colour::{convert_rgb, ColourCtx};
 use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::{
@@ -123,7 +129,8 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("scene", &[PortType::Scene], "Meshes, camera and lights.")],
     params: Params::SPECS,
 })
-.files(&[("path", tyndall_engine::eval::FileRole::Read)]);
+.files(&[("path", tyndall_engine::eval::FileRole::Read)])
+.colour();
 
 impl NodeKind for SceneNode {
     fn decl(&self) -> &'static NodeDecl {
@@ -172,7 +179,7 @@ impl NodeKind for SceneNode {
             }
             Err(e) => return vec![format!("error: {e}")],
         };
-        match load(&p, 0.0) {
+        match load(&p, 0.0, &Default::default()) {
             Ok(scene) => {
                 for l in scene.light_list() {
                     match l.problem() {
@@ -188,7 +195,7 @@ impl NodeKind for SceneNode {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let scene = load(&p, ctx.time)?;
+        let scene = load(&p, ctx.time, ctx.colour)?;
         if let Some(problem) = scene.lights.iter().find_map(Light::problem) {
             return Err(NodeError::Param {
                 param: "path".into(),
@@ -238,9 +245,9 @@ fn animated_seconds(p: &Params, time: f64) -> Result<Option<f32>, NodeError> {
     Ok(Some(((time / p.fps) as f32).clamp(lo, hi)))
 }
 
-/// The built-in scene, or the glTF file posed at frame `time`, with the camera and lights the
-/// parameters override.
-fn load(p: &Params, time: f64) -> Result<Scene, NodeError> {
+/// The built-in scene, or the glTF file posed at frame `time` with its colours in the working
+/// space of `colour`, with the camera and lights the parameters override.
+fn load(p: &Params, time: f64, colour: &ColourCtx) -> Result<Scene, NodeError> {
     let mut scene = match chosen_animation(p)? {
         None => builtin(p.name.name(), p.seed as u64).map_err(|e| NodeError::Param {
             param: "name".into(),
@@ -248,12 +255,20 @@ fn load(p: &Params, time: f64) -> Result<Scene, NodeError> {
         })?,
         Some((asset, playing)) => {
             let seconds = animated_seconds(p, time)?.unwrap_or(0.0);
-            asset
+            let mut scene = asset
                 .pose(&playing, seconds)
                 .map_err(|e| NodeError::Param {
                     param: "path".into(),
                     message: e.to_string(),
-                })?
+                })?;
+            let to_working = colour.from_rec709().map_err(|e| NodeError::Param {
+                param: "path".into(),
+                message: format!("{}: its colours to the working space: {e}", p.path),
+            })?;
+            if let Some(processor) = to_working {
+                scene.convert_colours(|rgb| convert_rgb(&processor, rgb));
+            }
+            scene
         }
     };
     if p.camera == Source::Custom {

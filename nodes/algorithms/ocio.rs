@@ -11,7 +11,7 @@
 //! (`Gpu::lut_volume`; OpenColorIO's shader interpolates them itself). The text is a runtime shader
 //! ([`Shader::runtime`]): one per distinct transform, its pipeline cached.
 
-use tyndall_engine::colour::{self, ColourError};
+use tyndall_engine::colour::{ColourCtx, ColourError};
 use tyndall_engine::eval::NodeError;
 use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::io::Raster;
@@ -41,36 +41,40 @@ pub fn param_error(param: &str) -> impl Fn(ColourError) -> NodeError + '_ {
     }
 }
 
-/// The processor from colour space `from` to `to` of `config` (empty: the current config; an
-/// empty space: the working space), errors naming the parameters `config`, `from`, `to`.
+/// The processor from colour space `from` to `to` of `config` (empty: the evaluation's
+/// config; an empty space: the working space), errors naming the parameters `config`, `from`,
+/// `to`.
 pub fn colour_space_processor(
+    colour: &ColourCtx,
     config: &str,
     from: &str,
     to: &str,
 ) -> Result<ocio::Processor, NodeError> {
-    let config = colour::load(config).map_err(param_error("config"))?;
+    let config = colour.config(config).map_err(param_error("config"))?;
+    let working = colour.working_space();
     let from = config
-        .colour_space(from, colour::WORKING_SPACE)
+        .colour_space(from, working)
         .map_err(param_error("from"))?;
     let to = config
-        .colour_space(to, colour::WORKING_SPACE)
+        .colour_space(to, working)
         .map_err(param_error("to"))?;
     config.processor(&from, &to).map_err(param_error("to"))
 }
 
 /// The processor from colour space `source` through `display` / `view` with `look` of
-/// `config` (empties: the current config, the working space, the config's default display,
-/// the display's default view, no look), errors naming the parameters of those names.
+/// `config` (empties: the evaluation's config, the working space, the config's default
+/// display, the display's default view, no look), errors naming the parameters of those names.
 pub fn display_view_processor(
+    colour: &ColourCtx,
     config: &str,
     source: &str,
     display: &str,
     view: &str,
     look: &str,
 ) -> Result<ocio::Processor, NodeError> {
-    let config = colour::load(config).map_err(param_error("config"))?;
+    let config = colour.config(config).map_err(param_error("config"))?;
     let source = config
-        .colour_space(source, colour::WORKING_SPACE)
+        .colour_space(source, colour.working_space())
         .map_err(param_error("source"))?;
     let display = config.display(display).map_err(param_error("display"))?;
     let view = config.view(&display, view).map_err(param_error("view"))?;

@@ -160,6 +160,8 @@ pub(crate) fn eval_err(py: Python<'_>, e: &tyndall_engine::eval::EvalError) -> P
         ),
         // No node to name: the GPU work of several nodes was being submitted.
         E::Submit(_) => raise::<GpuError>(py, e.to_string(), About::default()),
+        // The graph's working space: no node to name either.
+        E::Colour(_) => raise::<EvalError>(py, e.to_string(), About::default()),
     }
 }
 

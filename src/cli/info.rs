@@ -78,7 +78,9 @@ pub fn report(registry: &Registry, json: bool) -> String {
         let colour = match tyndall_engine::colour::current() {
             Ok(c) => serde_json::json!({
                 "config": c.source(),
-                "working_space": tyndall_engine::colour::WORKING_SPACE,
+                "working_space": c
+                    .colour_space("", tyndall_engine::colour::WORKING_SPACE)
+                    .ok(),
                 "displays": c.displays().iter().map(|d| serde_json::json!({
                     "name": d, "views": c.views(d)})).collect::<Vec<_>>(),
                 "looks": c.looks(),

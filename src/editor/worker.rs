@@ -141,7 +141,7 @@ pub type Answer = Result<Box<dyn Any + Send>, String>;
 
 /// What the window sends the thread.
 enum Message {
-    Evaluate(Request),
+    Evaluate(Box<Request>),
     Job(u64, Job),
 }
 
@@ -263,7 +263,7 @@ impl Worker {
         req.generation = self.sent;
         self.newest.store(self.sent, Ordering::Release);
         if let Some(tx) = &self.tx {
-            if tx.send(Message::Evaluate(req)).is_err() {
+            if tx.send(Message::Evaluate(Box::new(req))).is_err() {
                 self.tx = None;
             }
         }
@@ -335,7 +335,7 @@ impl Worker {
 /// File a message from the window: a job joins the queue, a request replaces the older one.
 fn take(m: Message, request: &mut Option<Request>, jobs: &mut VecDeque<(u64, Job)>) {
     match m {
-        Message::Evaluate(r) => *request = Some(r),
+        Message::Evaluate(r) => *request = Some(*r),
         Message::Job(n, job) => jobs.push_back((n, job)),
     }
 }

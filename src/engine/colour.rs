@@ -131,10 +131,17 @@ impl ColourConfig {
     }
 
     /// The colour space `name` (a name, an alias or a role), as the config spells it; empty:
-    /// `working`.
+    /// `working`. The default working space, [`WORKING_SPACE`], in a config that has no space
+    /// of that name (Blender's, a studio's) is the config's `scene_linear` role, OpenColorIO's
+    /// name for the working space.
     pub fn colour_space(&self, name: &str, working: &str) -> Result<String, ColourError> {
         let name = if name.is_empty() { working } else { name };
-        match self.config.get_color_space(name) {
+        let found = self.config.get_color_space(name).or_else(|| {
+            (name == WORKING_SPACE)
+                .then(|| self.config.get_color_space("scene_linear"))
+                .flatten()
+        });
+        match found {
             Some(cs) => Ok(cs.name().to_string()),
             None => Err(self.unknown("colour space", name, &self.colour_spaces())),
         }
@@ -226,7 +233,10 @@ impl ColourConfig {
     /// What `tyndall info` prints: the config, its displays with their views, and its looks.
     pub fn describe(&self) -> String {
         let mut out = format!("colour config: {}\n", self.source);
-        out.push_str(&format!("  working space (default): {WORKING_SPACE}\n"));
+        let working = self
+            .colour_space(WORKING_SPACE, WORKING_SPACE)
+            .unwrap_or_else(|e| format!("none ({e})"));
+        out.push_str(&format!("  working space (default): {working}\n"));
         for d in self.displays() {
             out.push_str(&format!(
                 "  display `{d}`: views {}\n",
@@ -244,6 +254,113 @@ impl ColourConfig {
         ));
         out
     }
+}
+
+/// The colour settings an evaluation runs under: its config and its graph's working space.
+/// Nodes that read them declare it ([`crate::eval::NodeDecl::colour`]); their cache keys then
+/// cover both.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash)]
+pub struct ColourCtx {
+    /// The evaluation's CONFIG (`Evaluator::set_colour_config`); empty: the current config.
+    pub config: String,
+    /// The graph's working space (`colour: (working_space: …)`); empty: [`WORKING_SPACE`].
+    pub working_space: String,
+}
+
+impl ColourCtx {
+    /// The config a node uses: its own `config` parameter when set, else the evaluation's,
+    /// else the current one.
+    pub fn config(&self, node_config: &str) -> Result<Arc<ColourConfig>, ColourError> {
+        load(if node_config.is_empty() {
+            &self.config
+        } else {
+            node_config
+        })
+    }
+
+    /// The working space's name as the graph gives it ([`WORKING_SPACE`] when it gives none).
+    pub fn working_space(&self) -> &str {
+        if self.working_space.is_empty() {
+            WORKING_SPACE
+        } else {
+            &self.working_space
+        }
+    }
+
+    /// Whether colours need no conversion from linear Rec.709: the working space is the
+    /// default one.
+    pub fn is_default_space(&self) -> bool {
+        self.working_space() == WORKING_SPACE
+    }
+
+    /// The CPU processor from linear Rec.709 (what glTF base and light colours are) to the
+    /// working space, in the evaluation's config; `None` when the working space is that space.
+    pub fn from_rec709(&self) -> Result<Option<ocio::CpuProcessor>, ColourError> {
+        if self.is_default_space() {
+            return Ok(None);
+        }
+        let config = self.config("")?;
+        let from = config.colour_space(WORKING_SPACE, WORKING_SPACE)?;
+        let to = config.colour_space(self.working_space(), WORKING_SPACE)?;
+        Ok(Some(config.processor(&from, &to)?.default_cpu_processor()))
+    }
+
+    /// The working space's primaries and white point as CIE xy — the EXR `chromaticities`
+    /// attribute, `[rx, ry, gx, gy, bx, by, wx, wy]` — for a working space other than the
+    /// default (whose Rec.709 / D65 is what an EXR without the attribute means). They are the
+    /// primaries as the config's `cie_xyz_d65_interchange` space sees them (chromatically
+    /// adapted to D65, as the config adapts them), with the D65 white: a reader converting to
+    /// any D65 space from them reproduces the config's own conversion. `None` as well when the
+    /// config has no such role or the space is not linear.
+    pub fn chromaticities(&self) -> Result<Option<[f32; 8]>, ColourError> {
+        if self.is_default_space() {
+            return Ok(None);
+        }
+        let config = self.config("")?;
+        let Ok(xyz) = config.colour_space("cie_xyz_d65_interchange", WORKING_SPACE) else {
+            return Ok(None);
+        };
+        let from = config.colour_space(self.working_space(), WORKING_SPACE)?;
+        let cpu = config.processor(&from, &xyz)?.default_cpu_processor();
+        let xy = |rgb: [f32; 3]| -> Option<[f32; 2]> {
+            let v = convert_rgb(&cpu, rgb);
+            let half = convert_rgb(&cpu, rgb.map(|c| c * 0.5));
+            let linear = v
+                .iter()
+                .zip(half)
+                .all(|(a, h)| (a * 0.5 - h).abs() <= 1e-5 * (1.0 + a.abs()));
+            let sum = v[0] + v[1] + v[2];
+            (linear && sum.abs() > 1e-9).then(|| [v[0] / sum, v[1] / sum])
+        };
+        let mut out = [0.0; 8];
+        for (i, rgb) in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0; 3]]
+            .into_iter()
+            .enumerate()
+        {
+            let Some(p) = xy(rgb) else {
+                return Ok(None);
+            };
+            out[2 * i..2 * i + 2].copy_from_slice(&p);
+        }
+        Ok(Some(out))
+    }
+
+    /// Check that the config has the working space (an error names both and lists the spaces).
+    pub fn check(&self) -> Result<(), ColourError> {
+        if self.is_default_space() && self.config.is_empty() {
+            return Ok(());
+        }
+        self.config("")?
+            .colour_space(self.working_space(), WORKING_SPACE)
+            .map(|_| ())
+    }
+}
+
+/// Convert a linear RGB colour with `processor` (see [`ColourCtx::from_rec709`]).
+pub fn convert_rgb(processor: &ocio::CpuProcessor, rgb: [f32; 3]) -> [f32; 3] {
+    let mut px = [rgb[0], rgb[1], rgb[2], 1.0];
+    processor.apply_rgba_slice(&mut px);
+    [px[0], px[1], px[2]]
 }
 
 /// The current config's CONFIG, set once by the command line (`--ocio`).
@@ -315,6 +432,37 @@ mod tests {
             .views("sRGB - Display")
             .iter()
             .any(|v| v == "Un-tone-mapped"));
+    }
+
+    #[test]
+    fn acescg_chromaticities_reproduce_the_published_acescg_to_rec709_matrix() {
+        let ctx = ColourCtx {
+            config: BUILTIN.into(),
+            working_space: "ACEScg".into(),
+        };
+        let c = ctx.chromaticities().expect("xy").expect("linear");
+        // RGB → XYZ from the chromaticities (SMPTE RP 177), then XYZ → linear Rec.709 (D65,
+        // IEC 61966-2-1): the ACEScg → Rec.709 matrix, which ACES publishes (Bradford D60 →
+        // D65). 2e-3: the published matrices are rounded to 4–5 digits.
+        let xyz = |x: f32, y: f32| glam::Vec3::new(x / y, 1.0, (1.0 - x - y) / y);
+        let p = glam::Mat3::from_cols(xyz(c[0], c[1]), xyz(c[2], c[3]), xyz(c[4], c[5]));
+        let s = p.inverse() * xyz(c[6], c[7]);
+        let to_xyz = p * glam::Mat3::from_diagonal(s);
+        let xyz_to_709 = glam::Mat3::from_cols_array(&[
+            3.240_454, -0.969_266, 0.055_643, -1.537_139, 1.876_011, -0.204_026, -0.498_531,
+            0.041_556, 1.057_225,
+        ]);
+        let got = (xyz_to_709 * to_xyz).to_cols_array();
+        let want = [
+            1.70505, -0.13026, -0.02400, -0.62179, 1.14080, -0.12897, -0.08326, -0.01055, 1.15297,
+        ];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 2e-3, "{got:?}");
+        }
+        assert_eq!(
+            ColourCtx::default().chromaticities().expect("default"),
+            None
+        );
     }
 
     #[test]

@@ -268,6 +268,11 @@ pub struct Outputs {
 }
 
 impl Outputs {
+    /// The outputs of an evaluation on `gpu`.
+    pub fn new(gpu: Arc<tyndall::gpu::Gpu>, values: BTreeMap<(String, String), PortValue>) -> Self {
+        Self { gpu, values }
+    }
+
     /// The value on `node.port`.
     pub fn get(&self, node: &str, port: &str) -> &PortValue {
         &self.values[&(node.to_string(), port.to_string())]

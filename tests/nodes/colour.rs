@@ -94,10 +94,12 @@ fn gpu_equals_the_cpu_processor() {
             params.iter().map(|(k, v)| (*k, text(v))).collect();
         let processor = if kind == "ColourSpace" {
             colour_space::processor(
+                &Default::default(),
                 &colour_space::Params::with_overrides(&overrides).expect("params"),
             )
         } else {
             display_view::processor(
+                &Default::default(),
                 &display_view::Params::with_overrides(&overrides).expect("params"),
             )
         }
@@ -246,7 +248,8 @@ fn a_custom_config_with_a_cube_lut_and_a_look() {
         .remove("image")
         .expect("image");
         let p = tyndall::nodes::display_view::Params::with_overrides(&params).expect("params");
-        let processor = tyndall::nodes::display_view::processor(&p).expect("processor");
+        let processor =
+            tyndall::nodes::display_view::processor(&Default::default(), &p).expect("processor");
         let want = tyndall::nodes::algorithms::ocio::reference(&processor, &image);
         let w = worst(&got, &want);
         eprintln!("custom config, look `{look}`: GPU vs CPU {w:.2e}");
@@ -329,7 +332,7 @@ fn image_output_writes_a_png_through_a_view() {
     )])
     .expect("params");
     let mut want = tyndall::nodes::algorithms::ocio::reference(
-        &tyndall::nodes::display_view::processor(&p).expect("processor"),
+        &tyndall::nodes::display_view::processor(&Default::default(), &p).expect("processor"),
         &input,
     );
     for v in &mut want.data {

@@ -80,6 +80,9 @@ pub enum EvalError {
     /// The document is inconsistent with the registry.
     #[error(transparent)]
     Graph(#[from] GraphError),
+    /// The graph's working space is not in the evaluation's colour config.
+    #[error("the graph's working space: {0}")]
+    Colour(#[from] crate::colour::ColourError),
     /// The last chunk of the evaluation's GPU commands could not be submitted (every node had
     /// recorded its passes without an error).
     #[error("submitting the evaluation's GPU work: {0}")]
@@ -179,6 +182,10 @@ pub struct Evaluator {
     earlier_runs: usize,
     /// The pipeline cache could not be saved, and that was said once.
     cache_warned: bool,
+    /// The colour config of its evaluations (empty: the current config).
+    colour_config: String,
+    /// The colour settings of the evaluation under way (its config, its graph's working space).
+    colour: crate::colour::ColourCtx,
 }
 
 /// Default cache budget: 1 GiB of GPU memory.
@@ -193,7 +200,25 @@ impl Evaluator {
             cache: cache::Cache::new(DEFAULT_CACHE_BUDGET),
             earlier_runs: 0,
             cache_warned: false,
+            colour_config: String::new(),
+            colour: Default::default(),
         }
+    }
+
+    /// Evaluate under colour config CONFIG (a file or an `ocio://` name; empty: the current
+    /// config) instead of the process's: what Python's `Evaluator(ocio=…)` sets. The config is
+    /// read now, so a bad one is reported here.
+    pub fn set_colour_config(&mut self, spec: &str) -> Result<(), crate::colour::ColourError> {
+        if !spec.is_empty() {
+            crate::colour::load(spec)?;
+        }
+        self.colour_config = spec.to_string();
+        Ok(())
+    }
+
+    /// The colour config set by [`Evaluator::set_colour_config`] (empty: the current config).
+    pub fn colour_config(&self) -> &str {
+        &self.colour_config
     }
 
     /// Set the cache budget in bytes (results of the latest evaluation are kept regardless).
@@ -300,6 +325,15 @@ impl Evaluator {
         self.cache.tick();
         self.earlier_runs = 0;
         crate::trace::set_frame(opts.frame);
+        self.colour = crate::colour::ColourCtx {
+            config: self.colour_config.clone(),
+            working_space: if graph.has_working_space() {
+                graph.working_space().to_string()
+            } else {
+                String::new()
+            },
+        };
+        self.colour.check()?;
         let plan = self.plan(graph, targets)?;
         let order = graph.topo_order();
         let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
@@ -382,6 +416,7 @@ impl Evaluator {
         let mut done = Upstream::default();
         let empty = BTreeSet::new();
         let gpu = self.gpu.clone();
+        let colour = self.colour.clone();
         for id in order.iter().filter(|id| plan.needed.contains(*id)) {
             if opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
                 return Err(EvalError::Cancelled { before: id.clone() });
@@ -404,6 +439,14 @@ impl Evaluator {
                 (key, history.key).hash(&mut h);
                 h.finish()
             };
+            // A node reading the colour settings is keyed by them too.
+            let key = if k.decl().colour {
+                let mut h = DefaultHasher::new();
+                (key, &colour).hash(&mut h);
+                h.finish()
+            } else {
+                key
+            };
             done.keys.insert(id.clone(), key);
             let want = plan.wanted.get(id).unwrap_or(&empty);
             let data = graph.node(id).and_then(|n| n.data.as_ref());
@@ -422,6 +465,7 @@ impl Evaluator {
                 outputs: BTreeMap::new(),
                 passed_through: false,
                 earlier: &history.earlier,
+                colour: &colour,
             };
             let outputs = match self.cache.reuse(id, key, want) {
                 Some((outputs, cost)) => {

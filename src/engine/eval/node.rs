@@ -118,6 +118,9 @@ pub struct RunCtx<'a> {
     /// The connected inputs at earlier frames, one entry per offset of [`NodeKind::history`]
     /// in its order; empty for a node without history.
     pub earlier: &'a [Earlier],
+    /// The evaluation's colour settings (config, working space); read only by nodes that
+    /// declare [`NodeDecl::colour`].
+    pub colour: &'a crate::colour::ColourCtx,
 }
 
 /// A node's connected inputs evaluated at an earlier frame (see [`NodeKind::history`]).
@@ -304,6 +307,9 @@ pub struct NodeDecl {
     /// G-buffer (camera and geometry) is reused when only the sun changed. Declare only parts
     /// the node's outputs cannot depend on the others of.
     pub scene_parts: Option<&'static [crate::scene::ScenePart]>,
+    /// Whether the node reads the evaluation's colour settings ([`RunCtx::colour`]: the config
+    /// and the graph's working space); its cache key then covers them.
+    pub colour: bool,
 }
 
 /// How a node uses a file named by a text parameter.
@@ -328,6 +334,15 @@ impl NodeDecl {
             files: &[],
             tools: &[],
             scene_parts: None,
+            colour: false,
+        }
+    }
+
+    /// Mark the node as reading the evaluation's colour settings (config, working space).
+    pub const fn colour(self) -> Self {
+        Self {
+            colour: true,
+            ..self
         }
     }
 

@@ -68,6 +68,9 @@ pub struct Graph {
     pub(super) retired: BTreeSet<String>,
     /// Group definitions nodes may instantiate (their kind is the group's name).
     pub(super) groups: BTreeMap<String, std::sync::Arc<super::group::GroupDef>>,
+    /// The working space its colours are in (`colour: (working_space: …)`); empty: the
+    /// default, [`crate::colour::WORKING_SPACE`].
+    pub(super) working_space: String,
 }
 
 impl PartialEq for Graph {
@@ -76,6 +79,7 @@ impl PartialEq for Graph {
             && self.nodes().zip(other.nodes()).all(|(a, b)| a == b)
             && self.edges() == other.edges()
             && self.groups == other.groups
+            && self.working_space == other.working_space
     }
 }
 
@@ -103,6 +107,32 @@ impl Graph {
     /// An empty document.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The colour space its colours (sun, lights, constants, transfer functions) are in: the
+    /// file's `colour: (working_space: …)`, else [`crate::colour::WORKING_SPACE`]
+    /// (`Linear Rec.709 (sRGB)`).
+    pub fn working_space(&self) -> &str {
+        if self.working_space.is_empty() {
+            crate::colour::WORKING_SPACE
+        } else {
+            &self.working_space
+        }
+    }
+
+    /// Whether the graph names a working space of its own.
+    pub fn has_working_space(&self) -> bool {
+        !self.working_space.is_empty()
+    }
+
+    /// Set the working space (a colour space of the config; empty or the default's name: the
+    /// default). The name is checked when the graph is evaluated, against its config.
+    pub fn set_working_space(&mut self, name: &str) {
+        self.working_space = if name == crate::colour::WORKING_SPACE {
+            String::new()
+        } else {
+            name.trim().to_string()
+        };
     }
 
     /// Number of nodes.

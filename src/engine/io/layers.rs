@@ -113,6 +113,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
             world_to_camera: Some(c),
             world_to_ndc: Some(n),
             frame: None,
+            chromaticities: None,
         }),
         _ => None,
     };

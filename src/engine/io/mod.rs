@@ -211,7 +211,9 @@ pub fn write_image(
     srgb: bool,
 ) -> Result<(), IoError> {
     let traced = move |path: &Path, r: &Raster| {
-        crate::trace::write(path, || write_image_untraced(path, r, precision, srgb))
+        crate::trace::write(path, || {
+            write_image_untraced(path, r, precision, srgb, None)
+        })
     };
     if !deferred::deferred() {
         return traced(path, r);
@@ -229,12 +231,15 @@ pub fn write_image(
 
 /// [`write_image`] of a raster still being read back from the GPU: `raster` waits for it (on
 /// the writer thread when writes are [`deferred`], so the next frame is recorded meanwhile;
-/// here otherwise). A failed read is a failed write of `path`.
+/// here otherwise). A failed read is a failed write of `path`. An EXR gets the
+/// `chromaticities` attribute when given (`[rx, ry, gx, gy, bx, by, wx, wy]`; none: Rec.709,
+/// what the format means without it).
 pub fn write_image_later(
     path: &Path,
     raster: Box<dyn FnOnce() -> Result<Raster, String> + Send>,
     precision: Precision,
     srgb: bool,
+    chromaticities: Option<[f32; 8]>,
 ) -> Result<(), IoError> {
     let read = move |path: &Path| {
         raster().map_err(|reason| IoError::Write {
@@ -244,7 +249,9 @@ pub fn write_image_later(
     };
     if !deferred::deferred() {
         let r = read(path)?;
-        return crate::trace::write(path, || write_image_untraced(path, &r, precision, srgb));
+        return crate::trace::write(path, || {
+            write_image_untraced(path, &r, precision, srgb, chromaticities)
+        });
     }
     let (path, frame) = (path.to_path_buf(), crate::trace::frame());
     deferred::submit(
@@ -252,7 +259,9 @@ pub fn write_image_later(
         Box::new(move || {
             crate::trace::set_frame(frame);
             let r = read(&path)?;
-            crate::trace::write(&path, || write_image_untraced(&path, &r, precision, srgb))
+            crate::trace::write(&path, || {
+                write_image_untraced(&path, &r, precision, srgb, chromaticities)
+            })
         }),
     )
 }
@@ -262,6 +271,7 @@ fn write_image_untraced(
     r: &Raster,
     precision: Precision,
     srgb: bool,
+    chromaticities: Option<[f32; 8]>,
 ) -> Result<(), IoError> {
     let err = |reason: String| IoError::Write {
         path: path.to_path_buf(),
@@ -301,7 +311,7 @@ fn write_image_untraced(
     }
     let r = &clean;
     write_via_temp(path, |tmp| match kind {
-        FileKind::Exr => write_exr(tmp, r, precision == Precision::F16),
+        FileKind::Exr => write_exr(tmp, r, precision == Precision::F16, chromaticities),
         FileKind::Png => write_png(tmp, r, precision == Precision::U16, srgb),
     })
 }
@@ -432,6 +442,20 @@ pub struct ExrHeader {
     pub world_to_ndc: Option<[f32; 16]>,
     /// Frame number.
     pub frame: Option<i32>,
+    /// The standard `chromaticities` attribute, `[rx, ry, gx, gy, bx, by, wx, wy]`; `None`:
+    /// not written (Rec.709 / D65, what an EXR without it means).
+    pub chromaticities: Option<[f32; 8]>,
+}
+
+/// The exr crate's form of a `chromaticities` attribute.
+fn exr_chromaticities(c: [f32; 8]) -> exr::meta::attribute::Chromaticities {
+    let v = |i: usize| exr::math::Vec2(c[i], c[i + 1]);
+    exr::meta::attribute::Chromaticities {
+        red: v(0),
+        green: v(2),
+        blue: v(4),
+        white: v(6),
+    }
 }
 
 /// Write a `width × height` single-part EXR with the named layers (atomically; non-finite
@@ -520,13 +544,19 @@ fn write_exr_layers_untraced(
         },
         channels,
     );
-    let img = exrp::Image::from_layer(layer);
+    let mut img = exrp::Image::from_layer(layer);
+    img.attributes.chromaticities = header.chromaticities.map(exr_chromaticities);
     write_via_temp(path, |tmp| {
         img.write().to_file(tmp).map_err(|e| e.to_string())
     })
 }
 
-fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
+fn write_exr(
+    path: &Path,
+    r: &Raster,
+    half: bool,
+    chromaticities: Option<[f32; 8]>,
+) -> Result<(), String> {
     let (w, h) = (r.width as usize, r.height as usize);
     let samples = |c: usize| -> exrp::FlatSamples {
         let ch = r.channels as usize;
@@ -558,10 +588,9 @@ fn write_exr(path: &Path, r: &Raster, half: bool) -> Result<(), String> {
         },
         exrp::AnyChannels::sort(list),
     );
-    exrp::Image::from_layer(layer)
-        .write()
-        .to_file(path)
-        .map_err(|e| e.to_string())
+    let mut img = exrp::Image::from_layer(layer);
+    img.attributes.chromaticities = chromaticities.map(exr_chromaticities);
+    img.write().to_file(path).map_err(|e| e.to_string())
 }
 
 fn write_png(path: &Path, r: &Raster, sixteen: bool, srgb: bool) -> Result<(), String> {

@@ -149,6 +149,19 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Apply `f` to every colour of the scene: objects' base colours (alpha kept), the sun's
+    /// and every light's (what converting a file's colours to the working space does).
+    pub fn convert_colours(&mut self, f: impl Fn([f32; 3]) -> [f32; 3]) {
+        for o in &mut self.objects {
+            let [r, g, b] = f([o.colour[0], o.colour[1], o.colour[2]]);
+            o.colour = [r, g, b, o.colour[3]];
+        }
+        self.sun.colour = f(self.sun.colour);
+        for l in &mut self.lights {
+            l.colour = f(l.colour);
+        }
+    }
+
     /// Axis-aligned bounds of all vertices (a unit box around the origin when empty).
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);

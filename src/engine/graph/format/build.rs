@@ -19,6 +19,9 @@ pub(in crate::graph) fn build(
     inner: bool,
 ) -> Result<Graph, (Option<usize>, GraphError)> {
     let mut g = Graph::new();
+    if let Some(c) = &f.colour {
+        g.set_working_space(&c.working_space);
+    }
     for (_, fnode) in &f.nodes {
         if let Some(def) = groups.get(&fnode.kind) {
             g.add_group(def.clone());

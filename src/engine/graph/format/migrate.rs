@@ -49,6 +49,7 @@ struct FileGraphV2 {
 /// Version 2 → 3: nothing changes but the version (a graph without groups).
 fn migrate_v2_to_v3(v: FileGraphV2) -> FileGraph {
     FileGraph {
+        colour: None,
         version: 3,
         nodes: v.nodes,
         edges: v.edges,

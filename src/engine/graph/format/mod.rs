@@ -54,6 +54,13 @@ pub(super) use build::build;
 #[serde(deny_unknown_fields)]
 pub struct FileGraph {
     pub(super) version: u32,
+    /// Colour settings: `colour: (working_space: "ACEScg")`; absent: the default working space.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "ser_inner"
+    )]
+    pub(super) colour: Option<FileColour>,
     #[serde(default, with = "pairs")]
     pub(super) nodes: Vec<(String, FileNode)>,
     #[serde(default)]
@@ -64,6 +71,15 @@ pub struct FileGraph {
     /// (see [`save_string`]).
     #[serde(default, with = "pairs", skip_serializing)]
     pub(super) groups: Vec<(String, super::library::FileGroup)>,
+}
+
+/// A graph's colour settings as written.
+#[derive(Serialize, Deserialize, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FileColour {
+    /// The working space (a colour space of the config).
+    #[serde(default)]
+    pub(super) working_space: String,
 }
 
 #[derive(Serialize, Deserialize, Clone)]
@@ -374,6 +390,9 @@ pub(super) fn file_graph(g: &Graph) -> FileGraph {
     FileGraph {
         version: FORMAT_VERSION,
         groups: Vec::new(),
+        colour: g.has_working_space().then(|| FileColour {
+            working_space: g.working_space().to_string(),
+        }),
         nodes,
         edges: g
             .edges()

@@ -132,6 +132,7 @@ impl Graph {
         let mut outer = Graph::new();
         outer.groups = self.groups.clone();
         outer.retired = self.retired.clone();
+        outer.working_space = self.working_space.clone();
         let def_arc = Arc::new(def.clone());
         outer.add_group(def_arc);
         for n in self.nodes().filter(|n| !chosen.contains(&n.id)) {

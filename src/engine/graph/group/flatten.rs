@@ -63,6 +63,7 @@ impl Graph {
             return Ok((g, BTreeMap::new()));
         }
         let mut out = Graph::new();
+        out.working_space = self.working_space.clone();
         let mut all = BTreeMap::new();
         expand(self, catalog, "", &mut out, &mut all)?;
         Ok((out, all))

@@ -135,6 +135,7 @@ pub(super) fn definition(
     library: Option<LibraryRef>,
 ) -> Result<GroupDef, GraphError> {
     let inner = FileGraph {
+        colour: None,
         version: FORMAT_VERSION,
         nodes: fg.nodes.clone(),
         edges: fg.edges.clone(),
