@@ -16,6 +16,7 @@ use tyndall_engine::eval::{EvalError as RustEvalError, EvalOptions, Matrices, Po
 use tyndall_engine::gpu::Gpu;
 use tyndall_engine::io::Raster;
 
+use crate::colour::colour_err;
 use crate::graph::Graph;
 use crate::values::{from_array, matrices, to_array, to_param};
 use crate::{eval_err, gpu_err, graph_err, raise, registry, About, EvalError, GraphError};
@@ -266,12 +267,14 @@ pub struct Evaluator {
 
 #[pymethods]
 impl Evaluator {
-    /// Evaluator(adapter=None): on the process's shared GPU context, or on a new one on the
-    /// adapter whose name contains `adapter` (as `TYNDALL_ADAPTER`; `tyndall info` lists
-    /// them). Raises GpuError when no adapter qualifies.
+    /// Evaluator(adapter=None, ocio=None): on the process's shared GPU context, or on a new one
+    /// on the adapter whose name contains `adapter` (as `TYNDALL_ADAPTER`; `tyndall info` lists
+    /// them). Raises GpuError when no adapter qualifies. `ocio`: the OpenColorIO config of its
+    /// evaluations (a file or an `ocio://` name, as `--ocio`; None: `$OCIO`, else the built-in
+    /// config); one that cannot be read raises ValueError.
     #[new]
-    #[pyo3(signature = (adapter=None))]
-    fn new(py: Python<'_>, adapter: Option<String>) -> PyResult<Self> {
+    #[pyo3(signature = (adapter=None, ocio=None))]
+    fn new(py: Python<'_>, adapter: Option<String>, ocio: Option<String>) -> PyResult<Self> {
         let gpu = match adapter {
             None => Gpu::shared().map_err(|e| gpu_err(py, &e))?,
             Some(a) => {
@@ -281,13 +284,23 @@ impl Evaluator {
                 Arc::new(g.map_err(|e| gpu_err(py, &e))?)
             }
         };
+        let mut ev = tyndall_engine::eval::Evaluator::new(registry(), gpu.clone());
+        ev.set_colour_config(ocio.as_deref().unwrap_or(""))
+            .map_err(|e| colour_err(&e))?;
         Ok(Self {
-            inner: Arc::new(Mutex::new(tyndall_engine::eval::Evaluator::new(
-                registry(),
-                gpu.clone(),
-            ))),
+            inner: Arc::new(Mutex::new(ev)),
             gpu,
         })
+    }
+
+    /// The OpenColorIO config its evaluations use (as given, or the current one).
+    #[getter]
+    fn ocio(&self) -> String {
+        let ev = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        match ev.colour_config() {
+            "" => tyndall_engine::colour::current_spec(),
+            spec => spec.to_string(),
+        }
     }
 
     /// The adapter: its name and backend.
@@ -429,7 +442,7 @@ fn array_feeds<'py>(
 
 /// Native half of `tyndall.node`: one node of `kind` on in-memory arrays.
 #[pyfunction]
-#[pyo3(signature = (kind, params=None, inputs=None, outputs=None, time=0.0, size=None, data=None))]
+#[pyo3(signature = (kind, params=None, inputs=None, outputs=None, time=0.0, size=None, data=None, ocio=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn node<'py>(
     py: Python<'py>,
@@ -440,6 +453,7 @@ pub(crate) fn node<'py>(
     time: f64,
     size: Option<(u32, u32)>,
     data: Option<String>,
+    ocio: Option<String>,
 ) -> PyResult<Bound<'py, PyList>> {
     let reg = registry();
     let cat = reg.catalog().clone();
@@ -476,6 +490,10 @@ pub(crate) fn node<'py>(
             .map(|p| (format!("{id}.{}", p.name), id.clone(), p.name.to_string()))
             .collect(),
     };
+    let ocio = ocio.unwrap_or_default();
+    if !ocio.is_empty() {
+        tyndall_engine::colour::load(&ocio).map_err(|e| colour_err(&e))?;
+    }
     let gpu = Gpu::shared().map_err(|e| gpu_err(py, &e))?;
     let mut opts = EvalOptions {
         time,
@@ -506,12 +524,15 @@ pub(crate) fn node<'py>(
             opts.inject.insert((id.clone(), port), (v, key));
         }
         let mut ev = tyndall_engine::eval::Evaluator::new(registry(), gpu);
+        ev.set_colour_config(&ocio)
+            .map_err(|e| Failed::Eval(e.into()))?;
         fetch(&mut ev, &g, &wanted, &opts)
     })?;
     to_python(py, r)
 }
 
-/// render(graph, frames=None, output_dir=None, size=(960, 540), progress=None) -> list of frames
+/// render(graph, frames=None, output_dir=None, size=(960, 540), progress=None, ocio=None)
+/// -> list of frames
 ///
 /// Render the graph's output nodes as `tyndall render` does: for each frame of `frames`
 /// (`"1-24"`, `"1,5,7-9"`, `"1-24x2"`; None: one evaluation, file names as written) at time =
@@ -520,9 +541,12 @@ pub(crate) fn node<'py>(
 /// threads while the next frame evaluates (the same bytes as written one by one); every write has
 /// finished when `render` returns, and a failed one raises `OSError` naming its file.
 /// `progress(frame, done, total)` is called after each frame's evaluation; Ctrl+C stops after the
-/// frame in flight (its files are still written). Returns the frames rendered.
+/// frame in flight (its files are still written). `ocio`: the OpenColorIO config (as `--ocio`;
+/// None: `$OCIO`, else the built-in config); one that cannot be read raises ValueError before
+/// any work. Returns the frames rendered.
 #[pyfunction]
-#[pyo3(signature = (graph, frames=None, output_dir=None, size=(960, 540), progress=None))]
+#[pyo3(signature = (graph, frames=None, output_dir=None, size=(960, 540), progress=None, ocio=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn render(
     py: Python<'_>,
     graph: &Graph,
@@ -530,6 +554,7 @@ pub(crate) fn render(
     output_dir: Option<PathBuf>,
     size: (u32, u32),
     progress: Option<Bound<'_, PyAny>>,
+    ocio: Option<&str>,
 ) -> PyResult<Vec<i64>> {
     let out_dir = output_dir.unwrap_or_else(|| PathBuf::from("."));
     let (g, _) = prepared(py, graph, Some(&out_dir))?;
@@ -543,10 +568,10 @@ pub(crate) fn render(
         None => vec![None],
     };
     let gpu = Gpu::shared().map_err(|e| gpu_err(py, &e))?;
-    let ev = Arc::new(Mutex::new(tyndall_engine::eval::Evaluator::new(
-        registry(),
-        gpu,
-    )));
+    let mut ev = tyndall_engine::eval::Evaluator::new(registry(), gpu);
+    ev.set_colour_config(ocio.unwrap_or(""))
+        .map_err(|e| colour_err(&e))?;
+    let ev = Arc::new(Mutex::new(ev));
     let g = Arc::new(g);
     let mut done = Vec::new();
     let rendered = render_frames(py, &list, &ev, &g, size, progress.as_ref(), &mut done);

@@ -14,6 +14,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
+mod colour;
 mod evaluate;
 mod graph;
 mod values;
@@ -192,6 +193,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate::render, m)?)?;
     m.add_function(wrap_pyfunction!(values::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(values::write_image, m)?)?;
+    m.add_function(wrap_pyfunction!(colour::convert_colourspace, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(_settle, m)?)?;
     py.import("atexit")?

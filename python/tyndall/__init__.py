@@ -13,6 +13,11 @@ H×W×4 (linear RGBA) for Image ports. GPU work releases the GIL; Ctrl+C interru
 once (the evaluation in flight finishes in the background). Errors are ``GraphError`` (a
 ``ValueError``), ``EvalError`` and ``GpuError`` (``RuntimeError``s), each with ``.node``,
 ``.port`` and ``.param`` (None when the error is not about one).
+
+Colours are read through an OpenColorIO config: ``ocio=`` on :class:`Evaluator`, :func:`node`
+and :func:`render` (a ``.ocio`` file or an ``ocio://`` name, as the CLI's ``--ocio``; None:
+``$OCIO``, else the built-in ACES 2.0 config). A config that cannot be read raises
+``ValueError``. :func:`convert_colourspace` converts an array between two of its colour spaces.
 """
 
 from __future__ import annotations
@@ -24,7 +29,15 @@ from typing import Callable, Dict, Iterable, List, Mapping, Optional, Sequence, 
 import numpy as np
 
 from . import _native
-from ._native import EvalError, GpuError, Graph, GraphError, read_image, write_image
+from ._native import (
+    EvalError,
+    GpuError,
+    Graph,
+    GraphError,
+    convert_colourspace,
+    read_image,
+    write_image,
+)
 
 __version__ = _native.__version__
 
@@ -39,6 +52,7 @@ __all__ = [
     "Outputs",
     "Stats",
     "catalog",
+    "convert_colourspace",
     "node",
     "read_image",
     "render",
@@ -184,16 +198,23 @@ class Evaluator:
 
     ``adapter``: None for the process's shared GPU context, else a substring of an adapter's
     name (``"llvmpipe"``, ``"NVIDIA"``; ``tyndall info`` lists them). Raises GpuError when no
-    adapter qualifies.
+    adapter qualifies. ``ocio``: the OpenColorIO config of its evaluations (a file or an
+    ``ocio://`` name; None: ``$OCIO``, else the built-in config); ValueError when it cannot be
+    read. A graph's ``colour: (working_space: …)`` names a colour space of that config.
     """
 
-    def __init__(self, adapter: Optional[str] = None):
-        self._native = _native.Evaluator(adapter)
+    def __init__(self, adapter: Optional[str] = None, ocio: Optional[str] = None):
+        self._native = _native.Evaluator(adapter, None if ocio is None else str(ocio))
 
     @property
     def adapter(self) -> str:
         """The adapter's name and backend."""
         return self._native.adapter
+
+    @property
+    def ocio(self) -> str:
+        """The OpenColorIO config its evaluations use."""
+        return self._native.ocio
 
     def eval(
         self,
@@ -219,12 +240,14 @@ def node(
     time: float = 0.0,
     size: Optional[Tuple[int, int]] = None,
     data: Optional[str] = None,
+    ocio: Optional[str] = None,
 ) -> Outputs:
     """Run one node of ``kind`` on in-memory arrays, as ``tyndall node`` does on files.
 
     ``inputs``: port → array (H×W feeds Scalar/Depth/ShadowMap ports, or an Image port as grey;
     H×W×3 or ×4 feeds Image ports); any dtype, converted to float32. ``outputs``: port names
-    (None: every picture output). ``data``: the node's data block as RON text. Returns
+    (None: every picture output). ``data``: the node's data block as RON text. ``ocio``: the
+    OpenColorIO config (as :class:`Evaluator`'s; ``ColourSpace`` and ``DisplayView`` read it). Returns
     :class:`NodeOutputs` keyed by port name (``out["out"]``, ``out["map"]``), as ``tyndall
     node --output PORT=FILE`` names them; the former ``"kind.port"`` keys are deprecated.
     """
@@ -240,6 +263,7 @@ def node(
             time,
             None if size is None else tuple(size),
             data,
+            None if ocio is None else str(ocio),
         ),
         kind,
     )
@@ -251,14 +275,22 @@ def render(
     output_dir: Optional[str] = None,
     size: Tuple[int, int] = (960, 540),
     progress: Optional[Callable[[int, int, int], None]] = None,
+    ocio: Optional[str] = None,
 ) -> List[int]:
     """Render the graph's output nodes as ``tyndall render`` does.
 
     ``frames``: ``"1-24"``, ``"1,5,7-9"``, ``"1-24x2"`` (time = frame; a ``####`` in an output
     path becomes the frame, other paths get ``_NNNN``); None renders once with the names as
     written. Files go under ``output_dir`` (default: the working directory).
-    ``progress(frame, done, total)`` is called after each frame. Returns the frames rendered.
+    ``progress(frame, done, total)`` is called after each frame. ``ocio``: the OpenColorIO
+    config (as ``--ocio``; None: ``$OCIO``, else the built-in config); ValueError before any
+    work when it cannot be read. Returns the frames rendered.
     """
     return _native.render(
-        graph, frames, None if output_dir is None else str(output_dir), tuple(size), progress
+        graph,
+        frames,
+        None if output_dir is None else str(output_dir),
+        tuple(size),
+        progress,
+        None if ocio is None else str(ocio),
     )

@@ -10,6 +10,11 @@
 
 ``pytest --update-golden`` (this package's pytest plugin) makes the ``golden_update`` fixture
 true: golden files are then written instead of compared.
+
+``colourspace=`` compares two scene-linear pictures where the eye would, e.g.
+``colourspace="sRGB Encoded Rec.709 (sRGB)"`` (a colour space of the ``ocio`` config: its
+name, an alias or a role; both arrays are converted from ``source``, the working space unless
+given, on the CPU with OpenColorIO, before the comparison).
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ from typing import Optional, Union
 
 import numpy as np
 
-from ._native import read_image, write_image
+from ._native import convert_colourspace, read_image, write_image
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -58,6 +63,15 @@ def _diff_path(name: Optional[PathLike]) -> Path:
     return Path(path)
 
 
+def _in_colourspace(
+    a: np.ndarray, colourspace: Optional[str], source: str, ocio: Optional[PathLike]
+) -> np.ndarray:
+    if colourspace is None:
+        return a
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    return convert_colourspace(a, colourspace, source, None if ocio is None else str(ocio))
+
+
 def assert_images_close(
     actual: np.ndarray,
     expected: np.ndarray,
@@ -65,11 +79,23 @@ def assert_images_close(
     rmse: Optional[float] = None,
     peak: float = 1.0,
     diff: Optional[PathLike] = None,
+    colourspace: Optional[str] = None,
+    source: str = "",
+    ocio: Optional[PathLike] = None,
 ) -> None:
     """Fail unless ``actual`` is close to ``expected``: PSNR ≥ ``psnr`` dB and/or RMSE ≤
     ``rmse`` (neither given: identical). Non-finite samples fail unless both arrays have the
     same ones. On failure the absolute difference is written as an EXR (``diff``, else a
-    temporary file under ``$TYNDALL_DIFF_DIR``) and named in the message."""
+    temporary file under ``$TYNDALL_DIFF_DIR``) and named in the message.
+
+    ``colourspace``: compare in this colour space of config ``ocio`` (None: ``$OCIO``, else
+    the built-in config), both arrays (H×W×3 or ×4) converted from ``source`` (empty: the
+    working space) first; the PSNR, RMSE and difference are then those of the converted
+    values. None (the default): compare the values as given."""
+    if colourspace is not None:
+        _pair(actual, expected)  # shapes first, with the usual message
+        actual = _in_colourspace(actual, colourspace, source, ocio)
+        expected = _in_colourspace(expected, colourspace, source, ocio)
     a, b = _pair(actual, expected)
     bad_a, bad_b = ~np.isfinite(a), ~np.isfinite(b)
     problems = []
@@ -99,8 +125,12 @@ def assert_matches_golden(
     psnr: Optional[float] = None,
     rmse: Optional[float] = None,
     update: Optional[bool] = None,
+    colourspace: Optional[str] = None,
+    source: str = "",
+    ocio: Optional[PathLike] = None,
 ) -> None:
-    """Compare ``actual`` with the stored EXR ``golden`` (see :func:`assert_images_close`).
+    """Compare ``actual`` with the stored EXR ``golden`` (see :func:`assert_images_close`,
+    whose ``colourspace``, ``source`` and ``ocio`` it passes on; the file stays as given).
     With ``update`` (default: ``$TYNDALL_UPDATE_GOLDEN`` is 1, which ``pytest --update-golden``
     sets) the file is written instead. A missing golden file fails, saying how to make it."""
     golden = Path(golden)
@@ -117,4 +147,13 @@ def assert_matches_golden(
     if expected.ndim == 3 and actual.ndim == 3 and actual.shape[2] == 3:
         expected = expected[..., :3]
     diff = golden.with_name(golden.stem + ".diff.exr")
-    assert_images_close(actual, expected, psnr=psnr, rmse=rmse, diff=diff)
+    assert_images_close(
+        actual,
+        expected,
+        psnr=psnr,
+        rmse=rmse,
+        diff=diff,
+        colourspace=colourspace,
+        source=source,
+        ocio=ocio,
+    )
