@@ -2,7 +2,8 @@
 // drawn from the texture it was evaluated into (no read-back). Each output texel is the box
 // average of `factor` × `factor` source texels (1: the picture itself; thumbnails shrink by an
 // integer factor), then the chosen channel(s), `gain` = 2^stops of exposure, clamped to [0, 1]
-// and sRGB-encoded into 8 bits; a non-finite value shows magenta. With `normalise`, one-channel
+// and sRGB-encoded into 8 bits (after a viewer transform, `colour_pass::view`, which applied
+// the channel and exposure itself: quantized as they are); a non-finite value shows magenta. With `normalise`, one-channel
 // values are divided by their largest finite box average when that is above 1 (depths in metres
 // show their shape, not white): the `peak` entry finds it first.
 // CPU reference: `src/editor/view.rs` (`to_srgb8`) and `src/editor/worker/evaluate.rs`
@@ -22,7 +23,8 @@ struct DisplayParams {
     // Output size in texels.
     out_w: u32,
     out_h: u32,
-    _pad: u32,
+    // 1: sRGB-encode; 0: display values already (a viewer transform ran first), quantized only.
+    encode: u32,
 }
 
 @group(0) @binding(0) var<uniform> p: DisplayParams;
@@ -66,7 +68,9 @@ fn find_peak(@builtin(global_invocation_id) id: vec3<u32>) {
 fn srgb8(x: f32) -> f32 {
     let v = clamp(x * p.gain, 0.0, 1.0);
     var e: f32;
-    if (v <= 0.0031308) {
+    if (p.encode == 0u) {
+        e = v;
+    } else if (v <= 0.0031308) {
         e = v * 12.92;
     } else {
         e = 1.055 * pow(v, 1.0 / 2.4) - 0.055;

@@ -15,7 +15,7 @@ pub mod cli;
 pub use tyndall_bench as bench;
 pub use tyndall_editor as editor;
 pub use tyndall_engine::{
-    choice_enum, colour, display, eval, gpu, graph, io, params, scene, trace, uniforms,
+    choice_enum, colour, colour_pass, display, eval, gpu, graph, io, params, scene, trace, uniforms,
 };
 pub use tyndall_nodes as nodes;
 pub use tyndall_tools as tools;

@@ -40,7 +40,9 @@ pub(crate) fn convert_colourspace(
     let from = config
         .colour_space(source, working)
         .map_err(|e| colour_err(&e))?;
-    let to = config.colour_space(to, working).map_err(|e| colour_err(&e))?;
+    let to = config
+        .colour_space(to, working)
+        .map_err(|e| colour_err(&e))?;
     let cpu = config
         .processor(&from, &to)
         .map_err(|e| colour_err(&e))?

@@ -12,6 +12,7 @@ mod scope;
 pub mod shown;
 mod timeline;
 mod viewer;
+pub mod viewer_colour;
 
 pub use presets::user_preset_folder;
 use timeline::key_range;
@@ -27,7 +28,7 @@ use egui_snarl::ui::{get_selected_nodes, SnarlWidget};
 use egui_snarl::Snarl;
 
 use super::canvas::CanvasView;
-use super::view::{to_srgb8, Channel};
+use super::view::Channel;
 use super::worker::{NodeReport, Picture, Request, Worker};
 use super::{list_presets, EditorState, PresetEntry};
 use tyndall_engine::eval::Registry;
@@ -97,6 +98,8 @@ pub struct EditorApp {
     pub channel: Channel,
     /// Viewer exposure in stops.
     pub exposure: f32,
+    /// Viewer display, view and look (after the exposure).
+    pub viewer_colour: viewer_colour::ViewerColour,
     /// Viewer zoom.
     pub zoom: Zoom,
     /// The probe's last line.
@@ -211,6 +214,7 @@ impl EditorApp {
             probe_reads: shown::Probe::default(),
             channel: Channel::Rgb,
             exposure: 0.0,
+            viewer_colour: Default::default(),
             zoom: Zoom::Fit,
             probe: String::new(),
             pins: Default::default(),

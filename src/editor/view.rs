@@ -1,6 +1,8 @@
 //! The viewer's picture maths, kept apart from egui so it can be tested: which channel to show,
-//! exposure in stops, the 8-bit sRGB picture, and the pixel probe's text.
+//! exposure in stops, the 8-bit sRGB picture (or the picture through a display / view / look
+//! of the colour config), and the pixel probe's text.
 
+use tyndall_engine::colour_pass::ViewTransform;
 use tyndall_engine::io::{linear_to_srgb, Raster};
 
 pub use tyndall_engine::display::Channel;
@@ -26,16 +28,35 @@ pub fn shown_rgb(r: &Raster, i: usize, channel: Channel) -> [f32; 3] {
 /// 8-bit sRGB pixels (RGBA, opaque) of `r` with `channel` shown and `stops` of exposure
 /// (multiplied by 2^stops). Non-finite values show as magenta so they cannot hide.
 pub fn to_srgb8(r: &Raster, channel: Channel, stops: f32) -> Vec<[u8; 4]> {
+    to_display8(r, channel, stops, None)
+}
+
+/// 8-bit pixels (RGBA, opaque) of `r` as the viewer shows them: `channel`, `stops` of exposure,
+/// then `transform` (a display / view / look; its display values clamped to [0, 1] and
+/// quantized) or, without one, the sRGB encoding. Non-finite values show as magenta. The CPU
+/// reference of the display pass (`shaders/display.wgsl`, after `colour_pass::view`).
+pub fn to_display8(
+    r: &Raster,
+    channel: Channel,
+    stops: f32,
+    transform: Option<&ViewTransform>,
+) -> Vec<[u8; 4]> {
     let gain = 2f32.powf(stops);
-    let enc = |x: f32| (linear_to_srgb((x * gain).clamp(0.0, 1.0)) * 255.0).round() as u8;
+    let q = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     (0..(r.width * r.height) as usize)
         .map(|i| {
-            let c = shown_rgb(r, i, channel);
+            let c = shown_rgb(r, i, channel).map(|v| v * gain);
             if c.iter().any(|v| !v.is_finite()) {
-                [255, 0, 255, 255]
-            } else {
-                [enc(c[0]), enc(c[1]), enc(c[2]), 255]
+                return [255, 0, 255, 255];
             }
+            let d = match transform {
+                Some(t) => t.rgb(c),
+                None => c.map(|v| linear_to_srgb(v.clamp(0.0, 1.0))),
+            };
+            if d.iter().any(|v| !v.is_finite()) {
+                return [255, 0, 255, 255];
+            }
+            [q(d[0]), q(d[1]), q(d[2]), 255]
         })
         .collect()
 }

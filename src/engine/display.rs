@@ -77,6 +77,9 @@ pub struct Look {
     pub factor: u32,
     /// Divide one-channel values by their largest finite box average when that is above 1.
     pub normalise: bool,
+    /// The values are display values already (a viewer transform ran first:
+    /// [`crate::colour_pass::view`]): clamped and quantized, not sRGB-encoded.
+    pub encoded: bool,
 }
 
 impl Look {
@@ -87,6 +90,19 @@ impl Look {
             stops,
             factor: 1,
             normalise: false,
+            encoded: false,
+        }
+    }
+
+    /// The look of display values a viewer transform made: RGB as they are, no exposure (it
+    /// came before the transform), no encoding.
+    pub fn encoded() -> Look {
+        Look {
+            channel: Channel::Rgb,
+            stops: 0.0,
+            factor: 1,
+            normalise: false,
+            encoded: true,
         }
     }
 
@@ -98,6 +114,7 @@ impl Look {
             stops: 0.0,
             factor: w.max(h).div_ceil(side.max(1)).max(1),
             normalise: true,
+            encoded: false,
         }
     }
 }
@@ -139,12 +156,13 @@ crate::uniforms! {
         pub out_w: u32,
         /// Output height in texels.
         pub out_h: u32,
-        /// Padding to 16 bytes.
-        pub _pad: u32,
+        /// 1: sRGB-encode; 0: the values are display values already (clamped and quantized).
+        pub encode: u32,
     }
 }
 
-fn channel_index(c: Channel) -> u32 {
+/// `c` as the shaders number it (0 RGB, 1 R, 2 G, 3 B, 4 A, 5 luminance).
+pub fn channel_index(c: Channel) -> u32 {
     match c {
         Channel::Rgb => 0,
         Channel::R => 1,
@@ -245,7 +263,7 @@ impl Display {
             gain: 2f32.powf(look.stops),
             out_w: size.0,
             out_h: size.1,
-            _pad: 0,
+            encode: u32::from(!look.encoded),
         };
         let device = &self.device;
         gpu.scoped(|| {

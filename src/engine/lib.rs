@@ -9,6 +9,7 @@
 #![deny(missing_docs)]
 
 pub mod colour;
+pub mod colour_pass;
 pub mod display;
 pub mod eval;
 pub mod gpu;

@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use eframe::egui;
 use eframe::egui_wgpu::RenderState;
+use tyndall_engine::colour_pass::ViewTransform;
 use tyndall_engine::gpu::{device_request, Gpu, GpuTexture, TexelRead};
 
 use crate::display::{Display, Look, Shown};
@@ -118,26 +119,45 @@ impl WindowGpu {
     }
 }
 
-/// `picture` on screen as the viewer shows it (`channel`, `stops`): one display pass for a
-/// texture (on `window`), the CPU conversion for read-back pixels.
+/// How the viewer shows a picture: channel, exposure in stops, display transform (None: plain
+/// sRGB).
+pub type ViewerLook<'a> = (Channel, f32, Option<&'a ViewTransform>);
+
+/// `picture` on screen as the viewer shows it (`how`): the display pass — after the transform's
+/// GPU pass when there is one — for a texture (on `window`), the CPU conversion for read-back
+/// pixels.
 pub fn viewer_texture(
     ctx: &egui::Context,
     window: Option<&WindowGpu>,
     name: &str,
     picture: &Picture,
-    channel: Channel,
-    stops: f32,
+    how: ViewerLook<'_>,
 ) -> Option<ShownTexture> {
+    let (channel, stops, transform) = how;
     match picture {
         Picture::Pixels(r) => {
-            let image = super::colour_image(r, channel, stops);
+            let image = super::colour_image(r, how);
             Some(ShownTexture::Managed(ctx.load_texture(
                 name,
                 image,
                 egui::TextureOptions::NEAREST,
             )))
         }
-        Picture::Texture(t) => window?.draw(t, Look::viewer(channel, stops)),
+        Picture::Texture(t) => match transform {
+            None => window?.draw(t, Look::viewer(channel, stops)),
+            Some(transform) => {
+                let window = window?;
+                let viewed = tyndall_engine::colour_pass::view(
+                    &window.gpu,
+                    transform.pass(),
+                    t,
+                    channel,
+                    stops,
+                )
+                .ok()?;
+                window.draw(&viewed, Look::encoded())
+            }
+        },
     }
 }
 
@@ -151,7 +171,7 @@ pub fn thumbnail_texture(
 ) -> Option<ShownTexture> {
     match picture {
         Picture::Pixels(r) => {
-            let image = super::colour_image(r, Channel::Rgb, 0.0);
+            let image = super::colour_image(r, (Channel::Rgb, 0.0, None));
             Some(ShownTexture::Managed(ctx.load_texture(
                 format!("thumb-{id}"),
                 image,

@@ -32,6 +32,11 @@ impl EditorApp {
                     self.active_pin = if on { None } else { Some(i) };
                 }
             }
+            ui.separator();
+            if self.viewer_colour.display_menu(ui) {
+                self.view_tex = None;
+                self.wipe_tex = None;
+            }
         });
         ui.horizontal(|ui| {
             let ports: Vec<String> = self
@@ -94,6 +99,14 @@ impl EditorApp {
                 ui.add(egui::Slider::new(&mut self.wipe_split, 0.0..=1.0).text("split"));
             }
         });
+        if !self.viewer_colour.display.is_empty() {
+            ui.horizontal(|ui| {
+                if self.viewer_colour.view_menus(ui) {
+                    self.view_tex = None;
+                    self.wipe_tex = None;
+                }
+            });
+        }
         // Borrow the pictures out for the frame instead of copying them.
         let Some((node, pictures)) = self.pictures.take() else {
             ui.label("(no picture yet)");
@@ -126,13 +139,20 @@ impl EditorApp {
         else {
             return;
         };
-        let key = format!("{b}.{bport}:{:?}:{}", self.channel, self.exposure);
+        let key = format!(
+            "{b}.{bport}:{:?}:{}:{}",
+            self.channel,
+            self.exposure,
+            self.viewer_colour.key()
+        );
         if self.wipe_tex.as_ref().is_none_or(|(k, _)| *k != key) {
+            let transform = self
+                .viewer_colour
+                .transform(self.state.graph().working_space());
             let window = self.window.as_ref();
-            let (channel, stops) = (self.channel, self.exposure);
-            self.wipe_tex =
-                shown::viewer_texture(ui.ctx(), window, "viewer-wipe", raster, channel, stops)
-                    .map(|tex| (key, tex));
+            let how = (self.channel, self.exposure, transform.as_deref());
+            self.wipe_tex = shown::viewer_texture(ui.ctx(), window, "viewer-wipe", raster, how)
+                .map(|tex| (key, tex));
         }
         let Some((_, tex)) = &self.wipe_tex else {
             return;
@@ -179,13 +199,18 @@ impl EditorApp {
             ui.label("(this node has no picture output)");
             return;
         };
-        let tex_key = format!("{node}.{port}:{:?}:{}", self.channel, self.exposure);
+        let tex_key = format!(
+            "{node}.{port}:{:?}:{}:{}",
+            self.channel,
+            self.exposure,
+            self.viewer_colour.key()
+        );
         if self.view_tex.as_ref().is_none_or(|(k, _)| *k != tex_key) {
+            let transform = self.viewer_transform();
             let window = self.window.as_ref();
-            let (channel, stops) = (self.channel, self.exposure);
-            self.view_tex =
-                shown::viewer_texture(ui.ctx(), window, "viewer", raster, channel, stops)
-                    .map(|tex| (tex_key, tex));
+            let how = (self.channel, self.exposure, transform.as_deref());
+            self.view_tex = shown::viewer_texture(ui.ctx(), window, "viewer", raster, how)
+                .map(|tex| (tex_key, tex));
         }
         let Some((_, tex)) = &self.view_tex else {
             return;
@@ -225,7 +250,20 @@ impl EditorApp {
         if let Some(id) = self.selected.clone() {
             self.each_tool(&id, |tool, cx| tool.viewer(ui, &response, size, cx));
         }
-        ui.label(egui::RichText::new(&self.probe).monospace().small());
+        let probe = if self.probe.is_empty() {
+            String::new()
+        } else {
+            // The values are the picture's own: in the graph's working space, before exposure
+            // and the display transform.
+            format!("{}   [{}]", self.probe, self.state.graph().working_space())
+        };
+        ui.label(egui::RichText::new(probe).monospace().small());
+    }
+
+    /// The viewer's display transform for the graph's working space (None: plain sRGB).
+    fn viewer_transform(&mut self) -> Option<Arc<tyndall_engine::colour_pass::ViewTransform>> {
+        let working = self.state.graph().working_space().to_string();
+        self.viewer_colour.transform(&working)
     }
 }
 
@@ -262,8 +300,9 @@ fn texel(r: &Raster, x: u32, y: u32) -> Option<Vec<f32>> {
 }
 
 /// An egui picture of `r` as the viewer shows it.
-pub(super) fn colour_image(r: &Raster, channel: Channel, stops: f32) -> egui::ColorImage {
-    let pixels = to_srgb8(r, channel, stops)
+pub(super) fn colour_image(r: &Raster, how: shown::ViewerLook<'_>) -> egui::ColorImage {
+    let (channel, stops, transform) = how;
+    let pixels = crate::view::to_display8(r, channel, stops, transform)
         .into_iter()
         .map(|p| egui::Color32::from_rgb(p[0], p[1], p[2]))
         .collect();
