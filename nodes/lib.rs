@@ -108,6 +108,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(phase::PhaseNode(phase::Model::HenyeyGreenstein)));
     r.add(Arc::new(phase::PhaseNode(phase::Model::Rayleigh)));
     r.add(Arc::new(phase::PhaseNode(phase::Model::Mie)));
+    r.add(Arc::new(phase::PhaseNode(phase::Model::IceCrystals)));
     r.add(Arc::new(phase::PhaseNode(phase::Model::MultipleScattering)));
     r.add(Arc::new(plate::PlateDepth));
     r.add(Arc::new(plate::PlateOver));

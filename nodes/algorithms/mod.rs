@@ -1,5 +1,5 @@
 //! Algorithms several techniques share: a least-squares solver ([`cgls`]), a multigrid Poisson
-//! solver ([`multigrid`]), the Lorenz–Mie series ([`lorenz_mie`]), phase-function tables and
+//! solver ([`multigrid`]), the Lorenz–Mie series ([`lorenz_mie`]), ice crystals' geometric optics ([`ice_optics`]), phase-function tables and
 //! models ([`phase_function`]), GPU passes several kinds dispatch — point sampling
 //! ([`point_sample`]), a volume's mip chain ([`volume_mips`]), a scene's G-buffer
 //! ([`g_buffer`]), a map's quantile ([`quantile`]), a point light's cube atlas padded across its seams ([`cube_atlas`]), each with its shader under `shaders/algorithms/` —, and the CPU twins of the
@@ -9,6 +9,7 @@
 pub mod cgls;
 pub mod cube_atlas;
 pub mod g_buffer;
+pub mod ice_optics;
 pub mod lorenz_mie;
 pub mod multigrid;
 pub mod ocio;

@@ -1,7 +1,11 @@
 //! Phase-function tables on the CPU: sampling, Legendre series, the analytic models, Lorenz–Mie
 //! populations and the multiple-scattering spread (the references of the GPU passes).
 
-use super::{lorenz_mie, Complex64, Population, Preset, Select, MAX_SCATTERS, WAVELENGTHS_NM};
+use super::{
+    lorenz_mie, Complex64, Population, Preset, Select, Shape, MAX_SCATTERS, WAVELENGTHS_NM,
+};
+
+use crate::algorithms::ice_optics::{ice_table, Habit, Prism};
 
 use crate::algorithms::phase_function::{hg_value, rayleigh_value, PhaseTable};
 
@@ -73,6 +77,22 @@ pub fn mie_raw(
 /// CPU reference of `Mie`.
 pub fn mie(p: &Population, radii: usize, w: usize) -> PhaseTable {
     mie_raw(p, radii, w, threads(), |_| {}).normalised()
+}
+
+/// CPU reference of `IceCrystals` (the node uploads it and normalises it on the GPU): crystals
+/// of `shape`, `aspect` and `size` µm, `rays` rays per channel, `w` angles.
+pub fn ice(shape: Shape, aspect: f64, size: f64, rays: usize, w: usize) -> PhaseTable {
+    let habit = match shape {
+        Shape::Column => Habit::Column,
+        Shape::Plate => Habit::Plate,
+    };
+    ice_table(
+        &Prism::new(habit, aspect, size),
+        WAVELENGTHS_NM,
+        rays,
+        w,
+        threads(),
+    )
 }
 
 /// The number of scatters `MultipleScatteringPhase` uses.

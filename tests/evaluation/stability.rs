@@ -62,6 +62,7 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "Heterogeneity", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "HoleComposite", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "HoleMap", connect: &[], fixed: &[], caps: &[] },
+    Entry { kind: "IceCrystals", connect: &[], fixed: &[("rays", Fixed::Int(10_000)), ("samples", Fixed::Int(900))], caps: &[("rays", 20_000.0), ("samples", 900.0)] },
     Entry { kind: "ImageInput", connect: &[], fixed: &[("path", Fixed::Fixture("A.exr"))], caps: &[] },
     Entry { kind: "ImageOutput", connect: &[], fixed: &[("path", Fixed::Text("out.exr"))], caps: &[] },
     Entry { kind: "LightMap", connect: &[], fixed: &[], caps: &[] },
