@@ -89,6 +89,18 @@ pub fn intensity(coef: &[(C, C)], mu: f64) -> f64 {
     s1.norm_sqr() + s2.norm_sqr()
 }
 
+/// Refractive index of liquid water at 20 °C and `nm` nanometres (visible light, 400–700 nm):
+/// the Cauchy fit n = 1.32388 + 3131 nm² / λ² through the Fraunhofer C (656.28 nm, 1.33115) and
+/// F (486.13 nm, 1.33713) lines; it gives 1.33290 at the D line (tabulated 1.33299) and
+/// 1.3307 / 1.3342 / 1.3401 at 680 / 550 / 440 nm. The dispersion separates a rainbow's colours.
+pub fn water_index(nm: f64) -> f64 {
+    const C: (f64, f64) = (656.28, 1.33115);
+    const F: (f64, f64) = (486.13, 1.33713);
+    let b = (F.1 - C.1) / (F.0.powi(-2) - C.0.powi(-2));
+    let a = C.1 - b / (C.0 * C.0);
+    a + b / (nm * nm)
+}
+
 /// A particle population: spheres of refractive index `m` whose radii follow a log-normal
 /// number distribution with median `radius_um` (µm) and geometric standard deviation `spread`
 /// (≥ 1; 1 = one size).

@@ -16,8 +16,11 @@
 //!   (median `radius` µm, geometric standard deviation `spread`), averaged over `radii` sizes;
 //!   each texel is the mean of up to four sub-angles when the size parameter makes the ripple
 //!   finer than a texel. Presets (seed 002 Table 2 sizes; spreads chosen here, as the seed gives
-//!   Pruppacher & Klett's distributions without numbers): `cloud` = 10 µm, σ_g 1.5, n 1.33;
-//!   `rain` = 1 mm, σ_g 1.2, n 1.33; `custom` uses the parameters. The series is computed on the
+//!   Pruppacher & Klett's distributions without numbers): `cloud` = `cloud_radius` (10 µm,
+//!   1…50) with σ_g `cloud_spread` (1.5); `rain` = `rain_radius` (1 mm, 0.1…4 mm) with σ_g 1.2;
+//!   both water with its dispersion (`lorenz_mie::water_index`: 1.3307 / 1.3342 / 1.3401 at
+//!   680 / 550 / 440 nm, which separates a rainbow's colours); `custom` uses the parameters
+//!   (one index in every channel). The series is computed on the
 //!   CPU (as the issue asks) and normalised on the GPU.
 //! - `IceCrystals` (seed 002 §3, Fig. 3: randomly oriented hexagonal crystals, after Hess and
 //!   Wiegner): geometric optics traced through the prism with Fresnel terms plus the
@@ -37,7 +40,7 @@
 //! |---|---|---|
 //! | HenyeyGreenstein | out `phase` | `g` (0.5, −0.999…0.999), `samples` (1800, 900…8192) |
 //! | Rayleigh | out `phase` | `samples` |
-//! | Mie | out `phase` | `preset` (cloud; custom, cloud, rain), `radius` (10 µm, 0.001…2000), `spread` (1.5, 1…3), `n_real` (1.33, 1…3), `n_imag` (0, 0…10), `radii` (64, 1…256), `samples` |
+//! | Mie | out `phase` | `preset` (cloud; custom, cloud, rain), `cloud_radius` (10 µm, 1…50), `cloud_spread` (1.5, 1…3), `rain_radius` (1000 µm, 100…4000), `radius` (10 µm, 0.001…2000), `spread` (1.5, 1…3), `n_real` (1.33, 1…3), `n_imag` (0, 0…10), `radii` (64, 1…256), `samples` |
 //! | IceCrystals | out `phase` | `shape` (column; column, plate), `aspect` (2.5, 1…20), `size` (100 µm, 10…2000), `rays` (1 000 000, 10 000…50 000 000), `samples` |
 //! | MultipleScatteringPhase | in `phase` (required); out `phase`, `forward` | `select` (count; count, transmittance), `n` (2, 1…26), `albedo` (1, 0…1), `transmittance` (0.5, 1e-12…1) |
 
@@ -55,8 +58,8 @@ use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 mod tables;
 pub use tables::{
-    ams_coefficients, henyey_greenstein, ice, mie, mie_raw, multiple, population, rayleigh,
-    scatter_count, sub_angles,
+    ams_coefficients, henyey_greenstein, ice, mie, mie_preset, mie_raw, multiple, population,
+    rayleigh, scatter_count, sub_angles, Drops, RAIN_SPREAD,
 };
 
 /// Wavelengths of the R, G, B channels, nm.
@@ -132,9 +135,12 @@ tyndall_engine::params! {
 
 #[rustfmt::skip]
 tyndall_engine::params! {
-    /// `Mie`'s parameters: the population's are in effect only under `preset = custom`.
+    /// `Mie`'s parameters: the drop sizes are in effect under their preset, the population's under `preset = custom`.
     pub struct MieParams {
-        preset: Preset = ParamSpec::choice("preset", Preset::NAMES, "cloud", "cloud: 10 µm, spread 1.5; rain: 1 mm, spread 1.2 (both n = 1.33); custom: the parameters below."),
+        preset: Preset = ParamSpec::choice("preset", Preset::NAMES, "cloud", "cloud: droplets of `cloud_radius` and `cloud_spread`; rain: drops of `rain_radius`, spread 1.2; both water with its dispersion (n = 1.3307 / 1.3342 / 1.3401 at 680 / 550 / 440 nm, 20 °C); custom: the parameters below."),
+        cloud_radius: f64 = ParamSpec::float("cloud_radius", 10.0, 1.0, 50.0, "µm", "Median radius of cloud and fog droplets (1–50 µm; small narrow droplets show the glory's and corona's rings, wider than larger ones).").when("preset", &["cloud"]),
+        cloud_spread: f64 = ParamSpec::float("cloud_spread", 1.5, 1.0, 3.0, "", "Geometric standard deviation of the cloud droplets' radius (1 = one size: sharpest rings; 1.5 washes them out).").when("preset", &["cloud"]),
+        rain_radius: f64 = ParamSpec::float("rain_radius", 1000.0, 100.0, 4000.0, "µm", "Median radius of the raindrops (drizzle 100 µm … heavy rain 4 mm; smaller drops give paler, wider bows; time grows with the radius).").when("preset", &["rain"]),
         radius: f64 = ParamSpec::float("radius", 10.0, 0.001, 2000.0, "µm", "Median radius of the log-normal number distribution (custom).").when("preset", &["custom"]),
         spread: f64 = ParamSpec::float("spread", 1.5, 1.0, 3.0, "", "Geometric standard deviation of the radius; 1 = a single size (custom).").when("preset", &["custom"]),
         n_real: f64 = ParamSpec::float("n_real", 1.33, 1.0, 3.0, "", "Real refractive index relative to air (custom; water 1.33).").when("preset", &["custom"]),
@@ -379,14 +385,19 @@ impl NodeKind for PhaseNode {
                     spread: prm.spread,
                     m: Complex64::new(prm.n_real, prm.n_imag),
                 };
-                let p = population(prm.preset, custom);
+                let drops = Drops {
+                    cloud_radius: prm.cloud_radius,
+                    cloud_spread: prm.cloud_spread,
+                    rain_radius: prm.rain_radius,
+                };
+                let pops = WAVELENGTHS_NM.map(|l| population(prm.preset, custom, drops, l));
                 let radii = prm.radii.clamp(1, 256) as usize;
                 let report = |k: usize| {
                     let nm = WAVELENGTHS_NM[k.min(2)];
                     ctx.report(k as u64 + 1, 3, format!("Lorenz–Mie series at {nm} nm"));
                 };
                 ctx.report(0, 3, "Lorenz–Mie series");
-                let raw = mie_raw(&p, radii, w as usize, threads(), report);
+                let raw = mie_raw(&pops, radii, w as usize, threads(), report);
                 let t = ctx.gpu.upload(w, 1, 4, &raw.texels())?;
                 normalise(ctx.gpu, &t)?
             }

@@ -19,19 +19,46 @@ pub fn rayleigh(w: usize) -> PhaseTable {
     PhaseTable::from_fn(w, |t| [rayleigh_value(t.cos()); 3]).normalised()
 }
 
-/// The particles of a Mie preset (`custom`: `custom` itself).
-pub fn population(preset: Preset, custom: Population) -> Population {
-    let water = Complex64::new(1.33, 0.0);
+/// The sizes a preset's droplets take from the node's parameters (µm): the median radius of
+/// `cloud` and of `rain` droplets and the spread of cloud droplets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drops {
+    /// Median radius of cloud droplets, µm (`cloud_radius`).
+    pub cloud_radius: f64,
+    /// Geometric standard deviation of cloud droplets (`cloud_spread`).
+    pub cloud_spread: f64,
+    /// Median radius of raindrops, µm (`rain_radius`).
+    pub rain_radius: f64,
+}
+
+impl Default for Drops {
+    /// The parameters' defaults: 10 µm clouds of spread 1.5, 1 mm rain.
+    fn default() -> Self {
+        Drops {
+            cloud_radius: 10.0,
+            cloud_spread: 1.5,
+            rain_radius: 1000.0,
+        }
+    }
+}
+
+/// Spread of the `rain` preset's raindrops (σ_g).
+pub const RAIN_SPREAD: f64 = 1.2;
+
+/// The particles of a Mie preset at `nm` nanometres: water (with its dispersion,
+/// [`lorenz_mie::water_index`]) for `cloud` and `rain`; `custom` is `custom` itself.
+pub fn population(preset: Preset, custom: Population, drops: Drops, nm: f64) -> Population {
+    let water = Complex64::new(lorenz_mie::water_index(nm), 0.0);
     match preset {
         Preset::Custom => custom,
         Preset::Cloud => Population {
-            radius_um: 10.0,
-            spread: 1.5,
+            radius_um: drops.cloud_radius,
+            spread: drops.cloud_spread,
             m: water,
         },
         Preset::Rain => Population {
-            radius_um: 1000.0,
-            spread: 1.2,
+            radius_um: drops.rain_radius,
+            spread: RAIN_SPREAD,
             m: water,
         },
     }
@@ -48,22 +75,23 @@ pub fn sub_angles(p: &Population, radii: usize, w: usize) -> usize {
     ((x_max * dtheta / 4.0).ceil() as usize).clamp(1, 4)
 }
 
-/// The Mie table before normalisation (what the node uploads), on `threads` threads;
-/// `done(k)` is called after channel k.
+/// The Mie table before normalisation (what the node uploads), on `threads` threads: channel k
+/// is population `pops[k]` at `WAVELENGTHS_NM[k]`; `done(k)` is called after channel k.
 pub fn mie_raw(
-    p: &Population,
+    pops: &[Population; 3],
     radii: usize,
     w: usize,
     threads: usize,
     done: impl Fn(usize),
 ) -> PhaseTable {
     let thetas: Vec<f64> = (0..w).map(|i| PhaseTable::theta(i, w)).collect();
-    let sub = sub_angles(p, radii, w);
     let dtheta = std::f64::consts::PI / w as f64;
     let ch: Vec<Vec<f64>> = WAVELENGTHS_NM
         .iter()
+        .zip(pops)
         .enumerate()
-        .map(|(k, l)| {
+        .map(|(k, (l, p))| {
+            let sub = sub_angles(p, radii, w);
             let v = lorenz_mie::phase(p, *l, &thetas, dtheta, sub, radii, threads);
             done(k);
             v
@@ -74,9 +102,21 @@ pub fn mie_raw(
     }
 }
 
-/// CPU reference of `Mie`.
+/// CPU reference of `Mie` for one population in every channel (`preset = custom`).
 pub fn mie(p: &Population, radii: usize, w: usize) -> PhaseTable {
-    mie_raw(p, radii, w, threads(), |_| {}).normalised()
+    mie_raw(&[*p; 3], radii, w, threads(), |_| {}).normalised()
+}
+
+/// CPU reference of `Mie` for a preset: [`population`] per channel.
+pub fn mie_preset(
+    preset: Preset,
+    custom: Population,
+    drops: Drops,
+    radii: usize,
+    w: usize,
+) -> PhaseTable {
+    let pops = WAVELENGTHS_NM.map(|l| population(preset, custom, drops, l));
+    mie_raw(&pops, radii, w, threads(), |_| {}).normalised()
 }
 
 /// CPU reference of `IceCrystals` (the node uploads it and normalises it on the GPU): crystals

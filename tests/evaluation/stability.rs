@@ -68,7 +68,7 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "LightMap", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "LightMapSolve", connect: &[], fixed: &[], caps: &[("resolution", 32.0), ("iterations", 8.0), ("steps", 64.0)] },
     Entry { kind: "Math", connect: &["a", "b"], fixed: &[], caps: &[] },
-    Entry { kind: "Mie", connect: &[], fixed: &[("radii", Fixed::Int(2)), ("samples", Fixed::Int(900))], caps: &[("radius", 20.0), ("radii", 4.0), ("samples", 900.0)] },
+    Entry { kind: "Mie", connect: &[], fixed: &[("radii", Fixed::Int(2)), ("samples", Fixed::Int(900))], caps: &[("radius", 20.0), ("rain_radius", 150.0), ("radii", 4.0), ("samples", 900.0)] },
     Entry { kind: "MultipleScatteringPhase", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "NoiseVolume", connect: &[], fixed: &[], caps: &[("resolution", 64.0)] },
     Entry { kind: "PerlinNoise2D", connect: &[], fixed: &[], caps: &[("width", 64.0), ("height", 64.0)] },

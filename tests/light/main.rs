@@ -9,6 +9,7 @@ mod common;
 mod cycles;
 mod lights;
 mod phase;
+mod phenomena;
 mod scattering;
 mod sky;
 mod soft;

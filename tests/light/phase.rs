@@ -13,7 +13,7 @@ use tyndall::nodes::algorithms::lorenz_mie::{self, Population};
 use tyndall::nodes::algorithms::phase_function::PhaseTable;
 use tyndall::nodes::phase::{self, Select};
 
-type Params<'a> = &'a [(&'a str, ParamValue)];
+pub(crate) type Params<'a> = &'a [(&'a str, ParamValue)];
 
 fn f(v: f64) -> ParamValue {
     ParamValue::Float(v)
@@ -25,7 +25,7 @@ fn i(v: i64) -> ParamValue {
 
 /// Evaluate node `kind` with `params` (and, for `MultipleScatteringPhase`, an input node
 /// `(kind, params)`): its `phase` table and, when it has one, its `forward` output.
-fn gpu_table(
+pub(crate) fn gpu_table(
     gpu: &Arc<tyndall::gpu::Gpu>,
     kind: &str,
     params: Params,
