@@ -34,6 +34,9 @@ cp out/forest_temporal_0048.png docs/medium/forest_temporal.png
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180
+./target/release/tyndall render graphs/atmosphere/rainbow.ron -o docs/atmosphere/rainbow.png --size 960x540
+./target/release/tyndall render graphs/atmosphere/glory.ron -o docs/atmosphere/glory.png --size 640x360
+./target/release/tyndall render graphs/atmosphere/halo.ron -o docs/atmosphere/halo.png --size 640x360
 ./target/release/tyndall render graphs/basics/grade.ron -o docs/basics/grade.png --size 320x180
 # Plate presets write a PNG and the AOV EXR (two outputs): render into a folder, keep the PNG.
 plate_out="$(mktemp -d)"

@@ -28,7 +28,16 @@ fn scene_scripts_regenerate_the_committed_scenes_byte_for_byte() {
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().expect("tempdir");
-    for scene in ["cathedral", "forest", "workshop", "street", "stage"] {
+    for scene in [
+        "cathedral",
+        "forest",
+        "workshop",
+        "street",
+        "stage",
+        "rainbow",
+        "glory",
+        "halo",
+    ] {
         let out = dir.path().join(format!("{scene}.glb"));
         let o = Command::new("blender")
             .args(["-b", "--factory-startup", "--python"])

@@ -106,15 +106,16 @@ def look_at(eye, target):
     return (math.atan2(math.hypot(d[0], d[1]), -d[2]), 0.0, math.atan2(-d[0], d[1]))
 
 
-def camera(keys, fov_deg=60.0):
-    """The shot's camera; `keys`: [(frame, eye, target)], linear between keys."""
+def camera(keys, fov_deg=60.0, clip_end=200.0):
+    """The shot's camera; `keys`: [(frame, eye, target)], linear between keys; `fov_deg` is
+    horizontal, `clip_end` the far plane in metres."""
     sc = bpy.context.scene
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     sc.collection.objects.link(cam)
     cam.data.lens_unit = "FOV"
     cam.data.angle = math.radians(fov_deg)
     cam.data.sensor_fit = "HORIZONTAL"
-    cam.data.clip_start, cam.data.clip_end = 0.1, 200.0
+    cam.data.clip_start, cam.data.clip_end = 0.1, clip_end
     for frame, eye, target in keys:
         cam.location = eye
         cam.rotation_euler = look_at(eye, target)
