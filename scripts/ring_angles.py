@@ -80,12 +80,13 @@ def load(path):
 
 def main():
     rgb = ("R", "G", "B")
-    # Rainbow: scenes/rainbow.glb's camera (Blender (0, −20, 2) → (0, 100, 27), 100° wide at
+    # Rainbow (the left, physical half): scenes/rainbow.glb's camera (Blender (0, −20, 2) → (0, 100, 27), 100° wide at
     # 16:9: yfov 67.67°), antisolar point 9° below the horizon ahead.
     img = load("docs/atmosphere/rainbow.png")
     h, w = img.shape[:2]
-    d = directions(w, h, (0, 2, 20), (0, 27, -100), 67.67)
-    a, p, _ = profile(img, d, towards(-9, 0), int(h * 0.62))
+    left = img[:, : w // 2]  # the physical half
+    d = directions(w // 2, h, (0, 2, 20), (0, 27, -100), 67.67)
+    a, p, _ = profile(left, d, towards(-9, 0), int(h * 0.62))
     print("rainbow (from the antisolar point): primary",
           " / ".join(f"{brightest(a, p, c, 38, 45):.2f}°" for c in range(3)), "; secondary",
           " / ".join(f"{brightest(a, p, c, 48, 56):.2f}°" for c in range(3)), "(R / G / B)")

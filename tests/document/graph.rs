@@ -22,7 +22,9 @@ fn every_kind_graph() -> Graph {
         for p in schema.params {
             let v = match p.kind {
                 ParamKind::Float => {
-                    let (lo, hi) = (p.min.max(-3.0), p.max.min(7.0));
+                    // Within [−3, 7] where the range allows, else just above the minimum.
+                    let lo = p.min.max(-3.0);
+                    let hi = p.max.min(lo.max(7.0));
                     ParamValue::Float(lo + (hi - lo) * 0.375)
                 }
                 ParamKind::Int => {
@@ -54,7 +56,7 @@ fn every_kind_graph() -> Graph {
                         },
                         Key {
                             t: 12.5,
-                            v: p.max.min(2.0),
+                            v: p.max.min(p.min.max(2.0)),
                             interp: Interp::Hold,
                         },
                     ],

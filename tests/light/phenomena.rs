@@ -243,3 +243,82 @@ fn drop_sizes_out_of_their_physical_range_are_refused() {
         );
     }
 }
+
+/// Stylization works on these looks as on any shaft (issue #46, item 4): the rainbow preset's
+/// modulating `TransferFunction` re-grades the rain's in-scatter per pixel by its average
+/// visibility V̄ — out = in-scatter × gradient(V̄), cool and dim where the deck shades the rain
+/// (V̄ ≤ 0.55), warm and bright in the sun (V̄ = 1). Checked per pixel and channel against the
+/// gradient's colour (the TF's CPU `gradient_colour`) within 1% + 1e-6: the baked 256² table is
+/// interpolated bilinearly, exact on the gradient's linear stretch and within half a texel's
+/// change (≈ 0.6%) at its two ends. The Mie table is cut to one radius and 900 angles (the
+/// test is of the re-grade, not the bow; a debug build takes minutes for the preset's 8).
+#[test]
+fn a_transfer_function_regrades_the_rainbow() {
+    use tyndall::eval::{EvalOptions, Evaluator, Target};
+    use tyndall::nodes::transfer_function::gradient_colour;
+    let Some(gpu) = common::gpu() else { return };
+    let registry = std::sync::Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/atmosphere/rainbow.ron");
+    let g = tyndall::graph::load_file(&path, &cat).expect("load the rainbow preset");
+    let policy = tyndall::eval::PathPolicy {
+        graph_dir: path.parent().expect("graphs/atmosphere").to_path_buf(),
+        output_dir: std::env::temp_dir(),
+        allow_any: true,
+    };
+    let mut g = tyndall::eval::resolve_files(&registry, &g, &policy).expect("resolve the scene");
+    g.set_param(&cat, "rain", "radii", ParamValue::Int(1))
+        .expect("radii");
+    g.set_param(&cat, "rain", "samples", ParamValue::Int(900))
+        .expect("samples");
+    let ports = [
+        ("scatter", "inscatter"),
+        ("scatter", "visibility"),
+        ("regrade", "image"),
+    ];
+    let targets: Vec<Target> = ports
+        .iter()
+        .map(|(n, p)| Target::Port(n.to_string(), p.to_string()))
+        .collect();
+    let opts = EvalOptions {
+        size: (128, 72),
+        ..Default::default()
+    };
+    let r = Evaluator::new(registry, gpu.clone())
+        .evaluate(&g, &targets, &opts)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let get = |n: &str, p: &str| {
+        tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())])
+            .expect("download")
+    };
+    let (ins, vis, out) = (
+        get("scatter", "inscatter"),
+        get("scatter", "visibility"),
+        get("regrade", "image"),
+    );
+    let (c0, c1) = ([0.25, 0.35, 0.7, 1.0], [1.7, 1.35, 0.95, 1.0]);
+    let (mut lit, mut shaded) = (0, 0);
+    for i in 0..(ins.width * ins.height) as usize {
+        let v = vis.data[i * vis.channels as usize];
+        let tf = gradient_colour([0.55, 0.0], [1.0, 0.0], c0, c1, [v, 0.5]);
+        for c in 0..3 {
+            let x = ins.data[i * 4 + c];
+            let want = x * tf[c];
+            let got = out.data[i * 4 + c];
+            assert!(
+                (got - want).abs() <= 0.01 * want.abs() + 1e-6,
+                "pixel {i} channel {c}: V̄ = {v}, in-scatter {x}: {got} against {want}"
+            );
+        }
+        if ins.data[i * 4] > 1e-4 {
+            if v > 0.99 {
+                lit += 1;
+            } else if v < 0.8 {
+                shaded += 1;
+            }
+        }
+    }
+    // Both sides of the re-grade are in the picture: the sunlit rain and the shaded.
+    assert!(lit > 50 && shaded > 50, "lit {lit}, shaded {shaded} pixels");
+}
