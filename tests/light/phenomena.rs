@@ -302,9 +302,9 @@ fn a_transfer_function_regrades_the_rainbow() {
     for i in 0..(ins.width * ins.height) as usize {
         let v = vis.data[i * vis.channels as usize];
         let tf = gradient_colour([0.55, 0.0], [1.0, 0.0], c0, c1, [v, 0.5]);
-        for c in 0..3 {
+        for (c, t) in tf.iter().take(3).enumerate() {
             let x = ins.data[i * 4 + c];
-            let want = x * tf[c];
+            let want = x * t;
             let got = out.data[i * 4 + c];
             assert!(
                 (got - want).abs() <= 0.01 * want.abs() + 1e-6,
