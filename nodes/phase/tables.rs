@@ -19,7 +19,7 @@ pub fn rayleigh(w: usize) -> PhaseTable {
     PhaseTable::from_fn(w, |t| [rayleigh_value(t.cos()); 3]).normalised()
 }
 
-/// The sizes a preset's droplets take from the node's parameters (µm): the median radius of
+/// The sizes a preset's droplets take from the node's parameters: the median radius (µm) of
 /// `cloud` and of `rain` droplets and the spread of cloud droplets.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Drops {
