@@ -4,14 +4,17 @@ rendered PNGs from the presets' cameras:
 
     python3 scripts/ring_angles.py            # reads docs/atmosphere/{rainbow,glory,halo}.png
 
-Each pixel's view direction comes from its camera (position, target, vertical field of view:
-the values in scenes/*.glb and graphs/atmosphere/halo.ron), and its angle from the centre of
-the phenomenon (the antisolar point for bows and glories, the sun for halos and coronas); the
-pixels of the sky and medium (rows above the ground, or above the ridge's shadow for the glory) are averaged in 0.05° rings per channel, and
-each feature is read off that profile: a bow's or glory ring's brightest ring, a halo's inner
+Each pixel's view direction comes from its camera (read from scenes/*.glb, and the corona's
+custom camera from graphs/atmosphere/halo.ron), and its angle from the centre of the phenomenon
+(the antisolar point for bows and glories, the sun for halos and coronas: the glTF's sun); the
+pixels of the sky and medium (rows above the ground, or above the ridge's shadow for the glory)
+are averaged in 0.05° rings per channel, and each feature is read off that profile: a bow's or glory ring's brightest ring, a halo's inner
 edge (steepest rise), a corona's first dark ring. Needs numpy and Pillow."""
 
+import json
 import math
+import re
+import struct
 import sys
 
 import numpy as np
@@ -32,10 +35,42 @@ def directions(w, h, eye, target, yfov_deg):
     return d / np.linalg.norm(d, axis=2, keepdims=True)
 
 
-def towards(elevation, azimuth_from_minus_z):
-    """The unit vector `elevation`° up, turned `azimuth`° from −z (the scenes' forward)."""
-    e, a = math.radians(elevation), math.radians(azimuth_from_minus_z)
-    return np.array([math.cos(e) * math.sin(a), math.sin(e), -math.cos(e) * math.cos(a)])
+def _glb(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    n = struct.unpack("<I", data[12:16])[0]
+    return json.loads(data[20:20 + n])
+
+
+def _forward(node):
+    """The node's −z axis in the world (cameras look, lights shine along it)."""
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    q, v = np.array([x, y, z]), np.array([0.0, 0.0, -1.0])
+    t = 2 * np.cross(q, v)  # v + w t + q × t rotates v by the unit quaternion
+    return v + w * t + np.cross(q, t)
+
+
+def glb_camera(path):
+    """(eye, forward, yfov°) of the first camera node of a binary glTF (y up, no roll)."""
+    gltf = _glb(path)
+    node = next(nd for nd in gltf["nodes"] if "camera" in nd)
+    yfov = math.degrees(gltf["cameras"][node["camera"]]["perspective"]["yfov"])
+    return np.array(node.get("translation", [0, 0, 0]), dtype=float), _forward(node), yfov
+
+
+def glb_sunlight(path):
+    """The direction the glTF's first light shines along: towards the antisolar point."""
+    node = next(nd for nd in _glb(path)["nodes"] if "KHR_lights_punctual" in nd.get("extensions", {}))
+    return _forward(node)
+
+
+def ron_custom_camera(path, node):
+    """(eye, target, fov°) of a `Scene` node with camera = custom in a graph file."""
+    text = open(path).read()
+    line = next(l for l in text.splitlines() if f'"{node}":' in l)
+    get = lambda k: float(re.search(rf'"{k}": (-?[0-9.]+)', line).group(1))  # noqa: E731
+    return ((get("cam_x"), get("cam_y"), get("cam_z")),
+            (get("target_x"), get("target_y"), get("target_z")), get("fov"))
 
 
 def profile(img, dirs, centre, below, step=0.05, upto=60.0):
@@ -79,37 +114,38 @@ def load(path):
 
 
 def main():
-    rgb = ("R", "G", "B")
-    # Rainbow (the left, physical half): scenes/rainbow.glb's camera (Blender (0, −20, 2) → (0, 100, 27), 100° wide at
-    # 16:9: yfov 67.67°), antisolar point 9° below the horizon ahead.
+    # Rainbow (the left, physical half): scenes/rainbow.glb's camera and sun; rows above the
+    # valley floor.
     img = load("docs/atmosphere/rainbow.png")
     h, w = img.shape[:2]
-    left = img[:, : w // 2]  # the physical half
-    d = directions(w // 2, h, (0, 2, 20), (0, 27, -100), 67.67)
-    a, p, _ = profile(left, d, towards(-9, 0), int(h * 0.62))
+    eye, fwd, yfov = glb_camera("scenes/rainbow.glb")
+    d = directions(w // 2, h, eye, eye + fwd, yfov)
+    a, p, _ = profile(img[:, : w // 2], d, glb_sunlight("scenes/rainbow.glb"), int(h * 0.62))
     print("rainbow (from the antisolar point): primary",
           " / ".join(f"{brightest(a, p, c, 38, 45):.2f}°" for c in range(3)), "; secondary",
           " / ".join(f"{brightest(a, p, c, 48, 56):.2f}°" for c in range(3)), "(R / G / B)")
-    # Glory: the right half; scenes/glory.glb's camera looks at the antisolar point (20° down),
-    # 60° wide at 16:9 (yfov 36.0°).
+    # Glory (the right half): scenes/glory.glb's camera looks at the antisolar point; rows
+    # above the ridge's shadow, which starts there.
     img = load("docs/atmosphere/glory.png")
     h, w = img.shape[:2]
-    half = img[:, w // 2:]
-    d = directions(w // 2, h, (0, 0, 0), (0, -math.tan(math.radians(20)), -1), 35.98)
-    a, p, _ = profile(half, d, towards(-20, 0), h // 2 - 2)
+    eye, fwd, yfov = glb_camera("scenes/glory.glb")
+    d = directions(w // 2, h, eye, eye + fwd, yfov)
+    a, p, _ = profile(img[:, w // 2:], d, glb_sunlight("scenes/glory.glb"), h // 2 - 2)
     print("glory (from the antisolar point): first bright ring",
           " / ".join(f"{brightest(a, p, c, 1.0, 6.0):.2f}°" for c in range(3)), "(R / G / B)")
-    # Halo: left, the corona (custom camera on the sun, yfov 12°); right, scenes/halo.glb's
-    # camera ((0, −20, 2) → (0, 100, 30), yfov 67.67°), the sun 14° up ahead.
+    # Halo: left, the corona (scene_sun's custom camera in graphs/atmosphere/halo.ron); right,
+    # scenes/halo.glb's camera, rows above the hills. Angles from the sun.
     img = load("docs/atmosphere/halo.png")
     h, w = img.shape[:2]
-    left, right = img[:, : w // 2], img[:, w // 2:]
-    d = directions(w // 2, h, (0, 2, 20), (0, 26.93, -80), 12.0)
-    a, p, _ = profile(left, d, towards(14, 0), h, step=0.05, upto=8)
+    sun = -glb_sunlight("scenes/halo.glb")
+    eye, target, fov = ron_custom_camera("graphs/atmosphere/halo.ron", "scene_sun")
+    d = directions(w // 2, h, eye, target, fov)
+    a, p, _ = profile(img[:, : w // 2], d, sun, h, step=0.05, upto=8)
     print("corona (from the sun): first dark ring",
           " / ".join(f"{first_min(a, p, c, 1.0, 6.0):.2f}°" for c in range(3)), "(R / G / B)")
-    d = directions(w // 2, h, (0, 2, 20), (0, 30, -100), 67.67)
-    a, p, _ = profile(right, d, towards(14, 0), int(h * 0.62))
+    eye, fwd, yfov = glb_camera("scenes/halo.glb")
+    d = directions(w // 2, h, eye, eye + fwd, yfov)
+    a, p, _ = profile(img[:, w // 2:], d, sun, int(h * 0.62))
     print("halo (from the sun): 22° inner edge",
           " / ".join(f"{edge(a, p, c, 19, 25):.2f}°" for c in range(3)), "; 46° inner edge",
           " / ".join(f"{edge(a, p, c, 43, 50):.2f}°" for c in range(3)), "(R / G / B)")

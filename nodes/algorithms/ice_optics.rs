@@ -28,7 +28,10 @@
 //! minimum deviations D = 2 asin(n sin(A/2)) − A are 21.6°, 21.9°, 22.3° (A = 60°) and 45.2°,
 //! 45.9°, 47.1° (A = 90°): red inside, blue outside.
 
+use glam::DVec3;
+
 use super::phase_function::PhaseTable;
+use super::random::SplitMix64;
 
 /// Cauchy coefficients of ice's refractive index: n = A + B / λ², λ in µm.
 const CAUCHY: (f64, f64) = (1.300_752, 0.003_036);
@@ -89,14 +92,14 @@ impl Prism {
     }
 
     /// The faces as (outward normal, offset d): inside is n · x ≤ d.
-    fn planes(&self) -> [([f64; 3], f64); 8] {
-        let mut p = [([0.0; 3], 0.0); 8];
+    fn planes(&self) -> [(DVec3, f64); 8] {
+        let mut p = [(DVec3::ZERO, 0.0); 8];
         for (k, plane) in p.iter_mut().take(6).enumerate() {
             let phi = k as f64 * std::f64::consts::PI / 3.0;
-            *plane = ([phi.cos(), phi.sin(), 0.0], self.a);
+            *plane = (DVec3::new(phi.cos(), phi.sin(), 0.0), self.a);
         }
-        p[6] = ([0.0, 0.0, 1.0], self.h);
-        p[7] = ([0.0, 0.0, -1.0], self.h);
+        p[6] = (DVec3::Z, self.h);
+        p[7] = (DVec3::NEG_Z, self.h);
         p
     }
 
@@ -111,28 +114,6 @@ impl Prism {
     fn bound(&self) -> f64 {
         let corner = 2.0 * self.a / 3f64.sqrt();
         (corner * corner + self.h * self.h).sqrt()
-    }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn axpy(s: f64, x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
-    [s * x[0] + y[0], s * x[1] + y[1], s * x[2] + y[2]]
-}
-
-/// SplitMix64: small, fast, and enough for sampling directions.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
@@ -152,59 +133,37 @@ fn fresnel(cos_i: f64, n1: f64, n2: f64) -> (f64, Option<f64>) {
 
 /// The direction after meeting a face of outward normal `n` (d · n ≠ 0) going from `n1` into
 /// `n2`: reflected with probability R, else refracted. Returns (direction, refracted).
-fn interact(d: [f64; 3], n: [f64; 3], n1: f64, n2: f64, rng: &mut Rng) -> ([f64; 3], bool) {
+fn interact(d: DVec3, n: DVec3, n1: f64, n2: f64, rng: &mut SplitMix64) -> (DVec3, bool) {
     // Normal facing the incoming ray.
-    let facing = if dot(d, n) < 0.0 { n } else { n.map(|x| -x) };
-    let cos_i = -dot(d, facing);
+    let facing = if d.dot(n) < 0.0 { n } else { -n };
+    let cos_i = -d.dot(facing);
     let (r, cos_t) = fresnel(cos_i, n1, n2);
     match cos_t {
-        Some(cos_t) if rng.next() >= r => {
+        Some(cos_t) if rng.next_f64() >= r => {
             let eta = n1 / n2;
-            (axpy(eta * cos_i - cos_t, facing, d.map(|x| eta * x)), true)
+            (facing * (eta * cos_i - cos_t) + d * eta, true)
         }
-        _ => (axpy(2.0 * cos_i, facing, d), false),
+        _ => (facing * (2.0 * cos_i) + d, false),
     }
 }
 
 /// One ray's scattering angle (radians), or None when it misses or is dropped.
-fn trace(prism: &Prism, planes: &[([f64; 3], f64); 8], n: f64, rng: &mut Rng) -> Option<f64> {
+fn trace(prism: &Prism, planes: &[(DVec3, f64); 8], n: f64, rng: &mut SplitMix64) -> Option<f64> {
     // A direction uniform on the sphere and a point on the bounding disc across it.
-    let z = 2.0 * rng.next() - 1.0;
-    let phi = 2.0 * std::f64::consts::PI * rng.next();
+    let z = 2.0 * rng.next_f64() - 1.0;
+    let phi = 2.0 * std::f64::consts::PI * rng.next_f64();
     let s = (1.0 - z * z).max(0.0).sqrt();
-    let d0 = [s * phi.cos(), s * phi.sin(), z];
-    let helper = if d0[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let u = {
-        let c = [
-            d0[1] * helper[2] - d0[2] * helper[1],
-            d0[2] * helper[0] - d0[0] * helper[2],
-            d0[0] * helper[1] - d0[1] * helper[0],
-        ];
-        let l = dot(c, c).sqrt();
-        c.map(|x| x / l)
-    };
-    let v = [
-        d0[1] * u[2] - d0[2] * u[1],
-        d0[2] * u[0] - d0[0] * u[2],
-        d0[0] * u[1] - d0[1] * u[0],
-    ];
+    let d0 = DVec3::new(s * phi.cos(), s * phi.sin(), z);
+    let (u, v) = d0.any_orthonormal_pair();
     let rb = prism.bound();
-    let rad = rb * rng.next().sqrt();
-    let ang = 2.0 * std::f64::consts::PI * rng.next();
-    let mut o = axpy(
-        -2.0 * rb,
-        d0,
-        axpy(rad * ang.cos(), u, v.map(|x| x * rad * ang.sin())),
-    );
+    let rad = rb * rng.next_f64().sqrt();
+    let ang = 2.0 * std::f64::consts::PI * rng.next_f64();
+    let mut o = d0 * (-2.0 * rb) + u * (rad * ang.cos()) + v * (rad * ang.sin());
     // Entry: the slab test against the eight faces.
     let (mut t_in, mut t_out, mut face) = (f64::NEG_INFINITY, f64::INFINITY, usize::MAX);
     for (k, (nk, dk)) in planes.iter().enumerate() {
-        let dn = dot(d0, *nk);
-        let dist = dk - dot(o, *nk);
+        let dn = d0.dot(*nk);
+        let dist = dk - o.dot(*nk);
         if dn.abs() < 1e-12 {
             if dist < 0.0 {
                 return None;
@@ -224,18 +183,18 @@ fn trace(prism: &Prism, planes: &[([f64; 3], f64); 8], n: f64, rng: &mut Rng) ->
     if face == usize::MAX || t_in >= t_out {
         return None;
     }
-    o = axpy(t_in, d0, o);
+    o += d0 * t_in;
     let (mut d, refracted) = interact(d0, planes[face].0, 1.0, n, rng);
     if !refracted {
-        return Some(dot(d0, d).clamp(-1.0, 1.0).acos());
+        return Some(d0.dot(d).clamp(-1.0, 1.0).acos());
     }
     for _ in 0..=MAX_BOUNCES {
         // The face the ray leaves by.
         let (mut t_min, mut exit) = (f64::INFINITY, usize::MAX);
         for (k, (nk, dk)) in planes.iter().enumerate() {
-            let dn = dot(d, *nk);
+            let dn = d.dot(*nk);
             if dn > 1e-12 {
-                let t = (dk - dot(o, *nk)) / dn;
+                let t = (dk - o.dot(*nk)) / dn;
                 if t < t_min {
                     t_min = t;
                     exit = k;
@@ -245,10 +204,10 @@ fn trace(prism: &Prism, planes: &[([f64; 3], f64); 8], n: f64, rng: &mut Rng) ->
         if exit == usize::MAX {
             return None;
         }
-        o = axpy(t_min.max(0.0), d, o);
+        o += d * t_min.max(0.0);
         let (next, out) = interact(d, planes[exit].0, n, 1.0, rng);
         if out {
-            return Some(dot(d0, next).clamp(-1.0, 1.0).acos());
+            return Some(d0.dot(next).clamp(-1.0, 1.0).acos());
         }
         d = next;
     }
@@ -278,7 +237,7 @@ pub fn ray_histogram(
                     if c >= chunks {
                         break;
                     }
-                    let mut rng = Rng(seed ^ (c as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
+                    let mut rng = SplitMix64(seed ^ (c as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
                     let count = CHUNK.min(rays - (c * CHUNK).min(rays));
                     for _ in 0..count {
                         if let Some(theta) = trace(prism, &planes, n, &mut rng) {

@@ -58,8 +58,8 @@ use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 mod tables;
 pub use tables::{
-    ams_coefficients, henyey_greenstein, ice, mie, mie_preset, mie_raw, multiple, population,
-    rayleigh, scatter_count, sub_angles, Drops, RAIN_SPREAD,
+    ams_coefficients, henyey_greenstein, ice, mie, mie_raw, multiple, population, rayleigh,
+    scatter_count, sub_angles, RAIN_SPREAD,
 };
 
 /// Wavelengths of the R, G, B channels, nm.
@@ -380,17 +380,7 @@ impl NodeKind for PhaseNode {
             Model::Mie => {
                 let prm = MieParams::from_ctx(ctx)?;
                 let w = samples(prm.samples);
-                let custom = Population {
-                    radius_um: prm.radius,
-                    spread: prm.spread,
-                    m: Complex64::new(prm.n_real, prm.n_imag),
-                };
-                let drops = Drops {
-                    cloud_radius: prm.cloud_radius,
-                    cloud_spread: prm.cloud_spread,
-                    rain_radius: prm.rain_radius,
-                };
-                let pops = WAVELENGTHS_NM.map(|l| population(prm.preset, custom, drops, l));
+                let pops = WAVELENGTHS_NM.map(|l| population(&prm, l));
                 let radii = prm.radii.clamp(1, 256) as usize;
                 let report = |k: usize| {
                     let nm = WAVELENGTHS_NM[k.min(2)];

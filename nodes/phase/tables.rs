@@ -2,7 +2,8 @@
 //! populations and the multiple-scattering spread (the references of the GPU passes).
 
 use super::{
-    lorenz_mie, Complex64, Population, Preset, Select, Shape, MAX_SCATTERS, WAVELENGTHS_NM,
+    lorenz_mie, Complex64, MieParams, Population, Preset, Select, Shape, MAX_SCATTERS,
+    WAVELENGTHS_NM,
 };
 
 use crate::algorithms::ice_optics::{ice_table, Habit, Prism};
@@ -19,45 +20,28 @@ pub fn rayleigh(w: usize) -> PhaseTable {
     PhaseTable::from_fn(w, |t| [rayleigh_value(t.cos()); 3]).normalised()
 }
 
-/// The sizes a preset's droplets take from the node's parameters: the median radius (µm) of
-/// `cloud` and of `rain` droplets and the spread of cloud droplets.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Drops {
-    /// Median radius of cloud droplets, µm (`cloud_radius`).
-    pub cloud_radius: f64,
-    /// Geometric standard deviation of cloud droplets (`cloud_spread`).
-    pub cloud_spread: f64,
-    /// Median radius of raindrops, µm (`rain_radius`).
-    pub rain_radius: f64,
-}
-
-impl Default for Drops {
-    /// The parameters' defaults: 10 µm clouds of spread 1.5, 1 mm rain.
-    fn default() -> Self {
-        Drops {
-            cloud_radius: 10.0,
-            cloud_spread: 1.5,
-            rain_radius: 1000.0,
-        }
-    }
-}
-
 /// Spread of the `rain` preset's raindrops (σ_g).
 pub const RAIN_SPREAD: f64 = 1.2;
 
-/// The particles of a Mie preset at `nm` nanometres: water (with its dispersion,
-/// [`lorenz_mie::water_index`]) for `cloud` and `rain`; `custom` is `custom` itself.
-pub fn population(preset: Preset, custom: Population, drops: Drops, nm: f64) -> Population {
+/// The particles `Mie` with parameters `p` scatters at `nm` nanometres: for `cloud` and `rain`
+/// water (with its dispersion, [`lorenz_mie::water_index`]) of `cloud_radius` and
+/// `cloud_spread`, or `rain_radius` and [`RAIN_SPREAD`]; for `custom` the population parameters
+/// (one index at every wavelength).
+pub fn population(p: &MieParams, nm: f64) -> Population {
     let water = Complex64::new(lorenz_mie::water_index(nm), 0.0);
-    match preset {
-        Preset::Custom => custom,
+    match p.preset {
+        Preset::Custom => Population {
+            radius_um: p.radius,
+            spread: p.spread,
+            m: Complex64::new(p.n_real, p.n_imag),
+        },
         Preset::Cloud => Population {
-            radius_um: drops.cloud_radius,
-            spread: drops.cloud_spread,
+            radius_um: p.cloud_radius,
+            spread: p.cloud_spread,
             m: water,
         },
         Preset::Rain => Population {
-            radius_um: drops.rain_radius,
+            radius_um: p.rain_radius,
             spread: RAIN_SPREAD,
             m: water,
         },
@@ -105,18 +89,6 @@ pub fn mie_raw(
 /// CPU reference of `Mie` for one population in every channel (`preset = custom`).
 pub fn mie(p: &Population, radii: usize, w: usize) -> PhaseTable {
     mie_raw(&[*p; 3], radii, w, threads(), |_| {}).normalised()
-}
-
-/// CPU reference of `Mie` for a preset: [`population`] per channel.
-pub fn mie_preset(
-    preset: Preset,
-    custom: Population,
-    drops: Drops,
-    radii: usize,
-    w: usize,
-) -> PhaseTable {
-    let pops = WAVELENGTHS_NM.map(|l| population(preset, custom, drops, l));
-    mie_raw(&pops, radii, w, threads(), |_| {}).normalised()
 }
 
 /// CPU reference of `IceCrystals` (the node uploads it and normalises it on the GPU): crystals

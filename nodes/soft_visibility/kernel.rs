@@ -1,6 +1,7 @@
 //! The penumbra kernel: its taps (Poisson disk, box, Gaussian), stencils and their variance.
 
 use super::{BTreeMap, Kernel};
+use crate::algorithms::random::SplitMix64;
 
 /// Everything that shapes the kernels.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,16 +23,10 @@ pub struct KernelSpec {
 /// A stencil: integer texel offsets and weights (summing to 1).
 pub type Stencil = Vec<(i32, i32, f64)>;
 
-/// A small deterministic generator (SplitMix64) for the stochastic kernels.
+/// A small deterministic generator ([`SplitMix64`]) for the stochastic kernels.
 pub(super) fn random(seed: u64) -> impl FnMut() -> f64 {
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1);
-    move || {
-        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = s;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
+    let mut r = SplitMix64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1));
+    move || r.next_f64()
 }
 
 /// The continuous taps of slice `k` for a unit per-axis variance: (x, y, weight).

@@ -87,6 +87,12 @@ class Mesh:
         return o
 
 
+def conifer(trunks, crowns, x, y, h):
+    """A conifer `h` m tall standing at (x, y, 0): a trunk into `trunks`, a cone into `crowns`."""
+    trunks.cylinder((x, y, 0.0), 0.25, h * 0.5, segments=8)
+    crowns.cylinder((x, y, h * 0.35), h * 0.28, h * 0.65, segments=10, radius_top=0.2)
+
+
 def _rot(axis, angle):
     from mathutils import Matrix
 

@@ -43,8 +43,7 @@ crowns = common.Mesh("Crowns", leaves, "tree")
 for _ in range(10):
     x, y = rng.uniform(-90, 90), rng.uniform(40, 160)
     h = rng.uniform(7, 12)
-    trunks.cylinder((x, y, 0.0), 0.25, h * 0.5, segments=8)
-    crowns.cylinder((x, y, h * 0.35), h * 0.28, h * 0.65, segments=10, radius_top=0.2)
+    common.conifer(trunks, crowns, x, y, h)
 trunks.finish()
 crowns.finish()
 

@@ -50,8 +50,7 @@ for _ in range(14):
     if abs(x) < 12:
         continue
     h = rng.uniform(6, 11)
-    trunks.cylinder((x, y, 0.0), 0.25, h * 0.5, segments=8)
-    crowns.cylinder((x, y, h * 0.35), h * 0.28, h * 0.65, segments=10, radius_top=0.2)
+    common.conifer(trunks, crowns, x, y, h)
 trunks.finish()
 crowns.finish()
 
