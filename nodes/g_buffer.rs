@@ -13,6 +13,7 @@
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
 //! | `width`, `height` | Int | 0 | 0…16384 px | output size; 0 = the evaluation size (`--size`) |
+//! | `method` | Choice | raster | raster, ray_cast | the graphics pipeline, or a compute pass casting a ray per pixel through a BVH ([`crate::algorithms::ray_cast`]); the same picture but for pixels centred exactly on an edge two triangles share |
 
 use std::sync::Arc;
 
@@ -22,6 +23,7 @@ use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::ScenePart;
 
 use crate::algorithms::g_buffer;
+use crate::algorithms::ray_cast::{self, Method};
 
 /// The `GBuffer` node kind.
 pub struct GBufferNode;
@@ -32,6 +34,7 @@ tyndall_engine::params! {
     pub struct Params {
         width: i64 = ParamSpec::int("width", 0, 0, 16384, "px", "Width; 0 uses the evaluation size."),
         height: i64 = ParamSpec::int("height", 0, 0, 16384, "px", "Height; 0 uses the evaluation size."),
+        method: Method = ParamSpec::choice("method", Method::NAMES, "raster", ray_cast::METHOD_DOC),
     }
 }
 
@@ -48,8 +51,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     ],
     params: Params::SPECS,
 })
-.shaders(&[g_buffer::SHADER])
-.uniforms(&[g_buffer::GBufferParams::LAYOUT])
+.shaders(&[g_buffer::SHADER, ray_cast::G_BUFFER_SHADER])
+.on_demand(&[ray_cast::G_BUFFER_SHADER])
+.uniforms(&[g_buffer::GBufferParams::LAYOUT, ray_cast::RayCastParams::LAYOUT])
 .scene_parts(&[ScenePart::Camera, ScenePart::Geometry]);
 
 impl NodeKind for GBufferNode {
@@ -62,7 +66,7 @@ impl NodeKind for GBufferNode {
         let scene = ctx.scene("scene")?;
         let (w, h) = size_or_default(ctx, p.width, p.height);
         let (depth, normal, albedo, m) =
-            g_buffer::render(ctx.gpu, scene, &scene.scene.camera, w, h)?;
+            g_buffer::render(ctx.gpu, scene, &scene.scene.camera, (w, h), p.method)?;
         ctx.set("depth", PortValue::Depth(Arc::new(depth), m));
         ctx.set("normal", PortValue::Image(Arc::new(normal)));
         ctx.set("albedo", PortValue::Image(Arc::new(albedo)));

@@ -29,6 +29,7 @@
 //! | `light` | Text | "" | | the light: empty = the first, a name or an index |
 //! | `include` | Text | "" | | only objects with one of these tags (empty: all) |
 //! | `exclude` | Text | "" | | leave out objects with any of these tags |
+//! | `method` | Choice | raster | raster, ray_cast | the graphics pipeline, or a compute pass casting a ray per texel through a BVH of the drawn objects ([`crate::algorithms::ray_cast`]); the same map but for texels centred exactly on an edge two triangles share |
 
 use std::sync::Arc;
 
@@ -36,6 +37,8 @@ use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, R
 use tyndall_engine::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::{face_view, fit_light, local_proj, spot_view, LightKind, ScenePart};
+
+use crate::algorithms::ray_cast::{self, Method};
 
 /// The `ShadowMap` node kind.
 pub struct ShadowMapNode;
@@ -48,6 +51,7 @@ tyndall_engine::params! {
         light: String = ParamSpec::text("light", "", "The light the map is made for: empty = the scene's first light (its sun), else a light's name or index in the scene (tyndall validate lists them)."),
         include: String = ParamSpec::text("include", "", "Comma-separated tags: draw only objects with one of them (empty: all)."),
         exclude: String = ParamSpec::text("exclude", "", "Comma-separated tags: leave out objects with any of them."),
+        method: Method = ParamSpec::choice("method", Method::NAMES, "raster", ray_cast::METHOD_DOC),
     }
 }
 
@@ -60,8 +64,9 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "Depth in [0, 1] with the light's matrices.")],
     params: Params::SPECS,
 })
-.shaders(&[SHADER])
-.uniforms(&[ShadowMapParams::LAYOUT])
+.shaders(&[SHADER, ray_cast::SHADOW_SHADER])
+.on_demand(&[ray_cast::SHADOW_SHADER])
+.uniforms(&[ShadowMapParams::LAYOUT, ray_cast::RayCastParams::LAYOUT])
 .scene_parts(&[ScenePart::Sun, ScenePart::Geometry]);
 
 const SHADER: Shader = crate::shader("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
@@ -130,7 +135,24 @@ impl NodeKind for ShadowMapNode {
             indices: &scene.indices,
             ranges: &ranges,
         };
+        let bvh = match p.method {
+            Method::RayCast => Some(ray_cast::scene_bvh(ctx.gpu, scene, &ranges)?),
+            Method::Raster => None,
+        };
         let draw = |ctx: &RunCtx, view_proj: glam::Mat4, linear: bool, side: u32| {
+            if let Some(bvh) = &bvh {
+                let out = ctx.gpu.texture(side, side, TexFormat::R32F)?;
+                let u = ray_cast::RayCastParams {
+                    linear_depth: linear as u32,
+                    far_ndc: match local {
+                        Some(l) if linear => ray_cast::linear_far(l.near, l.far),
+                        _ => 1.0,
+                    },
+                    ..ray_cast::params(view_proj, side, side)
+                };
+                ray_cast::shadow(ctx.gpu, bvh, &u, &out)?;
+                return Ok(out);
+            }
             let u = ShadowMapParams {
                 light_view_proj: view_proj.to_cols_array_2d(),
                 linear_depth: linear as u32,

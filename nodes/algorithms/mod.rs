@@ -17,5 +17,6 @@ pub mod phase_function;
 pub mod point_sample;
 pub mod quantile;
 pub mod random;
+pub mod ray_cast;
 pub mod shader_lib;
 pub mod volume_mips;

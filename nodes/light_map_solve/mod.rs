@@ -87,6 +87,7 @@ use tyndall_engine::io::Raster;
 use tyndall_engine::scene::{Camera, GpuScene};
 
 use crate::algorithms::g_buffer;
+use crate::algorithms::ray_cast::Method;
 
 mod data;
 mod operators;
@@ -166,7 +167,8 @@ pub fn view_problems(
                 }
             }
             let cam = view_camera(v, &scene.scene.camera);
-            let (depth, _, _, camera) = g_buffer::render(gpu, scene, &cam, v.width, v.height)?;
+            let (depth, _, _, camera) =
+                g_buffer::render(gpu, scene, &cam, (v.width, v.height), Method::Raster)?;
             let depth = Raster {
                 width: v.width,
                 height: v.height,

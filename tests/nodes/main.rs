@@ -9,3 +9,4 @@ mod common;
 mod colour;
 mod looks;
 mod nodes_gpu;
+mod ray_cast;

@@ -407,7 +407,7 @@ fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
     let registry = std::sync::Arc::new(tyndall::nodes::registry());
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/physical/window.ron");
     let graph = tyndall::graph::load_file(&path, registry.catalog()).expect("graph");
-    let mut ev = tyndall::eval::Evaluator::new(registry, gpu);
+    let mut ev = tyndall::eval::Evaluator::new(registry.clone(), gpu);
     let opts = tyndall::eval::EvalOptions {
         size: (32, 18),
         ..Default::default()
@@ -436,6 +436,34 @@ fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
         "{msg}"
     );
     assert!(msg.contains("storage textures per shader stage"), "{msg}");
+    assert!(msg.contains("allows 2"), "{msg}");
+    assert!(!msg.contains('\n'), "one line: {msg}");
+    // A method whose pass needs more (GBuffer's ray cast binds three storage textures) does not
+    // refuse the kind — the default raster G-buffer renders — but fails when chosen, in one line.
+    ev.evaluate(
+        &graph,
+        &[tyndall::eval::Target::Port(
+            "gbuffer".into(),
+            "depth".into(),
+        )],
+        &opts,
+    )
+    .expect("the raster G-buffer runs");
+    let mut cast = graph.clone();
+    cast.set_param_text(registry.catalog(), "gbuffer", "method", "ray_cast")
+        .expect("method");
+    let err = ev
+        .evaluate(
+            &cast,
+            &[tyndall::eval::Target::Port(
+                "gbuffer".into(),
+                "depth".into(),
+            )],
+            &opts,
+        )
+        .expect_err("the ray cast needs three storage textures");
+    let msg = err.to_string();
+    assert!(msg.starts_with("node 'gbuffer' (GBuffer)"), "{msg}");
     assert!(msg.contains("allows 2"), "{msg}");
     assert!(!msg.contains('\n'), "one line: {msg}");
 }

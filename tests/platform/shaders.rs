@@ -160,6 +160,13 @@ fn every_node_has_shaders_and_source_under_one_stem() {
             "{name} is declared in nodes/{SHARED}/, which holds no node"
         );
         let shaders = kind.shaders();
+        for on_demand in kind.decl().on_demand {
+            assert!(
+                shaders.iter().any(|s| s.stem == on_demand.stem),
+                "{name}: on-demand shader {} is not among its shaders",
+                on_demand.stem
+            );
+        }
         if shaders.is_empty() {
             // Nodes that only upload data (no GPU pass) have no shader; keep that list explicit.
             assert!(

@@ -573,9 +573,13 @@ impl Evaluator {
         opts: &EvalOptions,
     ) -> Result<(BTreeMap<String, PortValue>, Duration, u64), NodeError> {
         // An adapter that cannot give this node's shader what it needs: one line naming what
-        // is missing, before any of its passes is recorded.
-        for shader in k.decl().shaders {
-            self.gpu.supports(*shader)?;
+        // is missing, before any of its passes is recorded (a shader only some parameter
+        // values dispatch is checked at its dispatch instead).
+        let decl = k.decl();
+        for shader in decl.shaders {
+            if !decl.on_demand.iter().any(|s| s.stem == shader.stem) {
+                self.gpu.supports(*shader)?;
+            }
         }
         self.gpu.set_timing(opts.gpu_timings);
         self.gpu.set_running_node(ctx.id, k.schema().kind);

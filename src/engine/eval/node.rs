@@ -280,6 +280,11 @@ pub struct NodeDecl {
     /// pass or family of passes in `shaders/<stem>/` (see [`Shader`]); empty for a node that
     /// runs no GPU pass.
     pub shaders: &'static [Shader],
+    /// Those of `shaders` that only some parameter values dispatch (a `method` other than the
+    /// default): the adapter is not required to run them before the node runs, as it is for
+    /// the others; choosing one the adapter cannot run fails at its dispatch, in one line
+    /// naming what the adapter lacks. Empty by default.
+    pub on_demand: &'static [Shader],
     /// Uniform structs bound by the shader (declared with [`uniforms!`](crate::uniforms)), for
     /// the layout test.
     pub uniforms: &'static [UniformLayout],
@@ -328,6 +333,7 @@ impl NodeDecl {
         Self {
             schema,
             shaders: &[],
+            on_demand: &[],
             uniforms: &[],
             key_exempt: &[],
             sink: false,
@@ -349,6 +355,12 @@ impl NodeDecl {
     /// Set the shaders.
     pub const fn shaders(self, shaders: &'static [Shader]) -> Self {
         Self { shaders, ..self }
+    }
+
+    /// Set the shaders (of those set with [`NodeDecl::shaders`]) only some parameter values
+    /// dispatch: see [`NodeDecl::on_demand`].
+    pub const fn on_demand(self, on_demand: &'static [Shader]) -> Self {
+        Self { on_demand, ..self }
     }
 
     /// Set the uniform structs the shader binds.

@@ -73,6 +73,9 @@ impl Gpu {
         constants: &[(&str, f64)],
         params_in_storage: bool,
     ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
+        // What the adapter lacks for this shader, in one line, rather than a driver error (for
+        // a node's shaders checked before it runs, a lookup of the answer kept then).
+        self.supports(shader)?;
         let recipe = Recipe::of(shader, entry, binds, constants, params_in_storage);
         let (pipeline, _) = self.obtain_pipeline(shader, &recipe)?;
         Ok(pipeline)

@@ -1,6 +1,9 @@
 //! A scene uploaded for rasterisation: one vertex and one index buffer, a range per object.
 
+use std::any::Any;
+use std::collections::HashMap;
 use std::ops::Range;
+use std::sync::Arc;
 
 pub use crate::gpu::MeshVertex;
 use crate::gpu::{Gpu, GpuError};
@@ -23,8 +26,18 @@ pub struct GpuScene {
     /// still held (the scene of the previous frame when only the camera or the sun moved), not
     /// uploaded again.
     pub geometry_reused: bool,
-    /// Keeps the shared buffers findable by the next upload of the same geometry.
-    _buffers: std::sync::Arc<(wgpu::Buffer, wgpu::Buffer)>,
+    /// Keeps the shared buffers (and what nodes derived from them) findable by the next upload
+    /// of the same geometry.
+    shared: std::sync::Arc<SharedGeometry>,
+}
+
+/// What scenes of the same geometry share on one GPU: the mesh buffers, and what nodes derive
+/// from the geometry once ([`GpuScene::derived`]: a ray-casting BVH of a set of objects…).
+struct SharedGeometry {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    /// Derived values by the deriving caller's key (and type).
+    derived: std::sync::Mutex<HashMap<(u64, std::any::TypeId), Arc<dyn Any + Send + Sync>>>,
 }
 
 impl std::fmt::Debug for GpuScene {
@@ -44,8 +57,14 @@ impl GpuScene {
     /// camera or sun moves uploads its meshes once.
     pub fn upload(gpu: &Gpu, scene: Scene) -> Result<GpuScene, GpuError> {
         let parts = super::PartKeys::of(&scene);
-        let (buffers, geometry_reused) =
-            gpu.shared_by_key(parts.geometry, || upload_geometry(gpu, &scene))?;
+        let (shared, geometry_reused) = gpu.shared_by_key(parts.geometry, || {
+            let (vertices, indices) = upload_geometry(gpu, &scene)?;
+            Ok(SharedGeometry {
+                vertices,
+                indices,
+                derived: Default::default(),
+            })
+        })?;
         let mut ranges = Vec::new();
         let mut start = 0u32;
         for o in &scene.objects {
@@ -56,12 +75,40 @@ impl GpuScene {
         Ok(GpuScene {
             parts,
             scene,
-            vertices: buffers.0.clone(),
-            indices: buffers.1.clone(),
+            vertices: shared.vertices.clone(),
+            indices: shared.indices.clone(),
             ranges,
             geometry_reused,
-            _buffers: buffers,
+            shared,
         })
+    }
+
+    /// The value `make` derives from this scene's geometry for `key` (what else it depends on,
+    /// e.g. the objects selected), made once per geometry and kept while any scene of that
+    /// geometry is held: the next frame of a shot whose camera or light moves gets it again
+    /// without making it. The second value says whether it was made earlier.
+    pub fn derived<T: Any + Send + Sync>(
+        &self,
+        key: u64,
+        make: impl FnOnce() -> Result<T, GpuError>,
+    ) -> Result<(Arc<T>, bool), GpuError> {
+        let slot = (key, std::any::TypeId::of::<T>());
+        let held = self
+            .shared
+            .derived
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&slot).cloned())
+            .and_then(|v| v.downcast::<T>().ok());
+        if let Some(v) = held {
+            return Ok((v, true));
+        }
+        let v = Arc::new(make()?);
+        if let Ok(mut m) = self.shared.derived.lock() {
+            let any: Arc<dyn Any + Send + Sync> = v.clone();
+            m.insert(slot, any);
+        }
+        Ok((v, false))
     }
 
     /// Index ranges of the objects whose tags pass the filter: with a non-empty `include`, an
@@ -83,9 +130,10 @@ impl GpuScene {
     }
 }
 
-/// The vertex and index buffers of every object of `scene` (indices offset into the shared
-/// vertex buffer), with one degenerate triangle for an empty scene.
-fn upload_geometry(gpu: &Gpu, scene: &Scene) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+/// The vertices and indices of every object of `scene` as one mesh, indices offset into the
+/// shared vertex list: the layout [`GpuScene::ranges`] index into (object `i`'s triangles are
+/// `indices[ranges[i]]`).
+pub fn flatten(scene: &Scene) -> (Vec<MeshVertex>, Vec<u32>) {
     let mut verts: Vec<MeshVertex> = Vec::new();
     let mut idx: Vec<u32> = Vec::new();
     for o in &scene.objects {
@@ -99,6 +147,13 @@ fn upload_geometry(gpu: &Gpu, scene: &Scene) -> Result<(wgpu::Buffer, wgpu::Buff
         }
         idx.extend(o.indices.iter().map(|i| i + base));
     }
+    (verts, idx)
+}
+
+/// The vertex and index buffers of every object of `scene` ([`flatten`]), with one degenerate
+/// triangle for an empty scene.
+fn upload_geometry(gpu: &Gpu, scene: &Scene) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+    let (mut verts, mut idx) = flatten(scene);
     if verts.is_empty() {
         verts.push(MeshVertex {
             position: [0.0; 3],

@@ -15,7 +15,7 @@ pub use gltf::{
     animation, find_animation, load_gltf, load_gltf_asset, parse_gltf, GltfAsset, LUX_PER_WATT,
     MEDIUM_TAG,
 };
-pub use gpu::{GpuScene, MeshVertex};
+pub use gpu::{flatten, GpuScene, MeshVertex};
 pub use light::{
     cube_face, face_basis, face_view, local_proj, spot_view, Light, LightKind, LocalLight,
 };
