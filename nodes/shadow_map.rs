@@ -133,6 +133,7 @@ impl NodeKind for ShadowMapNode {
         let mesh = MeshDraw {
             vertices: &scene.vertices,
             indices: &scene.indices,
+            placements: &scene.placements,
             ranges: &ranges,
         };
         let bvh = match p.method {

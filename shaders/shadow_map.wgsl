@@ -13,15 +13,24 @@ struct Params {
 
 @group(0) @binding(0) var<uniform> P: Params;
 
+// Each object's placement (scene::PLACEMENT_FLOATS): object → world, and the normal matrix;
+// object i is drawn as instance i.
+struct Placement {
+    world: mat4x4<f32>,
+    normal: mat4x4<f32>,
+}
+@group(1) @binding(0) var<storage, read> placements: array<Placement>;
+
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) depth: f32,
 }
 
 @vertex
-fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) colour: vec4<f32>) -> VsOut {
+fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) colour: vec4<f32>, @builtin(instance_index) object: u32) -> VsOut {
     var o: VsOut;
-    o.clip = P.light_view_proj * vec4<f32>(position, 1.0);
+    let world = placements[object].world * vec4<f32>(position, 1.0);
+    o.clip = P.light_view_proj * vec4<f32>(world.xyz, 1.0);
     o.depth = o.clip.z;
     return o;
 }

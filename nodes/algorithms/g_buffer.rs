@@ -48,8 +48,9 @@ pub fn render(
     let depth = gpu.texture(w, h, TexFormat::R32F)?;
     let normal = gpu.texture(w, h, TexFormat::Rgba32F)?;
     let albedo = gpu.texture(w, h, TexFormat::Rgba32F)?;
+    let draws = scene.draws();
     if method == Method::RayCast {
-        let bvh = ray_cast::scene_bvh(gpu, scene, &scene.ranges)?;
+        let bvh = ray_cast::scene_bvh(gpu, scene, &draws)?;
         let p = ray_cast::RayCastParams {
             eye: u.eye,
             far: u.far,
@@ -78,7 +79,8 @@ pub fn render(
         &MeshDraw {
             vertices: &scene.vertices,
             indices: &scene.indices,
-            ranges: &scene.ranges,
+            placements: &scene.placements,
+            ranges: &draws,
         },
     )?;
     Ok((depth, normal, albedo, Matrices::of_camera(cam, w, h)))

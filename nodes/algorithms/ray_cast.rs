@@ -300,15 +300,18 @@ pub struct GpuBvh {
     pub triangles: usize,
 }
 
-/// The BVH of the objects `ranges` selects (index ranges of [`GpuScene::ranges`]), built and
-/// uploaded once per geometry and selection.
+/// The BVH of the objects `draws` selects ([`GpuScene::draws`], [`GpuScene::select`]) in world
+/// space, built and uploaded once per geometry, placement and selection.
 pub fn scene_bvh(
     gpu: &Gpu,
     scene: &GpuScene,
-    ranges: &[Range<u32>],
+    draws: &[(u32, Range<u32>)],
 ) -> Result<std::sync::Arc<GpuBvh>, GpuError> {
+    let ranges: Vec<Range<u32>> = draws.iter().map(|(_, r)| r.clone()).collect();
+    let ranges = &ranges[..];
     let mut h = std::hash::DefaultHasher::new();
-    ranges.hash(&mut h);
+    // The world-space geometry (placements included) and the selection.
+    (scene.parts.geometry, ranges).hash(&mut h);
     let (bvh, _) = scene.derived(h.finish(), || {
         let corners = triangles(&scene.scene, ranges);
         let bvh = Bvh::build(&positions(&corners));

@@ -9,6 +9,14 @@ struct GBufferParams {
 
 @group(0) @binding(0) var<uniform> P: GBufferParams;
 
+// Each object's placement (scene::PLACEMENT_FLOATS): object → world, and the normal matrix;
+// object i is drawn as instance i.
+struct Placement {
+    world: mat4x4<f32>,
+    normal: mat4x4<f32>,
+}
+@group(1) @binding(0) var<storage, read> placements: array<Placement>;
+
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
@@ -23,11 +31,13 @@ struct FsOut {
 }
 
 @vertex
-fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) colour: vec4<f32>) -> VsOut {
+fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) colour: vec4<f32>, @builtin(instance_index) object: u32) -> VsOut {
     var o: VsOut;
-    o.clip = P.view_proj * vec4<f32>(position, 1.0);
-    o.world = position;
-    o.normal = normal;
+    let m = placements[object];
+    let world = (m.world * vec4<f32>(position, 1.0)).xyz;
+    o.clip = P.view_proj * vec4<f32>(world, 1.0);
+    o.world = world;
+    o.normal = (m.normal * vec4<f32>(normal, 0.0)).xyz;
     o.colour = colour;
     return o;
 }

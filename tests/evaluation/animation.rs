@@ -415,12 +415,12 @@ fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
     let registry = Arc::new(tyndall::nodes::registry());
     let text = graph(&path).replace(
         r#""gbuffer": (kind: "GBuffer"),"#,
-        r#""gbuffer": (kind: "GBuffer"), "shadow": (kind: "ShadowMap", params: {"resolution": 256}),"#,
-    ).replace(r#"edges: [("scene.scene", "gbuffer.scene")]"#, r#"edges: [("scene.scene", "gbuffer.scene"), ("scene.scene", "shadow.scene")]"#);
+        r#""gbuffer": (kind: "GBuffer"), "shadow": (kind: "ShadowMap", params: {"resolution": 256}),
+           "cast": (kind: "GBuffer", params: {"method": "ray_cast"}),"#,
+    ).replace(r#"edges: [("scene.scene", "gbuffer.scene")]"#, r#"edges: [("scene.scene", "gbuffer.scene"), ("scene.scene", "shadow.scene"), ("scene.scene", "cast.scene")]"#);
     let g =
         tyndall::graph::load_str(&text, std::path::Path::new("g.ron"), registry.catalog()).unwrap();
-    let mut ev = Evaluator::new(registry, gpu.clone());
-    let mut at = |frame: f64| {
+    let at = |ev: &mut Evaluator, frame: f64| {
         let opts = EvalOptions {
             size: (W, H),
             time: frame,
@@ -429,17 +429,59 @@ fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
         let targets = [
             Target::Port("gbuffer".into(), "depth".into()),
             Target::Port("shadow".into(), "map".into()),
+            Target::Port("cast".into(), "depth".into()),
+            Target::Port("scene".into(), "scene".into()),
         ];
         let r = ev.evaluate(&g, &targets, &opts).unwrap();
-        let read = |n: &str, p: &str| {
-            tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())]).unwrap()
+        let value = |n: &str, p: &str| r.outputs[&(n.to_string(), p.to_string())].clone();
+        let read = |n: &str, p: &str| tyndall::eval::download(&gpu, &value(n, p)).unwrap();
+        let scene = match value("scene", "scene") {
+            tyndall::eval::PortValue::Other(_, s) => {
+                s.downcast::<tyndall::scene::GpuScene>().unwrap()
+            }
+            other => panic!("{other:?}"),
         };
-        (read("gbuffer", "depth"), read("shadow", "map"))
+        (
+            read("gbuffer", "depth"),
+            read("shadow", "map"),
+            read("cast", "depth"),
+            scene,
+        )
     };
-    let (d1, s1) = at(1.0);
-    let (d24, s24) = at(24.0);
+    let mut ev = Evaluator::new(registry.clone(), gpu.clone());
+    let (d1, s1, _, scene1) = at(&mut ev, 1.0);
+    let (d24, s24, cast24, scene24) = at(&mut ev, 24.0);
     assert_ne!(d1.data, d24.data, "the G-buffer sees the marker move");
     assert_ne!(s1.data, s24.data, "the shadow map sees the marker move");
+    // The marker moves by its placement: the meshes uploaded for frame 1 draw frame 24.
+    let placed = |s: &tyndall::scene::GpuScene, name: &str| {
+        s.scene
+            .objects
+            .iter()
+            .find(|o| o.name == name)
+            .unwrap()
+            .placement
+            .is_some()
+    };
+    assert!(placed(&scene24, "Marker") && !placed(&scene24, "Ground"));
+    assert!(
+        scene24.geometry_reused,
+        "frame 24 uploaded its meshes again"
+    );
+    drop(scene1);
+    // Placed on the GPU where the CPU places it: the ray cast (world-space triangles posed on
+    // the CPU) sees the same picture, but for silhouette texels (as tests/nodes/ray_cast.rs).
+    let apart = d24
+        .data
+        .iter()
+        .zip(&cast24.data)
+        .filter(|(a, b)| (*a - *b).abs() > 1e-2 * a.abs().max(1.0))
+        .count();
+    assert!(apart * 500 <= (W * H) as usize, "{apart} pixels apart");
+    // Frame 24 alone, in a new evaluator, is the same picture bit for bit.
+    let (alone_d, alone_s, _, _) = at(&mut Evaluator::new(registry, gpu.clone()), 24.0);
+    assert_eq!(alone_d.data, d24.data);
+    assert_eq!(alone_s.data, s24.data);
 }
 
 /// A shot as Blender's exporter writes it with its defaults: one animation per animated object

@@ -58,14 +58,17 @@ pub struct RasterTarget<'a> {
     pub clear: [f64; 4],
 }
 
-/// Indexed triangles to draw: ranges of the index buffer.
+/// Indexed triangles to draw: ranges of the index buffer, each an object placed by its matrix.
 pub struct MeshDraw<'a> {
     /// Vertex buffer of [`MeshVertex`].
     pub vertices: &'a wgpu::Buffer,
     /// `u32` index buffer.
     pub indices: &'a wgpu::Buffer,
-    /// Index ranges to draw.
-    pub ranges: &'a [Range<u32>],
+    /// The objects' placements (a storage buffer, `scene::PLACEMENT_FLOATS` floats each), bound
+    /// at group 1, binding 0; the raster shader reads object `i`'s at instance index `i`.
+    pub placements: &'a wgpu::Buffer,
+    /// What to draw: `(object, index range)`.
+    pub ranges: &'a [(u32, Range<u32>)],
 }
 
 impl Gpu {
@@ -112,9 +115,23 @@ impl Gpu {
                     count: None,
                 }],
             });
+            // Group 1: the objects' placements, read by the vertex shader.
+            let placements = self.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("placements"),
+                entries: &[wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                }],
+            });
             let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(&key),
-                bind_group_layouts: &[Some(&bgl)],
+                bind_group_layouts: &[Some(&bgl), Some(&placements)],
                 immediate_size: 0,
             });
             let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -208,6 +225,14 @@ impl Gpu {
             );
             let depth_view = depth.create_view(&Default::default());
             let group = self.uniform_group(shader, &pipeline, uniform, storage);
+            let placed = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("placements"),
+                layout: &pipeline.get_bind_group_layout(1),
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: mesh.placements.as_entire_binding(),
+                }],
+            });
             let attachments = color_attachments(targets, &temps, bits);
             // Into this thread's batch (see batch.rs); timed, with its timestamps resolved in it.
             let record = |enc: &mut wgpu::CommandEncoder,
@@ -235,11 +260,12 @@ impl Gpu {
                     });
                     pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &group, &[]);
+                    pass.set_bind_group(1, &placed, &[]);
                     pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                     pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    for r in mesh.ranges {
+                    for (object, r) in mesh.ranges {
                         if !r.is_empty() {
-                            pass.draw_indexed(r.clone(), 0, 0..1);
+                            pass.draw_indexed(r.clone(), 0, *object..*object + 1);
                         }
                     }
                 }

@@ -49,6 +49,7 @@ fn object(name: &str, colour: [f32; 4], tags: &[&str]) -> Object {
         indices: Vec::new(),
         colour,
         tags: tags.iter().map(|t| t.to_string()).collect(),
+        placement: None,
     }
 }
 

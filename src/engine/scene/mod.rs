@@ -15,6 +15,7 @@ pub use gltf::{
     animation, find_animation, load_gltf, load_gltf_asset, parse_gltf, GltfAsset, LUX_PER_WATT,
     MEDIUM_TAG,
 };
+pub use gpu::PLACEMENT_FLOATS;
 pub use gpu::{flatten, GpuScene, MeshVertex};
 pub use light::{
     cube_face, face_basis, face_view, local_proj, spot_view, Light, LightKind, LocalLight,
@@ -52,6 +53,49 @@ pub struct Object {
     pub colour: [f32; 4],
     /// Tags (`foliage`, `figure`, ...) for nodes that treat objects separately.
     pub tags: Vec<String>,
+    /// For an object an animation moves: its mesh in its own space and the matrix placing it,
+    /// so the GPU keeps the mesh for the whole shot and only the matrix changes per frame
+    /// (`positions` and `normals` above are the placed result, for everything on the CPU).
+    /// `None`: the world-space mesh is what is drawn.
+    pub placement: Option<Placement>,
+}
+
+/// An object's mesh in its own space and the matrix placing it in the world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Placement {
+    /// The mesh, shared by every pose of the object.
+    pub mesh: std::sync::Arc<LocalMesh>,
+    /// Object → world.
+    pub world: Mat4,
+}
+
+/// A mesh in its object's own space (the object's `indices` index it).
+#[derive(Debug, PartialEq)]
+pub struct LocalMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals (unit length).
+    pub normals: Vec<Vec3>,
+    /// A content key of the positions and normals.
+    pub key: u64,
+}
+
+impl LocalMesh {
+    /// The mesh of these vertices, its key computed.
+    pub fn new(positions: Vec<Vec3>, normals: Vec<Vec3>) -> Self {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::hash::DefaultHasher::new();
+        for v in positions.iter().chain(&normals) {
+            v.to_array().map(f32::to_bits).hash(&mut h);
+        }
+        (positions.len(), normals.len()).hash(&mut h);
+        let key = h.finish();
+        Self {
+            positions,
+            normals,
+            key,
+        }
+    }
 }
 
 /// A perspective camera.

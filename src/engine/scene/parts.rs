@@ -30,6 +30,11 @@ pub struct PartKeys {
     pub geometry: u64,
     /// Of [`ScenePart::Medium`].
     pub medium: u64,
+    /// Of the meshes as uploaded to the GPU: a placed object's mesh in its own space (not its
+    /// placement), every other object's world-space mesh, with indices and colours. Not a part
+    /// a node reads: equal keys share vertex and index buffers (`GpuScene::upload`), so an
+    /// animation that only moves objects uploads no mesh after its first frame.
+    pub meshes: u64,
 }
 
 impl PartKeys {
@@ -74,6 +79,22 @@ impl PartKeys {
                         bits(&n.to_array(), h);
                     }
                     (o.positions.len(), o.normals.len()).hash(h);
+                }
+            }),
+            meshes: key(&|h| {
+                for o in &scene.objects {
+                    o.indices.hash(h);
+                    bits(&o.colour, h);
+                    match &o.placement {
+                        Some(p) => p.mesh.key.hash(h),
+                        None => {
+                            for (p, n) in o.positions.iter().zip(&o.normals) {
+                                bits(&p.to_array(), h);
+                                bits(&n.to_array(), h);
+                            }
+                            (o.positions.len(), o.normals.len()).hash(h);
+                        }
+                    }
                 }
             }),
             medium: key(&|h| {

@@ -25,7 +25,7 @@ use base64::Engine;
 use glam::{Mat3, Mat4, Quat, Vec3};
 
 use self::animation::{Animation, Channel, Interpolation, Target, Trs};
-use super::{Camera, Light, LightKind, Object, Scene, SceneError, Sun};
+use super::{Camera, Light, LightKind, LocalMesh, Object, Placement, Scene, SceneError, Sun};
 
 /// Luminous efficacy used to read a glTF directional light's illuminance (lux) as irradiance
 /// (W/m²), as Blender's glTF importer does in its default ("Standard") lighting mode.
@@ -94,6 +94,9 @@ struct Primitive {
     normals: Option<Vec<Vec3>>,
     indices: Vec<u32>,
     colour: [f32; 4],
+    /// The mesh in the node's space (normals from the file, else from the local faces): what a
+    /// moving object's placement draws.
+    local: Arc<LocalMesh>,
 }
 
 /// A glTF node as the loader keeps it.
@@ -248,11 +251,18 @@ fn read_primitives(
             .read_normals()
             .map(|n| n.map(Vec3::from).collect::<Vec<_>>())
             .filter(|n| n.len() == positions.len());
+        let local = Arc::new(LocalMesh::new(
+            positions.clone(),
+            normals
+                .clone()
+                .unwrap_or_else(|| face_normals(&positions, &indices)),
+        ));
         out.push(Primitive {
             positions,
             normals,
             indices,
             colour: prim.material().pbr_metallic_roughness().base_color_factor(),
+            local,
         });
     }
     Ok(out)
@@ -382,11 +392,19 @@ impl GltfAsset {
         let mut camera = None;
         let mut sun = None;
         let mut lights = Vec::new();
-        let mut stack: Vec<(usize, Mat4)> =
-            self.roots.iter().map(|n| (*n, Mat4::IDENTITY)).collect();
+        // Nodes the played animations move (and, below, their descendants).
+        let keyed: std::collections::HashSet<usize> = anim
+            .iter()
+            .flat_map(|a| a.channels.iter().map(|c| c.node))
+            .collect();
+        let mut stack: Vec<(usize, Mat4, bool)> = self
+            .roots
+            .iter()
+            .map(|n| (*n, Mat4::IDENTITY, false))
+            .collect();
         // A node listed twice (a cycle or shared child, invalid glTF) is visited once.
         let mut seen = vec![false; self.nodes.len()];
-        while let Some((index, parent)) = stack.pop() {
+        while let Some((index, parent, parent_moves)) = stack.pop() {
             let Some(node) = self.nodes.get(index) else {
                 continue;
             };
@@ -394,8 +412,9 @@ impl GltfAsset {
                 continue;
             }
             let world = parent * node.rest.animated(index, &anim, seconds).matrix();
+            let moves = parent_moves || keyed.contains(&index);
             for child in &node.children {
-                stack.push((*child, world));
+                stack.push((*child, world, moves));
             }
             let (_, rot, pos) = world.to_scale_rotation_translation();
             let forward = (rot * Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
@@ -436,7 +455,14 @@ impl GltfAsset {
             }
             let normal_m = Mat3::from_mat4(world).inverse().transpose();
             for (pi, prim) in node.primitives.iter().enumerate() {
-                objects.push(posed(node, pi, prim, world, normal_m));
+                let mut o = posed(node, pi, prim, world, normal_m);
+                if moves {
+                    o.placement = Some(Placement {
+                        mesh: prim.local.clone(),
+                        world,
+                    });
+                }
+                objects.push(o);
             }
         }
         let (media, objects): (Vec<Object>, Vec<Object>) = objects
@@ -553,17 +579,7 @@ fn posed(node: &AssetNode, pi: usize, prim: &Primitive, world: Mat4, normal_m: M
             .iter()
             .map(|n| (normal_m * *n).normalize_or(Vec3::Y))
             .collect(),
-        None => {
-            let mut acc = vec![Vec3::ZERO; positions.len()];
-            for t in prim.indices.chunks_exact(3) {
-                let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize]);
-                let n = (b - a).cross(c - a);
-                for i in t {
-                    acc[*i as usize] += n;
-                }
-            }
-            acc.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect()
-        }
+        None => face_normals(&positions, &prim.indices),
     };
     Object {
         name: if pi == 0 {
@@ -576,7 +592,21 @@ fn posed(node: &AssetNode, pi: usize, prim: &Primitive, world: Mat4, normal_m: M
         indices: prim.indices.clone(),
         colour: prim.colour,
         tags: node.tags.clone(),
+        placement: None,
     }
+}
+
+/// Vertex normals from the faces around each vertex (area-weighted), for meshes without any.
+fn face_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut acc = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| positions[t[k] as usize]);
+        let n = (b - a).cross(c - a);
+        for i in t {
+            acc[*i as usize] += n;
+        }
+    }
+    acc.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect()
 }
 
 /// Load a glTF scene in its rest pose (no animation applied). Camera and sun default to a
