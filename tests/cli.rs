@@ -1518,6 +1518,33 @@ fn the_trace_parses_and_names_every_node_at_every_frame() {
     );
     assert!(!of("pipeline").is_empty(), "pipeline creations");
     assert!(!of("gpu").is_empty(), "GPU passes (timed with --stats)");
+    // The GPU track is on the trace's clock: a frame's passes end before its picture has been
+    // read back (the read-back waits for them; the out node is the last of each frame here).
+    // Passes are placed late by at most the shortest wait between a pass's end and the reading
+    // of its timestamps (1.3–3.4 ms in five runs of this debug binary, more on a loaded
+    // machine): 50 ms allowed. Placed by the first pass read instead, a pipelined frame's passes
+    // fell late by about its whole GPU time (517 ms here), which this catches.
+    let end =
+        |e: &&serde_json::Value| e["ts"].as_f64().unwrap_or(0.0) + e["dur"].as_f64().unwrap_or(0.0);
+    for f in [1, 2] {
+        let of_frame = |cat: &str| -> Vec<f64> {
+            of(cat)
+                .iter()
+                .filter(|e| e["args"]["frame"] == f)
+                .map(end)
+                .collect()
+        };
+        let read = of_frame("readback").into_iter().fold(0.0, f64::max);
+        let gpu = of_frame("gpu").into_iter().fold(0.0, f64::max);
+        assert!(
+            read > 0.0 && gpu > 0.0,
+            "frame {f}: read-back and GPU passes traced"
+        );
+        assert!(
+            gpu <= read + 50e3,
+            "frame {f}: GPU passes end at {gpu} µs, read back by {read} µs"
+        );
+    }
     assert!(of("readback")
         .iter()
         .all(|e| e["args"]["bytes"].as_u64().is_some_and(|b| b > 0)));

@@ -36,6 +36,9 @@ thread_local! {
 /// Start recording (events from before are not kept).
 pub fn start() {
     let _ = EPOCH.get_or_init(Instant::now);
+    if let Ok(mut p) = GPU_PASSES.lock() {
+        p.clear();
+    }
     if let Ok(mut e) = EVENTS.lock() {
         e.clear();
         e.push(json!({"ph": "M", "name": "thread_name", "pid": 1, "tid": GPU_TRACK, "args": {"name": "GPU"}}));
@@ -119,36 +122,76 @@ pub fn write<T>(path: &Path, write: impl FnOnce() -> T) -> T {
     out
 }
 
-/// The GPU clock's offset from the trace's (µs), fixed by the first GPU pass recorded.
-static GPU_OFFSET: OnceLock<f64> = OnceLock::new();
+/// A GPU pass read from its timestamps, placed on the trace's clock when the trace is written.
+struct GpuPass {
+    name: String,
+    /// Its end on the GPU's clock, µs.
+    end_us: f64,
+    dur_us: f64,
+    frame: Option<i64>,
+    /// When its timestamps were read, on the trace's clock (µs): after it ended.
+    read_us: f64,
+}
+
+static GPU_PASSES: Mutex<Vec<GpuPass>> = Mutex::new(Vec::new());
 
 /// Record a GPU pass on the GPU track: `name`, ending at `end_ns` on the GPU's clock (its
-/// timestamps, in ns) after `dur` of GPU time. The first pass read fixes the offset between
-/// the clocks (its end taken as now, just after waiting for it), so later passes fall a little
-/// late by that wait at most, and keep their order and gaps.
+/// timestamps, in ns) after `dur` of GPU time. Passes are placed when the trace is written:
+/// each was read after it ended, so the offset between the clocks is at most the smallest
+/// (read time − end) over all passes — taken as the offset, which places the pass read soonest
+/// after its end (the last of an evaluation, read once its work is done) at its read time and
+/// every other pass by its own timestamps, in order and with their gaps. (Fixing the offset by
+/// the first pass read placed a pipelined evaluation's passes late by up to the evaluation's
+/// whole GPU time: its first pass is read only when the last one is done.)
 pub fn record_gpu(name: &str, end_ns: f64, dur: Duration) {
     if !enabled() {
         return;
     }
-    let offset = *GPU_OFFSET.get_or_init(|| micros(Instant::now()) - end_ns / 1e3);
-    let dur_us = dur.as_secs_f64() * 1e6;
-    let mut args = json!({});
-    if let (Some(f), Some(map)) = (frame(), args.as_object_mut()) {
-        map.insert("frame".into(), json!(f));
+    let pass = GpuPass {
+        name: name.to_string(),
+        end_us: end_ns / 1e3,
+        dur_us: dur.as_secs_f64() * 1e6,
+        frame: frame(),
+        read_us: micros(Instant::now()),
+    };
+    if let Ok(mut p) = GPU_PASSES.lock() {
+        p.push(pass);
     }
-    push(json!({
-        "ph": "X", "cat": "gpu", "name": name, "pid": 1, "tid": GPU_TRACK,
-        "ts": (end_ns / 1e3 + offset - dur_us).max(0.0), "dur": dur_us, "args": args,
-    }));
+}
+
+/// The GPU passes recorded so far as trace events, placed on the trace's clock.
+fn gpu_events() -> Vec<Value> {
+    let passes = GPU_PASSES
+        .lock()
+        .map(|mut p| std::mem::take(&mut *p))
+        .unwrap_or_default();
+    let offset = passes
+        .iter()
+        .map(|p| p.read_us - p.end_us)
+        .fold(f64::INFINITY, f64::min);
+    passes
+        .into_iter()
+        .map(|p| {
+            let args = match p.frame {
+                Some(f) => json!({ "frame": f }),
+                None => json!({}),
+            };
+            json!({
+                "ph": "X", "cat": "gpu", "name": p.name, "pid": 1, "tid": GPU_TRACK,
+                "ts": (p.end_us + offset - p.dur_us).max(0.0), "dur": p.dur_us, "args": args,
+            })
+        })
+        .collect()
 }
 
 /// Stop recording and write what was recorded to `path` (`{"traceEvents": [...]}`).
 pub fn finish(path: &Path) -> std::io::Result<()> {
     ON.store(false, Ordering::Release);
-    let events = EVENTS
+    let mut events = EVENTS
         .lock()
         .map(|mut e| std::mem::take(&mut *e))
         .unwrap_or_default();
+    events.extend(gpu_events());
     let doc = json!({"traceEvents": events, "displayTimeUnit": "ms"});
     let text = serde_json::to_vec(&doc).map_err(std::io::Error::other)?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -111,7 +111,7 @@ impl GpuScene {
     /// The value `make` derives from this scene's geometry for `key` (what else it depends on:
     /// the objects selected, and the placements when it uses world-space positions), made once
     /// and kept while any scene of the same meshes is held — the next frame of a shot whose
-    /// camera or light moves gets it again without making it. The [`DERIVED_KEPT`] latest
+    /// camera or light moves gets it again without making it. The eight latest
     /// values are kept per geometry. The second value says whether it was made earlier.
     pub fn derived<T: Any + Send + Sync>(
         &self,
