@@ -14,6 +14,7 @@ mod pool;
 mod prepare;
 pub use prepare::{Preparing, MAX_WORKERS};
 mod raster;
+mod raster_bits;
 pub use pipeline_cache::cache_dir;
 mod readback;
 pub use readback::{PendingRead, TexelRead};
@@ -38,7 +39,8 @@ pub use options::{
 pub use params::PARAMS_IN_STORAGE_BELOW;
 use pool::{narrow, widen};
 pub use pool::{GpuTexture, TexFormat, TexturePool};
-pub use raster::{bits_module, MeshDraw, MeshVertex, RasterTarget};
+pub use raster::{MeshDraw, MeshVertex, RasterTarget};
+pub use raster_bits::bits_module;
 pub use shader::{compose, Shader, ShaderFiles};
 pub use timer::PassTimer;
 pub use volume::{mip_count, mip_size, row_pitch, rows_source, GpuVolume};
