@@ -17,7 +17,14 @@ fn unavailable_nodes(registry: &Registry, r: &AdapterReport) -> Vec<(String, Str
                 .and_then(ShaderNeeds::of)
                 .map(|n| r.caps.lacks_for(&n))
                 .unwrap_or_else(|e| vec![format!("shader {} does not parse: {e}", shader.stem)]);
+            // A shader only some parameter values dispatch refuses those values, not the kind.
+            let on_demand = decl.on_demand.iter().any(|s| s.stem == shader.stem);
             for l in more {
+                let l = if on_demand {
+                    format!("{l} (only for the method using {}.wgsl)", shader.stem)
+                } else {
+                    l
+                };
                 if !lacks.contains(&l) {
                     lacks.push(l);
                 }
