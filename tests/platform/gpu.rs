@@ -412,60 +412,35 @@ fn a_node_whose_shader_needs_more_than_the_adapter_gives_fails_in_one_line() {
         size: (32, 18),
         ..Default::default()
     };
-    // The shadow map still renders (its passes bind fewer)…
-    ev.evaluate(
-        &graph,
-        &[tyndall::eval::Target::Port("shadow".into(), "map".into())],
-        &opts,
-    )
-    .expect("nodes within the limits run");
-    // …but SingleScattering is refused before any pass, naming the node and what is missing.
-    let err = ev
-        .evaluate(
-            &graph,
-            &[tyndall::eval::Target::Port(
-                "scatter".into(),
-                "inscatter".into(),
-            )],
+    let mut evaluate = |g: &tyndall::graph::Graph, node: &str, port: &str| {
+        ev.evaluate(
+            g,
+            &[tyndall::eval::Target::Port(node.into(), port.into())],
             &opts,
         )
-        .expect_err("SingleScattering needs more storage textures");
-    let msg = err.to_string();
-    assert!(
-        msg.starts_with("node 'scatter' (SingleScattering): this adapter"),
-        "{msg}"
-    );
-    assert!(msg.contains("storage textures per shader stage"), "{msg}");
-    assert!(msg.contains("allows 2"), "{msg}");
-    assert!(!msg.contains('\n'), "one line: {msg}");
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+    };
+    // A refusal names the node, what is missing and what the adapter allows, in one line.
+    let refused = |msg: String, node: &str| {
+        assert!(msg.starts_with(node), "{msg}");
+        assert!(msg.contains("storage textures per shader stage"), "{msg}");
+        assert!(msg.contains("allows 2"), "{msg}");
+        assert!(!msg.contains('\n'), "one line: {msg}");
+    };
+    // The shadow map still renders (its passes bind fewer)…
+    evaluate(&graph, "shadow", "map").expect("nodes within the limits run");
+    // …but SingleScattering is refused before any pass.
+    let msg = evaluate(&graph, "scatter", "inscatter").expect_err("SingleScattering needs more");
+    refused(msg, "node 'scatter' (SingleScattering): this adapter");
     // A method whose pass needs more (GBuffer's ray cast binds three storage textures) does not
-    // refuse the kind — the default raster G-buffer renders — but fails when chosen, in one line.
-    ev.evaluate(
-        &graph,
-        &[tyndall::eval::Target::Port(
-            "gbuffer".into(),
-            "depth".into(),
-        )],
-        &opts,
-    )
-    .expect("the raster G-buffer runs");
+    // refuse the kind — the default raster G-buffer renders — but fails when chosen.
+    evaluate(&graph, "gbuffer", "depth").expect("the raster G-buffer runs");
     let mut cast = graph.clone();
     cast.set_param_text(registry.catalog(), "gbuffer", "method", "ray_cast")
         .expect("method");
-    let err = ev
-        .evaluate(
-            &cast,
-            &[tyndall::eval::Target::Port(
-                "gbuffer".into(),
-                "depth".into(),
-            )],
-            &opts,
-        )
-        .expect_err("the ray cast needs three storage textures");
-    let msg = err.to_string();
-    assert!(msg.starts_with("node 'gbuffer' (GBuffer)"), "{msg}");
-    assert!(msg.contains("allows 2"), "{msg}");
-    assert!(!msg.contains('\n'), "one line: {msg}");
+    let msg = evaluate(&cast, "gbuffer", "depth").expect_err("the ray cast needs three");
+    refused(msg, "node 'gbuffer' (GBuffer)");
 }
 
 #[test]
