@@ -22,9 +22,10 @@
 //! | `sigma_range` | Float | 0.5 | 0…1e9 guide units | range σr (metres for a depth guide) |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -156,7 +157,7 @@ pub fn reference(src: &Raster, guide: Option<&[f32]>, s: Settings) -> Raster {
 }
 
 fn gpu_pass(
-    gpu: &Gpu,
+    gpu: &Recorder,
     src: &GpuTexture,
     guide: Option<&GpuTexture>,
     s: Settings,

@@ -30,11 +30,12 @@
 //! | `box_min`, `box_max` | Vec3 | (−5, 0, −5), (5, 5, 5) | ±1e6 m | the box without a scene |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use serde::{Deserialize, Serialize};
 
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuVolume, Shader};
+use tyndall_engine::gpu::{Bind, GpuVolume, Shader};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 use crate::algorithms::volume_mips;
@@ -205,7 +206,7 @@ pub fn reference(
 /// and the splats' values to the role's range; every texel is then a convex combination of
 /// them, so it stays in range.
 pub fn bake(
-    gpu: &Gpu,
+    gpu: &Recorder,
     splats: &[Splat],
     base: f32,
     n: u32,

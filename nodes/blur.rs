@@ -19,9 +19,10 @@
 //! | `truncate` | Float | 3 | 1…6 σ | kernel radius r = ⌈truncate · σ⌉ (quality knob) |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -125,7 +126,7 @@ pub fn reference(input: &Raster, sigma: f64, truncate: f64) -> Raster {
 }
 
 fn gpu_pass(
-    gpu: &Gpu,
+    gpu: &Recorder,
     src: &GpuTexture,
     w: &GpuTexture,
     radius: i32,

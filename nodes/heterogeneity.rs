@@ -132,7 +132,7 @@ pub struct CpuVolume {
 impl CpuVolume {
     /// Read a GPU volume back (every level).
     pub fn read(
-        gpu: &tyndall_engine::gpu::Gpu,
+        gpu: &tyndall_engine::gpu::Recorder,
         v: &GpuVolume,
         bounds: [[f32; 3]; 2],
     ) -> Result<Self, tyndall_engine::gpu::GpuError> {

@@ -21,10 +21,11 @@
 //! | `calibrated` | Bool | true | | h is the hole fraction (threshold = h-quantile of the input) |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use crate::algorithms::quantile::{self, Histogram, Rank};
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -94,7 +95,7 @@ pub fn reference(noise: &Raster, threshold: f32) -> Raster {
 /// The hole map of `noise` with parameters `p` on the GPU, the calibrated threshold selected
 /// with histograms of the form `form`.
 pub fn holes(
-    gpu: &Gpu,
+    gpu: &Recorder,
     noise: &GpuTexture,
     p: &Params,
     form: Histogram,

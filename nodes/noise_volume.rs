@@ -24,9 +24,10 @@
 //! | `box_min`, `box_max` | Vec3 | (−5, 0, −5), (5, 5, 5) | ±1e6 m | the box without a scene |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuVolume, Shader};
+use tyndall_engine::gpu::{Bind, GpuError, GpuVolume, Shader};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 use crate::algorithms::volume_mips;
@@ -188,7 +189,7 @@ pub fn reference_mip(below: &[f32], s: [u32; 3]) -> Vec<f32> {
 }
 
 /// Build the noise volume and its mip chain on the GPU.
-pub fn build(gpu: &Gpu, p: &NoiseParams) -> Result<GpuVolume, GpuError> {
+pub fn build(gpu: &Recorder, p: &NoiseParams) -> Result<GpuVolume, GpuError> {
     let v = gpu.volume(p.size)?;
     gpu.dispatch_3d(
         SHADER,

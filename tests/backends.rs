@@ -261,9 +261,13 @@ fn read_back(gpu: &tyndall::gpu::Gpu, v: &tyndall::eval::PortValue) -> Vec<f32> 
     use tyndall::eval::PortValue;
     match v {
         PortValue::Volume(vol, _) | PortValue::SoftShadow(vol, _) => {
-            gpu.read_volume(vol, 0).expect("read the volume")
+            gpu.recorder().read_volume(vol, 0).expect("read the volume")
         }
-        other => tyndall::eval::download(gpu, other).expect("read back").data,
+        other => {
+            tyndall::eval::download(&gpu.recorder(), other)
+                .expect("read back")
+                .data
+        }
     }
 }
 

@@ -14,9 +14,10 @@
 //! CPU twins; `shaders/algorithms/cube_atlas.wgsl` the GPU passes.
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use glam::Vec3;
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
 use tyndall_engine::io::Raster;
 use tyndall_engine::scene::{cube_face, face_basis, LocalLight};
 
@@ -61,7 +62,7 @@ fn params(face: u32, gutter: u32, light: &LocalLight) -> CubeParams {
 /// `atlas` (3 × 2 faces of `w / 3` texels) with a gutter of `gutter` texels around every face:
 /// 3 × 2 faces of `w / 3 + 2 · gutter`.
 pub fn pad(
-    gpu: &Gpu,
+    gpu: &Recorder,
     atlas: &GpuTexture,
     light: &LocalLight,
     gutter: u32,
@@ -86,7 +87,7 @@ pub fn pad(
 
 /// The inner faces of a padded atlas (see [`pad`]) of faces `face` texels wide.
 pub fn crop(
-    gpu: &Gpu,
+    gpu: &Recorder,
     padded: &GpuTexture,
     face: u32,
     light: &LocalLight,

@@ -4,7 +4,8 @@
 //! renders the depth of each painted view with it.
 
 use tyndall_engine::eval::Matrices;
-use tyndall_engine::gpu::{Gpu, GpuError, GpuTexture, MeshDraw, RasterTarget, Shader, TexFormat};
+use tyndall_engine::gpu::Recorder;
+use tyndall_engine::gpu::{GpuError, GpuTexture, MeshDraw, RasterTarget, Shader, TexFormat};
 use tyndall_engine::scene::GpuScene;
 
 use super::ray_cast::{self, Method};
@@ -33,7 +34,7 @@ tyndall_engine::uniforms! {
 /// view of the scene, e.g. `LightMapSolve`). A kind calling it with [`Method::RayCast`] lists
 /// [`ray_cast::G_BUFFER_SHADER`] and its uniforms too.
 pub fn render(
-    gpu: &Gpu,
+    gpu: &Recorder,
     scene: &GpuScene,
     cam: &tyndall_engine::scene::Camera,
     (w, h): (u32, u32),

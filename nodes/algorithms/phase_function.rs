@@ -4,7 +4,7 @@
 //! Legendre recurrence, and the analytic Henyey–Greenstein and Rayleigh models.
 
 use tyndall_engine::eval::{NodeError, PortValue};
-use tyndall_engine::gpu::Gpu;
+use tyndall_engine::gpu::Recorder;
 
 /// A phase-function table on the CPU, in f64 (see the module docs for the layout).
 #[derive(Debug, Clone, PartialEq)]
@@ -130,7 +130,7 @@ impl PhaseTable {
     }
 
     /// Read a `Phase` value back.
-    pub fn read(gpu: &Gpu, value: &PortValue) -> Result<Self, NodeError> {
+    pub fn read(gpu: &Recorder, value: &PortValue) -> Result<Self, NodeError> {
         let r = tyndall_engine::eval::download(gpu, value)?;
         Ok(Self {
             rgb: r

@@ -3,7 +3,8 @@
 //! is this pass as a node; `DepthUpsample` reduces a full-resolution depth with it when no
 //! low-resolution depth is connected, and `ImageInput`'s `reduce` is its CPU reference.
 
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::Recorder;
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::io::Raster;
 
 /// The pass (`shaders/algorithms/point_sample.wgsl`); a kind that calls [`downsample`] lists it
@@ -49,7 +50,7 @@ pub fn reference(src: &Raster, factor: u32) -> Raster {
 
 /// Point-sample `src` on the GPU.
 /// [`reference()`] on the GPU, for a one-channel (`R32F`) or RGBA texture.
-pub fn downsample(gpu: &Gpu, src: &GpuTexture, factor: u32) -> Result<GpuTexture, GpuError> {
+pub fn downsample(gpu: &Recorder, src: &GpuTexture, factor: u32) -> Result<GpuTexture, GpuError> {
     let (w, h) = (src.width.div_ceil(factor), src.height.div_ceil(factor));
     let out = gpu.texture(w, h, src.format)?;
     let u = PointSampleParams {

@@ -6,7 +6,8 @@
 //! [`reference()`]. Hole maps' calibrated thresholds and transfer functions' automatic depth
 //! ranges use it.
 
-use tyndall_engine::gpu::{Bind, Gpu, GpuBuffer, GpuError, GpuTexture, Shader};
+use tyndall_engine::gpu::Recorder;
+use tyndall_engine::gpu::{Bind, GpuBuffer, GpuError, GpuTexture, Shader};
 
 /// The passes; a kind that calls [`select`] lists it in its `NodeDecl::shaders`, and
 /// [`QuantileParams::LAYOUT`] in its uniforms.
@@ -66,7 +67,7 @@ pub enum Histogram {
 
 impl Histogram {
     /// The form for `gpu`'s adapter.
-    pub fn for_adapter(gpu: &Gpu) -> Self {
+    pub fn for_adapter(gpu: &Recorder) -> Self {
         if gpu.is_cpu() {
             Self::Shared
         } else {
@@ -117,7 +118,7 @@ pub fn value_of(key: u32) -> f32 {
 /// Select the q-quantile of `values` (channel r) on the GPU; the result's [`KEY_WORD`] holds
 /// its key and [`N_WORD`] how many values took part (0: none, the key means nothing).
 pub fn select(
-    gpu: &Gpu,
+    gpu: &Recorder,
     values: &GpuTexture,
     q: f64,
     rank: Rank,
@@ -153,7 +154,7 @@ pub fn select(
 
 /// The value a [`select`] chose, read back (the buffer's 1,036 bytes), or `None` when no value
 /// took part.
-pub fn read_value(gpu: &Gpu, sel: &GpuBuffer) -> Result<Option<f32>, GpuError> {
+pub fn read_value(gpu: &Recorder, sel: &GpuBuffer) -> Result<Option<f32>, GpuError> {
     let words = gpu.read_buffer_i32(sel)?;
     Ok((words[N_WORD] != 0).then(|| value_of(words[KEY_WORD] as u32)))
 }

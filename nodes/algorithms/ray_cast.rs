@@ -24,9 +24,10 @@
 
 use std::hash::{Hash, Hasher};
 use std::ops::Range;
+use tyndall_engine::gpu::Recorder;
 
 use glam::{Mat4, Vec3, Vec4};
-use tyndall_engine::gpu::{Bind, Gpu, GpuBuffer, GpuError, GpuTexture, Shader};
+use tyndall_engine::gpu::{Bind, GpuBuffer, GpuError, GpuTexture, Shader};
 use tyndall_engine::scene::{GpuScene, MeshVertex, Scene};
 
 /// The G-buffer pass (`shaders/algorithms/ray_cast/g_buffer.wgsl`); a kind that casts lists the
@@ -303,7 +304,7 @@ pub struct GpuBvh {
 /// The BVH of the objects `draws` selects ([`GpuScene::draws`], [`GpuScene::select`]) in world
 /// space, built and uploaded once per geometry, placement and selection.
 pub fn scene_bvh(
-    gpu: &Gpu,
+    gpu: &Recorder,
     scene: &GpuScene,
     draws: &[(u32, Range<u32>)],
 ) -> Result<std::sync::Arc<GpuBvh>, GpuError> {
@@ -421,7 +422,7 @@ fn texels(p: &RayCastParams) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
 
 /// Upload `bvh`, with `attributes(t)` the six `vec4`s of triangle `t` of its build list.
 fn upload(
-    gpu: &Gpu,
+    gpu: &Recorder,
     bvh: &Bvh,
     attributes: impl Fn(u32) -> Vec<[f32; 4]>,
 ) -> Result<GpuBvh, GpuError> {
@@ -478,7 +479,7 @@ pub fn linear_far(near: f32, far: f32) -> f32 {
 /// A G-buffer by ray casting: writes `depth`, `normal`, `albedo` as
 /// `shaders/algorithms/g_buffer.wgsl` does (`p.eye` and `p.far` set).
 pub fn g_buffer(
-    gpu: &Gpu,
+    gpu: &Recorder,
     bvh: &GpuBvh,
     p: &RayCastParams,
     (depth, normal, albedo): (&GpuTexture, &GpuTexture, &GpuTexture),
@@ -503,7 +504,7 @@ pub fn g_buffer(
 /// A shadow map by ray casting: the clip depth of the nearest surface per texel (1 where
 /// none), as `shaders/shadow_map.wgsl` writes it.
 pub fn shadow(
-    gpu: &Gpu,
+    gpu: &Recorder,
     bvh: &GpuBvh,
     p: &RayCastParams,
     out: &GpuTexture,

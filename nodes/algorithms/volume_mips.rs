@@ -2,7 +2,8 @@
 //! covers. `NoiseVolume` and `BlendVolume` build it after writing level 0; a kind that calls
 //! [`build`] lists [`SHADER`] in its `NodeDecl::shaders`.
 
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuVolume, Shader};
+use tyndall_engine::gpu::Recorder;
+use tyndall_engine::gpu::{Bind, GpuError, GpuVolume, Shader};
 
 /// The pass (`shaders/algorithms/volume_mips.wgsl`, entry point `mip`).
 pub const SHADER: Shader = crate::shader(
@@ -11,7 +12,7 @@ pub const SHADER: Shader = crate::shader(
 );
 
 /// Fill levels 1… of `v` from level 0, one pass per level.
-pub fn build(gpu: &Gpu, v: &GpuVolume) -> Result<(), GpuError> {
+pub fn build(gpu: &Recorder, v: &GpuVolume) -> Result<(), GpuError> {
     for level in 1..v.mips() {
         gpu.dispatch_3d(
             SHADER,

@@ -1,7 +1,8 @@
 //! The fast path of `EpipolarDilation` / `EpipolarClosure` (see the parent module's docs):
 //! the rectified grid of epipolar rays, its 1D van Herk / Gil–Werman filter and the exact ends.
 
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, TexFormat};
+use tyndall_engine::gpu::Recorder;
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, TexFormat};
 
 use super::{pass, EpiParams, SHADER};
 
@@ -153,7 +154,11 @@ pub fn rect_params(
     })
 }
 
-pub(super) fn fast_pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
+pub(super) fn fast_pass(
+    gpu: &Recorder,
+    src: &GpuTexture,
+    p: EpiParams,
+) -> Result<GpuTexture, GpuError> {
     let limit = gpu.limits.max_texture_dimension_2d;
     let Some(rect) = rect_params(
         src.width,

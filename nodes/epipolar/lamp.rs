@@ -2,9 +2,10 @@
 //! spot's perspective map in q = 1 − near / w, and a point light's cube atlas face by face.
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::eval::Matrices;
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, TexFormat};
 use tyndall_engine::io::Raster;
 
 use super::{pass, reference_sides, EpiOp, EpiParams, SHADER};
@@ -103,7 +104,7 @@ pub fn reference_spot(
 }
 
 pub(super) fn to_q(
-    gpu: &Gpu,
+    gpu: &Recorder,
     src: &GpuTexture,
     persp: Perspective,
 ) -> Result<GpuTexture, GpuError> {
@@ -124,7 +125,7 @@ pub(super) fn to_q(
 }
 
 pub(super) fn from_q(
-    gpu: &Gpu,
+    gpu: &Recorder,
     depth: &GpuTexture,
     before: &GpuTexture,
     after: &GpuTexture,
@@ -198,7 +199,7 @@ pub fn cube_epipoles(
 /// so an extrusion crosses into the neighbouring face where its line does — and the inner faces
 /// cropped back.
 pub(super) fn run_cube(
-    gpu: &Gpu,
+    gpu: &Recorder,
     tex: &Arc<GpuTexture>,
     light: &tyndall_engine::scene::LocalLight,
     camera: &Matrices,

@@ -54,9 +54,10 @@
 //! stays the default.
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -218,7 +219,7 @@ pub fn epipole(light: &Matrices, camera: &Matrices, w: u32, h: u32) -> ([f32; 2]
     )
 }
 
-fn pass(gpu: &Gpu, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
+fn pass(gpu: &Recorder, src: &GpuTexture, p: EpiParams) -> Result<GpuTexture, GpuError> {
     let out = gpu.texture(src.width, src.height, TexFormat::R32F)?;
     gpu.dispatch(
         SHADER,

@@ -76,12 +76,13 @@
 //! | `g` | Float | 0.5 | −0.999…0.999 | the medium's Henyey–Greenstein g (weighs a spot's samples) |
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 use tyndall_engine::scene::{Camera, GpuScene};
@@ -145,7 +146,7 @@ const SHADER: Shader = crate::shader(
 
 /// Render each view's depth and rasterise its strokes.
 pub fn view_problems(
-    gpu: &Gpu,
+    gpu: &Recorder,
     scene: &GpuScene,
     data: &SolveData,
 ) -> Result<Vec<ViewProblem>, NodeError> {
@@ -290,7 +291,7 @@ pub fn solve_reference(
 /// The GPU solve for given views (tests and the bench): the node's path without the graph
 /// (the resident solve).
 pub fn solve_gpu(
-    gpu: &Gpu,
+    gpu: &Recorder,
     views: Vec<ViewProblem>,
     shadow: &GpuTexture,
     light: Matrices,

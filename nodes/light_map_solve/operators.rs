@@ -1,9 +1,8 @@
 //! The operator T of the least-squares problem (a constraint pixel's view ray, marched to its
 //! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
 
-use super::{
-    Bind, Gpu, GpuError, GpuTexture, Matrices, NodeError, Operator, Raster, TexFormat, SHADER,
-};
+use super::{Bind, GpuError, GpuTexture, Matrices, NodeError, Operator, Raster, TexFormat, SHADER};
+use tyndall_engine::gpu::Recorder;
 
 use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein, light_uvz, sun_reaches};
 
@@ -322,7 +321,7 @@ pub(super) struct GpuView {
 
 /// The operator T on the GPU.
 pub struct GpuOperator<'a> {
-    gpu: &'a Gpu,
+    gpu: &'a Recorder<'a>,
     views: Vec<GpuView>,
     shadow: &'a GpuTexture,
     light: Matrices,
@@ -334,7 +333,7 @@ pub struct GpuOperator<'a> {
 impl<'a> GpuOperator<'a> {
     /// Upload the views' depths and targets.
     pub fn new(
-        gpu: &'a Gpu,
+        gpu: &'a Recorder<'a>,
         views: Vec<ViewProblem>,
         shadow: &'a GpuTexture,
         light: Matrices,

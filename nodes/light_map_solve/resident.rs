@@ -8,9 +8,10 @@
 //! operator path (`GpuOperator`) read every view and the 3 × n² fixed-point sums back.
 
 use super::{
-    desired, fixed_point_scale, Bind, Gpu, GpuError, GpuTexture, Matrices, NodeError, Sampling,
+    desired, fixed_point_scale, Bind, GpuError, GpuTexture, Matrices, NodeError, Sampling,
     Settings, Solution, ViewParams, ViewProblem, SHADER,
 };
+use tyndall_engine::gpu::Recorder;
 
 use tyndall_engine::gpu::GpuBuffer;
 
@@ -64,7 +65,7 @@ struct View {
 
 /// The resident solver's state: the views and the scratch buffers.
 struct Resident<'a> {
-    gpu: &'a Gpu,
+    gpu: &'a Recorder<'a>,
     views: Vec<View>,
     shadow: &'a GpuTexture,
     light: Matrices,
@@ -83,7 +84,7 @@ impl<'a> Resident<'a> {
     /// Upload the views with constrained pixels (their depths and pixel lists) and the
     /// solver's scratch buffers.
     fn upload(
-        gpu: &'a Gpu,
+        gpu: &'a Recorder<'a>,
         views: Vec<ViewProblem>,
         shadow: &'a GpuTexture,
         light: Matrices,
@@ -401,7 +402,7 @@ fn vec4_data(v: &[[f32; 3]]) -> Vec<u32> {
 /// [`crate::algorithms::cgls::solve`].
 #[allow(clippy::too_many_arguments)]
 pub fn solve_resident(
-    gpu: &Gpu,
+    gpu: &Recorder,
     views: Vec<ViewProblem>,
     shadow: &GpuTexture,
     light: Matrices,

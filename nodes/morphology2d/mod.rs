@@ -36,6 +36,7 @@
 mod polygon;
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use crate::algorithms::cube_atlas;
 
@@ -46,7 +47,7 @@ pub use polygon::{
 };
 
 use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat, UniformLayout};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
@@ -257,7 +258,13 @@ pub fn radius_texels(
     Ok(texels.round().clamp(0.0, 1e6) as i32)
 }
 
-fn pass(gpu: &Gpu, src: &GpuTexture, r: i32, max: bool, axis: u32) -> Result<GpuTexture, GpuError> {
+fn pass(
+    gpu: &Recorder,
+    src: &GpuTexture,
+    r: i32,
+    max: bool,
+    axis: u32,
+) -> Result<GpuTexture, GpuError> {
     let (w, h) = (src.width, src.height);
     let u = MorphParams {
         r,
@@ -305,7 +312,7 @@ fn pass(gpu: &Gpu, src: &GpuTexture, r: i32, max: bool, axis: u32) -> Result<Gpu
 
 /// Min (or max) filter of `src` on the GPU by `method`.
 pub fn filter(
-    gpu: &Gpu,
+    gpu: &Recorder,
     src: &Arc<GpuTexture>,
     r: i32,
     circle: bool,

@@ -17,9 +17,10 @@
 //! [`reference_lines`] applies the same segments in the same order.
 
 use std::sync::Arc;
+use tyndall_engine::gpu::Recorder;
 
 use super::{chord, SHADER_LINES};
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, TexFormat};
 use tyndall_engine::io::Raster;
 
 /// The eight directions and which of the three lengths each uses.
@@ -345,7 +346,7 @@ fn line_params(
 /// The polygon filter on the GPU: the [`segments`] of [`polygon`]`(r)` in order, one dispatch
 /// each between two buffers the map's size (copied in from `src` and out to the result).
 pub fn filter(
-    gpu: &Gpu,
+    gpu: &Recorder,
     src: &Arc<GpuTexture>,
     r: i32,
     max: bool,

@@ -45,6 +45,7 @@
 //! | MultipleScatteringPhase | in `phase` (required); out `phase`, `forward` | `select` (count; count, transmittance), `n` (2, 1…26), `albedo` (1, 0…1), `transmittance` (0.5, 1e-12…1) |
 
 use tables::threads;
+use tyndall_engine::gpu::Recorder;
 
 use std::sync::Arc;
 
@@ -53,7 +54,7 @@ use num_complex::Complex64;
 use crate::algorithms::lorenz_mie::{self, Population};
 use crate::algorithms::phase_function::PhaseTable;
 use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
-use tyndall_engine::gpu::{Bind, Gpu, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 
 mod tables;
@@ -264,7 +265,7 @@ fn params(width: u32, count: u32, g: f32) -> PhaseParams {
 }
 
 /// Normalise a raw table on the GPU (one workgroup reduction): the `Phase` value.
-fn normalise(gpu: &Gpu, raw: &GpuTexture) -> Result<GpuTexture, NodeError> {
+fn normalise(gpu: &Recorder, raw: &GpuTexture) -> Result<GpuTexture, NodeError> {
     let out = gpu.texture(raw.width, 1, TexFormat::Rgba32F)?;
     let u = params(raw.width, 0, 0.0);
     gpu.dispatch(
@@ -282,7 +283,7 @@ fn normalise(gpu: &Gpu, raw: &GpuTexture) -> Result<GpuTexture, NodeError> {
 }
 
 /// Tabulate an analytic entry point (`henyey_greenstein`, `rayleigh`) and normalise it.
-fn analytic(gpu: &Gpu, entry: &str, w: u32, g: f32) -> Result<GpuTexture, NodeError> {
+fn analytic(gpu: &Recorder, entry: &str, w: u32, g: f32) -> Result<GpuTexture, NodeError> {
     let raw = gpu.texture(w, 1, TexFormat::Rgba32F)?;
     let u = params(w, 0, g);
     gpu.dispatch(

@@ -1,13 +1,17 @@
 //! GPU driving: the min-max pyramid, the Epipolar passes, and the one dispatch of each method.
 
 use super::{
-    epipolar_geometry, pyramid_layout, Bind, BuildParams, EpiKnobs, EpiParams, Gpu, GpuError,
+    epipolar_geometry, pyramid_layout, Bind, BuildParams, EpiKnobs, EpiParams, GpuError,
     GpuTexture, LevelsParams, LightMapView, Matrices, Method, NodeError, Params, ScatterParams,
     SoftView, TexFormat, BRUTE_FORCE, EPIPOLAR, IDENTITY, MIN_MAX,
 };
+use tyndall_engine::gpu::Recorder;
 
 /// Build the min-max pyramid of `map`: returns the level table and the RG32F atlas.
-pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTexture), GpuError> {
+pub fn build_pyramid(
+    gpu: &Recorder,
+    map: &GpuTexture,
+) -> Result<(LevelsParams, GpuTexture), GpuError> {
     let (levels, aw, ah) = pyramid_layout(map.width, map.height);
     let front = gpu.texture(aw, ah, TexFormat::Rg32F)?;
     let back = gpu.texture(aw, ah, TexFormat::Rg32F)?;
@@ -50,7 +54,7 @@ pub fn build_pyramid(gpu: &Gpu, map: &GpuTexture) -> Result<(LevelsParams, GpuTe
 /// having no usable sample (`epi_fallback`).
 /// `binds` are the `MinMax` dispatch's.
 pub(super) fn dispatch_epipolar(
-    gpu: &Gpu,
+    gpu: &Recorder,
     u: &ScatterParams,
     knobs: EpiKnobs,
     shadow: &GpuTexture,
@@ -145,7 +149,7 @@ pub(super) struct Inputs<'a> {
 /// The method's passes: `[visibility, in-scatter, transmittance]`. Placeholders fill the
 /// bindings of unconnected inputs; pipeline constants compile away what is off.
 pub(super) fn scatter(
-    gpu: &Gpu,
+    gpu: &Recorder,
     u: &ScatterParams,
     i: &Inputs,
     p: &Params,

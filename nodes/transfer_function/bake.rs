@@ -3,11 +3,12 @@
 
 use crate::algorithms::multigrid::Rgba;
 use crate::algorithms::quantile::{self, Histogram, Rank};
+use tyndall_engine::gpu::Recorder;
 
 use super::data::lerp_n;
 use super::diffusion::mg_pass;
 use super::{
-    diffuse_gpu, diffuse_reference, Bind, Blend, Gpu, GpuTexture, Layer, LayerEntry, Matrices,
+    diffuse_gpu, diffuse_reference, Bind, Blend, GpuTexture, Layer, LayerEntry, Matrices,
     NodeError, Path, Raster, TexFormat, IDENTITY,
 };
 
@@ -133,7 +134,7 @@ fn depth_limit(m: &Matrices) -> Option<f32> {
 /// kept there (`quantile::select`'s buffers): the node's `lookup_selected` pass reads them, so
 /// `depth_range = auto` reads nothing back.
 pub fn auto_range_select(
-    gpu: &tyndall_engine::gpu::Gpu,
+    gpu: &tyndall_engine::gpu::Recorder,
     depth: &tyndall_engine::gpu::GpuTexture,
     m: &Matrices,
 ) -> Result<[tyndall_engine::gpu::GpuBuffer; 2], tyndall_engine::gpu::GpuError> {
@@ -145,7 +146,7 @@ pub fn auto_range_select(
 /// [`auto_range`] of a depth map on the GPU ([`auto_range_select`]), its two selections read
 /// back (2 × 1,036 bytes, not the map): the numbers, for tests and tools.
 pub fn auto_range_gpu(
-    gpu: &tyndall_engine::gpu::Gpu,
+    gpu: &tyndall_engine::gpu::Recorder,
     depth: &tyndall_engine::gpu::GpuTexture,
     m: &Matrices,
 ) -> Result<(f32, f32), tyndall_engine::gpu::GpuError> {
@@ -202,7 +203,7 @@ tyndall_engine::uniforms! {
 
 /// Bake a layer stack into an N×N table on the GPU.
 pub fn bake_gpu(
-    gpu: &Gpu,
+    gpu: &Recorder,
     stack: &[LayerEntry],
     n: u32,
     cycles: u32,

@@ -1,10 +1,11 @@
 //! Diffusion layers: constraints rasterised onto the TF grid and diffused by the multigrid
 //! solver of [`crate::algorithms::multigrid`] (CPU reference) or its GPU passes.
 
-use super::{Bind, Constraint, Gpu, GpuError, GpuTexture, Raster, TexFormat, SHADER};
+use super::{Bind, Constraint, GpuError, GpuTexture, Raster, TexFormat, SHADER};
 use crate::algorithms::multigrid::{
     levels, pin, vcycle, Grid, Level, Rgba, COARSE_SWEEPS, OMEGA, SWEEPS,
 };
+use tyndall_engine::gpu::Recorder;
 
 /// The constrained texels of an N×N diffusion layer: the mask and the fixed colours (constraints
 /// sharing a texel averaged), and the mean of all constraint colours (the start value).
@@ -74,7 +75,7 @@ pub(super) struct GpuLevel {
 }
 
 pub(super) fn mg_pass(
-    gpu: &Gpu,
+    gpu: &Recorder,
     entry: &str,
     size: (u32, u32),
     binds: &[(&str, Bind)],
@@ -87,7 +88,7 @@ pub(super) fn mg_pass(
 }
 
 pub(super) struct Multigrid<'a> {
-    gpu: &'a Gpu,
+    gpu: &'a Recorder<'a>,
     levels: Vec<GpuLevel>,
     values: GpuTexture,
 }
@@ -175,7 +176,7 @@ impl Multigrid<'_> {
 
 /// Solve a diffusion layer on the GPU (the same V-cycles as [`diffuse_reference`]).
 pub fn diffuse_gpu(
-    gpu: &Gpu,
+    gpu: &Recorder,
     cs: &[Constraint],
     n: u32,
     cycles: u32,

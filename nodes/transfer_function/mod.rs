@@ -89,7 +89,7 @@ use tyndall_engine::eval::pick::{PickAt, TablePick};
 use tyndall_engine::eval::{
     KeyInput, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, IDENTITY,
 };
-use tyndall_engine::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 

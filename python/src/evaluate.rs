@@ -101,7 +101,8 @@ fn fetch(
             port: p.clone(),
             ty: v.port_type().to_string(),
         };
-        let raster = tyndall_engine::eval::download(ev.gpu(), v).map_err(|_| not_array())?;
+        let raster =
+            tyndall_engine::eval::download(&ev.gpu().recorder(), v).map_err(|_| not_array())?;
         let m = match v {
             PortValue::Depth(_, m) | PortValue::ShadowMap(_, m) | PortValue::LightMap(_, m) => {
                 Some(*m)

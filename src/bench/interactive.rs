@@ -61,7 +61,7 @@ fn picture(
             gpu.wait().map_err(|e| failed(&e))?;
         }
         _ => {
-            download(gpu, v).map_err(|e| failed(&e))?;
+            download(&gpu.recorder(), v).map_err(|e| failed(&e))?;
         }
     }
     let ms = start.elapsed().as_secs_f64() * 1e3;

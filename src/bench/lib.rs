@@ -301,7 +301,7 @@ pub(crate) fn read_port(
         .get(&(node.to_string(), port.to_string()))
         .ok_or_else(|| BenchError::Input(format!("{node}.{port} produced nothing")))?;
     Ok((
-        download(gpu, v).map_err(|e| BenchError::Input(e.to_string()))?,
+        download(&gpu.recorder(), v).map_err(|e| BenchError::Input(e.to_string()))?,
         ms,
     ))
 }

@@ -385,7 +385,8 @@ pub(super) fn warn_not_in_effect(registry: &Registry, g: &Graph, set: &[(String,
 }
 
 pub(super) fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), CliError> {
-    let mut raster = download(gpu, v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+    let mut raster =
+        download(&gpu.recorder(), v).map_err(|e| bad(format!("{}: {e}", path.display())))?;
     if let PortValue::Phase(_) = v {
         // A phase table is written as W×1 RGB (its alpha carries nothing).
         raster.data = raster

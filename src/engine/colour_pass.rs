@@ -12,7 +12,7 @@
 //! (`Gpu::lut_volume`; OpenColorIO's shader interpolates them itself). The text is a runtime
 //! shader ([`Shader::runtime`]): one per distinct transform, its pipeline cached.
 
-use crate::gpu::{Bind, Gpu, GpuError, GpuTexture, Shader, TexFormat};
+use crate::gpu::{Bind, GpuError, GpuTexture, Recorder, Shader, TexFormat};
 
 use ocio::gpu::{GpuShaderCreator, GpuShaderDesc};
 
@@ -197,7 +197,7 @@ fn binding_name(text: &str, b: u32) -> Option<String> {
 }
 
 /// The transform over `src` (four channels): a new Rgba32F texture of its size.
-pub fn apply(gpu: &Gpu, pass: &OcioPass, src: &GpuTexture) -> Result<GpuTexture, GpuError> {
+pub fn apply(gpu: &Recorder, pass: &OcioPass, src: &GpuTexture) -> Result<GpuTexture, GpuError> {
     run(gpu, pass, pass.shader, "apply", src, None)
 }
 
@@ -206,7 +206,7 @@ pub fn apply(gpu: &Gpu, pass: &OcioPass, src: &GpuTexture) -> Result<GpuTexture,
 /// texture of display values (non-finite inputs NaN), which the display pass then quantizes
 /// without encoding ([`crate::display::Look::encoded`]).
 pub fn view(
-    gpu: &Gpu,
+    gpu: &Recorder,
     pass: &OcioPass,
     src: &GpuTexture,
     channel: crate::display::Channel,
@@ -220,7 +220,7 @@ pub fn view(
 }
 
 fn run(
-    gpu: &Gpu,
+    gpu: &Recorder,
     pass: &OcioPass,
     shader: Shader,
     entry: &str,

@@ -223,7 +223,12 @@ pub fn run_node_with(
     Ok(result
         .outputs
         .iter()
-        .map(|((_, port), v)| (port.clone(), download(gpu, v).expect("download")))
+        .map(|((_, port), v)| {
+            (
+                port.clone(),
+                download(&gpu.recorder(), v).expect("download"),
+            )
+        })
         .collect())
 }
 
@@ -280,7 +285,7 @@ impl Outputs {
 
     /// The value on `node.port`, read back.
     pub fn read(&self, node: &str, port: &str) -> Raster {
-        tyndall::eval::download(&self.gpu, self.get(node, port)).expect("download")
+        tyndall::eval::download(&self.gpu.recorder(), self.get(node, port)).expect("download")
     }
 }
 

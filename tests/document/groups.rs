@@ -72,7 +72,8 @@ fn eval(g: &Graph, ports: &[(&str, &str)]) -> Vec<tyndall::io::Raster> {
     ports
         .iter()
         .map(|(n, p)| {
-            tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())]).unwrap()
+            tyndall::eval::download(&gpu.recorder(), &r.outputs[&(n.to_string(), p.to_string())])
+                .unwrap()
         })
         .collect()
 }

@@ -116,7 +116,8 @@ fn the_viewer_display_transform_matches_the_cpu() {
             let transform = make(v, l);
             for channel in Channel::ALL {
                 for stops in [-2.0f32, 0.0, 1.5] {
-                    let viewed = view(&gpu, transform.pass(), &t, channel, stops).expect("view");
+                    let viewed =
+                        view(&gpu.recorder(), transform.pass(), &t, channel, stops).expect("view");
                     let shown = display.draw(&gpu, &viewed, Look::encoded()).expect("draw");
                     let got = read_shown(&gpu, &shown).expect("read");
                     let want = to_display8(&r, channel, stops, Some(&transform));

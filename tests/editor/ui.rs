@@ -855,7 +855,11 @@ fn direct(
     let r = tyndall::eval::Evaluator::new(registry, gpu.clone())
         .evaluate(&flat, &[target], &opts)
         .expect("evaluate");
-    tyndall::eval::download(gpu, &r.outputs[&("tonemap".into(), "out".into())]).expect("download")
+    tyndall::eval::download(
+        &gpu.recorder(),
+        &r.outputs[&("tonemap".into(), "out".into())],
+    )
+    .expect("download")
 }
 
 #[test]
@@ -1062,9 +1066,11 @@ fn tool_jobs_run_on_the_worker_evaluator_with_its_cache_and_the_newest_ask_wins(
                 .evaluate(&graph, &[target], &opts)
                 .map_err(|e| e.to_string())?;
             let status = r.stats.status("tonemap");
-            let picture =
-                tyndall::eval::download(ev.gpu(), &r.outputs[&("tonemap".into(), "out".into())])
-                    .map_err(|e| e.to_string())?;
+            let picture = tyndall::eval::download(
+                &ev.gpu().recorder(),
+                &r.outputs[&("tonemap".into(), "out".into())],
+            )
+            .map_err(|e| e.to_string())?;
             Ok(Box::new((status, picture.data)))
         }),
     );

@@ -293,9 +293,11 @@ fn animated_camera_and_sun_follow_each_interpolation() {
             };
             let target = [Target::Port("gbuffer".into(), "albedo".into())];
             let r = ev.evaluate(&g, &target, &opts).unwrap();
-            let albedo =
-                tyndall::eval::download(&gpu, &r.outputs[&("gbuffer".into(), "albedo".into())])
-                    .unwrap();
+            let albedo = tyndall::eval::download(
+                &gpu.recorder(),
+                &r.outputs[&("gbuffer".into(), "albedo".into())],
+            )
+            .unwrap();
             let (mut sx, mut sy, mut n) = (0.0f64, 0.0f64, 0usize);
             for y in 0..H {
                 for x in 0..W {
@@ -434,7 +436,8 @@ fn an_animated_mesh_moves_in_the_gbuffer_and_the_shadow_map() {
         ];
         let r = ev.evaluate(&g, &targets, &opts).unwrap();
         let value = |n: &str, p: &str| r.outputs[&(n.to_string(), p.to_string())].clone();
-        let read = |n: &str, p: &str| tyndall::eval::download(&gpu, &value(n, p)).unwrap();
+        let read =
+            |n: &str, p: &str| tyndall::eval::download(&gpu.recorder(), &value(n, p)).unwrap();
         let scene = match value("scene", "scene") {
             tyndall::eval::PortValue::Other(_, s) => {
                 s.downcast::<tyndall::scene::GpuScene>().unwrap()

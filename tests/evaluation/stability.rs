@@ -247,10 +247,15 @@ fn check(
             continue;
         }
         let data = match value {
-            PortValue::Volume(v, _) | PortValue::SoftShadow(v, _) => {
-                gpu.read_volume(v, 0).map_err(|e| e.to_string())?
+            PortValue::Volume(v, _) | PortValue::SoftShadow(v, _) => gpu
+                .recorder()
+                .read_volume(v, 0)
+                .map_err(|e| e.to_string())?,
+            v if v.texture().is_some() => {
+                download(&gpu.recorder(), v)
+                    .map_err(|e| e.to_string())?
+                    .data
             }
-            v if v.texture().is_some() => download(gpu, v).map_err(|e| e.to_string())?.data,
             _ => continue,
         };
         if let Some(i) = data.iter().position(|x| !x.is_finite()) {

@@ -78,8 +78,13 @@ fn accumulated(
         Target::Port("acc".into(), "accepted".into()),
     ];
     let r = ev.evaluate(g, &targets, &at(time)).expect("evaluate");
-    let image = download(gpu, &r.outputs[&("acc".into(), "image".into())]).expect("image");
-    let accepted = download(gpu, &r.outputs[&("acc".into(), "accepted".into())]).expect("accepted");
+    let image =
+        download(&gpu.recorder(), &r.outputs[&("acc".into(), "image".into())]).expect("image");
+    let accepted = download(
+        &gpu.recorder(),
+        &r.outputs[&("acc".into(), "accepted".into())],
+    )
+    .expect("accepted");
     (image, accepted, r.stats.earlier_runs, r.stats.status("s"))
 }
 
@@ -95,12 +100,16 @@ fn frame(
         Target::Port("gbuffer".into(), "depth".into()),
     ];
     let r = ev.evaluate(g, &targets, &at(time)).expect("frame");
-    let image = download(gpu, &r.outputs[&("s".into(), "inscatter".into())]).expect("dl");
+    let image = download(
+        &gpu.recorder(),
+        &r.outputs[&("s".into(), "inscatter".into())],
+    )
+    .expect("dl");
     let d = &r.outputs[&("gbuffer".into(), "depth".into())];
     let PortValue::Depth(_, camera) = d else {
         panic!("depth is not a Depth value")
     };
-    (image, download(gpu, d).expect("dl"), *camera)
+    (image, download(&gpu.recorder(), d).expect("dl"), *camera)
 }
 
 /// The largest in-scatter value (RGB; alpha is 1 everywhere): the scale errors are read against.

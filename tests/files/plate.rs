@@ -38,7 +38,7 @@ fn eval(gpu: &Arc<tyndall::gpu::Gpu>, g: &Graph, ports: &[(&str, &str)]) -> Vec<
     ports
         .iter()
         .map(|(n, p)| {
-            tyndall::eval::download(gpu, &r.outputs[&(n.to_string(), p.to_string())])
+            tyndall::eval::download(&gpu.recorder(), &r.outputs[&(n.to_string(), p.to_string())])
                 .expect("download")
         })
         .collect()

@@ -175,7 +175,8 @@ fn scene_map(gpu: &Arc<tyndall::gpu::Gpu>, scene: &str, res: i64) -> (Raster, [f
         panic!("types")
     };
     let (l, z_l) = tyndall::nodes::epipolar::epipole(light, cam, res as u32, res as u32);
-    let map = tyndall::eval::download(gpu, &r.outputs[&(m, "map".to_string())]).expect("download");
+    let map = tyndall::eval::download(&gpu.recorder(), &r.outputs[&(m, "map".to_string())])
+        .expect("download");
     (map, [l[0] as f64, l[1] as f64], z_l as f64)
 }
 

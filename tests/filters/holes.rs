@@ -184,8 +184,8 @@ fn calibrated_threshold_is_selected_on_the_gpu_bit_for_bit_without_readback() {
                 before,
                 "{w}x{h} h={prob}: a read-back"
             );
-            let out =
-                tyndall::eval::download(&gpu, &r.outputs[&(id, "holes".into())]).expect("download");
+            let out = tyndall::eval::download(&gpu.recorder(), &r.outputs[&(id, "holes".into())])
+                .expect("download");
             let want = hole_map::reference(&n, hole_map::calibrated_threshold(&n.data, prob));
             assert_eq!(out, want, "{w}x{h} h={prob}");
             // Both forms of the histograms (the node takes the one for its adapter).
@@ -194,8 +194,8 @@ fn calibrated_threshold_is_selected_on_the_gpu_bit_for_bit_without_readback() {
             let noise = common::upload(&gpu, &n, PortType::Scalar);
             let tex = noise.texture().expect("texture").clone();
             for form in [quantile::Histogram::Shared, quantile::Histogram::Workgroup] {
-                let t = hole_map::holes(&gpu, &tex, &p, form).expect("holes");
-                let got = tyndall::eval::download(&gpu, &PortValue::Scalar(Arc::new(t)))
+                let t = hole_map::holes(&gpu.recorder(), &tex, &p, form).expect("holes");
+                let got = tyndall::eval::download(&gpu.recorder(), &PortValue::Scalar(Arc::new(t)))
                     .expect("download");
                 assert_eq!(got, want, "{w}x{h} h={prob} {form:?}");
             }

@@ -160,7 +160,8 @@ fn quarter_resolution_chain_runs_and_stays_close() {
         .evaluate(&g, &[t("up", "image"), t("full", "inscatter")], &opts)
         .expect("chain");
     let get = |n: &str, p: &str| {
-        tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())]).expect("read")
+        tyndall::eval::download(&gpu.recorder(), &r.outputs[&(n.to_string(), p.to_string())])
+            .expect("read")
     };
     let (up, full) = (get("up", "image"), get("full", "inscatter"));
     assert_eq!((up.width, up.height), (160, 96));

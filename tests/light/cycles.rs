@@ -85,7 +85,7 @@ fn against_cycles(fixture: &str) -> Option<(usize, f64, f64, f64)> {
         )
         .expect("evaluate");
     let ours = download(
-        &gpu,
+        &gpu.recorder(),
         &result.outputs[&("scatter".into(), "inscatter".into())],
     )
     .expect("download");

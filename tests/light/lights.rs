@@ -378,8 +378,13 @@ fn the_cube_atlas_gutter_matches_its_cpu_reference() {
         tyndall::eval::PortValue::ShadowMap(t, _) => t,
         _ => unreachable!(),
     };
-    let padded = tyndall::nodes::algorithms::cube_atlas::pad(&gpu, &tex, &light, 12).expect("pad");
-    let got = download(&gpu, &tyndall::eval::PortValue::Scalar(padded.clone())).expect("download");
+    let padded = tyndall::nodes::algorithms::cube_atlas::pad(&gpu.recorder(), &tex, &light, 12)
+        .expect("pad");
+    let got = download(
+        &gpu.recorder(),
+        &tyndall::eval::PortValue::Scalar(padded.clone()),
+    )
+    .expect("download");
     let want = tyndall::nodes::algorithms::cube_atlas::pad_reference(&atlas, &light, 12);
     assert_eq!((got.width, got.height), (3 * 88, 2 * 88));
     // The same float operations in the same order; a texel whose direction falls within
@@ -396,9 +401,10 @@ fn the_cube_atlas_gutter_matches_its_cpu_reference() {
         "{off} of {} texels differ",
         got.data.len()
     );
-    let crop =
-        tyndall::nodes::algorithms::cube_atlas::crop(&gpu, &padded, 64, &light).expect("crop");
-    let back = download(&gpu, &tyndall::eval::PortValue::Scalar(crop)).expect("download");
+    let crop = tyndall::nodes::algorithms::cube_atlas::crop(&gpu.recorder(), &padded, 64, &light)
+        .expect("crop");
+    let back =
+        download(&gpu.recorder(), &tyndall::eval::PortValue::Scalar(crop)).expect("download");
     assert_eq!(back.data, atlas.data, "crop ∘ pad is the identity");
 }
 

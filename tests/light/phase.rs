@@ -54,10 +54,13 @@ pub(crate) fn gpu_table(
     let r = ev
         .evaluate(&g, &targets, &EvalOptions::default())
         .expect("evaluate");
-    let table =
-        PhaseTable::read(gpu, &r.outputs[&(id.clone(), "phase".to_string())]).expect("read");
+    let table = PhaseTable::read(
+        &gpu.recorder(),
+        &r.outputs[&(id.clone(), "phase".to_string())],
+    )
+    .expect("read");
     let forward = r.outputs.get(&(id, "forward".to_string())).map(|v| {
-        let px = tyndall::eval::download(gpu, v).expect("forward");
+        let px = tyndall::eval::download(&gpu.recorder(), v).expect("forward");
         [px.data[0], px.data[1], px.data[2]]
     });
     (table, forward)
@@ -443,7 +446,7 @@ fn scattering_reads_a_connected_phase_per_channel() {
         }
         _ => panic!("port types"),
     };
-    let table = PhaseTable::read(&gpu, get("mie", "phase")).expect("table");
+    let table = PhaseTable::read(&gpu.recorder(), get("mie", "phase")).expect("table");
     assert!(
         (table.rgb[450][0] / table.rgb[450][2] - 1.0).abs() > 0.05,
         "the droplets scatter the channels differently"

@@ -294,7 +294,7 @@ fn a_transfer_function_regrades_the_rainbow() {
         .evaluate(&g, &targets, &opts)
         .unwrap_or_else(|e| panic!("{e}"));
     let get = |n: &str, p: &str| {
-        tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), p.to_string())])
+        tyndall::eval::download(&gpu.recorder(), &r.outputs[&(n.to_string(), p.to_string())])
             .expect("download")
     };
     let (ins, vis, out) = (

@@ -110,7 +110,7 @@ pub(crate) fn run_scene(
         (PortValue::ShadowMap(_, l), PortValue::Depth(_, c)) => (l, c),
         _ => panic!("port types"),
     };
-    let dl = |v: PortValue| download(gpu, &v).expect("download");
+    let dl = |v: PortValue| download(&gpu.recorder(), &v).expect("download");
     Run {
         shadow: dl(get("shadow", "map")),
         light,
@@ -698,7 +698,7 @@ fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
                 &EvalOptions::default(),
             )
             .expect("map");
-        download(&gpu, &r.outputs[&(sm, "map".to_string())]).expect("download")
+        download(&gpu.recorder(), &r.outputs[&(sm, "map".to_string())]).expect("download")
     };
     let foliage = map_with("foliage", "");
     let rest = map_with("", "foliage");

@@ -71,7 +71,12 @@ pub(super) fn run_carried(
         .evaluate(&g, &[Target::Port(id.clone(), "soft".into())], &opts)
         .map_err(|e| e.to_string())?;
     match &r.outputs[&(id, "soft".to_string())] {
-        PortValue::SoftShadow(v, m) => Ok((gpu.read_volume(v, 0).map_err(|e| e.to_string())?, *m)),
+        PortValue::SoftShadow(v, m) => Ok((
+            gpu.recorder()
+                .read_volume(v, 0)
+                .map_err(|e| e.to_string())?,
+            *m,
+        )),
         _ => Err("not a soft volume".into()),
     }
 }
@@ -329,8 +334,11 @@ fn scattering_with_a_hard_soft_volume_matches_the_hard_test() {
         )
         .expect("evaluate");
     let dl = |n: &str| {
-        tyndall::eval::download(&gpu, &r.outputs[&(n.to_string(), "visibility".to_string())])
-            .expect("download")
+        tyndall::eval::download(
+            &gpu.recorder(),
+            &r.outputs[&(n.to_string(), "visibility".to_string())],
+        )
+        .expect("download")
     };
     let (hard, soft) = (dl("hard"), dl("soft_scatter"));
     let diffs: Vec<f32> = hard

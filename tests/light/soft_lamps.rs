@@ -176,8 +176,11 @@ fn lamp_visibility(
         )
         .expect("evaluate");
     let dl = |n: &str| {
-        tyndall::eval::download(gpu, &r.outputs[&(n.to_string(), "visibility".to_string())])
-            .expect("download")
+        tyndall::eval::download(
+            &gpu.recorder(),
+            &r.outputs[&(n.to_string(), "visibility".to_string())],
+        )
+        .expect("download")
     };
     (dl("hard"), dl("soft_scatter"))
 }

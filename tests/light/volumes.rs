@@ -73,7 +73,7 @@ fn gpu_equals_cpu_with_its_mip_chain() {
         0.0,
     );
     assert_eq!(v.mips(), 6, "32 → 16 → 8 → 4 → 2 → 1");
-    let level0 = gpu.read_volume(&v, 0).expect("read");
+    let level0 = gpu.recorder().read_volume(&v, 0).expect("read");
     let want = nv::reference(&params(32, 3.5, 4, 0.6, 7));
     let d = level0
         .iter()
@@ -84,7 +84,7 @@ fn gpu_equals_cpu_with_its_mip_chain() {
     assert!(d <= 1e-5, "level 0: {d}");
     let mut below = level0;
     for level in 1..v.mips() {
-        let got = gpu.read_volume(&v, level).expect("read");
+        let got = gpu.recorder().read_volume(&v, level).expect("read");
         let want = nv::reference_mip(&below, v.level_size(level - 1));
         let d = got
             .iter()
@@ -94,7 +94,7 @@ fn gpu_equals_cpu_with_its_mip_chain() {
         assert!(d <= 1e-6, "level {level}: {d}");
         below = got;
     }
-    let top = gpu.read_volume(&v, 5).expect("top");
+    let top = gpu.recorder().read_volume(&v, 5).expect("top");
     assert_eq!(top.len(), 1);
 }
 
@@ -124,8 +124,8 @@ fn drift_follows_time_and_box_follows_the_scene() {
     let (a, _) = noise(&gpu, &p, false, 0.0);
     let (b, _) = noise(&gpu, &p, false, 2.0);
     let (ra, rb) = (
-        gpu.read_volume(&a, 0).expect("a"),
-        gpu.read_volume(&b, 0).expect("b"),
+        gpu.recorder().read_volume(&a, 0).expect("a"),
+        gpu.recorder().read_volume(&b, 0).expect("b"),
     );
     assert!(ra.iter().zip(&rb).any(|(x, y)| (x - y).abs() > 0.05));
     // Drift is a shift along z: frame 2 at speed 0.25 with frequency 4 over 32 texels moves the
@@ -158,7 +158,7 @@ fn extremes_stay_finite() {
             1e6,
         );
         for level in 0..v.mips() {
-            let r = gpu.read_volume(&v, level).expect("read");
+            let r = gpu.recorder().read_volume(&v, level).expect("read");
             assert!(r.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)));
         }
     }
@@ -244,12 +244,18 @@ fn heterogeneity(
     );
     let r = ev.evaluate(&g, &targets, &opts).expect("evaluate");
     let get = |p: &str| {
-        tyndall::eval::download(gpu, &r.outputs[&(het_id.clone(), p.to_string())]).expect("read")
+        tyndall::eval::download(
+            &gpu.recorder(),
+            &r.outputs[&(het_id.clone(), p.to_string())],
+        )
+        .expect("read")
     };
     let cpu = vols
         .iter()
         .map(|n| match &r.outputs[&(n.clone(), "volume".to_string())] {
-            PortValue::Volume(v, b) => het::CpuVolume::read(gpu, v, *b).expect("read volume"),
+            PortValue::Volume(v, b) => {
+                het::CpuVolume::read(&gpu.recorder(), v, *b).expect("read volume")
+            }
             _ => panic!("volume"),
         })
         .collect();
@@ -400,7 +406,7 @@ fn blend(
         )
         .map_err(|e| e.to_string())?;
     match &r.outputs[&(id, "volume".to_string())] {
-        PortValue::Volume(v, _) => Ok(gpu.read_volume(v, 0).expect("read")),
+        PortValue::Volume(v, _) => Ok(gpu.recorder().read_volume(v, 0).expect("read")),
         _ => Err("not a volume".into()),
     }
 }

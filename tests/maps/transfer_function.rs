@@ -146,8 +146,8 @@ fn gpu_bake_matches_the_reference() {
 fn one_diffusion_constraint_gives_a_uniform_layer() {
     let gpu = require_gpu!();
     let col = [0.8, 0.3, 0.1, 1.0];
-    let lut = tf::diffuse_gpu(&gpu, &[c([0.3, 0.7], col)], 64, 6).expect("solve");
-    let r = tyndall::eval::download(&gpu, &PortValue::Lut2D(std::sync::Arc::new(lut)))
+    let lut = tf::diffuse_gpu(&gpu.recorder(), &[c([0.3, 0.7], col)], 64, 6).expect("solve");
+    let r = tyndall::eval::download(&gpu.recorder(), &PortValue::Lut2D(std::sync::Arc::new(lut)))
         .expect("download");
     for px in r.data.chunks(4) {
         for ch in 0..4 {
@@ -256,9 +256,9 @@ fn diffusion_converges_and_gpu_equals_cpu() {
             "channel {ch}: max error {err} against the exact solution"
         );
     }
-    let g = tf::diffuse_gpu(&gpu, &cs, n, 8).expect("solve");
-    let g =
-        tyndall::eval::download(&gpu, &PortValue::Lut2D(std::sync::Arc::new(g))).expect("download");
+    let g = tf::diffuse_gpu(&gpu.recorder(), &cs, n, 8).expect("solve");
+    let g = tyndall::eval::download(&gpu.recorder(), &PortValue::Lut2D(std::sync::Arc::new(g)))
+        .expect("download");
     // 1e-4: same V-cycles, f32, sums in a different order.
     let d = common::max_abs_diff(&g, &cpu);
     assert!(d <= 1e-4, "GPU vs CPU diffusion: {d}");
@@ -635,7 +635,8 @@ fn pick_and_anchored_constraints_follow_the_surface() {
                 &opts,
             )
             .expect("bake");
-        tyndall::eval::download(&gpu, &r.outputs[&("tf".into(), "lut".into())]).expect("lut")
+        tyndall::eval::download(&gpu.recorder(), &r.outputs[&("tf".into(), "lut".into())])
+            .expect("lut")
     };
     let lut = lut_of(&mut ev, &load(&tree_graph(&data, None)));
     assert_eq!(red_at(&lut, [tfp.u, tfp.v]), vec![1.0, 0.0, 0.0, 1.0]);
@@ -656,9 +657,12 @@ fn pick_and_anchored_constraints_follow_the_surface() {
     let PortValue::Depth(_, cam) = depth_value else {
         panic!("depth");
     };
-    let vis = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "visibility".into())])
-        .expect("vis");
-    let depth = tyndall::eval::download(&gpu, depth_value).expect("depth");
+    let vis = tyndall::eval::download(
+        &gpu.recorder(),
+        &r.outputs[&("scatter".into(), "visibility".into())],
+    )
+    .expect("vis");
+    let depth = tyndall::eval::download(&gpu.recorder(), depth_value).expect("depth");
     let range = tf::auto_range(&depth.data, cam);
     let at = tf::anchor_tf_position(glam::Vec3::from(s.position), cam, &vis, &depth, range)
         .expect("still visible from the second camera");
@@ -700,7 +704,7 @@ fn auto_depth_range_is_selected_on_the_gpu_as_the_reference() {
     let tex = tex.texture().expect("texture");
     for m in [cam, Matrices::default()] {
         let want = auto_range(&depth.data, &m);
-        let got = auto_range_gpu(&gpu, tex, &m).expect("auto range");
+        let got = auto_range_gpu(&gpu.recorder(), tex, &m).expect("auto range");
         assert_eq!(
             (got.0.to_bits(), got.1.to_bits()),
             (want.0.to_bits(), want.1.to_bits()),
@@ -719,7 +723,7 @@ fn auto_depth_range_is_selected_on_the_gpu_as_the_reference() {
     assert_eq!(auto_range(&ramp.data, &Matrices::default()), (2.0, 59.0));
     let ramp_tex = common::upload(&gpu, &ramp, PortType::Scalar);
     let got = auto_range_gpu(
-        &gpu,
+        &gpu.recorder(),
         ramp_tex.texture().expect("texture"),
         &Matrices::default(),
     )
@@ -727,7 +731,8 @@ fn auto_depth_range_is_selected_on_the_gpu_as_the_reference() {
     assert_eq!(got, (2.0, 59.0));
     let sky = Raster::new(9, 4, 1, 40.0);
     let sky_tex = common::upload(&gpu, &sky, PortType::Scalar);
-    let got = auto_range_gpu(&gpu, sky_tex.texture().expect("texture"), &cam).expect("sky");
+    let got =
+        auto_range_gpu(&gpu.recorder(), sky_tex.texture().expect("texture"), &cam).expect("sky");
     assert_eq!(got, (0.0, 1.0), "no surface: the default range");
 }
 
@@ -757,8 +762,11 @@ fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
         panic!("depth");
     };
     let cam = *cam;
-    let depth_map = tyndall::eval::download(&gpu, &r.outputs[&("scatter".into(), "depth".into())])
-        .expect("depth");
+    let depth_map = tyndall::eval::download(
+        &gpu.recorder(),
+        &r.outputs[&("scatter".into(), "depth".into())],
+    )
+    .expect("depth");
     let before = gpu.thread_readbacks().1;
     let r = ev
         .evaluate(&g, std::slice::from_ref(&image), &opts)
@@ -770,8 +778,11 @@ fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
         r.stats
     );
     assert_eq!(gpu.thread_readbacks().1 - before, 0, "the TF read back");
-    let auto = tyndall::eval::download(&gpu, &r.outputs[&("sunrise".into(), "image".into())])
-        .expect("image");
+    let auto = tyndall::eval::download(
+        &gpu.recorder(),
+        &r.outputs[&("sunrise".into(), "image".into())],
+    )
+    .expect("image");
     let (lo, hi) = tyndall::nodes::transfer_function::auto_range(&depth_map.data, &cam);
     assert!(lo < hi, "{lo} … {hi}: a frame with surfaces");
     for (name, v) in [
@@ -782,8 +793,11 @@ fn the_automatic_depth_range_is_read_by_the_lookup_not_by_the_cpu() {
         g.set_param(&cat, "sunrise", name, v).expect(name);
     }
     let r = ev.evaluate(&g, &[image], &opts).expect("manual");
-    let manual = tyndall::eval::download(&gpu, &r.outputs[&("sunrise".into(), "image".into())])
-        .expect("image");
+    let manual = tyndall::eval::download(
+        &gpu.recorder(),
+        &r.outputs[&("sunrise".into(), "image".into())],
+    )
+    .expect("image");
     assert_eq!(auto.data, manual.data);
 }
 

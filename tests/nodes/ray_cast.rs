@@ -221,8 +221,8 @@ fn the_bvh_is_built_once_per_geometry() {
     // from the second's.
     assert_eq!(made(&second), (true, true));
     assert_eq!(made(&second), (true, false));
-    let all = ray_cast::scene_bvh(&gpu, &second, &second.draws()).expect("bvh");
-    let again = ray_cast::scene_bvh(&gpu, &second, &second.draws()).expect("bvh");
+    let all = ray_cast::scene_bvh(&gpu.recorder(), &second, &second.draws()).expect("bvh");
+    let again = ray_cast::scene_bvh(&gpu.recorder(), &second, &second.draws()).expect("bvh");
     assert!(std::sync::Arc::ptr_eq(&all, &again));
     assert!(all.triangles > 100);
 }

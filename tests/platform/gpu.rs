@@ -10,7 +10,7 @@ fn readback_strips_row_padding_for_odd_widths() {
         let r = common::random_raster(w, h, c, -10.0, 10.0, (w * 31 + h) as u64);
         let t = gpu.upload(w, h, c, &r.data).expect("upload");
         assert_eq!(
-            gpu.read_texture(&t).expect("readback"),
+            gpu.recorder().read_texture(&t).expect("readback"),
             r.data,
             "{w}x{h}x{c}"
         );
@@ -47,17 +47,66 @@ fn readbacks_reuse_their_staging_buffers() {
     let t = gpu.upload(200, 100, 4, &r.data).expect("upload");
     let small = common::random_raster(190, 100, 4, -1.0, 1.0, 8);
     let s = gpu.upload(190, 100, 4, &small.data).expect("upload");
-    assert_eq!(gpu.read_texture(&t).expect("read"), r.data);
+    assert_eq!(gpu.recorder().read_texture(&t).expect("read"), r.data);
     let created = gpu.staging_buffers_created();
     for _ in 0..5 {
-        assert_eq!(gpu.read_texture(&t).expect("read"), r.data);
-        assert_eq!(gpu.read_texture(&s).expect("read"), small.data);
+        assert_eq!(gpu.recorder().read_texture(&t).expect("read"), r.data);
+        assert_eq!(gpu.recorder().read_texture(&s).expect("read"), small.data);
     }
     assert_eq!(
         gpu.staging_buffers_created(),
         created,
         "reused, not created"
     );
+}
+
+/// A texture a recorded, unsubmitted pass reads goes back to the pool only once its recorder
+/// submits: dropped in between, the next upload of its shape gets another texture, so the
+/// upload (a queue write, which runs before the next submission) cannot change what the pass
+/// reads. On GL, where every pass is submitted at once, it returns at once.
+#[test]
+fn a_texture_an_unsubmitted_pass_reads_returns_to_the_pool_after_the_submission() {
+    let _ = require_gpu!();
+    // A device of its own: its pool counts only this test's textures.
+    let gpu = tyndall::gpu::Gpu::new(false).expect("device");
+    let batched = gpu.info.backend != wgpu::Backend::Gl
+        && std::env::var_os("TYNDALL_TRACE_PASSES").is_none_or(|v| v == "0");
+    let shader = Shader {
+        stem: "test_only_retire",
+        files: &[],
+        source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
+                 @group(0) @binding(1) var i: texture_2d<f32>;\n\
+                 @compute @workgroup_size(8, 8) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                     let s = textureDimensions(o);\n\
+                     if id.x >= s.x || id.y >= s.y { return; }\n\
+                     textureStore(o, vec2<i32>(id.xy), textureLoad(i, vec2<i32>(id.xy), 0) + 1.0);\n\
+                 }",
+    };
+    let rec = gpu.recorder();
+    let input = gpu.upload(5, 3, 1, &[2.0; 15]).expect("upload");
+    let out = gpu.texture(5, 3, TexFormat::R32F).expect("texture");
+    let binds = [("o", Bind::Storage(&out)), ("i", Bind::Texture(&input))];
+    rec.dispatch(shader, "copy", &binds, 5, 3)
+        .expect("dispatch");
+    drop(input);
+    assert_eq!(
+        gpu.idle_textures(),
+        usize::from(!batched),
+        "back in the pool only if its pass was submitted"
+    );
+    let later = gpu.upload(5, 3, 1, &[9.0; 15]).expect("upload");
+    rec.flush().expect("submit");
+    assert_eq!(
+        gpu.idle_textures(),
+        usize::from(batched),
+        "the later upload got another texture; the input returned after the submission"
+    );
+    assert_eq!(
+        rec.read_texture(&out).expect("read"),
+        vec![3.0; 15],
+        "the pass read the input's values, not the later upload's"
+    );
+    drop(later);
 }
 
 #[test]
@@ -115,13 +164,18 @@ fn wgpu_validation_errors_surface_as_errors() {
     // validation refuses the layout (Tyndall's own binding check passes: same kind).
     let wide = gpu.texture(4, 4, TexFormat::Rgba32F).expect("tex");
     let err = gpu
+        .recorder()
         .dispatch(shader, "main", &[("o", Bind::Storage(&wide))], 4, 4)
         .expect_err("invalid pipeline");
     assert!(err.to_string().contains("GPU error"), "{err}");
     // The context is usable afterwards and the error was consumed.
-    gpu.dispatch(shader, "main", &[("o", Bind::Storage(&t))], 4, 4)
+    gpu.recorder()
+        .dispatch(shader, "main", &[("o", Bind::Storage(&t))], 4, 4)
         .expect("valid dispatch");
-    assert_eq!(gpu.read_texture(&t).expect("read"), vec![1.0; 16]);
+    assert_eq!(
+        gpu.recorder().read_texture(&t).expect("read"),
+        vec![1.0; 16]
+    );
 }
 
 /// Bindings are named by WGSL variable and checked against what the entry point uses (a name
@@ -148,6 +202,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     let out = gpu.texture(7, 11, TexFormat::R32F).expect("tex");
     let input = gpu.upload(7, 11, 1, &vec![2.0; 77]).expect("upload");
     let missing = gpu
+        .recorder()
         .dispatch(shader, "copy", &[("o", Bind::Storage(&out))], 7, 11)
         .expect_err("binding 1 missing");
     assert!(
@@ -157,6 +212,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
         "{missing}"
     );
     let wrong = gpu
+        .recorder()
         .dispatch(
             shader,
             "copy",
@@ -172,6 +228,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
         "{wrong}"
     );
     let misnamed = gpu
+        .recorder()
         .dispatch(
             shader,
             "copy",
@@ -187,6 +244,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
         "{misnamed}"
     );
     let unknown = gpu
+        .recorder()
         .dispatch(shader, "nope", &[("o", Bind::Storage(&out))], 7, 11)
         .expect_err("no such entry point");
     assert!(
@@ -195,18 +253,23 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
     );
     // 3 × 5 workgroups over 7 × 11: every texel written (8 × 8 groups would cover it too, so
     // also check a 1 × 1 workgroup covers exactly the invocations asked for).
-    gpu.dispatch(
-        shader,
-        "copy",
-        &[("o", Bind::Storage(&out)), ("i", Bind::Texture(&input))],
-        7,
-        11,
-    )
-    .expect("copy");
-    assert_eq!(gpu.read_texture(&out).expect("read"), vec![3.0; 77]);
-    gpu.dispatch(shader, "one", &[("o", Bind::Storage(&out))], 2, 3)
+    gpu.recorder()
+        .dispatch(
+            shader,
+            "copy",
+            &[("o", Bind::Storage(&out)), ("i", Bind::Texture(&input))],
+            7,
+            11,
+        )
+        .expect("copy");
+    assert_eq!(
+        gpu.recorder().read_texture(&out).expect("read"),
+        vec![3.0; 77]
+    );
+    gpu.recorder()
+        .dispatch(shader, "one", &[("o", Bind::Storage(&out))], 2, 3)
         .expect("one");
-    let got = gpu.read_texture(&out).expect("read");
+    let got = gpu.recorder().read_texture(&out).expect("read");
     let sevens = got.iter().filter(|v| **v == 7.0).count();
     assert_eq!(
         sevens, 6,
@@ -216,7 +279,7 @@ fn dispatches_check_bindings_and_read_the_workgroup_size() {
 
 /// A node's passes are submitted once: the default preset's multi-pass nodes (the window's
 /// shadow map, the MinMax scattering with its pyramid) report one submission each. Not on
-/// wgpu's GL backend, which submits every pass alone (see `src/engine/gpu/batch.rs`).
+/// wgpu's GL backend, which submits every pass alone (see `src/engine/gpu/recorder.rs`).
 #[test]
 fn a_node_run_is_one_submission_unless_it_reads_back() {
     let gpu = require_gpu!();
@@ -315,7 +378,7 @@ fn window_outputs(gpu: tyndall::gpu::Gpu) -> Vec<(String, tyndall::io::Raster)> 
             let v = &result.outputs[&(n.to_string(), p.to_string())];
             (
                 format!("{n}.{p}"),
-                tyndall::eval::download(&gpu, v).expect("download"),
+                tyndall::eval::download(&gpu.recorder(), v).expect("download"),
             )
         })
         .collect()
@@ -542,7 +605,7 @@ fn volume_levels(gpu: tyndall::gpu::Gpu) -> Vec<(String, Vec<f32>)> {
                 panic!("{preset} {n}.{p} is not a volume");
             };
             for level in 0..v.mips() {
-                let texels = gpu.read_volume(v, level).expect("read");
+                let texels = gpu.recorder().read_volume(v, level).expect("read");
                 out.push((format!("{preset} {n}.{p} level {level}"), texels));
             }
         }
@@ -636,9 +699,8 @@ fn a_pipelined_evaluation_submits_in_chunks_not_per_node() {
             pipelined,
             ..Default::default()
         };
-        let before = gpu.thread_submit_count();
         let r = ev.evaluate(&graph, &target, &opts).expect("evaluate");
-        let submits = gpu.thread_submit_count() - before;
+        let submits = r.stats.submits;
         let ran = r.stats.nodes.iter().filter(|s| s.status.ran()).count();
         assert_eq!(ran, n + 1, "the constant and every Math node ran");
         let most = if !batched {
@@ -658,7 +720,7 @@ fn a_pipelined_evaluation_submits_in_chunks_not_per_node() {
             .next()
             .and_then(|v| v.texture())
             .expect("texture");
-        values.push(gpu.read_texture(out).expect("read"));
+        values.push(gpu.recorder().read_texture(out).expect("read"));
     }
     assert_eq!(values[0], values[1]);
     let expected = 0.5 + 0.001 * n as f32;

@@ -75,18 +75,19 @@ fn the_wgsl_library_matches_its_cpu_twins_and_f64() {
     let input = gpu.upload(n, 1, 4, &data).expect("upload");
     let out = gpu.texture(n, 1, TexFormat::Rgba32F).expect("texture");
     let shader = tyndall::nodes::shader("test/shader_lib_probe", PROBE);
-    gpu.dispatch(
-        shader,
-        "main",
-        &[
-            ("cases", Bind::Texture(&input)),
-            ("out", Bind::Storage(&out)),
-        ],
-        n,
-        1,
-    )
-    .expect("dispatch");
-    let got = gpu.read_texture(&out).expect("read");
+    gpu.recorder()
+        .dispatch(
+            shader,
+            "main",
+            &[
+                ("cases", Bind::Texture(&input)),
+                ("out", Bind::Storage(&out)),
+            ],
+            n,
+            1,
+        )
+        .expect("dispatch");
+    let got = gpu.recorder().read_texture(&out).expect("read");
     for (i, &(len, m)) in cases.iter().enumerate() {
         let texel = &got[i * 4..i * 4 + 4];
         let want = decay_f64(len, m);

@@ -148,7 +148,7 @@ pub fn viewer_texture(
             Some(transform) => {
                 let window = window?;
                 let viewed = tyndall_engine::colour_pass::view(
-                    &window.gpu,
+                    &window.gpu.recorder(),
                     transform.pass(),
                     t,
                     channel,
@@ -209,11 +209,12 @@ impl Probe {
     ) -> Option<String> {
         if self.asked != Some((x, y)) {
             self.asked = Some((x, y));
+            let rec = gpu.recorder();
             let reads = pictures
                 .iter()
                 .filter_map(|(port, p)| match p {
                     Picture::Texture(t) if x < t.width && y < t.height => {
-                        Some((port.clone(), gpu.read_texel_async(t, x, y).ok()?))
+                        Some((port.clone(), rec.read_texel_async(t, x, y).ok()?))
                     }
                     _ => None,
                 })

@@ -174,7 +174,7 @@ fn pictures(
             let picture = if textures {
                 Picture::Texture(v.texture()?.clone())
             } else {
-                Picture::Pixels(download(gpu, v).ok()?)
+                Picture::Pixels(download(&gpu.recorder(), v).ok()?)
             };
             Some((shown.clone(), picture))
         })
@@ -257,7 +257,7 @@ fn failed(req: &Request, reason: &str, start: std::time::Instant) -> Outcome {
 /// A picture-like value read back and shrunk into a thumbnail ([`thumbnail_of`]); `None` for
 /// values that are not 2D pictures.
 fn thumbnail(gpu: &Gpu, value: &PortValue) -> Option<Raster> {
-    Some(thumbnail_of(&download(gpu, value).ok()?))
+    Some(thumbnail_of(&download(&gpu.recorder(), value).ok()?))
 }
 
 /// A thumbnail of `r`: shrunk (box filter) to at most [`THUMB`] pixels wide or high; one-channel

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use super::node::NodeError;
 use super::value::{Matrices, PortValue};
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, Recorder};
 use crate::graph::PortType;
 use crate::io::Raster;
 
@@ -44,9 +44,9 @@ pub fn upload_raster(gpu: &Gpu, r: &Raster, ty: PortType) -> Result<PortValue, N
     }
 }
 
-/// Start reading a 2D value back ([`Gpu::read_texture_later`]); the raster comes from
+/// Start reading a 2D value back ([`Recorder::read_texture_later`]); the raster comes from
 /// [`PendingRaster::wait`], on any thread.
-pub fn download_later(gpu: &Gpu, v: &PortValue) -> Result<PendingRaster, NodeError> {
+pub fn download_later(gpu: &Recorder, v: &PortValue) -> Result<PendingRaster, NodeError> {
     let t = v
         .texture()
         .ok_or_else(|| NodeError::Other(format!("a {} value is not an image", v.port_type())))?;
@@ -77,7 +77,7 @@ impl PendingRaster {
 }
 
 /// Read a 2D value back to the CPU.
-pub fn download(gpu: &Gpu, v: &PortValue) -> Result<Raster, NodeError> {
+pub fn download(gpu: &Recorder, v: &PortValue) -> Result<Raster, NodeError> {
     let t = v
         .texture()
         .ok_or_else(|| NodeError::Other(format!("a {} value is not an image", v.port_type())))?;

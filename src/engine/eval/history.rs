@@ -13,6 +13,7 @@ use std::time::Duration;
 
 use super::stats::{NodeRun, Status};
 use super::{EvalError, EvalOptions, Evaluator, NodeError, NodeKind, Target};
+use crate::gpu::Recorder;
 use crate::graph::{Graph, ParamValue};
 
 use super::node::Earlier;
@@ -46,6 +47,7 @@ impl Evaluator {
         opts: &EvalOptions,
         depth: usize,
         node_err: &dyn Fn(NodeError) -> EvalError,
+        rec: &Recorder,
     ) -> Result<History, EvalError> {
         let offsets = k.history(params).map_err(node_err)?;
         if offsets.is_empty() {
@@ -83,7 +85,7 @@ impl Evaluator {
             };
             let mut stats: BTreeMap<String, NodeRun> = BTreeMap::new();
             let up = self
-                .run_plan(graph, &plan, order, &at, &mut stats, depth + 1)
+                .run_plan(graph, &plan, order, &at, &mut stats, depth + 1, rec)
                 .map_err(|e| at_earlier_frame(e, id, offset, at.time))?;
             let ran = stats.values().filter(|s| s.0 != Status::Reused);
             self.earlier_runs += ran.clone().count();

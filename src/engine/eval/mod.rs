@@ -41,7 +41,7 @@ use stats::{report, NodeRun};
 pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};
 pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
 
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, Recorder};
 use crate::graph::{Graph, GraphError, NodeSchema, ParamValue};
 
 /// What to evaluate.
@@ -283,16 +283,17 @@ impl Evaluator {
         // (gpu/prepare.rs).
         let kinds = self.kinds_in(graph, &order, &plan)?;
         let preparing = self.gpu.prepare_pipelines(&kinds);
-        // The nodes' passes are submitted in chunks, not per node (gpu/batch.rs).
+        // The nodes' passes go into one recorder, submitted in chunks, not per node
+        // (gpu/recorder.rs).
         let gpu = self.gpu.clone();
-        let batch = gpu.batch_scope();
-        let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0);
+        let rec = gpu.recorder();
+        let done = self.run_plan(graph, &plan, &order, opts, &mut stats, 0, &rec);
         preparing.finish();
-        let submitted = batch.end();
+        let submitted = rec.flush();
         let done = done.and_then(|d| submitted.map(|()| d).map_err(EvalError::Submit));
         // Every pass's GPU time, read once now that everything is submitted.
         let done = done.and_then(|d| {
-            let mut times = gpu.resolve_timings().map_err(EvalError::Submit)?;
+            let mut times = rec.resolve_timings().map_err(EvalError::Submit)?;
             let timed = opts.gpu_timings
                 && gpu
                     .device
@@ -303,9 +304,10 @@ impl Evaluator {
                 let none = (timed && run.0.ran()).then_some(Duration::ZERO);
                 run.2 = times.remove(id).or(none);
             }
-            gpu.unclaimed_timings(times);
             Ok(d)
         });
+        let submits = rec.submits();
+        drop(rec);
         self.cache.evict();
         // The pipelines compiled by this evaluation go to the cache on disk for the next
         // process; a cache that cannot be written only costs that process the compilation.
@@ -321,6 +323,7 @@ impl Evaluator {
         let mut r = report(graph, targets, &order, &done?.results, &stats, runs);
         r.stats.pipelines = (compiled - pipelines.0, cached - pipelines.1);
         r.stats.prepared = self.gpu.pipelines_prepared() - prepared;
+        r.stats.submits = submits;
         Ok(r)
     }
 
@@ -343,7 +346,8 @@ impl Evaluator {
     }
 
     /// Steps 2–4 for every node of `plan`, in `order`; `depth` counts the histories this
-    /// evaluation is nested in (0: the requested time).
+    /// evaluation is nested in (0: the requested time); the passes go into `rec`.
+    #[allow(clippy::too_many_arguments)]
     fn run_plan(
         &mut self,
         graph: &Graph,
@@ -352,10 +356,10 @@ impl Evaluator {
         opts: &EvalOptions,
         stats: &mut BTreeMap<String, NodeRun>,
         depth: usize,
+        rec: &Recorder,
     ) -> Result<Upstream, EvalError> {
         let mut done = Upstream::default();
         let empty = BTreeSet::new();
-        let gpu = self.gpu.clone();
         let colour = self.colour.clone();
         for id in order.iter().filter(|id| plan.needed.contains(*id)) {
             if opts.cancel.as_ref().is_some_and(|c| (c.0)()) {
@@ -369,7 +373,7 @@ impl Evaluator {
             };
             let params = self.params_at(graph, id, k.schema(), opts.time)?;
             let history =
-                self.history_of(graph, id, &*k, &params, order, opts, depth, &node_err)?;
+                self.history_of(graph, id, &*k, &params, order, opts, depth, &node_err, rec)?;
             let (key, inputs) = key_and_inputs(graph, id, &*k, &kind, &params, &done, opts)
                 .map_err(|e| e.into_eval(&node_err))?;
             let key = if history.earlier.is_empty() {
@@ -391,7 +395,7 @@ impl Evaluator {
             let want = plan.wanted.get(id).unwrap_or(&empty);
             let data = graph.node(id).and_then(|n| n.data.as_ref());
             let mut ctx = RunCtx {
-                gpu: &gpu,
+                gpu: rec,
                 id,
                 params: &params,
                 data,
@@ -521,26 +525,29 @@ impl Evaluator {
                 self.gpu.supports(*shader)?;
             }
         }
-        self.gpu.set_timing(opts.gpu_timings);
-        self.gpu.set_running_node(ctx.id, k.schema().kind);
+        let rec = ctx.gpu;
+        rec.set_timing(opts.gpu_timings);
+        rec.set_timed_node(ctx.id);
+        self.gpu.set_running_kind(k.schema().kind);
         let start = Instant::now();
-        let submitted = self.gpu.thread_submit_count();
-        // The node's passes go into one command buffer, submitted with its neighbours' (see
-        // gpu/batch.rs) — at once, and waited for, when not pipelined. Its GPU time is read
-        // once the evaluation is submitted (`Gpu::resolve_timings`).
-        self.gpu.begin_batch();
+        let submitted = rec.submits();
+        // The node's passes go into the evaluation's encoder, submitted with its neighbours'
+        // (see gpu/recorder.rs) — at once, and waited for, when not pipelined. Its GPU time is
+        // read once the evaluation is submitted (`Recorder::resolve_timings`).
         let ran = k.run(ctx);
-        let ended = self.gpu.end_batch();
-        let wait = !opts.pipelined;
+        let ended = if opts.pipelined {
+            rec.end_node()
+        } else {
+            rec.flush()
+        };
         let ran = ran.and(ended.map_err(NodeError::from)).and_then(|()| {
-            if wait {
-                self.gpu.flush()?;
-                self.gpu.wait()?;
+            if !opts.pipelined {
+                rec.wait()?;
             }
-            self.gpu.take_errors()?;
+            rec.take_errors()?;
             Ok(())
         });
-        let submits = self.gpu.thread_submit_count() - submitted;
+        let submits = rec.submits() - submitted;
         let elapsed = start.elapsed();
         crate::trace::record(
             "node",
@@ -549,7 +556,7 @@ impl Evaluator {
             elapsed,
             serde_json::json!({ "kind": k.schema().kind }),
         );
-        self.gpu.set_timing(false);
+        rec.set_timing(false);
         ran?;
         if let Some(p) = want.iter().find(|p| !ctx.outputs.contains_key(*p)) {
             return Err(NodeError::Other(format!("did not produce output '{p}'")));

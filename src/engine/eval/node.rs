@@ -8,7 +8,7 @@ use thiserror::Error;
 
 use super::paths::output_path;
 use super::value::PortValue;
-use crate::gpu::{Gpu, GpuError, Shader, UniformLayout};
+use crate::gpu::{GpuError, Recorder, Shader, UniformLayout};
 use crate::graph::{NodeData, NodeSchema, ParamValue};
 
 /// A failure inside a node, before the evaluator adds the node's id and kind.
@@ -89,8 +89,9 @@ impl From<crate::io::IoError> for NodeError {
 
 /// Everything a node sees while it runs.
 pub struct RunCtx<'a> {
-    /// The GPU context.
-    pub gpu: &'a Gpu,
+    /// The evaluation's command recorder: passes recorded through it go into the evaluation's
+    /// encoder (see `gpu/recorder.rs`); it derefs to the [`crate::gpu::Gpu`] context for everything else.
+    pub gpu: &'a Recorder<'a>,
     /// The node's id (for messages).
     pub id: &'a str,
     /// Parameter values at the evaluation time (all declared parameters present).
@@ -147,7 +148,7 @@ impl RunCtx<'_> {
     }
 
     /// Refuse an allocation of `bytes` that the parameter(s) `params` ask for (e.g.
-    /// `"resolution, slices"`) when it exceeds [`Gpu::allocation_limit`], naming them and the
+    /// `"resolution, slices"`) when it exceeds [`crate::gpu::Gpu::allocation_limit`], naming them and the
     /// limit — before the driver fails with a bare out-of-memory error, or the machine swaps.
     pub fn check_bytes(&self, params: &str, bytes: u64) -> Result<(), NodeError> {
         let (limit, source) = self.gpu.allocation_limit();

@@ -202,18 +202,19 @@ pub fn pick(
     }
     let r = ev.evaluate(g, &targets, opts)?;
     let gpu = ev.gpu().clone();
+    let rec = gpu.recorder();
     let get = |src: &(String, String)| {
         r.outputs
             .get(src)
             .ok_or_else(|| pick_err(format!("{}.{} produced nothing", src.0, src.1)))
     };
-    let vis = download(&gpu, get(&vis_src)?).map_err(|e| pick_err(e.to_string()))?;
+    let vis = download(&rec, get(&vis_src)?).map_err(|e| pick_err(e.to_string()))?;
     let depth_value = get(&depth_src)?;
     let PortValue::Depth(_, camera) = depth_value else {
         return Err(pick_err("the depth input is not a Depth value"));
     };
     let camera = *camera;
-    let depth = download(&gpu, depth_value).map_err(|e| pick_err(e.to_string()))?;
+    let depth = download(&rec, depth_value).map_err(|e| pick_err(e.to_string()))?;
     let (x, y) = pixel;
     if x >= depth.width || y >= depth.height {
         return Err(pick_err(format!(

@@ -59,9 +59,10 @@ pub struct NodeStat {
     pub cost: Duration,
     /// GPU time of its passes from timestamp queries (with `gpu_timings`, when supported).
     pub gpu_time: Option<Duration>,
-    /// Command buffers submitted while it ran: 1 for a node whose passes all went into one
-    /// encoder, more for one that reads results back between passes (counted over the whole
-    /// GPU context, so an evaluation on another thread at the same time adds to it).
+    /// Command buffers the evaluation's recorder submitted while it ran: 0 for a node whose
+    /// passes wait in the encoder for the next chunk, 1 for one that ended a chunk, more for one
+    /// that reads results back between passes (an evaluation on another thread does not add to
+    /// it).
     pub submits: u64,
 }
 
@@ -78,6 +79,8 @@ pub struct Stats {
     pub pipelines: (u64, u64),
     /// Of those, how many worker threads made up front ([`crate::gpu::Gpu::prepare_pipelines`]).
     pub prepared: u64,
+    /// Command buffers the evaluation submitted: its nodes' and the last chunk's.
+    pub submits: u64,
 }
 
 impl Stats {
@@ -134,8 +137,7 @@ impl fmt::Display for Stats {
                 gpu
             )?;
         }
-        let submits: u64 = self.nodes.iter().map(|n| n.submits).sum();
-        writeln!(f, "GPU submissions: {submits}")?;
+        writeln!(f, "GPU submissions: {}", self.submits)?;
         writeln!(
             f,
             "pipelines: {} compiled, {} from the cache",
@@ -241,6 +243,7 @@ pub(super) fn report(
             earlier_runs,
             pipelines: (0, 0),
             prepared: 0,
+            submits: 0,
         },
     }
 }

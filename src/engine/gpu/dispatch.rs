@@ -229,7 +229,9 @@ impl Gpu {
             },
         }
     }
+}
 
+impl Recorder<'_> {
     /// Run one compute entry point over (at least) `width × height` invocations, in workgroups
     /// of the entry point's own `@workgroup_size` (read from the WGSL). Bindings are
     /// `(WGSL variable name, resource)` in group 0: the number is the shader's own (reflected
@@ -247,7 +249,7 @@ impl Gpu {
         self.dispatch_with(shader, entry, binds, (width, height), &[])
     }
 
-    /// [`Gpu::dispatch`] with values for the shader's pipeline-overridable constants
+    /// [`Recorder::dispatch`] with values for the shader's pipeline-overridable constants
     /// (`override NAME: T = default;` in WGSL): each set of values is its own cached pipeline, and
     /// the driver compiles branches on them away. For switches that stay fixed over a dispatch
     /// (a mode of the node): code behind a uniform-buffer flag is still compiled in and, on SIMD
@@ -304,7 +306,7 @@ impl Gpu {
     /// Run compute entry point `entry` over the workgroup counts (x, y, z) held in the first
     /// three words of `args`, written there by an earlier pass — a pass sized by what the GPU
     /// found (a list's length) without reading the size back. With `constants` as in
-    /// [`Gpu::dispatch_with`].
+    /// [`Recorder::dispatch_with`].
     pub fn dispatch_indirect(
         &self,
         shader: Shader,
@@ -417,7 +419,12 @@ impl Gpu {
                 }
             }
         };
-        // Into this thread's batch (see batch.rs); timed, with its timestamps resolved after it.
+        // Into the recorder's encoder; timed, with its timestamps resolved after it.
+        for (_, b) in binds {
+            if let Bind::Texture(t) | Bind::Storage(t) = b {
+                self.uses(t);
+            }
+        }
         let Some(timer) = self.pass_timer(shader.stem) else {
             self.encode(|enc| pass(enc, None));
             return Ok(());
@@ -426,7 +433,8 @@ impl Gpu {
             pass(enc, Some(&timer));
             self.resolve_timer(&timer, enc);
         });
-        self.after_submit(timer)
+        self.keep_timer(timer);
+        Ok(())
     }
 }
 

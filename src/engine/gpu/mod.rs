@@ -2,8 +2,6 @@
 //! a pipeline cache, one compute-dispatch helper and the one row-padded readback helper.
 
 pub mod adapter;
-mod batch;
-pub use batch::{BatchScope, CHUNK_PASSES};
 mod dispatch;
 mod layout;
 mod logger;
@@ -15,7 +13,9 @@ mod prepare;
 pub use prepare::{Preparing, MAX_WORKERS};
 mod raster;
 mod raster_bits;
+mod recorder;
 pub use pipeline_cache::cache_dir;
+pub use recorder::{Recorder, CHUNK_PASSES};
 mod readback;
 pub use readback::{PendingRead, TexelRead};
 mod resources;

@@ -3,6 +3,7 @@
 use std::sync::{Arc, Mutex, Weak};
 
 use super::adapter::Capabilities;
+use super::recorder::Retired;
 
 /// Texel formats used between nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -58,6 +59,9 @@ pub struct GpuTexture {
     stored: wgpu::TextureFormat,
     home: Weak<Mutex<Free>>,
     capacity: usize,
+    /// The recorder whose unsubmitted passes use it, if any ([`super::Recorder`]'s retired
+    /// list: dropped before that recorder submits, it returns to the pool after).
+    used_by: Mutex<Weak<Retired>>,
 }
 
 impl std::fmt::Debug for GpuTexture {
@@ -92,6 +96,11 @@ impl GpuTexture {
         self.stored.components() as u32
     }
 
+    /// Mark it as used by the unsubmitted passes whose retired list is `retired`.
+    pub(crate) fn used_by(&self, retired: &Arc<Retired>) {
+        *self.used_by.lock().unwrap_or_else(|e| e.into_inner()) = Arc::downgrade(retired);
+    }
+
     /// Size in bytes, as stored.
     pub fn bytes(&self) -> usize {
         self.width as usize * self.height as usize * self.stored_channels() as usize * 4
@@ -113,9 +122,13 @@ impl Drop for GpuTexture {
                 }
             }
         };
-        // Recorded passes of this thread's batch may still use it: back to the pool only once
-        // the batch is submitted, so no other thread's earlier submission reuses it first.
-        super::batch::release_after_batch(Box::new(release));
+        // Recorded passes not yet submitted may still use it: back to the pool only once their
+        // recorder submits them, so no other work reaching the queue earlier reuses it first.
+        let used_by = self.used_by.get_mut().unwrap_or_else(|e| e.into_inner());
+        match used_by.upgrade() {
+            Some(retired) => retired.push(Box::new(release)),
+            None => release(),
+        }
     }
 }
 
@@ -154,6 +167,7 @@ impl TexturePool {
             stored,
             home: Arc::downgrade(&self.free),
             capacity: self.capacity,
+            used_by: Mutex::new(Weak::new()),
         }
     }
 

@@ -1,7 +1,7 @@
 //! Pipelines created up front, in parallel. Every compute pipeline is described by a
 //! [`Recipe`] — shader, entry point, where the parameter block lives, constants, binding
 //! signature — whose text is the pipeline's cache key. While a node runs, the recipes of the
-//! pipelines it uses are recorded under its kind ([`Gpu::set_running_node`]) and saved, per
+//! pipelines it uses are recorded under its kind ([`Gpu::set_running_kind`]) and saved, per
 //! adapter, driver and Tyndall version, in [`cache_dir`] (`recipes-<hash>.txt`, one
 //! `kind<TAB>recipe` line each). The next evaluation — in this process or the next — first
 //! asks for the pipelines of the kinds it will run ([`Gpu::prepare_pipelines`]): worker
@@ -378,11 +378,9 @@ fn enabled() -> bool {
 
 impl Gpu {
     /// Record the pipelines this thread's dispatches use under node kind `kind` (for
-    /// [`Gpu::prepare_pipelines`]), and time its passes as node `id`'s
-    /// ([`Gpu::set_timed_node`]). The evaluator calls it before each node's run.
-    pub fn set_running_node(&self, id: &str, kind: &str) {
+    /// [`Gpu::prepare_pipelines`]). The evaluator calls it before each node's run.
+    pub fn set_running_kind(&self, kind: &str) {
         set_running_kind(kind);
-        self.set_timed_node(id);
     }
 
     /// Start creating, on worker threads, the pipelines the node kinds in `kinds` (kind, its

@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{Gpu, GpuError, GpuTexture, Shader};
+use super::{Gpu, GpuError, GpuTexture, Recorder, Shader};
 
 /// The vertex every mesh is drawn with: position, normal, linear RGBA colour (40 bytes).
 #[repr(C)]
@@ -159,114 +159,6 @@ impl Gpu {
         Ok(p)
     }
 
-    /// Draw `mesh` with the shader's `vs`/`fs` entry points into `targets` (all the same size),
-    /// with a fresh depth buffer (less-than test) and the uniform bytes at binding 0.
-    pub fn raster(
-        &self,
-        shader: Shader,
-        uniform: &[u8],
-        targets: &[RasterTarget],
-        mesh: &MeshDraw,
-    ) -> Result<(), GpuError> {
-        let first = targets
-            .first()
-            .ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
-        let (w, h) = (first.texture.width, first.texture.height);
-        let stored: Vec<wgpu::TextureFormat> = targets.iter().map(|t| t.texture.stored()).collect();
-        let formats = self.render_formats(&stored)?;
-        let bits = formats != stored;
-        let storage = self.caps.params_in_storage(u64::from(w) * u64::from(h));
-        let pipeline = self.raster_pipeline(shader, &formats, bits, storage)?;
-        // The bit-pattern path renders into integer textures of the same size.
-        let temps: Vec<(wgpu::Texture, wgpu::TextureView)> = if bits {
-            formats
-                .iter()
-                .map(|f| {
-                    let t = self.attachment(
-                        "raster bits",
-                        (w, h),
-                        *f,
-                        wgpu::TextureUsages::RENDER_ATTACHMENT
-                            | wgpu::TextureUsages::TEXTURE_BINDING,
-                    );
-                    let v = t.create_view(&Default::default());
-                    (t, v)
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        self.scoped(|| {
-            let depth = self.attachment(
-                "depth",
-                (w, h),
-                wgpu::TextureFormat::Depth32Float,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            );
-            let depth_view = depth.create_view(&Default::default());
-            let group = self.uniform_group(shader, &pipeline, uniform, storage);
-            let placed = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("placements"),
-                layout: &pipeline.get_bind_group_layout(1),
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: mesh.placements.as_entire_binding(),
-                }],
-            });
-            let attachments = color_attachments(targets, &temps, bits);
-            // Into this thread's batch (see batch.rs); timed, with its timestamps resolved in it.
-            let record = |enc: &mut wgpu::CommandEncoder,
-                          timer: Option<&super::PassTimer>|
-             -> Result<(), GpuError> {
-                {
-                    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                        label: Some(shader.stem),
-                        color_attachments: &attachments,
-                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                            view: &depth_view,
-                            depth_ops: Some(wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(1.0),
-                                store: wgpu::StoreOp::Discard,
-                            }),
-                            stencil_ops: None,
-                        }),
-                        timestamp_writes: timer.map(|t| wgpu::RenderPassTimestampWrites {
-                            query_set: &t.query,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }),
-                        occlusion_query_set: None,
-                        multiview_mask: None,
-                    });
-                    pass.set_pipeline(&pipeline);
-                    pass.set_bind_group(0, &group, &[]);
-                    pass.set_bind_group(1, &placed, &[]);
-                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    for (object, r) in mesh.ranges {
-                        if !r.is_empty() {
-                            pass.draw_indexed(r.clone(), 0, *object..*object + 1);
-                        }
-                    }
-                }
-                if let Some(t) = timer {
-                    self.resolve_timer(t, enc);
-                }
-                for ((_, bits), target) in temps.iter().zip(targets) {
-                    self.unbits(enc, bits, target.texture)?;
-                }
-                Ok(())
-            };
-            match self.pass_timer(shader.stem) {
-                None => self.encode(|enc| record(enc, None)),
-                Some(timer) => {
-                    self.encode(|enc| record(enc, Some(&timer)))?;
-                    self.after_submit(timer)
-                }
-            }
-        })?
-    }
-
     /// The render-target format of each stored format: itself where the adapter renders to it,
     /// else the integer format its bit patterns go through.
     fn render_formats(
@@ -322,6 +214,120 @@ impl Gpu {
         usage: wgpu::TextureUsages,
     ) -> wgpu::Texture {
         super::pool::texture_2d(&self.device, label, (width, height), format, usage)
+    }
+}
+
+impl Recorder<'_> {
+    /// Draw `mesh` with the shader's `vs`/`fs` entry points into `targets` (all the same size),
+    /// with a fresh depth buffer (less-than test) and the uniform bytes at binding 0.
+    pub fn raster(
+        &self,
+        shader: Shader,
+        uniform: &[u8],
+        targets: &[RasterTarget],
+        mesh: &MeshDraw,
+    ) -> Result<(), GpuError> {
+        let first = targets
+            .first()
+            .ok_or_else(|| GpuError::Validation("raster pass without targets".into()))?;
+        let (w, h) = (first.texture.width, first.texture.height);
+        let stored: Vec<wgpu::TextureFormat> = targets.iter().map(|t| t.texture.stored()).collect();
+        let formats = self.render_formats(&stored)?;
+        let bits = formats != stored;
+        let storage = self.caps.params_in_storage(u64::from(w) * u64::from(h));
+        let pipeline = self.raster_pipeline(shader, &formats, bits, storage)?;
+        // The bit-pattern path renders into integer textures of the same size.
+        let temps: Vec<(wgpu::Texture, wgpu::TextureView)> = if bits {
+            formats
+                .iter()
+                .map(|f| {
+                    let t = self.attachment(
+                        "raster bits",
+                        (w, h),
+                        *f,
+                        wgpu::TextureUsages::RENDER_ATTACHMENT
+                            | wgpu::TextureUsages::TEXTURE_BINDING,
+                    );
+                    let v = t.create_view(&Default::default());
+                    (t, v)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.scoped(|| {
+            let depth = self.attachment(
+                "depth",
+                (w, h),
+                wgpu::TextureFormat::Depth32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            );
+            let depth_view = depth.create_view(&Default::default());
+            let group = self.uniform_group(shader, &pipeline, uniform, storage);
+            let placed = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("placements"),
+                layout: &pipeline.get_bind_group_layout(1),
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: mesh.placements.as_entire_binding(),
+                }],
+            });
+            let attachments = color_attachments(targets, &temps, bits);
+            // Into the recorder's encoder; timed, with its timestamps resolved in it.
+            let record = |enc: &mut wgpu::CommandEncoder,
+                          timer: Option<&super::PassTimer>|
+             -> Result<(), GpuError> {
+                {
+                    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some(shader.stem),
+                        color_attachments: &attachments,
+                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                            view: &depth_view,
+                            depth_ops: Some(wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(1.0),
+                                store: wgpu::StoreOp::Discard,
+                            }),
+                            stencil_ops: None,
+                        }),
+                        timestamp_writes: timer.map(|t| wgpu::RenderPassTimestampWrites {
+                            query_set: &t.query,
+                            beginning_of_pass_write_index: Some(0),
+                            end_of_pass_write_index: Some(1),
+                        }),
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    pass.set_pipeline(&pipeline);
+                    pass.set_bind_group(0, &group, &[]);
+                    pass.set_bind_group(1, &placed, &[]);
+                    pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    for (object, r) in mesh.ranges {
+                        if !r.is_empty() {
+                            pass.draw_indexed(r.clone(), 0, *object..*object + 1);
+                        }
+                    }
+                }
+                if let Some(t) = timer {
+                    self.resolve_timer(t, enc);
+                }
+                for ((_, bits), target) in temps.iter().zip(targets) {
+                    self.unbits(enc, bits, target.texture)?;
+                }
+                Ok(())
+            };
+            for t in targets {
+                self.uses(t.texture);
+            }
+            match self.pass_timer(shader.stem) {
+                None => self.encode(|enc| record(enc, None)),
+                Some(timer) => {
+                    self.encode(|enc| record(enc, Some(&timer)))?;
+                    self.keep_timer(timer);
+                    Ok(())
+                }
+            }
+        })?
     }
 }
 

@@ -1,5 +1,7 @@
-//! Reading GPU results back: textures (and volume levels) and storage buffers. A read-back
-//! first submits what this thread has recorded (see `batch.rs`).
+//! Reading GPU results back: textures (and volume levels) and storage buffers. A read-back goes
+//! through a [`Recorder`]: its copy follows what the recorder recorded, and both are submitted
+//! before the bytes are waited for. (There is no read-back on [`Gpu`] itself: one beside a
+//! recorder's unsubmitted passes would read what they have not written yet.)
 
 use super::*;
 
@@ -12,19 +14,6 @@ thread_local! {
 const STAGING_KEPT: usize = 8;
 
 impl Gpu {
-    /// Read a storage buffer back as i32 words.
-    pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
-        let size = (b.words.max(1) as u64) * 4;
-        let staging = self.staging(size);
-        self.scoped(|| {
-            self.encode(|enc| enc.copy_buffer_to_buffer(&b.raw, 0, &staging, 0, size));
-        })?;
-        self.flush()?;
-        self.map_read(staging, size, |bytes| {
-            bytemuck::cast_slice::<u8, i32>(bytes)[..b.words as usize].to_vec()
-        })
-    }
-
     /// A MAP_READ staging buffer of at least `size` bytes: a kept one that fits (and is at most
     /// twice as large), else a new one.
     fn staging(&self, size: u64) -> wgpu::Buffer {
@@ -117,6 +106,21 @@ impl Gpu {
             total.load(std::sync::atomic::Ordering::Relaxed),
         )
     }
+}
+
+impl Recorder<'_> {
+    /// Read a storage buffer back as i32 words.
+    pub fn read_buffer_i32(&self, b: &GpuBuffer) -> Result<Vec<i32>, GpuError> {
+        let size = (b.words.max(1) as u64) * 4;
+        let staging = self.staging(size);
+        self.scoped(|| {
+            self.encode(|enc| enc.copy_buffer_to_buffer(&b.raw, 0, &staging, 0, size));
+        })?;
+        self.flush()?;
+        self.map_read(staging, size, |bytes| {
+            bytemuck::cast_slice::<u8, i32>(bytes)[..b.words as usize].to_vec()
+        })
+    }
 
     /// Read a texture back to the CPU. Returns `width * height * channels` interleaved floats,
     /// rows top to bottom, padding removed.
@@ -140,7 +144,7 @@ impl Gpu {
         self.map_read(copy.buffer, copy.bytes, |bytes| rows.unpad(bytes))
     }
 
-    /// Record the copy of [`Gpu::read_texels`] into a staging buffer and submit it.
+    /// Record the copy of [`Recorder::read_texels`] into a staging buffer and submit it.
     fn copy_texels(
         &self,
         texture: &wgpu::Texture,
@@ -277,7 +281,7 @@ impl Gpu {
     }
 }
 
-/// A texel read-back in flight ([`Gpu::read_texel_async`]).
+/// A texel read-back in flight ([`Recorder::read_texel_async`]).
 pub struct TexelRead {
     buffer: wgpu::Buffer,
     done: Arc<Mutex<Option<Result<(), String>>>>,
@@ -348,7 +352,7 @@ struct Copied {
     rows: Rows,
 }
 
-/// A texture read-back submitted and not yet waited for ([`Gpu::read_texture_later`]).
+/// A texture read-back submitted and not yet waited for ([`Recorder::read_texture_later`]).
 pub struct PendingRead {
     device: wgpu::Device,
     copy: Copied,
@@ -359,7 +363,7 @@ pub struct PendingRead {
 
 impl PendingRead {
     /// Wait for the copy (polling the device, so other submissions are not waited for) and
-    /// return the texture's values as [`Gpu::read_texture`] does.
+    /// return the texture's values as [`Recorder::read_texture`] does.
     pub fn wait(self) -> Result<Vec<f32>, GpuError> {
         let started = std::time::Instant::now();
         let Copied {

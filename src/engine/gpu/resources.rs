@@ -22,6 +22,11 @@ impl Gpu {
         Ok(self.pool.acquire(width, height, format))
     }
 
+    /// Textures idle in the pool, ready to be handed out again.
+    pub fn idle_textures(&self) -> usize {
+        self.pool.idle()
+    }
+
     /// A texture of zeros. ([`Gpu::texture`] recycles textures, so its contents are whatever the
     /// last user left: a pass that reads a texture before writing every texel starts here.)
     pub fn zeroed(
@@ -71,9 +76,9 @@ impl Gpu {
 
     /// Overwrite every texel of `tex` with interleaved float samples.
     fn write(&self, tex: &GpuTexture, data: &[f32]) -> Result<(), GpuError> {
-        // A queue write runs before the next submission: submit what is recorded, so that a
-        // recorded pass still reading this (recycled) texture sees its old contents.
-        self.flush()?;
+        // A queue write runs before the next submission, but no recorded pass still uses a
+        // texture the pool hands out (see recorder.rs: one dropped while used returns after its
+        // recorder submits), so nothing recorded sees it change.
         let (width, height) = (tex.width, tex.height);
         let widened = widen(data, tex.format.channels(), tex.stored_channels());
         let data: &[f32] = &widened;
@@ -114,7 +119,7 @@ impl Gpu {
                 label: Some("storage"),
                 size,
                 // INDIRECT: a pass may write the workgroup counts of a later one
-                // (`Gpu::dispatch_indirect`).
+                // (`Recorder::dispatch_indirect`).
                 usage: wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::COPY_SRC
                     | wgpu::BufferUsages::COPY_DST
@@ -126,8 +131,7 @@ impl Gpu {
     }
 
     /// A storage buffer holding `data` (32-bit words: u32, or f32 as bits), written through the
-    /// queue after what this thread has recorded so far is submitted (so earlier passes that
-    /// read a buffer being reused see its old contents).
+    /// queue (a new buffer: no recorded pass uses it yet).
     pub fn buffer_from(&self, data: &[u32]) -> Result<GpuBuffer, GpuError> {
         let words = u32::try_from(data.len()).map_err(|_| {
             GpuError::Validation(format!(
@@ -137,13 +141,45 @@ impl Gpu {
         })?;
         let b = self.buffer_zeroed(words)?;
         if !data.is_empty() {
-            self.flush()?;
             self.queue
                 .write_buffer(&b.raw, 0, bytemuck::cast_slice(data));
         }
         Ok(b)
     }
 
+    /// The value made by `make` for content `key`, made once and shared while anything holds
+    /// it: a second request for the same key (a scene's unchanged geometry on the next frame)
+    /// gets the same GPU resources instead of uploading them again. Keys are 64-bit content
+    /// hashes, per type; the second value says whether it was shared (not made now).
+    pub fn shared_by_key<T: std::any::Any + Send + Sync>(
+        &self,
+        key: u64,
+        make: impl FnOnce() -> Result<T, GpuError>,
+    ) -> Result<(std::sync::Arc<T>, bool), GpuError> {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::hash::DefaultHasher::new();
+        (key, std::any::TypeId::of::<T>()).hash(&mut h);
+        let key = h.finish();
+        let held = self
+            .keyed
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&key).and_then(std::sync::Weak::upgrade))
+            .and_then(|v| v.downcast::<T>().ok());
+        if let Some(v) = held {
+            return Ok((v, true));
+        }
+        let v = std::sync::Arc::new(make()?);
+        if let Ok(mut m) = self.keyed.lock() {
+            m.retain(|_, w| w.strong_count() > 0);
+            let any: std::sync::Arc<dyn std::any::Any + Send + Sync> = v.clone();
+            m.insert(key, std::sync::Arc::downgrade(&any));
+        }
+        Ok((v, false))
+    }
+}
+
+impl Recorder<'_> {
     /// Copy a `width × height` block from `src` at `(x, y)` to the same place in `dst` (same
     /// format).
     pub fn copy_region(
@@ -179,6 +215,8 @@ impl Gpu {
         to: (u32, u32),
         (width, height): (u32, u32),
     ) -> Result<(), GpuError> {
+        self.uses(src);
+        self.uses(dst);
         self.scoped(|| {
             self.encode(|enc| {
                 fn at(t: &GpuTexture, (x, y): (u32, u32)) -> wgpu::TexelCopyTextureInfo<'_> {
@@ -200,36 +238,5 @@ impl Gpu {
                 );
             })
         })
-    }
-
-    /// The value made by `make` for content `key`, made once and shared while anything holds
-    /// it: a second request for the same key (a scene's unchanged geometry on the next frame)
-    /// gets the same GPU resources instead of uploading them again. Keys are 64-bit content
-    /// hashes, per type; the second value says whether it was shared (not made now).
-    pub fn shared_by_key<T: std::any::Any + Send + Sync>(
-        &self,
-        key: u64,
-        make: impl FnOnce() -> Result<T, GpuError>,
-    ) -> Result<(std::sync::Arc<T>, bool), GpuError> {
-        use std::hash::{Hash, Hasher};
-        let mut h = std::hash::DefaultHasher::new();
-        (key, std::any::TypeId::of::<T>()).hash(&mut h);
-        let key = h.finish();
-        let held = self
-            .keyed
-            .lock()
-            .ok()
-            .and_then(|m| m.get(&key).and_then(std::sync::Weak::upgrade))
-            .and_then(|v| v.downcast::<T>().ok());
-        if let Some(v) = held {
-            return Ok((v, true));
-        }
-        let v = std::sync::Arc::new(make()?);
-        if let Ok(mut m) = self.keyed.lock() {
-            m.retain(|_, w| w.strong_count() > 0);
-            let any: std::sync::Arc<dyn std::any::Any + Send + Sync> = v.clone();
-            m.insert(key, std::sync::Arc::downgrade(&any));
-        }
-        Ok((v, false))
     }
 }

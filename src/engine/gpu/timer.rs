@@ -1,27 +1,13 @@
 //! GPU timestamp queries around passes, for per-node GPU timings. Each pass's timer is tagged
-//! with the node being run ([`Gpu::set_timed_node`]) and kept; [`Gpu::resolve_timings`] reads
-//! them all once, after the evaluation's last submission — nothing waits for the GPU between
-//! nodes to time them.
+//! with the node being run ([`super::Recorder::set_timed_node`]) and kept by the recorder;
+//! [`super::Recorder::resolve_timings`] reads them all once, after the evaluation's last
+//! submission — nothing waits for the GPU between nodes to time them.
 
-use std::cell::{Cell, RefCell};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use super::{Gpu, GpuError};
-
-thread_local! {
-    // Per thread, like wgpu's error scopes: evaluations on other threads neither switch this
-    // thread's timing on or off nor add to its timers.
-    static TIMING: Cell<bool> = const { Cell::new(false) };
-    /// The node whose passes are being recorded.
-    static TIMED_NODE: RefCell<String> = const { RefCell::new(String::new()) };
-    /// Timers of passes recorded, resolved by `resolve_timings`.
-    static TIMERS: RefCell<Vec<PassTimer>> = const { RefCell::new(Vec::new()) };
-    /// Times resolved but not taken (an evaluation inside a node's run resolved its outer
-    /// evaluation's timers too): added to the next `resolve_timings`.
-    static UNCLAIMED: RefCell<BTreeMap<String, Duration>> = const { RefCell::new(BTreeMap::new()) };
-}
 
 /// The queries of one pass: two timestamps resolved into a buffer and copied for reading.
 pub struct PassTimer {
@@ -36,31 +22,13 @@ pub struct PassTimer {
 }
 
 impl Gpu {
-    /// Start (or stop) timing passes on this thread (when the adapter has timestamp queries).
-    pub fn set_timing(&self, on: bool) {
-        TIMING.with(|t| t.set(on));
-    }
-
-    /// The node whose passes this thread records next (their GPU time is that node's).
-    pub fn set_timed_node(&self, id: &str) {
-        TIMED_NODE.with(|n| {
-            let mut n = n.borrow_mut();
-            n.clear();
-            n.push_str(id);
-        });
-    }
-
-    pub(crate) fn timing_active(&self) -> bool {
-        TIMING.with(|t| t.get())
-            && self
-                .device
-                .features()
-                .contains(wgpu::Features::TIMESTAMP_QUERY)
-    }
-
-    /// Queries for one pass, when timing.
-    pub(crate) fn pass_timer(&self, label: &str) -> Option<PassTimer> {
-        if !self.timing_active() {
+    /// Queries for one pass of `node`, where the adapter has timestamp queries.
+    pub(crate) fn pass_timer(&self, label: &str, node: String) -> Option<PassTimer> {
+        if !self
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+        {
             return None;
         }
         let buffer = |usage| {
@@ -80,7 +48,7 @@ impl Gpu {
             resolve: buffer(wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
             read: buffer(wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ),
             label: label.to_string(),
-            node: TIMED_NODE.with(|n| n.borrow().clone()),
+            node,
         })
     }
 
@@ -90,23 +58,13 @@ impl Gpu {
         enc.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
     }
 
-    /// Keep a pass's timer (its resolve recorded in the encoder that recorded the pass) for
-    /// [`Gpu::resolve_timings`].
-    pub(crate) fn after_submit(&self, timer: PassTimer) -> Result<(), GpuError> {
-        TIMERS.with(|t| t.borrow_mut().push(timer));
-        Ok(())
-    }
-
-    /// Submit what this thread recorded, then read every timer kept since the last call — one
-    /// wait for the GPU — and sum their durations per node (each pass also goes to the trace's
-    /// GPU track). Empty without timestamp queries or with timing off.
-    pub fn resolve_timings(&self) -> Result<BTreeMap<String, Duration>, GpuError> {
-        let timers = TIMERS.with(|t| std::mem::take(&mut *t.borrow_mut()));
-        let mut per_node = UNCLAIMED.with(|u| std::mem::take(&mut *u.borrow_mut()));
-        if timers.is_empty() {
-            return Ok(per_node);
-        }
-        self.flush()?;
+    /// Read `timers` (their passes submitted) — one wait for the GPU — and sum their
+    /// durations per node; each pass also goes to the trace's GPU track.
+    pub(crate) fn read_timers(
+        &self,
+        timers: Vec<PassTimer>,
+    ) -> Result<BTreeMap<String, Duration>, GpuError> {
+        let mut per_node = BTreeMap::new();
         let pending = Arc::new(Mutex::new(timers.len()));
         let failed = Arc::new(Mutex::new(None));
         for t in &timers {
@@ -142,16 +100,5 @@ impl Gpu {
             *per_node.entry(t.node).or_insert(Duration::ZERO) += d;
         }
         Ok(per_node)
-    }
-
-    /// Give back times [`Gpu::resolve_timings`] returned that the caller has no node for (an
-    /// outer evaluation's): the next call returns them.
-    pub fn unclaimed_timings(&self, times: BTreeMap<String, Duration>) {
-        UNCLAIMED.with(|u| {
-            let mut u = u.borrow_mut();
-            for (node, d) in times {
-                *u.entry(node).or_insert(Duration::ZERO) += d;
-            }
-        });
     }
 }

@@ -14,7 +14,7 @@
 //! keeps what earlier passes wrote, so passes that each write one slice (`SoftVisibility`) build
 //! the level up as they do on a storage texture. Shaders read volumes as textures either way.
 
-use super::{Gpu, GpuError};
+use super::{Gpu, GpuError, Recorder};
 
 /// A one-channel 3D texture with its mip chain (or a read-only RGBA lookup table:
 /// [`Gpu::lut_volume`]).
@@ -324,7 +324,7 @@ impl Gpu {
 
     /// A read-only RGBA 3D lookup table of `size` texels (one level), `rgba` x fastest, then
     /// y, then z — what a colour transform's 3D LUT is read from (`textureLoad`; no sampler,
-    /// not filterable). Not for [`Gpu::read_volume`], which reads one-channel volumes.
+    /// not filterable). Not for [`Recorder::read_volume`], which reads one-channel volumes.
     pub fn lut_volume(&self, size: [u32; 3], rgba: &[f32]) -> Result<GpuVolume, GpuError> {
         let limit = self.limits.max_texture_dimension_3d;
         if size.iter().any(|&s| s == 0 || s > limit) {
@@ -362,9 +362,7 @@ impl Gpu {
                 view_formats: &[],
             })
         })?;
-        // A queue write runs before the next submission: submit what is recorded first (as
-        // `Gpu::upload` does), though a new texture has no earlier reader.
-        self.flush()?;
+        // A new texture: no recorded pass reads it before this queue write.
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &raw,
@@ -391,7 +389,9 @@ impl Gpu {
             size,
         })
     }
+}
 
+impl Recorder<'_> {
     /// Read mip `level` of a volume back: x fastest, then y, then z.
     pub fn read_volume(&self, v: &GpuVolume, level: u32) -> Result<Vec<f32>, GpuError> {
         if v.has_unflushed_rows() {

@@ -99,7 +99,8 @@ pub fn render_view(
         return Err("the GBuffer's depth is not a Depth value".into());
     };
     let camera = *camera;
-    let depth = tyndall_engine::eval::download(ev.gpu(), value).map_err(|e| e.to_string())?;
+    let depth =
+        tyndall_engine::eval::download(&ev.gpu().recorder(), value).map_err(|e| e.to_string())?;
     Ok(BrushView {
         key,
         size: (depth.width, depth.height),
