@@ -527,8 +527,7 @@ impl Evaluator {
         }
         let rec = ctx.gpu;
         rec.set_timing(opts.gpu_timings);
-        rec.set_timed_node(ctx.id);
-        self.gpu.set_running_kind(k.schema().kind);
+        rec.set_node(ctx.id, k.schema().kind);
         let start = Instant::now();
         let submitted = rec.submits();
         // The node's passes go into the evaluation's encoder, submitted with its neighbours'

@@ -63,24 +63,6 @@ impl Gpu {
             .collect()
     }
 
-    /// The pipeline of a dispatch: made once per [`Recipe`] (its key), remembered under the
-    /// running node's kind for [`Gpu::prepare_pipelines`].
-    fn pipeline(
-        &self,
-        shader: Shader,
-        entry: &str,
-        binds: &[(u32, Bind)],
-        constants: &[(&str, f64)],
-        params_in_storage: bool,
-    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
-        // What the adapter lacks for this shader, in one line, rather than a driver error (for
-        // a node's shaders checked before it runs, a lookup of the answer kept then).
-        self.supports(shader)?;
-        let recipe = Recipe::of(shader, entry, binds, constants, params_in_storage);
-        let (pipeline, _) = self.obtain_pipeline(shader, &recipe)?;
-        Ok(pipeline)
-    }
-
     /// Whether the pipeline of `key` was made (or is being made).
     pub(crate) fn has_pipeline(&self, key: &str) -> bool {
         let cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
@@ -95,24 +77,23 @@ impl Gpu {
         &self,
         shader: Shader,
         recipe: &Recipe,
+        key: &str,
     ) -> Result<(Arc<wgpu::ComputePipeline>, bool), GpuError> {
-        let key = recipe.key();
-        self.recipes.used(&key);
         let cell = {
             let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-            cache.entry(key.clone()).or_default().clone()
+            cache.entry(key.to_string()).or_default().clone()
         };
         let mut created = false;
         let made = cell.get_or_init(|| {
             created = true;
-            self.create_pipeline(shader, recipe, &key)
+            self.create_pipeline(shader, recipe, key)
         });
         match made {
             Ok(p) => Ok((p.clone(), created)),
             Err(e) => {
                 let mut cache = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
-                if cache.get(&key).is_some_and(|c| Arc::ptr_eq(c, &cell)) {
-                    cache.remove(&key);
+                if cache.get(key).is_some_and(|c| Arc::ptr_eq(c, &cell)) {
+                    cache.remove(key);
                 }
                 Err(e.clone())
             }
@@ -232,6 +213,27 @@ impl Gpu {
 }
 
 impl Recorder<'_> {
+    /// The pipeline of a dispatch: made once per [`Recipe`] (its key), remembered under the
+    /// running node's kind for [`Gpu::prepare_pipelines`].
+    fn pipeline(
+        &self,
+        shader: Shader,
+        entry: &str,
+        binds: &[(u32, Bind)],
+        constants: &[(&str, f64)],
+        params_in_storage: bool,
+    ) -> Result<Arc<wgpu::ComputePipeline>, GpuError> {
+        // What the adapter lacks for this shader, in one line, rather than a driver error (for
+        // a node's shaders checked before it runs, a lookup of the answer kept then).
+        self.supports(shader)?;
+        let recipe = Recipe::of(shader, entry, binds, constants, params_in_storage);
+        let key = recipe.key();
+        let (pipeline, _) = self.obtain_pipeline(shader, &recipe, &key)?;
+        // Remembered under the running node's kind, for the next evaluation to prepare.
+        self.used_pipeline(&key);
+        Ok(pipeline)
+    }
+
     /// Run one compute entry point over (at least) `width × height` invocations, in workgroups
     /// of the entry point's own `@workgroup_size` (read from the WGSL). Bindings are
     /// `(WGSL variable name, resource)` in group 0: the number is the shader's own (reflected

@@ -1,7 +1,7 @@
 //! Pipelines created up front, in parallel. Every compute pipeline is described by a
 //! [`Recipe`] — shader, entry point, where the parameter block lives, constants, binding
 //! signature — whose text is the pipeline's cache key. While a node runs, the recipes of the
-//! pipelines it uses are recorded under its kind ([`Gpu::set_running_kind`]) and saved, per
+//! pipelines it uses are recorded under its kind ([`super::Recorder::set_node`]) and saved, per
 //! adapter, driver and Tyndall version, in [`cache_dir`] (`recipes-<hash>.txt`, one
 //! `kind<TAB>recipe` line each). The next evaluation — in this process or the next — first
 //! asks for the pipelines of the kinds it will run ([`Gpu::prepare_pipelines`]): worker
@@ -206,20 +206,6 @@ pub(crate) struct Recipes {
     prepared: AtomicU64,
 }
 
-thread_local! {
-    /// The kind of the node this thread runs ([`Gpu::set_running_node`]); empty: none.
-    static RUNNING_KIND: std::cell::RefCell<String> = const { std::cell::RefCell::new(String::new()) };
-}
-
-/// Set the node kind whose pipelines this thread's dispatches record.
-pub(crate) fn set_running_kind(kind: &str) {
-    RUNNING_KIND.with(|k| {
-        let mut k = k.borrow_mut();
-        k.clear();
-        k.push_str(kind);
-    });
-}
-
 impl Recipes {
     /// The recipes saved for this adapter, driver and version (none when there is no file, or
     /// it is another's or unreadable: recipes only save time, nothing needs them).
@@ -247,27 +233,18 @@ impl Recipes {
         }
     }
 
-    /// The pipeline `key` is used by the node this thread runs: remember it under its kind.
-    pub(crate) fn used(&self, key: &str) {
-        RUNNING_KIND.with(|kind| {
-            let kind = kind.borrow();
-            if kind.is_empty() {
-                return;
-            }
-            let mut by_kind = self.by_kind.lock().unwrap_or_else(|e| e.into_inner());
-            let known = by_kind
+    /// The pipeline `key` is used by a node of kind `kind`: remember it under that kind.
+    pub(crate) fn used(&self, kind: &str, key: &str) {
+        let mut by_kind = self.by_kind.lock().unwrap_or_else(|e| e.into_inner());
+        let known = by_kind.0.get(kind).is_some_and(|k| k.contains(key));
+        if !known {
+            by_kind
                 .0
-                .get(kind.as_str())
-                .is_some_and(|k| k.contains(key));
-            if !known {
-                by_kind
-                    .0
-                    .entry(kind.clone())
-                    .or_default()
-                    .insert(key.to_string());
-                by_kind.1 = true;
-            }
-        });
+                .entry(kind.to_string())
+                .or_default()
+                .insert(key.to_string());
+            by_kind.1 = true;
+        }
     }
 
     /// The recipes (keys) remembered for `kind`.
@@ -377,12 +354,6 @@ fn enabled() -> bool {
 }
 
 impl Gpu {
-    /// Record the pipelines this thread's dispatches use under node kind `kind` (for
-    /// [`Gpu::prepare_pipelines`]). The evaluator calls it before each node's run.
-    pub fn set_running_kind(&self, kind: &str) {
-        set_running_kind(kind);
-    }
-
     /// Start creating, on worker threads, the pipelines the node kinds in `kinds` (kind, its
     /// shaders; in the order they will run) used before — in this process or, through the file
     /// in [`cache_dir`], an earlier one — and that this context has not created yet. A node
@@ -426,7 +397,7 @@ impl Gpu {
                         };
                         // A recipe that no longer builds is forgotten here; the node that
                         // needs it reports the error when it runs.
-                        if let Ok((_, true)) = gpu.obtain_pipeline(shader, &recipe) {
+                        if let Ok((_, true)) = gpu.obtain_pipeline(shader, &recipe, &recipe.key()) {
                             gpu.recipes.prepared.fetch_add(1, Ordering::Relaxed);
                         }
                     }

@@ -62,6 +62,8 @@ struct State {
     timing: bool,
     /// The node whose passes are being recorded (their GPU time is its).
     node: String,
+    /// Its kind (the pipelines it uses are remembered under it); empty: none.
+    kind: String,
     /// Timers of recorded passes, read by [`Recorder::resolve_timings`].
     timers: Vec<PassTimer>,
 }
@@ -103,6 +105,7 @@ impl Gpu {
                 retired: Arc::default(),
                 timing: false,
                 node: String::new(),
+                kind: String::new(),
                 timers: Vec::new(),
             }),
             submits: AtomicU64::new(0),
@@ -221,11 +224,23 @@ impl<'g> Recorder<'g> {
         self.state().timing = on;
     }
 
-    /// The node whose passes are recorded next (their GPU time is that node's).
-    pub fn set_timed_node(&self, id: &str) {
+    /// The node whose passes are recorded next: their GPU time is node `id`'s, the pipelines
+    /// they use are remembered under its `kind` (for [`Gpu::prepare_pipelines`] next time).
+    /// The evaluator calls it before each node's run.
+    pub fn set_node(&self, id: &str, kind: &str) {
         let mut st = self.state();
         st.node.clear();
         st.node.push_str(id);
+        st.kind.clear();
+        st.kind.push_str(kind);
+    }
+
+    /// Remember pipeline `key` under the running node's kind.
+    pub(crate) fn used_pipeline(&self, key: &str) {
+        let st = self.state();
+        if !st.kind.is_empty() {
+            self.recipes.used(&st.kind, key);
+        }
     }
 
     /// Queries for one pass, when timing.

@@ -1,5 +1,5 @@
 //! GPU timestamp queries around passes, for per-node GPU timings. Each pass's timer is tagged
-//! with the node being run ([`super::Recorder::set_timed_node`]) and kept by the recorder;
+//! with the node being run ([`super::Recorder::set_node`]) and kept by the recorder;
 //! [`super::Recorder::resolve_timings`] reads them all once, after the evaluation's last
 //! submission — nothing waits for the GPU between nodes to time them.
 
