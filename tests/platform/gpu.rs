@@ -63,7 +63,8 @@ fn readbacks_reuse_their_staging_buffers() {
 /// A texture a recorded, unsubmitted pass reads goes back to the pool only once its recorder
 /// submits: dropped in between, the next upload of its shape gets another texture, so the
 /// upload (a queue write, which runs before the next submission) cannot change what the pass
-/// reads. On GL, where every pass is submitted at once, it returns at once.
+/// reads; one that two recorders' unsubmitted passes read returns once both have submitted. On
+/// GL, where every pass is submitted at once, it returns at once.
 #[test]
 fn a_texture_an_unsubmitted_pass_reads_returns_to_the_pool_after_the_submission() {
     let _ = require_gpu!();
@@ -107,6 +108,29 @@ fn a_texture_an_unsubmitted_pass_reads_returns_to_the_pool_after_the_submission(
         "the pass read the input's values, not the later upload's"
     );
     drop(later);
+    // Read by two recorders' unsubmitted passes: back once both have submitted.
+    let (first, second) = (gpu.recorder(), gpu.recorder());
+    let shared = gpu.upload(5, 3, 1, &[4.0; 15]).expect("upload");
+    let outs = [0, 1].map(|_| gpu.texture(5, 3, TexFormat::R32F).expect("texture"));
+    for (rec, out) in [(&first, &outs[0]), (&second, &outs[1])] {
+        let binds = [("o", Bind::Storage(out)), ("i", Bind::Texture(&shared))];
+        rec.dispatch(shader, "copy", &binds, 5, 3)
+            .expect("dispatch");
+    }
+    let idle = gpu.idle_textures();
+    drop(shared);
+    // The recorder that used it last submits first.
+    second.flush().expect("submit");
+    assert_eq!(
+        gpu.idle_textures(),
+        idle + usize::from(!batched),
+        "not back while the first recorder's pass waits"
+    );
+    first.flush().expect("submit");
+    assert_eq!(gpu.idle_textures(), idle + 1, "back once both submitted");
+    for out in &outs {
+        assert_eq!(first.read_texture(out).expect("read"), vec![5.0; 15]);
+    }
 }
 
 #[test]

@@ -3,7 +3,7 @@
 use std::sync::{Arc, Mutex, Weak};
 
 use super::adapter::Capabilities;
-use super::recorder::Retired;
+use super::recorder::{Release, Retired};
 
 /// Texel formats used between nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -59,9 +59,9 @@ pub struct GpuTexture {
     stored: wgpu::TextureFormat,
     home: Weak<Mutex<Free>>,
     capacity: usize,
-    /// The recorder whose unsubmitted passes use it, if any ([`super::Recorder`]'s retired
-    /// list: dropped before that recorder submits, it returns to the pool after).
-    used_by: Mutex<Weak<Retired>>,
+    /// The recorders whose unsubmitted passes use it ([`super::Recorder`]s' retired lists:
+    /// dropped before they submit, it returns to the pool once all have).
+    used_by: Mutex<Vec<Weak<Retired>>>,
 }
 
 impl std::fmt::Debug for GpuTexture {
@@ -98,7 +98,15 @@ impl GpuTexture {
 
     /// Mark it as used by the unsubmitted passes whose retired list is `retired`.
     pub(crate) fn used_by(&self, retired: &Arc<Retired>) {
-        *self.used_by.lock().unwrap_or_else(|e| e.into_inner()) = Arc::downgrade(retired);
+        let mut users = self.used_by.lock().unwrap_or_else(|e| e.into_inner());
+        // Recorders that have submitted since are done with it.
+        users.retain(|w| w.strong_count() > 0);
+        if !users
+            .iter()
+            .any(|w| std::ptr::eq(w.as_ptr(), Arc::as_ptr(retired)))
+        {
+            users.push(Arc::downgrade(retired));
+        }
     }
 
     /// Size in bytes, as stored.
@@ -122,12 +130,13 @@ impl Drop for GpuTexture {
                 }
             }
         };
-        // Recorded passes not yet submitted may still use it: back to the pool only once their
-        // recorder submits them, so no other work reaching the queue earlier reuses it first.
-        let used_by = self.used_by.get_mut().unwrap_or_else(|e| e.into_inner());
-        match used_by.upgrade() {
-            Some(retired) => retired.push(Box::new(release)),
-            None => release(),
+        // Recorded passes not yet submitted may still use it: back to the pool only once every
+        // recorder holding such passes has submitted them (at once when none does), so no other
+        // work reaching the queue earlier reuses it first.
+        let release = Release::new(Box::new(release));
+        let users = self.used_by.get_mut().unwrap_or_else(|e| e.into_inner());
+        for retired in users.iter().filter_map(Weak::upgrade) {
+            retired.hold(release.clone());
         }
     }
 }
@@ -167,7 +176,7 @@ impl TexturePool {
             stored,
             home: Arc::downgrade(&self.free),
             capacity: self.capacity,
-            used_by: Mutex::new(Weak::new()),
+            used_by: Mutex::new(Vec::new()),
         }
     }
 

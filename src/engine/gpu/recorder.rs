@@ -69,14 +69,15 @@ struct State {
 }
 
 /// Pool returns of textures dropped while an unsubmitted pass uses them. The recorder holds the
-/// one strong reference until its next submission; the textures hold weak ones. The returns run
-/// when the last strong reference goes — after the submission.
+/// one strong reference until its next submission; the textures hold weak ones. A return is
+/// shared by every recorder whose unsubmitted passes use the texture, and runs when the last of
+/// them has submitted.
 #[derive(Default)]
-pub(crate) struct Retired(Mutex<Vec<Box<dyn FnOnce() + Send>>>);
+pub(crate) struct Retired(Mutex<Vec<Arc<Release>>>);
 
 impl Retired {
-    /// Return `release` to the pool once this recorder has submitted.
-    pub(crate) fn push(&self, release: Box<dyn FnOnce() + Send>) {
+    /// Hold `release` until this recorder has submitted.
+    pub(crate) fn hold(&self, release: Arc<Release>) {
         self.0
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -84,10 +85,22 @@ impl Retired {
     }
 }
 
-impl Drop for Retired {
+/// A texture's return to its pool, run when the last holder drops it.
+pub(crate) struct Release(Mutex<Option<Box<dyn FnOnce() + Send>>>);
+
+impl Release {
+    /// `release`, to run once no [`Retired`] list holds it.
+    pub(crate) fn new(release: Box<dyn FnOnce() + Send>) -> Arc<Self> {
+        Arc::new(Self(Mutex::new(Some(release))))
+    }
+}
+
+impl Drop for Release {
     fn drop(&mut self) {
-        let releases = std::mem::take(self.0.get_mut().unwrap_or_else(|e| e.into_inner()));
-        releases.into_iter().for_each(|release| release());
+        let release = self.0.get_mut().unwrap_or_else(|e| e.into_inner()).take();
+        if let Some(release) = release {
+            release();
+        }
     }
 }
 
