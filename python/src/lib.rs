@@ -17,6 +17,7 @@ use pyo3::prelude::*;
 mod colour;
 mod evaluate;
 mod graph;
+mod render;
 mod values;
 
 create_exception!(
@@ -190,7 +191,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<evaluate::Evaluator>()?;
     m.add_function(wrap_pyfunction!(graph::catalog, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate::node, m)?)?;
-    m.add_function(wrap_pyfunction!(evaluate::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(values::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(values::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(colour::convert_colourspace, m)?)?;
