@@ -169,6 +169,18 @@ fn covered(views: &[ViewProblem], n: u32, frac: f32, light: &Matrices) -> Vec<bo
         .collect()
 }
 
+/// The GPU solve at [`SAMPLING`], recorded and submitted on its own.
+fn solve_gpu(
+    gpu: &tyndall::gpu::Gpu,
+    views: Vec<ViewProblem>,
+    shadow: &tyndall::gpu::GpuTexture,
+    light: Matrices,
+    n: u32,
+    set: Settings,
+) -> Result<lms::Solution, tyndall::eval::NodeError> {
+    lms::solve_gpu(&gpu.recorder(), views, shadow, light, n, SAMPLING, set)
+}
+
 fn settings(iterations: u32) -> Settings {
     Settings {
         iterations,
@@ -233,16 +245,7 @@ fn solve_recovers_a_known_light_map_through_a_spot() {
     recover_known_map(&gpu, spot(), "spot");
     let views = views_from_render(&gpu, &known_map(8), spot());
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
-    let g = lms::solve_gpu(
-        &gpu.recorder(),
-        views.clone(),
-        &sh,
-        spot(),
-        8,
-        SAMPLING,
-        settings(20),
-    )
-    .expect("gpu");
+    let g = solve_gpu(&gpu, views.clone(), &sh, spot(), 8, settings(20)).expect("gpu");
     let c =
         lms::solve_reference(&views, &shadow(), &spot(), 8, SAMPLING, settings(20)).expect("cpu");
     let last = |r: &[f64]| *r.last().expect("residual");
@@ -263,16 +266,7 @@ fn recover_known_map(gpu: &Arc<tyndall::gpu::Gpu>, light: Matrices, what: &str) 
     let truth = known_map(n);
     let views = views_from_render(gpu, &truth, light);
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
-    let sol = lms::solve_gpu(
-        &gpu.recorder(),
-        views.clone(),
-        &sh,
-        light,
-        n,
-        SAMPLING,
-        settings(300),
-    )
-    .expect("solve");
+    let sol = solve_gpu(gpu, views.clone(), &sh, light, n, settings(300)).expect("solve");
     for w in sol.residuals.windows(2) {
         // Rounding only: the fixed-point adjoint and f32 sums (relative 1e-6 of the start).
         assert!(
@@ -310,16 +304,7 @@ fn gpu_and_cpu_solves_agree() {
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let set = settings(20);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
-    let g = lms::solve_gpu(
-        &gpu.recorder(),
-        views.clone(),
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        set,
-    )
-    .expect("gpu");
+    let g = solve_gpu(&gpu, views.clone(), &sh, light(), n, set).expect("gpu");
     let top = cpu.x.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     let d = cpu
         .x
@@ -357,16 +342,7 @@ fn unreached_texels_keep_the_start_value() {
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let mut set = settings(20);
     set.start = 0.7;
-    let g = lms::solve_gpu(
-        &gpu.recorder(),
-        views.clone(),
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        set,
-    )
-    .expect("gpu");
+    let g = solve_gpu(&gpu, views.clone(), &sh, light(), n, set).expect("gpu");
     let reached = covered(&views, n, 0.0, &light());
     assert!(
         reached.iter().any(|c| !c),
@@ -387,32 +363,14 @@ fn degenerate_problems_end_finite() {
     let gpu = require_gpu!();
     let n = 8;
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
-    let none = lms::solve_gpu(
-        &gpu.recorder(),
-        vec![],
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        settings(10),
-    )
-    .expect("none");
+    let none = solve_gpu(&gpu, vec![], &sh, light(), n, settings(10)).expect("none");
     assert!(none.x.iter().all(|v| *v == [1.0; 3]));
     let mut one = views_from_render(&gpu, &known_map(n), light());
     one.truncate(1);
     for (k, px) in one[0].targets.data.chunks_mut(4).enumerate() {
         px[3] = if k == 615 { 1.0 } else { 0.0 };
     }
-    let s1 = lms::solve_gpu(
-        &gpu.recorder(),
-        one.clone(),
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        settings(10),
-    )
-    .expect("one");
+    let s1 = solve_gpu(&gpu, one.clone(), &sh, light(), n, settings(10)).expect("one");
     assert!(s1.x.iter().flatten().all(|v| v.is_finite()));
     // Contradictory: the second and third views want the opposite red of the first.
     let mut contra = views_from_render(&gpu, &known_map(n), light());
@@ -421,16 +379,7 @@ fn degenerate_problems_end_finite() {
             px[0] = 2.0 - px[0];
         }
     }
-    let s3 = lms::solve_gpu(
-        &gpu.recorder(),
-        contra,
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        settings(40),
-    )
-    .expect("contra");
+    let s3 = solve_gpu(&gpu, contra, &sh, light(), n, settings(40)).expect("contra");
     assert!(s3.x.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
     for w in s3.residuals.windows(2) {
         assert!(
@@ -440,16 +389,7 @@ fn degenerate_problems_end_finite() {
         );
     }
     let dark = gpu.upload(16, 16, 1, &[0.0; 256]).expect("dark");
-    let s2 = lms::solve_gpu(
-        &gpu.recorder(),
-        one,
-        &dark,
-        light(),
-        n,
-        SAMPLING,
-        settings(10),
-    )
-    .expect("dark");
+    let s2 = solve_gpu(&gpu, one, &dark, light(), n, settings(10)).expect("dark");
     assert!(s2.x.iter().flatten().all(|v| v.is_finite()));
     assert!(s2.residuals.iter().all(|r| r.is_finite()));
 }
@@ -518,16 +458,7 @@ fn resident_solve_reaches_the_cpu_residual() {
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
     let set = settings(40);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
-    let res = lms::solve_gpu(
-        &gpu.recorder(),
-        views.clone(),
-        &sh,
-        light(),
-        n,
-        SAMPLING,
-        set,
-    )
-    .expect("gpu");
+    let res = solve_gpu(&gpu, views.clone(), &sh, light(), n, set).expect("gpu");
     let want = lms::desired(&views);
     let rec = gpu.recorder();
     let mut operator =

@@ -60,6 +60,23 @@ fn readbacks_reuse_their_staging_buffers() {
     );
 }
 
+/// `copy`: `o` = `i` + 1 over `o`'s size, in workgroups of 3 × 5; `one`: 7 into the invocation's
+/// texel, in workgroups of 1.
+const COPY_PLUS_ONE: Shader = Shader {
+    stem: "test_only_binds",
+    files: &[],
+    source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
+             @group(0) @binding(1) var i: texture_2d<f32>;\n\
+             @compute @workgroup_size(3, 5) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                 let s = textureDimensions(o);\n\
+                 if id.x >= s.x || id.y >= s.y { return; }\n\
+                 textureStore(o, vec2<i32>(id.xy), textureLoad(i, vec2<i32>(id.xy), 0) + 1.0);\n\
+             }\n\
+             @compute @workgroup_size(1) fn one(@builtin(global_invocation_id) id: vec3<u32>) {\n\
+                 textureStore(o, vec2<i32>(id.xy), vec4<f32>(7.0));\n\
+             }",
+};
+
 /// A texture a recorded, unsubmitted pass reads goes back to the pool only once its recorder
 /// submits: dropped in between, the next upload of its shape gets another texture, so the
 /// upload (a queue write, which runs before the next submission) cannot change what the pass
@@ -72,17 +89,7 @@ fn a_texture_an_unsubmitted_pass_reads_returns_to_the_pool_after_the_submission(
     let gpu = tyndall::gpu::Gpu::new(false).expect("device");
     let batched = gpu.info.backend != wgpu::Backend::Gl
         && std::env::var_os("TYNDALL_TRACE_PASSES").is_none_or(|v| v == "0");
-    let shader = Shader {
-        stem: "test_only_retire",
-        files: &[],
-        source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
-                 @group(0) @binding(1) var i: texture_2d<f32>;\n\
-                 @compute @workgroup_size(8, 8) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
-                     let s = textureDimensions(o);\n\
-                     if id.x >= s.x || id.y >= s.y { return; }\n\
-                     textureStore(o, vec2<i32>(id.xy), textureLoad(i, vec2<i32>(id.xy), 0) + 1.0);\n\
-                 }",
-    };
+    let shader = COPY_PLUS_ONE;
     let rec = gpu.recorder();
     let input = gpu.upload(5, 3, 1, &[2.0; 15]).expect("upload");
     let out = gpu.texture(5, 3, TexFormat::R32F).expect("texture");
@@ -209,20 +216,7 @@ fn wgpu_validation_errors_surface_as_errors() {
 #[test]
 fn dispatches_check_bindings_and_read_the_workgroup_size() {
     let gpu = require_gpu!();
-    let shader = Shader {
-        stem: "test_only_binds",
-        files: &[],
-        source: "@group(0) @binding(0) var o: texture_storage_2d<r32float, write>;\n\
-                 @group(0) @binding(1) var i: texture_2d<f32>;\n\
-                 @compute @workgroup_size(3, 5) fn copy(@builtin(global_invocation_id) id: vec3<u32>) {\n\
-                     let s = textureDimensions(o);\n\
-                     if id.x >= s.x || id.y >= s.y { return; }\n\
-                     textureStore(o, vec2<i32>(id.xy), textureLoad(i, vec2<i32>(id.xy), 0) + 1.0);\n\
-                 }\n\
-                 @compute @workgroup_size(1) fn one(@builtin(global_invocation_id) id: vec3<u32>) {\n\
-                     textureStore(o, vec2<i32>(id.xy), vec4<f32>(7.0));\n\
-                 }",
-    };
+    let shader = COPY_PLUS_ONE;
     let out = gpu.texture(7, 11, TexFormat::R32F).expect("tex");
     let input = gpu.upload(7, 11, 1, &vec![2.0; 77]).expect("upload");
     let missing = gpu
