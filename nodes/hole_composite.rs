@@ -1,8 +1,9 @@
-//! `HoleComposite`: hole creation (SPEC §4): the tagged objects' own shadow map gets depth 1
-//! ("no occluder") where the hole map says so, then the minimum with the rest of the scene's
-//! map — so light bursts through the objects (foliage) while everything else still occludes.
+//! `HoleComposite`: hole creation (SPEC §4): the tagged objects' own shadow map is made clear
+//! ([`SHADOW_CLEAR`], no occluder) where the hole map says so, then the minimum with the rest of
+//! the scene's map — so light bursts through the objects (foliage) while everything else still
+//! occludes. A texel clear in both maps stays clear.
 //!
-//! `out = min(H > 0.5 ? 1 : object, rest)`. The hole map is sampled at the same normalised
+//! `out = min(H > 0.5 ? clear : object, rest)`. The hole map is sampled at the same normalised
 //! position (nearest texel) when its size differs. Any light: `object` and `rest` must be maps
 //! of the same one (the same `ShadowMap.light`; a sun's, a spot's or a point light's cube
 //! atlas, texel by texel), else the node refuses them.
@@ -16,7 +17,7 @@
 
 use std::sync::Arc;
 
-use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{NodeDecl, NodeError, NodeKind, PortValue, RunCtx, SHADOW_CLEAR};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, PortSpec, PortType};
 use tyndall_engine::io::Raster;
@@ -28,7 +29,7 @@ pub struct HoleComposite;
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "HoleComposite",
     category: "Occluders",
-    doc: "Pushes the object-only map to depth 1 in holes, then takes the minimum with the rest of the scene's map.",
+    doc: "Makes the object-only map clear (no occluder) in holes, then takes the minimum with the rest of the scene's map.",
     inputs: &[
         PortSpec::required("object", &[PortType::ShadowMap], "Shadow map of the objects to punch holes into."),
         PortSpec::required("holes", &[PortType::Scalar], "Hole map (1 = hole)."),
@@ -49,7 +50,7 @@ pub fn reference(object: &Raster, holes: &Raster, rest: &Raster) -> Raster {
     let mut out = rest.clone();
     for i in 0..out.data.len() {
         let o = if holes.data[i] > 0.5 {
-            1.0
+            SHADOW_CLEAR
         } else {
             object.data[i]
         };

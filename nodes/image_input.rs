@@ -9,7 +9,7 @@
 //! |---|---|---|---|
 //! | `image` | out | Image | RGBA |
 //! | `scalar` | out | Scalar | one channel |
-//! | `shadow` | out | ShadowMap | the one channel, light matrices identity |
+//! | `shadow` | out | ShadowMap | the one channel, light matrices identity; a texel ≥ 1e30 (`SHADOW_CLEAR`, as Tyndall's own float EXR maps hold, or +∞) is clear (no occluder), any other value an occluder at that depth: a painted map's 1.0 shadows what lies beyond depth 1 |
 //! | `depth` | out | Depth | the one channel, camera matrices identity |
 //!
 //! | param | type | default | |

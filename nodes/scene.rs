@@ -14,6 +14,11 @@
 //! `tyndall validate` lists the lights and refuses one with a negative intensity, a zero or
 //! negative range or a cone outside 0 ≤ inner ≤ outer, 0 < outer ≤ 90°.
 //!
+//! How far a light reaches: everywhere its own model lets it (a spot's cone, a lamp's `range`),
+//! shadowed by every drawn object between it and the point, however far the medium extends past
+//! the objects (`ShadowMap`: an occluder shadows everything behind it, at any distance). A scene
+//! needs no floor under its fog to get the shadows of what hangs above it.
+//!
 //! Animation: a glTF file's animation channels on nodes (translation, rotation, scale; `STEP`,
 //! `LINEAR` with slerped rotations, `CUBICSPLINE`) play, so the camera, the sun and meshes move
 //! — in the shadow map and the G-buffer alike. Frame f is `f / fps` seconds, as Blender's glTF

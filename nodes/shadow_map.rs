@@ -12,7 +12,20 @@
 //! - **Point**: six 90° faces (+X, −X, +Y, −Y, +Z, −Z), each `resolution`², in one 3 × 2 atlas
 //!   (face f at column f mod 3, row f div 3), with the spot's linear depth along each face's axis.
 //!
-//! Texels no geometry covers hold 1 ("no occluder"). The map carries its light (matrices,
+//! Texels no geometry covers are *clear* ([`SHADOW_CLEAR`], no depth): they shadow nothing.
+//! A texel with an occluder at depth d shadows every point farther than d along its ray, at any
+//! distance — past the far plane too, and outside the geometry's bounds — so the medium may
+//! reach as far as it likes below the casters (a cloud deck, fog in a valley, a spot's cone far
+//! past its gobo). How far the light reaches: everywhere; points outside the map's footprint
+//! are lit, which is right because no caster lies there.
+//!
+//! The footprint (the sun's orthographic box, a lamp's near/far) is fitted to the *casters*:
+//! the scene's drawn objects. The map stores occluders, so that is all it has to resolve, and a
+//! medium much larger than the casters (a whole valley of fog under a few trees) costs no
+//! resolution and needs no setting: the shadow of a caster is read from its texel wherever
+//! along the light's ray the medium point lies. What the user sets is `resolution` for the
+//! casters' detail, and `include`/`exclude` to leave out large objects that cast nothing the
+//! medium can see (a distant ground plane), which shrinks the footprint. The map carries its light (matrices,
 //! radiance, and for a spot or point light its position, cone, range and depth range), so
 //! scattering and lighting downstream use the right one. With `include`/`exclude`
 //! (comma-separated tags) only some objects are drawn, so tagged objects can get a map of their
@@ -33,7 +46,9 @@
 
 use std::sync::Arc;
 
-use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{
+    Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx, SHADOW_CLEAR,
+};
 use tyndall_engine::gpu::{MeshDraw, RasterTarget, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::{face_view, fit_light, local_proj, spot_view, LightKind, ScenePart};
@@ -59,9 +74,9 @@ tyndall_engine::params! {
 static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "ShadowMap",
     category: "Scene",
-    doc: "Light-space depth of the scene from one light (0 near, 1 far / no occluder): orthographic for the sun, perspective for a spot, a cube atlas for a point light.",
+    doc: "Light-space depth of the scene from one light (0 near, 1 far; clear where no occluder): orthographic for the sun, perspective for a spot, a cube atlas for a point light. An occluder shadows everything behind it, at any distance.",
     inputs: &[PortSpec::required("scene", &[PortType::Scene], "The scene to render from the light.")],
-    outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "Depth in [0, 1] with the light's matrices.")],
+    outputs: &[PortSpec::output("map", &[PortType::ShadowMap], "Depth in [0, 1] (clear texels: no occluder) with the light's matrices.")],
     params: Params::SPECS,
 })
 .shaders(&[SHADER, ray_cast::SHADOW_SHADER])
@@ -97,7 +112,8 @@ pub fn tags(list: &str) -> Vec<String> {
 }
 
 /// CPU reference of the projection: light-space (u, v, depth) of a world point, u and v in
-/// [0, 1] across the map (v down), depth in [0, 1]; for a spot or point light, its own lookup
+/// [0, 1] across the map (v down), depth in [0, 1] between the map's near and far planes (less
+/// or more outside them); for a spot or point light, its own lookup
 /// (`LocalLight::uvz`, the atlas for a point light), or (0, 0, 2) — outside — behind a spot.
 pub fn project(m: &Matrices, p: glam::Vec3) -> glam::Vec3 {
     let vp = glam::Mat4::from_cols_array_2d(&m.proj) * glam::Mat4::from_cols_array_2d(&m.view);
@@ -167,7 +183,7 @@ impl NodeKind for ShadowMapNode {
                 bytemuck::bytes_of(&u),
                 &[RasterTarget {
                     texture: &out,
-                    clear: [1.0, 0.0, 0.0, 0.0],
+                    clear: [f64::from(SHADOW_CLEAR), 0.0, 0.0, 0.0],
                 }],
                 &mesh,
             )?;

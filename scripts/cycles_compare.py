@@ -12,7 +12,11 @@ Run (Debian: apt-get install blender), from the repository root, after `cargo bu
 - `point`: a point light (radius 0) in a cage of vertical bars with a solid floor, above a fog box;
 - `spot_soft`: `spot` with a light of radius 0.2 m (soft shadows), which Tyndall renders through
   `SoftVisibility` (`light_radius` 0.2, 256² × 256 slices: 64 MiB, within GL's 128 MiB storage
-  buffers).
+  buffers);
+- `roof`: a roof with openings over deep fog (16 m below it, σ = 0.1 /m) and no floor: the barn
+  loft's shafts, where the fog reaches far past the only occluder (issue #60);
+- `spot_deep`: `spot`'s grille with the fog reaching 12 m below it and no floor;
+- `point_inside`: a point light inside the fog box, in a cage of bars, no floor.
 
 For each it
 renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the light, shadowed,
@@ -20,6 +24,9 @@ attenuated on the way in and on the way out, which is Tyndall's `bounds = tagged
 `light_extinction = on`), exports the same scene as glTF (the fog box tagged `medium`, the sun's
 W/m² written as lux × 683, a lamp's P watts as P / 4π × 683 cd by Blender's exporter), renders it with `target/release/tyndall`, and prints the correlation
 and the mean relative error over the pixels whose Cycles in-scatter is above 10 % of its maximum.
+
+`TYNDALL=path/to/tyndall` renders with another binary (e.g. `target/debug/tyndall`; the result is
+the same).
 
 Default output is tests/fixtures/cycles/ (`cycles_spot/`, `cycles_point/` for the lamps): `scene.gltf`, `cycles_volume_direct.exr` (what the test
 `tests/light/cycles.rs` compares against, so CI needs no Blender) and `compare.ron` (the Tyndall graph).
@@ -39,6 +46,7 @@ G = 0.5             # Henyey–Greenstein anisotropy
 SUN_W_M2 = 5.0      # sun irradiance, W/m²
 LAMP_W = 600.0      # spot and point light power, W (Blender's Standard units: P / 4π W/sr)
 SOFT_RADIUS = 0.2   # the soft spot's radius, m
+DEEP_SIGMA = 0.1    # 1/m, the deep fogs of `roof` and `spot_deep` (light crosses 16 m of it)
 WIDTH, HEIGHT = 160, 90
 FOG_MIN = (-4.0, -6.0, 0.0)   # Blender coordinates (z up)
 FOG_MAX = (4.0, -0.2, 4.0)
@@ -54,8 +62,8 @@ def args():
             out = os.path.abspath(argv[i + 1])
         if a == "--scene":
             which = argv[i + 1]
-    if which not in ("sun", "spot", "point", "spot_soft"):
-        sys.exit(f"--scene {which}: expected sun, spot, point or spot_soft")
+    if which not in SCENES:
+        sys.exit(f"--scene {which}: expected one of {', '.join(SCENES)}")
     if out is None:
         name = "cycles" if which == "sun" else f"cycles_{which}"
         out = os.path.join(ROOT, "tests", "fixtures", name)
@@ -72,7 +80,7 @@ def box(name, lo, hi):
     return o
 
 
-def material(name, colour=None, volume=False):
+def material(name, colour=None, volume=False, sigma=SIGMA):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
     nodes, links = m.node_tree.nodes, m.node_tree.links
@@ -81,7 +89,7 @@ def material(name, colour=None, volume=False):
     if volume:
         nodes.remove(bsdf)
         scatter = nodes.new("ShaderNodeVolumeScatter")
-        scatter.inputs["Density"].default_value = SIGMA
+        scatter.inputs["Density"].default_value = sigma
         scatter.inputs["Anisotropy"].default_value = G
         scatter.inputs["Color"].default_value = (1, 1, 1, 1)
         links.new(scatter.outputs["Volume"], out.inputs["Volume"])
@@ -91,13 +99,14 @@ def material(name, colour=None, volume=False):
     return m
 
 
-def start():
-    """An empty scene with a black world and a ground plane."""
+def start(ground=True):
+    """An empty scene with a black world and (unless `ground` is false) a ground plane."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    ground = box("ground", (-10, -12, -0.1), (10, 8, 0.0))
-    ground.data.materials.append(material("ground", (0.6, 0.58, 0.55, 1)))
-    ground["tags"] = ["ground"]
+    if ground:
+        g = box("ground", (-10, -12, -0.1), (10, 8, 0.0))
+        g.data.materials.append(material("ground", (0.6, 0.58, 0.55, 1)))
+        g["tags"] = ["ground"]
     world = bpy.data.worlds.new("black")
     world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
@@ -105,9 +114,9 @@ def start():
     return scene
 
 
-def fog(lo, hi):
+def fog(lo, hi, sigma=SIGMA):
     f = box("fog", lo, hi)
-    f.data.materials.append(material("fog", volume=True))
+    f.data.materials.append(material("fog", volume=True, sigma=sigma))
     f["tags"] = ["medium"]
 
 
@@ -133,6 +142,17 @@ def occluders(boxes):
         o["tags"] = ["occluder"]
 
 
+def sun_light(scene, travel):
+    """A sun of SUN_W_M2 whose light travels along `travel`."""
+    sun_data = bpy.data.lights.new("sun", type="SUN")
+    sun_data.energy = SUN_W_M2
+    sun_data.angle = 0.0
+    sun = bpy.data.objects.new("sun", sun_data)
+    scene.collection.objects.link(sun)
+    sun.rotation_mode = "QUATERNION"
+    sun.rotation_quaternion = look(travel)
+
+
 def build_sun():
     scene = start()
     wall = material("wall", (0.7, 0.4, 0.3, 1))
@@ -143,15 +163,8 @@ def build_sun():
         w["tags"] = ["wall", "occluder"]
     fog(FOG_MIN, FOG_MAX)
 
-    sun_data = bpy.data.lights.new("sun", type="SUN")
-    sun_data.energy = SUN_W_M2
-    sun_data.angle = 0.0
-    sun = bpy.data.objects.new("sun", sun_data)
-    scene.collection.objects.link(sun)
     # The light travels towards −y (through the slit to the camera's side), down and a little −x.
-    travel = (-0.25, -1.0, -0.45)
-    sun.rotation_mode = "QUATERNION"
-    sun.rotation_quaternion = look(travel)
+    sun_light(scene, (-0.25, -1.0, -0.45))
     camera(scene, (6.0, -13.0, 2.2), (0.0, -1.0, 2.0))
     return scene
 
@@ -187,16 +200,61 @@ def lamp(scene, kind, location, travel=None, radius=0.0):
         o.rotation_quaternion = look(travel)
 
 
+GRILLE = [((x, -1.6, 4.5), (x + 0.35, 1.6, 4.6)) for x in (-1.55, -0.75, 0.05, 0.85)]
+GRILLE += [((-1.6, y, 4.6), (1.6, y + 0.3, 4.7)) for y in (-0.9, 0.5)]
+
+
 def build_spot(radius=0.0):
     """A spot 2 m above a fog box, shining down through a grille of bars and two cross bars."""
     scene = start()
     fog((-4, -4, 0), (4, 4, 4))
-    bars = [((x, -1.6, 4.5), (x + 0.35, 1.6, 4.6)) for x in (-1.55, -0.75, 0.05, 0.85)]
-    bars += [((-1.6, y, 4.6), (1.6, y + 0.3, 4.7)) for y in (-0.9, 0.5)]
-    occluders(bars)
+    occluders(GRILLE)
     lamp(scene, "spot", (0.0, 0.0, 6.0), travel=(0.1, 0.05, -1.0), radius=radius)
     # Looking along the bars, whose shadows are sheets seen edge-on.
     camera(scene, (0.6, -10.5, 2.6), (0.0, 0.0, 2.2))
+    return scene
+
+
+def build_spot_deep():
+    """`spot`'s lamp and grille over fog reaching 12 m below the grille (8× the lamp's distance
+    to it), with no floor: beyond the grille's depth nothing stops the shafts but the grille."""
+    scene = start(ground=False)
+    fog((-5, -5, -8), (5, 5, 4), sigma=DEEP_SIGMA)
+    occluders(GRILLE)
+    lamp(scene, "spot", (0.0, 0.0, 6.0), travel=(0.1, 0.05, -1.0))
+    camera(scene, (0.6, -19.0, -1.5), (0.0, 0.0, -1.5))
+    return scene
+
+
+def build_roof():
+    """A 16 m × 16 m roof of 1 m tiles with three tiles missing, over an 8 m × 8 m column of fog
+    reaching 16 m below it and no floor; the sun falls steeply through the openings, and the
+    roof is wide enough that all of its light reaching the fog comes through them."""
+    scene = start(ground=False)
+    fog((-4, -4, -8), (4, 4, 7.9), sigma=DEEP_SIGMA)
+    holes = {(-4, 0), (-2, -2), (0, 1)}
+    occluders([((x, y, 8.0), (x + 1, y + 1, 8.2))
+               for x in range(-8, 8) for y in range(-8, 8) if (x, y) not in holes])
+    sun_light(scene, (0.25, 0.15, -1.0))
+    camera(scene, (1.0, -26.0, 0.0), (0.0, 0.0, 0.0))
+    return scene
+
+
+def build_point_inside():
+    """A point light 2 m inside a fog box reaching 10 m below it, in a cage of twelve vertical
+    bars, with no floor. The lamp is above the frame (the in-scatter of rays passing it closely
+    would dominate the comparison's lit pixels)."""
+    scene = start(ground=False)
+    fog((-4, -4, -8), (4, 4, 4))
+    cage = []
+    for k in range(12):
+        a = 2 * math.pi * k / 12
+        cx, cy = 0.45 * math.cos(a), 0.45 * math.sin(a)
+        cage.append(((cx - 0.06, cy - 0.06, 1.1), (cx + 0.06, cy + 0.06, 2.9)))
+    cage.append(((-0.5, -0.5, 1.05), (0.5, 0.5, 1.15)))
+    occluders(cage)
+    lamp(scene, "point", (0.0, 0.0, 2.0))
+    camera(scene, (8.0, -11.0, -3.0), (0.0, 0.0, -4.5))
     return scene
 
 
@@ -294,7 +352,7 @@ def export_and_render_tyndall(out, which):
                               export_apply=True)
     rel = "scene.gltf"  # graph paths are relative to the graph's folder
     # A lamp's falloff and phase change along the ray: BruteForce with many samples.
-    method = '"method": "MinMax"' if which == "sun" else '"method": "BruteForce", "steps": 1024'
+    method = '"method": "MinMax"' if which in ("sun", "roof") else '"method": "BruteForce", "steps": 1024'
     exr = f"out/{os.path.basename(out)}/tyndall_inscatter.exr"
     soft_node, soft_edges = "", ""
     if which == "spot_soft":
@@ -302,11 +360,11 @@ def export_and_render_tyndall(out, which):
                      f'"slices": 256, "light_radius": {SOFT_RADIUS}, "bias": 0.0005}}),')
         soft_edges = ('\n        ("shadow.map", "soft.shadow"),'
                       '\n        ("soft.soft", "scatter.soft"),')
-    graph = GRAPH.format(gltf=rel, sigma=SIGMA, g=G, method=method, exr=exr,
+    graph = GRAPH.format(gltf=rel, sigma=SCENE_SIGMA.get(which, SIGMA), g=G, method=method, exr=exr,
                          soft_node=soft_node, soft_edges=soft_edges)
     with open(os.path.join(out, "compare.ron"), "w") as f:
         f.write(graph)
-    exe = os.path.join(ROOT, "target", "release", "tyndall")
+    exe = os.environ.get("TYNDALL", os.path.join(ROOT, "target", "release", "tyndall"))
     subprocess.run([exe, "render", os.path.join(out, "compare.ron"), "--size", f"{WIDTH}x{HEIGHT}",
                     "--output-dir", ROOT], cwd=ROOT, check=True)
     return os.path.join(ROOT, exr)
@@ -341,11 +399,16 @@ def compare(cycles_exr, tyndall_exr):
           f"Tyndall/Cycles level {ratio:.4f}")
 
 
+SCENES = {"sun": build_sun, "spot": build_spot, "point": build_point,
+          "spot_soft": lambda: build_spot(SOFT_RADIUS), "roof": build_roof,
+          "spot_deep": build_spot_deep, "point_inside": build_point_inside}
+SCENE_SIGMA = {"roof": DEEP_SIGMA, "spot_deep": DEEP_SIGMA}
+
+
 def main():
     samples, out, which = args()
     os.makedirs(out, exist_ok=True)
-    scene = {"sun": build_sun, "spot": build_spot, "point": build_point,
-             "spot_soft": lambda: build_spot(SOFT_RADIUS)}[which]()
+    scene = SCENES[which]()
     cycles_exr = render_cycles(scene, samples, out)
     tyndall_exr = export_and_render_tyndall(out, which)
     compare(cycles_exr, tyndall_exr)

@@ -1,5 +1,6 @@
 // EpipolarDilation / EpipolarClosure: 1D min (then max) along epipolar rays in slope space
 // (nodes/epipolar/; SPEC §4 eq. 3, seed 001 §4.1).
+#import lib/shadow
 //
 // Each texel t (centre c_t, distance d_t from the epipole l) has the slope
 // κ_t = (z_t − z_l) / d_t. Dilation: κ'_t = min(κ_t, κ_s over the `length` samples s from t
@@ -25,8 +26,10 @@ struct Params {
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var out_map: texture_storage_2d<r32float, write>;
 
+// Clear texels (no occluder) have slope +∞ (SHADOW_CLEAR) and map back to clear.
 fn slope(texel: vec2<i32>, d: f32, z_l: f32) -> f32 {
-    return (textureLoad(src, texel, 0).r - z_l) / d;
+    let z = textureLoad(src, texel, 0).r;
+    return keep_clear(z, (z - z_l) / d);
 }
 
 // The texel a sample lands on: the reference's exact f32 steps, shared by both methods.
@@ -68,7 +71,7 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
     // (`reverse` swaps the sides, not the operations).
     let towards = (P.op == 0u) != (reverse == 1u);
     let dir = select(-to_l / d_t, to_l / d_t, towards);
-    var k = (z - z_l) / d_t;
+    var k = keep_clear(z, (z - z_l) / d_t);
     for (var i = 1; i <= P.length; i++) {
         if towards && f32(i) >= d_t {
             break;
@@ -84,7 +87,7 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
         let ks = slope(s, d_s, z_l);
         k = select(min(k, ks), max(k, ks), P.op == 1u);
     }
-    textureStore(out_map, id.xy, vec4<f32>(z_l + d_t * k, 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(keep_clear(k, z_l + d_t * k), 0.0, 0.0, 1.0));
 }
 
 // ---- Fast path: exact, with a cost flat in `length` on shadow maps -------------------------
@@ -156,7 +159,8 @@ fn kappa(@builtin(global_invocation_id) id: vec3<u32>) {
     let d_s = length(R.epipole - (vec2<f32>(s) + 0.5));
     var v = identity_r();
     if d_s > 0.0 {
-        v = (textureLoad(src, s, 0).r - R.z_l) / d_s;
+        let z = textureLoad(src, s, 0).r;
+        v = keep_clear(z, (z - R.z_l) / d_s);
     }
     textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
@@ -319,7 +323,7 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let last = hi;
     let e = R.ends;
-    var acc = (z - R.z_l) / d_t;
+    var acc = keep_clear(z, (z - R.z_l) / d_t);
     for (var i = 1; i <= min(e, last); i++) {
         acc = pick_r(acc, textureLoad(kappa_in, sample_texel(c, dir, i), 0).r);
     }
@@ -349,7 +353,7 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    textureStore(out_map, id.xy, vec4<f32>(R.z_l + d_t * acc, 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(keep_clear(acc, R.z_l + d_t * acc), 0.0, 0.0, 1.0));
 }
 
 // ---- A spot's perspective map (nodes/epipolar/lamp.rs, `Perspective`) ----------------------------
@@ -378,7 +382,7 @@ fn to_q(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let z = textureLoad(src, id.xy, 0).r;
     let w = Q.near + z * (Q.far - Q.near);
-    textureStore(out_map, id.xy, vec4<f32>(1.0 - Q.near / w, 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(keep_clear(z, 1.0 - Q.near / w), 0.0, 0.0, 1.0));
 }
 
 // `src`: the original depths; `q_in`: their q before the filter; `kappa_in`: q after it.
@@ -392,7 +396,9 @@ fn from_q(@builtin(global_invocation_id) id: vec3<u32>) {
     let after = textureLoad(kappa_in, id.xy, 0).r;
     var z = textureLoad(src, id.xy, 0).r;
     if after != before {
-        z = (Q.near / (1.0 - after) - Q.near) / (Q.far - Q.near);
+        // q ≥ 1 lies at or past infinity along the spot's axis (a silhouette extruded beyond
+        // it, or a clear texel): no occluder, so clear, not a negative depth.
+        z = select((Q.near / (1.0 - after) - Q.near) / (Q.far - Q.near), SHADOW_CLEAR, after >= 1.0);
     }
     textureStore(out_map, id.xy, vec4<f32>(z, 0.0, 0.0, 1.0));
 }

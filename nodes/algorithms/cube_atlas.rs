@@ -10,7 +10,7 @@
 //! (an occluder at depth `d'` along the other face's axis `f'` lies at `k · dir` with
 //! `k (f'·dir) = d'`, and `f·dir = 1`, so its depth here is `k`). A filter of radius ≤ `g` then
 //! runs on the padded atlas as on any map, and [`crop`] takes each face's inner square back.
-//! "No occluder" (depth ≥ 1) stays as it is. [`pad_reference`] / [`crop_reference`] are the
+//! A clear texel (no occluder, [`tyndall_engine::eval::SHADOW_CLEAR`]) stays clear. [`pad_reference`] / [`crop_reference`] are the
 //! CPU twins; `shaders/algorithms/cube_atlas.wgsl` the GPU passes.
 
 use std::sync::Arc;
@@ -134,7 +134,7 @@ pub fn pad_reference(atlas: &Raster, light: &LocalLight, gutter: u32) -> Raster 
             let tx = ((uv.x * n as f32) as u32).min(n - 1) + (other as u32 % 3) * n;
             let ty = ((uv.y * n as f32) as u32).min(n - 1) + (other as u32 / 3) * n;
             let v = atlas.data[(ty * atlas.width + tx) as usize];
-            let value = if v < 1.0 && other != face {
+            let value = if !tyndall_engine::eval::is_clear(v) && other != face {
                 let k = (light.near + v * span) / along;
                 (k - light.near) / span
             } else {

@@ -24,6 +24,7 @@
 
 use std::hash::{Hash, Hasher};
 use std::ops::Range;
+use tyndall_engine::eval::SHADOW_CLEAR;
 use tyndall_engine::gpu::Recorder;
 
 use glam::{Mat4, Vec3, Vec4};
@@ -393,13 +394,13 @@ pub fn reference_g_buffer(triangles: &[[MeshVertex; 3]], p: &RayCastParams) -> V
 }
 
 /// CPU reference of the `shadow` pass over `triangles`: per texel, row by row, the clip depth
-/// of the nearest surface (1 where none).
+/// of the nearest surface ([`SHADOW_CLEAR`] where none).
 pub fn reference_shadow(triangles: &[[MeshVertex; 3]], p: &RayCastParams) -> Vec<f32> {
     let bvh = Bvh::build(&positions(triangles));
     let view_proj = Mat4::from_cols_array_2d(&p.view_proj);
     texels(p)
         .map(|(o, d)| match bvh.cast(o, d) {
-            None => 1.0,
+            None => SHADOW_CLEAR,
             Some(h) => {
                 let c = view_proj * (o + h.s * d).extend(1.0);
                 if p.linear_depth != 0 {

@@ -61,10 +61,21 @@ pub fn light_uvz(light_view_proj: Mat4, x: Vec3) -> Vec3 {
     Vec3::new(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z)
 }
 
-/// Whether the sun reaches light-space point `l`: nearest texel of `shadow`, depth `bias`;
-/// outside the map or the light box: lit.
+/// `f`, a value computed from depth `z` by an increasing map (a slope, a perspective q), or
+/// clear when `z` is: clear is +∞, and every increasing map keeps +∞ where it is.
+pub fn keep_clear(z: f32, f: f32) -> f32 {
+    if tyndall_engine::eval::is_clear(z) {
+        tyndall_engine::eval::SHADOW_CLEAR
+    } else {
+        f
+    }
+}
+
+/// Whether the light reaches light-space point `l`: nearest texel of `shadow`, depth `bias`;
+/// outside the map's footprint: lit; at any depth (past 1 too) behind its texel's occluder:
+/// shadowed; under a clear texel ([`tyndall_engine::eval::SHADOW_CLEAR`]): lit.
 pub fn sun_reaches(shadow: &Raster, l: Vec3, bias: f32) -> bool {
-    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 || l.z < 0.0 || l.z > 1.0 {
+    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 {
         return true;
     }
     let tx = ((l.x * shadow.width as f32) as u32).min(shadow.width - 1);

@@ -9,6 +9,8 @@ use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, TexFormat};
 use tyndall_engine::io::Raster;
 
 use super::{pass, reference_sides, EpiOp, EpiParams, SHADER};
+use crate::algorithms::shader_lib::keep_clear;
+use tyndall_engine::eval::SHADOW_CLEAR;
 
 /// A spot's perspective map in eq. 3's slope space. Its depth z is linear in the distance
 /// w = near + z (far − near) along the spot's axis, and a perspective projection keeps 1/w,
@@ -29,12 +31,20 @@ pub struct Perspective {
 impl Perspective {
     /// q of depth `z`.
     pub fn q(&self, z: f32) -> f32 {
-        1.0 - self.near / (self.near + z * (self.far - self.near))
+        keep_clear(
+            z,
+            1.0 - self.near / (self.near + z * (self.far - self.near)),
+        )
     }
 
-    /// The depth of q (the inverse of [`Perspective::q`]).
+    /// The depth of q (the inverse of [`Perspective::q`]); q ≥ 1 (at or past infinity along
+    /// the axis: a silhouette extruded beyond it, or a clear texel) is clear.
     pub fn z(&self, q: f32) -> f32 {
-        (self.near / (1.0 - q) - self.near) / (self.far - self.near)
+        if q >= 1.0 {
+            SHADOW_CLEAR
+        } else {
+            (self.near / (1.0 - q) - self.near) / (self.far - self.near)
+        }
     }
 }
 

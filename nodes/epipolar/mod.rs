@@ -61,6 +61,8 @@ use tyndall_engine::gpu::{Bind, GpuError, GpuTexture, Shader, TexFormat, Uniform
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
 
+use crate::algorithms::shader_lib::keep_clear;
+
 mod fast;
 mod lamp;
 use fast::fast_pass;
@@ -183,7 +185,7 @@ pub fn reference_sides(
             } else {
                 (-tx / d_t, -ty / d_t)
             };
-            let mut k = (z - z_l) / d_t;
+            let mut k = keep_clear(z, (z - z_l) / d_t);
             for i in 1..=length {
                 if towards && i as f32 >= d_t {
                     break;
@@ -200,10 +202,11 @@ pub fn reference_sides(
                 if d_s <= 0.0 {
                     continue;
                 }
-                let ks = (map.data[(sy * w + sx) as usize] - z_l) / d_s;
+                let zs = map.data[(sy * w + sx) as usize];
+                let ks = keep_clear(zs, (zs - z_l) / d_s);
                 k = if erode { k.max(ks) } else { k.min(ks) };
             }
-            out.data[(y * w + x) as usize] = z_l + d_t * k;
+            out.data[(y * w + x) as usize] = keep_clear(k, z_l + d_t * k);
         }
     }
     out

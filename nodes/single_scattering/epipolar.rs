@@ -4,6 +4,7 @@
 use super::epipolar_lines::{border_coordinate, border_point, clip_line, spot_line};
 use super::map_ray::{map_ray, ray_result, texel_walk};
 use super::{exact_ray, medium_segment, weight, Mat4, Raster, ScatterParams, Vec3};
+use tyndall_engine::eval::SHADOW_CLEAR;
 
 // ---- Method Epipolar: epipolar sampling with 1D min-max trees --------------------------------
 //
@@ -209,13 +210,11 @@ pub(super) fn sign(v: glam::Vec2) -> glam::Vec2 {
     glam::Vec2::new(s(v.x), s(v.y))
 }
 
-/// "Lit" depth of texels outside the map and of leaves past the end of a chord.
-pub(super) const FAR_DEPTH: f32 = 3.0e38;
-
-/// The texel of the map at integer coordinates `c` (outside: [`FAR_DEPTH`], always lit).
+/// The texel of the map at integer coordinates `c` (outside: [`SHADOW_CLEAR`], always lit, as
+/// leaves past the end of a chord are).
 pub(super) fn map_depth(shadow: &Raster, c: glam::IVec2) -> f32 {
     if c.x < 0 || c.y < 0 || c.x >= shadow.width as i32 || c.y >= shadow.height as i32 {
-        FAR_DEPTH
+        SHADOW_CLEAR
     } else {
         shadow.pixel(c.x as u32, c.y as u32)[0]
     }
@@ -225,7 +224,7 @@ pub(super) fn map_depth(shadow: &Raster, c: glam::IVec2) -> f32 {
 /// offset 2n − 2n/2^k. Leaf i is the (minimum, maximum) depth over the texels the line crosses
 /// between distances i and i + 1 from `line_o` (walked texel by texel).
 pub fn epi_tree_row(shadow: &Raster, slice: &EpiSlice, n: u32) -> Vec<[f32; 2]> {
-    let mut row = vec![[FAR_DEPTH; 2]; 2 * n as usize];
+    let mut row = vec![[SHADOW_CLEAR; 2]; 2 * n as usize];
     let o = glam::Vec2::from(slice.line_o);
     let d = glam::Vec2::from(slice.line_d);
     for (i, leaf) in row.iter_mut().take(n as usize).enumerate() {
@@ -253,7 +252,7 @@ pub fn epi_tree_row(shadow: &Raster, slice: &EpiSlice, n: u32) -> Vec<[f32; 2]> 
 /// (minimum, maximum) depth over the texels the segment `start + d·t`, t ∈ [0, len] crosses.
 pub(super) fn leaf_range(shadow: &Raster, start: glam::Vec2, d: glam::Vec2, len: f32) -> [f32; 2] {
     let nudge = sign(d) * 1e-4;
-    let (mut mn, mut mx) = (FAR_DEPTH, -FAR_DEPTH);
+    let (mut mn, mut mx) = (SHADOW_CLEAR, -SHADOW_CLEAR);
     let mut t = 0.0f32;
     for _ in 0..4 {
         if t >= len {
@@ -327,7 +326,7 @@ pub fn tree_ray(
         let (mut t_next, mut next_level) = (t_exit, up);
         let lit_all = z0.max(z1) <= mm[0] + p.bias;
         let dark_all = z0.min(z1) > mm[1] + p.bias;
-        if lit_all || dark_all || (level > 0 && level <= tree_level) {
+        if lit_all || dark_all || (level > 0 && level <= tree_level && mm[1] < SHADOW_CLEAR) {
             let zm = 0.5 * (z0 + z1);
             let estimate = ((mm[1] + p.bias - zm) / (mm[1] - mm[0]).max(1e-6)).clamp(0.0, 1.0);
             share = if lit_all {

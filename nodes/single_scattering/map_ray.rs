@@ -5,8 +5,8 @@ use super::epipolar::{map_depth, sign};
 use super::{medium_segment, weight, Mat4, Raster, ScatterParams, Vec3};
 
 /// A view ray in the map's texel units and light depth, `a + d·t`, and the part `[tin, tout]`
-/// of its medium segment `[t0, t1]` inside the map and the light box (the CPU twin of the
-/// shader's `map_ray`).
+/// of its medium segment `[t0, t1]` over the map's footprint, at any light depth (the CPU twin
+/// of the shader's `map_ray`).
 pub(super) struct MapRay {
     pub(super) a: Vec3,
     pub(super) d: Vec3,
@@ -34,8 +34,8 @@ pub(super) fn map_ray(p: &ScatterParams, msize: glam::Vec2, dir: Vec3, s: f32) -
         c1.z - c0.z,
     );
     let (mut tin, mut tout) = (t0, t1);
-    let hi = msize.extend(1.0);
-    for k in 0..3 {
+    let hi = msize;
+    for k in 0..2 {
         if d[k].abs() < 1e-12 {
             if a[k] < 0.0 || a[k] > hi[k] {
                 tout = -1.0;

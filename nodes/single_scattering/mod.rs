@@ -7,8 +7,11 @@
 //! `(1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})`, cos θ = dot(view direction, direction to the sun)
 //! — or, with a `phase` table connected, that table per RGB channel (`nodes/phase/`).
 //! The factor `(1 − e^{−sσt})/σt` is evaluated without cancellation and tends to `s` as σt → 0.
-//! A sample is lit when it lies outside the map or the light box, or when its light-space depth
-//! is at most the map's depth plus `bias`. Units: the sun's irradiance E (W/m², from the
+//! A sample is lit when it lies outside the map's footprint (no caster is there), under a clear
+//! texel (no occluder), or when its light-space depth is at most its texel's depth plus `bias`;
+//! an occluder shadows every sample behind it at any distance, past the map's far plane too, so
+//! the light is right wherever the medium is: fog far below a roof, a spot's cone far past its
+//! gobo (`ShadowMap`'s docs say how the map is fitted; `cargo test --test light -- reach`). Units: the sun's irradiance E (W/m², from the
 //! `Scene`) times f (1/sr) times σt·length (dimensionless) gives `inscatter` in W/(m²·sr).
 //!
 //! Spot and point lights (seed 003 Fig. 5; seed 000 §5.3: the techniques need only a shadow
@@ -38,8 +41,8 @@
 //! light (six projections, no single epipole) `Epipolar` runs MinMax. A lamp with a light map is marched by
 //! BruteForce whatever the method. A lamp's `soft` volume
 //! (SoftVisibility of radius `light_radius`) is read with the perspective divide (a point
-//! light's: on the face the sample lies in) and its slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map
-//! or behind a spot counts as lit, as for the sun).
+//! light's: on the face the sample lies in) and its slices in q = 1 − near / w. BruteForce's `visibility` is the fraction of lit samples (outside the map's
+//! footprint or behind a spot counts as lit, as for the sun).
 //!
 //! Bounded media (beyond the seed): with `bounds = box` (or `tagged`: the bounds of the scene's
 //! objects tagged `medium`, connected on `scene`) the view ray scatters only on [t0, t1], its
@@ -125,7 +128,7 @@ mod map_ray;
 mod medium;
 mod params;
 
-pub use brute_force::{reference_pixel, reference_pixel_phase};
+pub use brute_force::{light_path, reference_pixel, reference_pixel_phase};
 pub use epipolar::{
     epi_interpolate, epi_tree_row, epipolar_geometry, epipolar_reference, tree_ray, EpiGeometry,
     EpiKnobs, EpiSample, EpiSlice,

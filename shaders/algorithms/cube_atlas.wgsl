@@ -44,7 +44,7 @@ fn pad(@builtin(global_invocation_id) id: vec3<u32>) {
         + vec2<u32>(other % 3u, other / 3u) * P.face;
     let v = textureLoad(src, texel, 0).r;
     var out = v;
-    if v < 1.0 && other != face {
+    if v < SHADOW_CLEAR && other != face {
         // The occluder lies at k · dir with k · along = its depth along the other face's axis;
         // along this face's axis (dot(f, dir) = 1) its depth is k.
         let span = P.far - P.near;

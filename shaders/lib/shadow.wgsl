@@ -1,7 +1,19 @@
 // Shadow-map tests (CPU twins: nodes/algorithms/shader_lib.rs, `shadow`).
 //
 // A shadow map holds, per texel, the light-space depth (0 at the light box's near plane, 1 at its
-// far one) of the first surface the sun meets; `light_view_proj` maps world points to light NDC.
+// far one) of the first surface the light meets, or SHADOW_CLEAR where it meets none;
+// `light_view_proj` maps world points to light NDC. An occluder at depth d shadows every point
+// farther than d along its texel's ray, past 1 too: the map's range bounds the casters, not how
+// far the light reaches.
+
+// A clear texel (no occluder): larger than any depth, finite (tyndall_engine::eval::SHADOW_CLEAR).
+const SHADOW_CLEAR: f32 = 1.0e30;
+
+// `f`, a value computed from depth `z` by an increasing map (a slope, a perspective q), or clear
+// when z is: clear is +∞, and every increasing map keeps +∞ where it is.
+fn keep_clear(z: f32, f: f32) -> f32 {
+    return select(f, SHADOW_CLEAR, z >= SHADOW_CLEAR);
+}
 
 // Light-space (u, v, depth) of world point `x`: u, v in [0, 1] across the map (v down).
 fn light_uvz(light_view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
@@ -9,10 +21,11 @@ fn light_uvz(light_view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(c.x * 0.5 + 0.5, 0.5 - c.y * 0.5, c.z);
 }
 
-// Whether the sun reaches light-space point `l` (see `light_uvz`): nearest texel, depth `bias`
-// (light-depth units); a point outside the map or the light box is lit.
+// Whether the light reaches light-space point `l` (see `light_uvz`): nearest texel, depth `bias`
+// (light-depth units); a point outside the map's footprint is lit (no caster lies there), and so
+// is one in front of its texel's occluder or under a clear texel, at any depth.
 fn sun_reaches(shadow: texture_2d<f32>, l: vec3<f32>, bias: f32) -> bool {
-    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 || l.z < 0.0 || l.z > 1.0 {
+    if l.x < 0.0 || l.x >= 1.0 || l.y < 0.0 || l.y >= 1.0 {
         return true;
     }
     let size = vec2<f32>(textureDimensions(shadow));

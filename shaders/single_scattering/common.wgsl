@@ -122,9 +122,12 @@ fn soft_visible(x: vec3<f32>) -> f32 {
         uvz = vec3<f32>(c.x / c.w * 0.5 + 0.5, 0.5 - c.y / c.w * 0.5,
             (1.0 - SV.near / c.w) / (1.0 - SV.near / SV.far));
     }
-    if uvz.x < 0.0 || uvz.x >= 1.0 || uvz.y < 0.0 || uvz.y >= 1.0 || uvz.z < 0.0 || uvz.z > 1.0 {
+    if uvz.x < 0.0 || uvz.x >= 1.0 || uvz.y < 0.0 || uvz.y >= 1.0 || uvz.z < 0.0 {
         return 1.0;
     }
+    // Past the far end of the slices (the casters' range) every occluder lies in front: the
+    // last slice's occlusion holds on, however far the medium reaches.
+    uvz.z = min(uvz.z, 1.0);
     let dims = textureDimensions(soft_volume);
     let t = min(vec2<u32>(uvz.xy * vec2<f32>(dims.xy)), dims.xy - 1u);
     let p = uvz.z * f32(P.soft_slices) - 1.0;

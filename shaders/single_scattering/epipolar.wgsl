@@ -95,9 +95,9 @@ fn tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
         var next_level = up;
         let lit_all = max(z0, z1) <= mm.x + P.bias;
         let dark_all = min(z0, z1) > mm.y + P.bias;
-        if lit_all || dark_all || (level > 0u && level <= coarse) {
+        if lit_all || dark_all || (level > 0u && level <= coarse && mm.y < SHADOW_CLEAR) {
             // Settled: lit, shadowed, or (quality knob) a mixed node estimated with its
-            // occluder depth spread evenly over [min, max].
+            // occluder depth spread evenly over [min, max] (one with clear texels is refined).
             let zm = 0.5 * (z0 + z1);
             let estimate = clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
             share = select(select(estimate, 0.0, dark_all), 1.0, lit_all);

@@ -122,8 +122,9 @@ fn lamp_tree_walk(k: u32, line: vec4<f32>, dir: vec3<f32>, t0: f32, ta: f32, tb:
         } else if min(z0, z1) > mm.y + P.bias {
             closes = true;
             next_level = up;
-        } else if level > 0u && level <= E.tree_level {
-            // Quality knob: a mixed node's occluders spread evenly (weighted, its own run).
+        } else if level > 0u && level <= E.tree_level && mm.y < SHADOW_CLEAR {
+            // Quality knob: a mixed node's occluders spread evenly (weighted, its own run); a
+            // node with clear texels is refined.
             let zm = 0.5 * (z0 + z1);
             frac = clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
             opens = true;

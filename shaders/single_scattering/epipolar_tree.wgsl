@@ -34,16 +34,15 @@ struct Epi {
 @group(0) @binding(19) var out_samples: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(20) var samples_in: texture_2d<f32>;
 
-// Depth of texels outside the map and of leaves past a chord's end: always lit.
-const FAR_DEPTH: f32 = 3.0e38;
 // Texels one leaf's stretch of a ray can cross (three, and one for rounding left-overs).
 const LEAF_CELLS: u32 = 4u;
 
-// The map's depth at the texel whose corner is `cell` (floored texel coordinates).
+// The map's depth at the texel whose corner is `cell` (floored texel coordinates); texels
+// outside the map, like leaves past a chord's end, are clear (always lit).
 fn map_depth(cell: vec2<f32>) -> f32 {
     let size = vec2<f32>(textureDimensions(shadow));
     if !(cell.x >= 0.0 && cell.y >= 0.0 && cell.x < size.x && cell.y < size.y) {
-        return FAR_DEPTH;
+        return SHADOW_CLEAR;
     }
     let t = min(vec2<u32>(cell), vec2<u32>(size) - 1u);
     return textureLoad(shadow, t, 0).r;
@@ -58,15 +57,15 @@ fn epi_rectify(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let chord = textureLoad(slice_table, vec2<u32>(id.y, 1u), 0).y;
     let line = textureLoad(slice_table, vec2<u32>(id.y, 2u), 0);
-    var leaf = vec2<f32>(FAR_DEPTH);
+    var leaf = vec2<f32>(SHADOW_CLEAR);
     let i = f32(id.x);
     if i < chord {
         let d = line.zw;
         let start = line.xy + d * i;
         let len = min(chord - i, 1.0);
         let nudge = sign(d) * 1e-4;
-        var mn = FAR_DEPTH;
-        var mx = -FAR_DEPTH;
+        var mn = SHADOW_CLEAR;
+        var mx = -SHADOW_CLEAR;
         var t = 0.0;
         for (var it = 0; it < 4; it++) {
             if t >= len {

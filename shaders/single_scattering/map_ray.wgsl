@@ -20,8 +20,9 @@ fn lit_part(t0: f32, t1: f32, z0: f32, z1: f32, c: f32) -> f32 {
 const MAX_ITER: u32 = 16384u;
 
 // A view ray in the map's texel units and light depth, p(t) = a + d t, its medium segment
-// [t0, t1] and the part [tin, tout] of it inside the map and the light box (tout ≤ tin: none);
-// the rest of the segment is lit.
+// [t0, t1] and the part [tin, tout] of it over the map's footprint (tout ≤ tin: none), at any
+// light depth (an occluder shadows what lies behind it however far); the rest of the segment
+// is lit: no caster lies outside the footprint.
 struct MapRay {
     a: vec3<f32>,
     d: vec3<f32>,
@@ -43,8 +44,8 @@ fn map_ray(dir: vec3<f32>, s: f32) -> MapRay {
     r.t1 = max(seg.y, seg.x);
     r.tin = r.t0;
     r.tout = r.t1;
-    let hi = vec3<f32>(msize, 1.0);
-    for (var k = 0; k < 3; k++) {
+    let hi = msize;
+    for (var k = 0; k < 2; k++) {
         if abs(r.d[k]) < 1e-12 {
             if r.a[k] < 0.0 || r.a[k] > hi[k] {
                 r.tout = -1.0;

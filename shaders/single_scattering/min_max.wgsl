@@ -124,9 +124,10 @@ fn min_max_ray(dir: vec3<f32>, s: f32) -> vec3<f32> {
                     }
                 }
                 t = t_exit;
-            } else if level <= P.min_level {
+            } else if level <= P.min_level && mm.y < SHADOW_CLEAR {
                 // Quality knob: estimate a mixed block instead of refining it, taking its
-                // occluder depth as spread evenly over [min, max].
+                // occluder depth as spread evenly over [min, max]. A block with clear texels
+                // (its max is SHADOW_CLEAR) has no such spread: it is refined.
                 let zm = 0.5 * (z0 + z1);
                 let frac = clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
                 lit += (t_exit - t) * frac;

@@ -132,7 +132,8 @@ fn settle(dir: vec3<f32>, t0: f32, step: vec2<f32>, piece: vec2<f32>, opens: boo
 }
 
 // [t_a, t_b]: the part of [t0, t1] inside a map's frustum, the ray's clip position c0 + dc t
-// (|x|, |y| ≤ w, 0 ≤ z ≤ 1, w > 0); t_b ≤ t_a when it misses.
+// (|x|, |y| ≤ w, z ≥ 0, w > 0; not bounded by the far plane: an occluder shadows what lies
+// behind it at any distance); t_b ≤ t_a when it misses.
 fn frustum_part(t0: f32, t1: f32, c0: vec4<f32>, dc: vec4<f32>) -> vec2<f32> {
     var r = vec2<f32>(t0, t1);
     clip_half(&r, c0.w - c0.x, dc.w - dc.x);
@@ -140,7 +141,6 @@ fn frustum_part(t0: f32, t1: f32, c0: vec4<f32>, dc: vec4<f32>) -> vec2<f32> {
     clip_half(&r, c0.w - c0.y, dc.w - dc.y);
     clip_half(&r, c0.w + c0.y, dc.w + dc.y);
     clip_half(&r, c0.z, dc.z);
-    clip_half(&r, 1.0 - c0.z, -dc.z);
     clip_half(&r, c0.w - 1e-4, dc.w);
     return r;
 }
@@ -234,9 +234,9 @@ fn walk_map(dir: vec3<f32>, t0: f32, ta: f32, tb: f32, c0: vec4<f32>, dc: vec4<f
                 la = t_exit - part;
                 lb = t_exit;
             }
-        } else if level <= P.min_level {
+        } else if level <= P.min_level && mm.y < SHADOW_CLEAR {
             // Quality knob, as for the sun: a mixed block's occluders spread evenly (the block
-            // is its own run, weighted).
+            // is its own run, weighted); a block with clear texels is refined.
             let zm = 0.5 * (z0 + z1);
             frac = clamp((mm.y + P.bias - zm) / max(mm.y - mm.x, 1e-6), 0.0, 1.0);
             opens = true;

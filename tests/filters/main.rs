@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod clear;
 mod epipolar;
 mod filters;
 mod holes;

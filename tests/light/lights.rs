@@ -110,11 +110,15 @@ fn spot_and_point_light_brute_force_match_the_cpu_reference() {
                 lum.len()
             );
         } else {
-            // The lamp sits in the tree's crown, which shadows much of the air below it, but
-            // with no cone most view rays still pass some lit air.
+            // The lamp sits in the tree's crown, which shadows much of the air around it, out
+            // to any distance (before issue #60 the air past the map's far plane, the scene's
+            // farthest corner, read as lit: more than half the pixels). With no cone, the view
+            // rays still pass lit air through the crown's gaps in every direction: measured 864
+            // of 2304 pixels on lavapipe; a cone-like failure (nothing lit off one axis) or a
+            // crown that shadows everything would leave far fewer.
             let lit = lum.iter().filter(|v| **v > 0.0).count();
             assert!(
-                lit * 2 > lum.len(),
+                lit * 4 > lum.len(),
                 "point: it shines every way, yet only {lit} of {} pixels get light",
                 lum.len()
             );
@@ -266,8 +270,11 @@ fn a_point_light_map_is_a_cube_atlas_of_linear_depth() {
         (got - want).abs() < 2e-3,
         "ground below the light: map {got}, expected {want}"
     );
-    // Up (+Y, column 2 of row 0) sees nothing: 1.
-    assert_eq!(r.shadow.pixel(2 * res + res / 2, res / 2)[0], 1.0);
+    // Up (+Y, column 2 of row 0) sees nothing: clear.
+    assert_eq!(
+        r.shadow.pixel(2 * res + res / 2, res / 2)[0],
+        tyndall::eval::SHADOW_CLEAR
+    );
 }
 
 /// An independent check of the local-light reference: a point light of intensity I at distance
@@ -342,7 +349,7 @@ fn wall_across_a_seam(n: u32, hole: f32) -> (tyndall::scene::LocalLight, Raster)
         near: 0.1,
         far: 20.0,
     };
-    let mut atlas = Raster::new(3 * n, 2 * n, 1, 1.0);
+    let mut atlas = Raster::new(3 * n, 2 * n, 1, tyndall::eval::SHADOW_CLEAR);
     let normal = Vec3::new(1.0, 0.0, 1.0) / 2f32.sqrt();
     let centre = Vec3::new(1.5, 0.0, 1.5);
     let along = Vec3::new(1.0, 0.0, -1.0) / 2f32.sqrt();
@@ -423,8 +430,13 @@ fn closure2d_closes_a_hole_that_straddles_two_cube_faces() {
         ),
         _ => unreachable!(),
     };
-    let holes = |r: &Raster| r.data.iter().filter(|v| **v >= 1.0).count();
-    // The wall covers parts of the +X and +Z faces only; everything else sees nothing (1).
+    let holes = |r: &Raster| {
+        r.data
+            .iter()
+            .filter(|v| tyndall::eval::is_clear(**v))
+            .count()
+    };
+    // The wall covers parts of the +X and +Z faces only; everything else sees nothing (clear).
     let open = holes(&atlas);
     let closed = common::run_node(
         &gpu,

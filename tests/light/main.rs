@@ -10,6 +10,7 @@ mod cycles;
 mod lights;
 mod phase;
 mod phenomena;
+mod reach;
 mod scattering;
 mod sky;
 mod soft;

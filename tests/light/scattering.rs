@@ -272,9 +272,10 @@ fn analytic_slit(eye: Vec3, dir: Vec3, s: f32, bias: f32) -> f32 {
         }
     }
     cuts.sort_by(f32::total_cmp);
+    // Outside the map's footprint nothing casts a shadow; inside it the plane shadows every
+    // point behind it, at any depth (past the map's range z ≤ 1 too: issue #60).
     let lit = |q: Vec3| {
-        let outside =
-            q.x < -1.0 || q.x >= 1.0 || q.y <= -1.0 || q.y > 1.0 || q.z < 0.0 || q.z > 1.0;
+        let outside = q.x < -1.0 || q.x >= 1.0 || q.y <= -1.0 || q.y > 1.0;
         outside || q.z <= 0.5 + bias || (-0.25..0.25).contains(&q.x)
     };
     let mut sum = 0.0;
@@ -295,7 +296,8 @@ fn slit_matches_the_analytic_visibility() {
     let mut map = Raster::new(n, n, 1, 0.5);
     for y in 0..n {
         for x in 96..160 {
-            map.data[(y * n + x) as usize] = 1.0; // u ∈ [0.375, 0.625): world x ∈ [−0.25, 0.25)
+            // u ∈ [0.375, 0.625): world x ∈ [−0.25, 0.25), no occluder.
+            map.data[(y * n + x) as usize] = tyndall::eval::SHADOW_CLEAR;
         }
     }
     let eye = Vec3::new(-0.8, 0.05, 0.9);
@@ -643,7 +645,12 @@ fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
         (8, 8),
         &[],
     );
-    assert!(all.shadow.data.iter().all(|v| (0.0..=1.0).contains(v)));
+    // Depths within the fitted range, or clear where nothing was drawn.
+    assert!(all
+        .shadow
+        .data
+        .iter()
+        .all(|v| (0.0..=1.0).contains(v) || *v == tyndall::eval::SHADOW_CLEAR));
     assert!(
         all.shadow.data.iter().any(|v| *v < 0.5),
         "the canopy should be near the light"
@@ -702,7 +709,12 @@ fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
     };
     let foliage = map_with("foliage", "");
     let rest = map_with("", "foliage");
-    let empty = |r: &Raster| r.data.iter().filter(|v| **v == 1.0).count();
+    let empty = |r: &Raster| {
+        r.data
+            .iter()
+            .filter(|v| tyndall::eval::is_clear(**v))
+            .count()
+    };
     assert!(
         empty(&foliage) > empty(&all.shadow),
         "without the ground, more texels stay empty"
@@ -747,11 +759,11 @@ fn shadow_map_and_gbuffer_match_the_ground_plane_analytically() {
             // from 0 at a to 1 at b, so t is also the expected depth.
             let t = a.y / (a.y - b.y);
             let p = a + (b - a) * t;
-            // Outside the 20 m ground square nothing is drawn unless the torus is: depth 1.
+            // Outside the 20 m ground square nothing is drawn unless the torus is: clear.
             let want = if p.x.abs() <= 10.0 && p.z.abs() <= 10.0 {
                 t
             } else {
-                1.0
+                tyndall::eval::SHADOW_CLEAR
             };
             let got = r.shadow.pixel(x, y)[0];
             assert!(

@@ -1,6 +1,7 @@
 // A shadow map by ray casting: the compute alternative to the raster pass of shadow_map.wgsl,
 // writing what it writes (nodes/algorithms/ray_cast.rs).
 #import algorithms/ray_cast/common
+#import lib/shadow
 
 @group(0) @binding(3) var depth_out: texture_storage_2d<r32float, write>;
 
@@ -10,7 +11,7 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = texel_ray(id.xy);
     let h = nearest_hit(ray.a, ray.b);
     if !h.found {
-        textureStore(depth_out, id.xy, vec4<f32>(1.0, 0.0, 0.0, 0.0));
+        textureStore(depth_out, id.xy, vec4<f32>(SHADOW_CLEAR, 0.0, 0.0, 0.0));
         return;
     }
     let c = P.view_proj * vec4<f32>(ray.a + h.s * ray.b, 1.0);

@@ -39,7 +39,9 @@ pub use paths::{
 };
 use stats::{report, NodeRun};
 pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};
-pub use value::{pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY};
+pub use value::{
+    is_clear, pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY, SHADOW_CLEAR,
+};
 
 use crate::gpu::{Gpu, Recorder};
 use crate::graph::{Graph, GraphError, NodeSchema, ParamValue};

@@ -9,6 +9,21 @@ use crate::graph::PortType;
 /// A 4×4 matrix, column-major (as WGSL's `mat4x4<f32>`).
 pub type Mat4 = [[f32; 4]; 4];
 
+/// The depth a `ShadowMap` texel holds where no occluder covers it: "clear", not a depth.
+///
+/// An occluder at depth d shadows every point farther than d along its texel's ray, however
+/// far (also past 1, the far end of the range the map's depth encodes); a clear texel shadows
+/// nothing. The value is larger than any depth a map can hold, so the tests `z ≤ d + bias` and
+/// the min/max trees (where it acts as +∞) need no special case, and it stays finite so that
+/// filters never make a NaN of it. Every node that writes or edits a map keeps clear texels at
+/// exactly this value (`shaders/lib/shadow.wgsl` has the same constant, `SHADOW_CLEAR`).
+pub const SHADOW_CLEAR: f32 = 1.0e30;
+
+/// Whether a shadow-map texel is clear (no occluder): at least [`SHADOW_CLEAR`].
+pub fn is_clear(depth: f32) -> bool {
+    depth >= SHADOW_CLEAR
+}
+
 /// The identity matrix.
 pub const IDENTITY: Mat4 = [
     [1.0, 0.0, 0.0, 0.0],
