@@ -5,19 +5,22 @@
 //! p = the pixel centre, Δ = (p − light)·density/samples; for i = 0…samples−1: p −= Δ,
 //! sum += bilinear(p)·decay^i·weight; `image` = sum·exposure. Pixel coordinates, texel centres
 //! at i + 0.5, bilinear between texel centres, clamped to the edge. The light is at
-//! (`light_x`, `light_y`) pixels, or — with a `scene` connected — at the sun's position seen by
-//! the scene's camera (the projection of the direction to the sun; it may lie off screen; a sun
-//! behind the camera gives a mirrored position, as the screen-space method does).
+//! (`light_x`, `light_y`) pixels, or — with a `scene` connected — at the position of the
+//! scene's light `light` (empty: its first light) seen by the scene's camera: a directional
+//! light's the projection of the direction to it, a spot's or point light's the projection of
+//! its position (either may lie off screen; one behind the camera gives a mirrored position, as
+//! the screen-space method does). A `light` the scene lacks is refused, naming its lights.
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
 //! | `occlusion` | in | Image \| Scalar (required) | bright where the light is seen |
-//! | `scene` | in | Scene | places the light at the sun's screen position |
+//! | `scene` | in | Scene | places the light at the screen position of its light `light` |
 //! | `image` | out | same type as `occlusion` | |
 //!
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
 //! | `light_x`, `light_y` | Float | 480, 100 | ±1e6 px | light position (no `scene`) |
+//! | `light` | Text | "" | | with a `scene`: which of its lights (empty: the first, the sun of a built-in scene; a name or an index) |
 //! | `samples` | Int | 64 | 1…1024 | samples per pixel (quality knob) |
 //! | `density` | Float | 0.9 | 0…10 | fraction of the way to the light covered |
 //! | `decay` | Float | 0.96 | 0…1 | per-sample falloff |
@@ -42,6 +45,7 @@ tyndall_engine::params! {
     pub struct Params {
         light_x: f32 = ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
         light_y: f32 = ParamSpec::float("light_y", 100.0, -1e6, 1e6, "px", "Light position y in pixels (down)."),
+        light: String = ParamSpec::text("light", "", "With a scene: the light whose screen position the blur converges on (empty: the scene's first light; else a name or an index). A light the scene lacks is refused, naming its lights."),
         samples: i64 = ParamSpec::int("samples", 64, 1, 1024, "samples", "Samples per pixel (quality knob)."),
         density: f32 = ParamSpec::float("density", 0.9, 0.0, 10.0, "", "Fraction of the way to the light the samples cover."),
         decay: f32 = ParamSpec::float("decay", 0.96, 0.0, 1.0, "", "Falloff per sample."),
@@ -57,7 +61,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     doc: "Screen-space radial blur towards the light (seed 003 Algorithm 1): the classic post-process light shafts, as a baseline.",
     inputs: &[
         PortSpec::required("occlusion", IMG, "Bright where the light is seen (e.g. the sky and sun, black occluders)."),
-        PortSpec::input("scene", &[PortType::Scene], "Places the light at the sun's screen position (overrides light_x, light_y)."),
+        PortSpec::input("scene", &[PortType::Scene], "Places the light at the screen position of the scene's light `light` (overrides light_x, light_y)."),
     ],
     outputs: &[PortSpec::output("image", IMG, "The blurred shafts, same type as `occlusion`.")],
     params: Params::SPECS,
@@ -119,12 +123,23 @@ pub fn reference(src: &Raster, p: &RadialParams) -> Raster {
     out
 }
 
-/// The sun's position in pixels of a `w × h` view of the scene's camera.
-pub fn sun_pixel(scene: &tyndall_engine::scene::Scene, w: u32, h: u32) -> [f32; 2] {
+/// The position in pixels of `light` in a `w × h` view of the scene's camera: a directional
+/// light's direction, a spot's or point light's position.
+pub fn light_pixel(
+    scene: &tyndall_engine::scene::Scene,
+    light: &tyndall_engine::scene::Light,
+    w: u32,
+    h: u32,
+) -> [f32; 2] {
+    use tyndall_engine::scene::LightKind;
     let cam = scene.camera;
     let vp = cam.proj(w as f32 / h as f32) * cam.view();
-    let far = cam.position + scene.sun.to_sun() * cam.far * 0.5;
-    let c = vp * far.extend(1.0);
+    let at = match (light.kind, light.as_sun()) {
+        (LightKind::Spot { position, .. } | LightKind::Point { position }, _) => position,
+        (_, Some(sun)) => cam.position + sun.to_sun() * cam.far * 0.5,
+        (_, None) => cam.target,
+    };
+    let c = vp * at.extend(1.0);
     let w_ = if c.w.abs() < 1e-12 { 1e-12 } else { c.w };
     [
         (c.x / w_ * 0.5 + 0.5) * w as f32,
@@ -147,7 +162,17 @@ impl NodeKind for RadialBlur {
             });
         }
         let light = match ctx.scene_opt("scene")? {
-            Some(scene) => sun_pixel(&scene.scene, src.width, src.height),
+            Some(scene) => {
+                let light =
+                    scene
+                        .scene
+                        .find_light(&prm.light)
+                        .map_err(|message| NodeError::Param {
+                            param: "light".into(),
+                            message,
+                        })?;
+                light_pixel(&scene.scene, &light, src.width, src.height)
+            }
             None => [prm.light_x, prm.light_y],
         };
         let p = RadialParams {

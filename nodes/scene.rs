@@ -1,18 +1,24 @@
-//! `Scene`: a built-in procedural scene or a glTF file, with its camera and sun (SPEC §1).
+//! `Scene`: a built-in procedural scene or a glTF file, with its camera and lights (SPEC §1).
 //!
 //! Without a `path`, the built-in scene `name` is built from `seed` (see [`tyndall_engine::scene::builtin`]
 //! for the list: torus, tree, window, fence, figure). With a `path`, the glTF file is loaded:
 //! meshes, node transforms, base colours, its first camera and every `KHR_lights_punctual`
 //! light — directional (illuminance in lux read as irradiance in W/m² by dividing by 683 lm/W,
-//! as Blender's glTF importer does; the first is the scene's sun), spot and point (candela / 683
-//! = W/sr), with their colour, position and direction from their node, a spot's cone angles and
-//! `range` —; objects tagged `medium` are not drawn and bound the medium for `SingleScattering`'s
+//! as Blender's glTF importer does), spot and point (candela / 683 = W/sr), with their colour,
+//! position and direction from their node, a spot's cone angles and `range` — (a file with no
+//! light at all gets one sun, `default_sun`: white, 3 W/m², 60° up at azimuth 30°);
+//! objects tagged `medium` are not drawn and bound the medium for `SingleScattering`'s
 //! `bounds = tagged`. `camera = custom` and `light = custom` replace the scene's own camera and
 //! lights with the parameters below (all key-frameable): `light_type = directional` is the sun
 //! of `sun_*`, `spot` and `point` a lamp at `light_x/y/z` of `light_intensity` W/sr, coloured
 //! `sun_colour` (a spot aimed at `light_target_*` with cone `cone_inner`–`cone_outer`).
 //! `tyndall validate` lists the lights and refuses one with a negative intensity, a zero or
 //! negative range or a cone outside 0 ≤ inner ≤ outer, 0 < outer ≤ 90°.
+//!
+//! One model of the lights: the scene's lights are all it has. The built-in scenes have one,
+//! their sun (a directional light named `sun`); a scene without a directional light has no sun,
+//! and the nodes that need one (`Sky`, `RadialBlur`) choose a directional light by their own
+//! `light` parameter and refuse, naming the scene's lights, when there is none.
 //!
 //! How far a light reaches: everywhere its own model lets it (a spot's cone, a lamp's `range`),
 //! shadowed by every drawn object between it and the point, however far the medium extends past
@@ -52,7 +58,7 @@
 //! | `cam_x`, `cam_y`, `cam_z` | Float | 8, 3, 9 | ±1e5 m | camera position |
 //! | `target_x`, `target_y`, `target_z` | Float | 0, 1.5, 0 | ±1e5 m | point looked at |
 //! | `fov` | Float | 45 | 1…170 ° | vertical field of view |
-//! | `light` | Enum | scene | scene, custom | use the scene's sun or the parameters |
+//! | `light` | Enum | scene | scene, custom | use the scene's lights, or one light from the parameters |
 //! | `sun_azimuth` | Float | 30 | −720…720 ° | clockwise from +Z seen from above |
 //! | `sun_elevation` | Float | 45 | −90…90 ° | above the horizon |
 //! | `sun_colour` | Colour | (1, 0.95, 0.85, 1) | 0…1e6 | linear RGB (alpha unused) |
@@ -106,7 +112,7 @@ tyndall_engine::params! {
         target_y: f32 = ParamSpec::float("target_y", 1.5, -1e5, 1e5, "m", "Point looked at, y (camera = custom)."),
         target_z: f32 = ParamSpec::float("target_z", 0.0, -1e5, 1e5, "m", "Point looked at, z (camera = custom)."),
         fov: f32 = ParamSpec::float("fov", 45.0, 1.0, 170.0, "°", "Vertical field of view (camera = custom)."),
-        light: Source = ParamSpec::choice("light", Source::NAMES, "scene", "Use the scene's sun, or the sun_* parameters."),
+        light: Source = ParamSpec::choice("light", Source::NAMES, "scene", "Use the scene's lights, or the one light light_type and the sun_*/light_* parameters describe."),
         sun_azimuth: f32 = ParamSpec::float("sun_azimuth", 30.0, -720.0, 720.0, "°", "Sun azimuth, clockwise from +Z seen from above (light = custom)."),
         sun_elevation: f32 = ParamSpec::float("sun_elevation", 45.0, -90.0, 90.0, "°", "Sun elevation above the horizon (light = custom)."),
         sun_colour: [f32; 4] = ParamSpec::colour("sun_colour", [1.0, 0.95, 0.85, 1.0], 0.0, 1e6, "linear RGB", "Sun colour (light = custom)."),
@@ -186,7 +192,10 @@ impl NodeKind for SceneNode {
         };
         match load(&p, 0.0, &Default::default()) {
             Ok(scene) => {
-                for l in scene.light_list() {
+                if scene.lights.is_empty() {
+                    lines.push("no lights".into());
+                }
+                for l in &scene.lights {
                     match l.problem() {
                         Some(problem) => lines.push(format!("error: {problem}")),
                         None => lines.push(l.describe()),
@@ -289,13 +298,12 @@ fn load(p: &Params, time: f64, colour: &ColourCtx) -> Result<Scene, NodeError> {
             colour: [c[0], c[1], c[2]],
             intensity: p.sun_intensity,
         };
-        scene.sun = sun;
         let position = Vec3::new(p.light_x, p.light_y, p.light_z);
         let target = Vec3::new(p.light_target_x, p.light_target_y, p.light_target_z);
         let kind = match p.light_type {
-            // The sun alone: the scene lit as before lights other than the sun existed.
+            // The sun of `sun_*` alone.
             LightType::Directional => {
-                scene.lights = Vec::new();
+                scene.lights = vec![Light::sun("sun", sun)];
                 return Ok(scene);
             }
             LightType::Spot => LightKind::Spot {

@@ -82,7 +82,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 .shaders(&[SHADER, ray_cast::SHADOW_SHADER])
 .on_demand(&[ray_cast::SHADOW_SHADER])
 .uniforms(&[ShadowMapParams::LAYOUT, ray_cast::RayCastParams::LAYOUT])
-.scene_parts(&[ScenePart::Sun, ScenePart::Geometry]);
+.scene_parts(&[ScenePart::Lights, ScenePart::Geometry]);
 
 const SHADER: Shader = crate::shader("shadow_map", include_str!("../shaders/shadow_map.wgsl"));
 
@@ -221,8 +221,9 @@ impl NodeKind for ShadowMapNode {
             }
             _ => {
                 ctx.check_bytes("resolution", u64::from(res).pow(2) * 4)?;
-                let sun = light.as_sun().unwrap_or(scene.scene.sun);
-                let (view, proj) = fit_light(sun.to_sun(), bounds);
+                // A directional light (spot and point lights took the arms above).
+                let to_sun = light.as_sun().map_or(glam::Vec3::Y, |s| s.to_sun());
+                let (view, proj) = fit_light(to_sun, bounds);
                 (draw(ctx, proj * view, false, res)?, view, proj)
             }
         };

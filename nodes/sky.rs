@@ -18,7 +18,7 @@
 //!   density never meets an infinite length.
 //!
 //! The sun's irradiance I (W/m², outside the atmosphere) and direction come from the `scene`
-//! (its sun, × `intensity`) or from `sun_azimuth`, `sun_elevation`, `sun_irradiance`. A sun at
+//! (its directional light `light`, × `intensity`; a scene without one is refused) or from `sun_azimuth`, `sun_elevation`, `sun_irradiance`. A sun at
 //! or below the horizon (l_y ≤ 1e-4) lights nothing. Surfaces (depth below the camera's far
 //! distance) are at K = depth × `distance_scale`; background pixels look up to 10⁷ m (or down
 //! to sea level), and a 0.5° sun disk of radiance I T / Ω_sun is added where the view ray
@@ -43,6 +43,7 @@
 //! | `altitude` | Float | 0 | −1e4…1e5 m | height of the scene's y = 0 above sea level |
 //! | `distance_scale` | Float | 1 | 1e-3…1e6 | metres per scene unit (exaggerates aerial perspective) |
 //! | `intensity` | Float | 1 | 0…1e6 | multiplies the sun's irradiance |
+//! | `light` | Text | "" | | with a scene: which of its directional lights is the sun (empty: the first; a name or an index); a scene with none, or a light of another kind, is refused naming the scene's lights |
 //! | `sun_azimuth`, `sun_elevation` | Float | 0, 20 | degrees | sun without a scene |
 //! | `sun_irradiance` | Float | 20 | 0…1e6 W/m² | sun without a scene |
 //! | `sun_disk` | Bool | true | | draw the 0.5° sun disk |
@@ -71,6 +72,7 @@ tyndall_engine::params! {
         altitude: f32 = ParamSpec::float("altitude", 0.0, -1e4, 1e5, "m", "Height of the scene's y = 0 above sea level."),
         distance_scale: f32 = ParamSpec::float("distance_scale", 1.0, 1e-3, 1e6, "m/unit", "Metres per scene unit: exaggerates aerial perspective in small scenes."),
         intensity: f32 = ParamSpec::float("intensity", 1.0, 0.0, 1e6, "", "Multiplies the sun's irradiance."),
+        light: String = ParamSpec::text("light", "", "With a scene: its directional light the sky is lit by (empty: the first; else a name or an index). A scene without one is refused, naming its lights."),
         sun_azimuth: f32 = ParamSpec::float("sun_azimuth", 0.0, -360.0, 360.0, "°", "Sun azimuth without a scene (clockwise from +Z seen from above)."),
         sun_elevation: f32 = ParamSpec::float("sun_elevation", 20.0, -90.0, 90.0, "°", "Sun elevation without a scene."),
         sun_irradiance: f32 = ParamSpec::float("sun_irradiance", 20.0, 0.0, 1e6, "W/m²", "Sun irradiance without a scene."),
@@ -252,7 +254,13 @@ impl NodeKind for Sky {
         let intensity = p.intensity;
         let (to_sun, sun) = match ctx.scene_opt("scene")? {
             Some(v) => {
-                let s = &v.scene.sun;
+                let s = v
+                    .scene
+                    .find_sun(&p.light)
+                    .map_err(|message| NodeError::Param {
+                        param: "light".into(),
+                        message,
+                    })?;
                 (s.to_sun(), s.radiance().map(|c| c * intensity))
             }
             None => {

@@ -323,9 +323,18 @@ fn animated_camera_and_sun_follow_each_interpolation() {
             let scene = asset.pose(&[0], frame / FPS).unwrap();
             let q = Quat::from_array(expected(&sun_keys(), mode, frame, true));
             let to_sun = -(q * Vec3::NEG_Z);
-            let angle = scene.sun.to_sun().angle_between(to_sun).to_degrees();
+            let angle = scene
+                .find_sun("")
+                .expect("sun")
+                .to_sun()
+                .angle_between(to_sun)
+                .to_degrees();
             assert!(angle < 0.01, "{mode} frame {frame}: sun {angle}° off");
-            assert_eq!(scene.sun.intensity, 3.0, "2049 lux = 3 W/m²");
+            assert_eq!(
+                scene.find_sun("").expect("sun").intensity,
+                3.0,
+                "2049 lux = 3 W/m²"
+            );
         }
         // Frame 12 tells the modes apart (the keys are at 1, 18 and 24).
         let at12 = expected(&camera_translation(), mode, 12.0, false);
@@ -559,7 +568,8 @@ fn a_blender_shot_plays_every_animation_and_reads_every_light() {
     assert_eq!(both.camera.position, camera_only.camera.position);
     assert_ne!(both.camera.position, rest.camera.position);
     assert_ne!(
-        both.sun, camera_only.sun,
+        both.find_sun("").expect("sun"),
+        camera_only.find_sun("").expect("sun"),
         "the sun's own animation plays too"
     );
 
@@ -567,7 +577,7 @@ fn a_blender_shot_plays_every_animation_and_reads_every_light() {
     let names: Vec<&str> = lights.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["Sun", "Spot", "Lamp"], "node order");
     assert_eq!(lights[0].intensity, 3.0, "2049 lux = 3 W/m²");
-    assert_eq!(both.sun, lights[0].as_sun().unwrap());
+    assert_eq!(both.find_sun("").expect("sun"), lights[0].as_sun().unwrap());
     let spot = &lights[1];
     assert!((spot.intensity - 50.0).abs() < 1e-4, "cd / 683 = W/sr");
     assert_eq!(spot.colour, [1.0, 0.5, 0.25]);

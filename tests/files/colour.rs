@@ -279,12 +279,18 @@ fn gltf_colours_are_converted_to_the_working_space() {
         assert!(near(got, mul(&REC709_TO_AP1, rgb)), "{rgb:?} → {got:?}");
         assert_eq!(a.colour[3], p.colour[3]);
     }
-    assert_eq!(plain.sun.colour, [1.0, 0.9, 0.8]);
-    assert!(near(aces.sun.colour, mul(&REC709_TO_AP1, plain.sun.colour)));
+    assert_eq!(plain.find_sun("").expect("sun").colour, [1.0, 0.9, 0.8]);
+    assert!(near(
+        aces.find_sun("").expect("sun").colour,
+        mul(&REC709_TO_AP1, plain.find_sun("").expect("sun").colour)
+    ));
     assert!(plain.objects.iter().any(|o| o.colour[0] != o.colour[2]));
     // A built-in scene: no conversion.
     let a = scene(Some("ACEScg"), "");
     let b = scene(None, "");
-    assert_eq!(a.sun.colour, b.sun.colour);
+    assert_eq!(
+        a.find_sun("").expect("sun").colour,
+        b.find_sun("").expect("sun").colour
+    );
     assert_eq!(a.objects[0].colour, b.objects[0].colour);
 }

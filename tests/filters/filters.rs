@@ -290,7 +290,7 @@ fn extremes_stay_finite() {
 /// elevation e lies tan(a)/(aspect·tan 30°) half-widths left of the centre and
 /// tan(e)/(cos(a)·tan 30°) half-heights above it.
 #[test]
-fn sun_pixel_follows_pinhole_trigonometry() {
+fn light_pixel_of_a_sun_follows_pinhole_trigonometry() {
     let mut scene = tyndall::scene::builtin("window", 1).expect("scene");
     scene.camera.position = glam::Vec3::ZERO;
     scene.camera.target = glam::Vec3::Z;
@@ -298,9 +298,13 @@ fn sun_pixel_follows_pinhole_trigonometry() {
     let t30 = 30f32.to_radians().tan();
     let aspect = 960.0 / 540.0;
     for (az, el) in [(0.0f32, 0.0f32), (0.0, 15.0), (20.0, 0.0), (-25.0, 10.0)] {
-        scene.sun.azimuth = az;
-        scene.sun.elevation = el;
-        let p = rb::sun_pixel(&scene, 960, 540);
+        let sun = tyndall::scene::Sun {
+            azimuth: az,
+            elevation: el,
+            colour: [1.0; 3],
+            intensity: 1.0,
+        };
+        let p = rb::light_pixel(&scene, &tyndall::scene::Light::sun("sun", sun), 960, 540);
         let (a, e) = (az.to_radians(), el.to_radians());
         let want = [
             480.0 - 480.0 * a.tan() / (aspect * t30),

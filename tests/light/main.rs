@@ -7,6 +7,7 @@
 mod common;
 
 mod cycles;
+mod light_model;
 mod lights;
 mod phase;
 mod phenomena;

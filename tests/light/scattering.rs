@@ -595,12 +595,12 @@ fn gltf_fixture_loads_camera_light_tags_and_renders() {
         (fwd - Vec3::new(-1.5, 0.4, -7.0).normalize()).length() < 1e-4,
         "{fwd}"
     );
-    let to_sun = scene.sun.to_sun();
+    let to_sun = scene.find_sun("").expect("sun").to_sun();
     assert!(
         (to_sun + Vec3::new(0.2, -0.55, 1.0).normalize()).length() < 1e-4,
         "{to_sun}"
     );
-    assert_eq!(scene.sun.intensity, 3.0);
+    assert_eq!(scene.find_sun("").expect("sun").intensity, 3.0);
     assert!(
         scene
             .objects
@@ -658,7 +658,8 @@ fn shadow_map_fits_the_scene_bounds_and_filters_tags() {
     // The light box is fitted to the scene's bounds: their corners span depth 0 to 1 (up to
     // the 1e-3 margin) and the map's extent.
     let scene = tyndall::scene::builtin("tree", 1).expect("tree");
-    let (view, proj) = tyndall::scene::fit_light(scene.sun.to_sun(), scene.bounds());
+    let (view, proj) =
+        tyndall::scene::fit_light(scene.find_sun("").expect("sun").to_sun(), scene.bounds());
     let (lo, hi) = scene.bounds();
     let (mut zmin, mut zmax) = (f32::MAX, f32::MIN);
     for i in 0..8 {
@@ -1214,7 +1215,11 @@ fn tagged_medium_from_gltf_equals_the_same_box() {
         scene.medium,
         Some((Vec3::new(-4.0, 0.0, -1.0), Vec3::new(4.0, 4.0, 5.0)))
     );
-    assert_eq!(scene.sun.intensity, 3.0, "2049 lux = 3 W/m²");
+    assert_eq!(
+        scene.find_sun("").expect("sun").intensity,
+        3.0,
+        "2049 lux = 3 W/m²"
+    );
     let gltf = [("path", ParamValue::Text(path.display().to_string()))];
     let common = [("light_extinction", en("on")), ("method", en("MinMax"))];
     let mut tagged = vec![("bounds", en("tagged"))];

@@ -144,7 +144,7 @@ fn gpu_equals_cpu_and_composite_applies_it() {
     let scene = get("scene", "scene")
         .payload::<tyndall::scene::GpuScene>()
         .expect("scene");
-    let sun = &scene.scene.sun;
+    let sun = &scene.scene.find_sun("").expect("sun");
     let u = SkyParams {
         inv_view_proj: cam.view_proj().inverse().to_cols_array_2d(),
         eye: cam.eye().to_array(),

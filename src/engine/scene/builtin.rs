@@ -10,7 +10,7 @@
 
 use glam::{Quat, Vec3};
 
-use super::{Camera, Object, Scene, SceneError, Sun};
+use super::{Camera, Light, Object, Scene, SceneError, Sun};
 
 /// Names of the built-in scenes.
 pub const BUILTIN_SCENES: &[&str] = Builtin::NAMES;
@@ -232,14 +232,16 @@ fn torus_scene() -> Scene {
             near: 0.1,
             far: 60.0,
         },
-        sun: Sun {
-            azimuth: 225.0,
-            elevation: 50.0,
-            colour: [1.0, 0.95, 0.85],
-            intensity: 3.0,
-        },
+        lights: vec![Light::sun(
+            "sun",
+            Sun {
+                azimuth: 225.0,
+                elevation: 50.0,
+                colour: [1.0, 0.95, 0.85],
+                intensity: 3.0,
+            },
+        )],
         medium: None,
-        lights: Vec::new(),
     }
 }
 
@@ -303,14 +305,16 @@ fn tree_scene(rng: &mut Rng, seed: u64) -> Scene {
             near: 0.1,
             far: 60.0,
         },
-        sun: Sun {
-            azimuth: 225.0,
-            elevation: 38.0,
-            colour: [1.0, 0.92, 0.78],
-            intensity: 3.0,
-        },
+        lights: vec![Light::sun(
+            "sun",
+            Sun {
+                azimuth: 225.0,
+                elevation: 38.0,
+                colour: [1.0, 0.92, 0.78],
+                intensity: 3.0,
+            },
+        )],
         medium: None,
-        lights: Vec::new(),
     }
 }
 
@@ -392,14 +396,16 @@ fn window_scene(rng: &mut Rng) -> Scene {
             near: 0.05,
             far: 40.0,
         },
-        sun: Sun {
-            azimuth: 70.0,
-            elevation: 30.0,
-            colour: [1.0, 0.9, 0.75],
-            intensity: 4.0,
-        },
+        lights: vec![Light::sun(
+            "sun",
+            Sun {
+                azimuth: 70.0,
+                elevation: 30.0,
+                colour: [1.0, 0.9, 0.75],
+                intensity: 4.0,
+            },
+        )],
         medium: None,
-        lights: Vec::new(),
     }
 }
 
@@ -431,14 +437,16 @@ fn fence_scene(rng: &mut Rng) -> Scene {
             near: 0.1,
             far: 50.0,
         },
-        sun: Sun {
-            azimuth: 180.0,
-            elevation: 25.0,
-            colour: [1.0, 0.85, 0.65],
-            intensity: 3.0,
-        },
+        lights: vec![Light::sun(
+            "sun",
+            Sun {
+                azimuth: 180.0,
+                elevation: 25.0,
+                colour: [1.0, 0.85, 0.65],
+                intensity: 3.0,
+            },
+        )],
         medium: None,
-        lights: Vec::new(),
     }
 }
 
@@ -487,13 +495,15 @@ fn figure_scene(rng: &mut Rng) -> Scene {
             near: 0.1,
             far: 40.0,
         },
-        sun: Sun {
-            azimuth: 190.0,
-            elevation: 30.0,
-            colour: [1.0, 0.93, 0.8],
-            intensity: 3.0,
-        },
+        lights: vec![Light::sun(
+            "sun",
+            Sun {
+                azimuth: 190.0,
+                elevation: 30.0,
+                colour: [1.0, 0.93, 0.8],
+                intensity: 3.0,
+            },
+        )],
         medium: None,
-        lights: Vec::new(),
     }
 }

@@ -1,4 +1,4 @@
-//! Scenes: meshes with colours and tags, a perspective camera and a directional light (the sun);
+//! Scenes: meshes with colours and tags, a perspective camera and lights (directional, spot, point);
 //! built-in procedural scenes, glTF 2.0 loading, and mesh upload for rasterisation.
 
 mod builtin;
@@ -12,8 +12,8 @@ use thiserror::Error;
 
 pub use builtin::{builtin, Builtin, BUILTIN_SCENES};
 pub use gltf::{
-    animation, find_animation, load_gltf, load_gltf_asset, parse_gltf, GltfAsset, LUX_PER_WATT,
-    MEDIUM_TAG,
+    animation, find_animation, load_gltf, load_gltf_asset, parse_gltf, GltfAsset, DEFAULT_SUN,
+    LUX_PER_WATT, MEDIUM_TAG,
 };
 pub use gpu::PLACEMENT_FLOATS;
 pub use gpu::{flatten, GpuScene, MeshVertex};
@@ -179,12 +179,11 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// The camera (the file's or the built-in's; node parameters may override it).
     pub camera: Camera,
-    /// The sun (the file's first directional light or the built-in's; node parameters may
-    /// override it): what sky and radial blur read.
-    pub sun: Sun,
-    /// Every light of a glTF file (directional, spot, point) in node order, or the lights node
-    /// parameters set; empty when the scene is lit by [`Scene::sun`] alone (the built-in
-    /// scenes). [`Scene::light_list`] is what a shadow map chooses from.
+    /// Every light of the scene: a glTF file's (directional, spot, point) in node order, a
+    /// built-in scene's sun (a directional light named `sun`), or the light node parameters
+    /// set. The one model of the scene's lights: a shadow map, the sky and radial blur all
+    /// choose from it ([`Scene::find_light`], [`Scene::find_sun`]); a scene without a
+    /// directional light has no sun. Empty: an unlit scene (a file without lights).
     pub lights: Vec<Light>,
     /// Bounds `(min, max)` of the objects tagged `medium` in a glTF file (those objects are not
     /// part of `objects`: they bound the participating medium and are not drawn); `None` when
@@ -193,14 +192,13 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Apply `f` to every colour of the scene: objects' base colours (alpha kept), the sun's
-    /// and every light's (what converting a file's colours to the working space does).
+    /// Apply `f` to every colour of the scene: objects' base colours (alpha kept) and every
+    /// light's (what converting a file's colours to the working space does).
     pub fn convert_colours(&mut self, f: impl Fn([f32; 3]) -> [f32; 3]) {
         for o in &mut self.objects {
             let [r, g, b] = f([o.colour[0], o.colour[1], o.colour[2]]);
             o.colour = [r, g, b, o.colour[3]];
         }
-        self.sun.colour = f(self.sun.colour);
         for l in &mut self.lights {
             l.colour = f(l.colour);
         }
@@ -223,20 +221,10 @@ impl Scene {
         }
     }
 
-    /// The lights a shadow map can be made for: [`Scene::lights`], or the sun named `sun`
-    /// when there are none.
-    pub fn light_list(&self) -> Vec<Light> {
-        if self.lights.is_empty() {
-            vec![Light::sun("sun", self.sun)]
-        } else {
-            self.lights.clone()
-        }
-    }
-
-    /// The light `which` names: empty = the first of [`Scene::light_list`], else a light's name
-    /// or its index in that list. The error lists the scene's lights.
+    /// The light `which` names: empty = the first of [`Scene::lights`], else a light's name or
+    /// its index in that list. The error lists the scene's lights.
     pub fn find_light(&self, which: &str) -> Result<Light, String> {
-        let list = self.light_list();
+        let list = &self.lights;
         let which = which.trim();
         let found = if which.is_empty() {
             list.first()
@@ -245,17 +233,46 @@ impl Scene {
                 .find(|l| l.name == which)
                 .or_else(|| which.parse::<usize>().ok().and_then(|i| list.get(i)))
         };
-        found.cloned().ok_or_else(|| {
-            let names: Vec<String> = list
-                .iter()
-                .enumerate()
-                .map(|(i, l)| format!("{i} '{}' ({})", l.name, l.type_name()))
-                .collect();
+        found
+            .cloned()
+            .ok_or_else(|| format!("no light '{which}' in the scene; {}", self.lights_named()))
+    }
+
+    /// The directional light `which` names, as the sun: empty = the scene's first directional
+    /// light, else a light's name or index (as [`Scene::find_light`]). Refused, naming the
+    /// scene's lights, when the scene has no directional light or `which` names another kind.
+    pub fn find_sun(&self, which: &str) -> Result<Sun, String> {
+        if which.trim().is_empty() {
+            return self.lights.iter().find_map(Light::as_sun).ok_or_else(|| {
+                format!(
+                    "the scene has no directional light (no sun); {}",
+                    self.lights_named()
+                )
+            });
+        }
+        let light = self.find_light(which)?;
+        light.as_sun().ok_or_else(|| {
             format!(
-                "no light '{which}' in the scene; its lights: {}",
-                names.join(", ")
+                "light '{}' is a {} light, not directional (a sun); {}",
+                light.name,
+                light.type_name(),
+                self.lights_named()
             )
         })
+    }
+
+    /// "its lights: 0 'sun' (directional), …" or "it has no lights", for error messages.
+    pub fn lights_named(&self) -> String {
+        if self.lights.is_empty() {
+            return "it has no lights".into();
+        }
+        let names: Vec<String> = self
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| format!("{i} '{}' ({})", l.name, l.type_name()))
+            .collect();
+        format!("its lights: {}", names.join(", "))
     }
 
     /// Number of triangles.

@@ -1,6 +1,7 @@
-//! The parts of a scene a node can read — camera, sun, geometry, medium bounds — and a content
-//! key for each, so that a node declaring the parts it reads (`NodeDecl::scene_parts`) is keyed
-//! on those alone: a sun change re-runs the shadow map but reuses the G-buffer.
+//! The parts of a scene a node can read — camera, lights, geometry, medium bounds — and a
+//! content key for each, so that a node declaring the parts it reads (`NodeDecl::scene_parts`)
+//! is keyed on those alone: a change of the lights re-runs the shadow map but reuses the
+//! G-buffer.
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 
@@ -11,8 +12,8 @@ use super::Scene;
 pub enum ScenePart {
     /// The camera: position, target, field of view, near and far.
     Camera,
-    /// The lights: the sun's direction, colour and intensity, and every other light.
-    Sun,
+    /// The lights (every [`Scene::lights`] entry: kind, placement, colour, intensity, range).
+    Lights,
     /// The objects: names, vertices, normals, indices, colours and tags.
     Geometry,
     /// The bounds of the objects tagged `medium`.
@@ -24,8 +25,8 @@ pub enum ScenePart {
 pub struct PartKeys {
     /// Of [`ScenePart::Camera`].
     pub camera: u64,
-    /// Of [`ScenePart::Sun`].
-    pub sun: u64,
+    /// Of [`ScenePart::Lights`].
+    pub lights: u64,
     /// Of [`ScenePart::Geometry`].
     pub geometry: u64,
     /// Of [`ScenePart::Medium`].
@@ -47,28 +48,16 @@ impl PartKeys {
         };
         let bits = |v: &[f32], h: &mut DefaultHasher| v.iter().for_each(|x| x.to_bits().hash(h));
         let c = &scene.camera;
-        let s = &scene.sun;
         Self {
             camera: key(&|h| {
                 bits(&c.position.to_array(), h);
                 bits(&c.target.to_array(), h);
                 bits(&[c.fov_y, c.near, c.far], h);
             }),
-            sun: key(&|h| {
+            lights: key(&|h| {
                 for l in &scene.lights {
                     format!("{l:?}").hash(h);
                 }
-                bits(
-                    &[
-                        s.azimuth,
-                        s.elevation,
-                        s.intensity,
-                        s.colour[0],
-                        s.colour[1],
-                        s.colour[2],
-                    ],
-                    h,
-                )
             }),
             geometry: key(&|h| {
                 for o in &scene.objects {
@@ -113,7 +102,7 @@ impl PartKeys {
         for p in parts {
             match p {
                 ScenePart::Camera => self.camera,
-                ScenePart::Sun => self.sun,
+                ScenePart::Lights => self.lights,
                 ScenePart::Geometry => self.geometry,
                 ScenePart::Medium => self.medium,
             }

@@ -17,6 +17,7 @@ mod checks;
 mod pose;
 
 pub use self::animation::find_animation;
+pub use self::pose::DEFAULT_SUN;
 
 use std::collections::HashMap;
 use std::path::Path;

@@ -11,11 +11,26 @@ use super::animation::Animation;
 use super::{err, AssetNode, GltfAsset, Primitive, LUX_PER_WATT, MEDIUM_TAG};
 use crate::scene::{Camera, Light, LightKind, Object, Placement, Scene, SceneError, Sun};
 
+/// The name of the sun a glTF file with no lights at all is lit by (`tyndall validate` lists
+/// it): a white 3 W/m² sun 60° up at azimuth 30°, so that such a file still renders.
+pub const DEFAULT_SUN: &str = "default_sun";
+
+/// The sun of a file with no lights (see [`DEFAULT_SUN`]).
+fn default_sun() -> Sun {
+    Sun {
+        azimuth: 30.0,
+        elevation: 60.0,
+        colour: [1.0; 3],
+        intensity: 3.0,
+    }
+}
+
 impl GltfAsset {
     /// The scene at `seconds` of `animation` (`None`: the rest pose): node transforms with the
-    /// animation's channels applied, meshes in world space, the first camera and first
-    /// directional light in the scene's node order. Camera and sun default to a view of the
-    /// bounds and a high sun when the file has none.
+    /// animation's channels applied, meshes in world space, the first camera and every light
+    /// in the scene's node order. The camera defaults to a view of the bounds when the file
+    /// has none; a file with no lights at all gets [`DEFAULT_SUN`] (a file with any light gets
+    /// only its own: with a spot alone it has no sun).
     pub fn pose(&self, animations: &[usize], seconds: f32) -> Result<Scene, SceneError> {
         let path = Path::new(&self.path);
         let anim: Vec<&Animation> = animations
@@ -24,7 +39,6 @@ impl GltfAsset {
             .collect();
         let mut objects = Vec::new();
         let mut camera = None;
-        let mut sun = None;
         let mut lights = Vec::new();
         // Nodes the played animations move (and, below, their descendants).
         let keyed: std::collections::HashSet<usize> = anim
@@ -82,9 +96,6 @@ impl GltfAsset {
                     intensity: l.intensity / LUX_PER_WATT,
                     range: l.range,
                 };
-                if sun.is_none() {
-                    sun = light.as_sun();
-                }
                 lights.push((index, light));
             }
             let normal_m = Mat3::from_mat4(world).inverse().transpose();
@@ -117,7 +128,10 @@ impl GltfAsset {
         // Lights in the file's node order (the traversal above is depth first from the last
         // root), so that an index names the same light in every pose.
         lights.sort_by_key(|(index, _)| *index);
-        let lights = lights.into_iter().map(|(_, l)| l).collect();
+        let mut lights: Vec<Light> = lights.into_iter().map(|(_, l)| l).collect();
+        if lights.is_empty() {
+            lights.push(Light::sun(DEFAULT_SUN, default_sun()));
+        }
         let mut s = Scene {
             objects,
             medium,
@@ -128,12 +142,6 @@ impl GltfAsset {
                 near: 0.1,
                 far: 100.0,
             },
-            sun: sun.unwrap_or(Sun {
-                azimuth: 30.0,
-                elevation: 60.0,
-                colour: [1.0; 3],
-                intensity: 3.0,
-            }),
             lights,
         };
         s.camera = camera.unwrap_or_else(|| {
