@@ -36,7 +36,9 @@
 use std::sync::Arc;
 
 use super::util::placeholder;
-use tyndall_engine::eval::{Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{
+    LightBlock, Matrices, NodeDecl, NodeError, NodeKind, PortValue, RunCtx,
+};
 use tyndall_engine::gpu::{Bind, Shader, TexFormat};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::Raster;
@@ -75,7 +77,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 })
 .shaders(&[SHADER])
-.uniforms(&[CompositeParams::LAYOUT]);
+.uniforms(&[CompositeParams::LAYOUT, LightBlock::LAYOUT]);
 
 const SHADER: Shader = crate::shader("composite", include_str!("../shaders/composite.wgsl"));
 
@@ -84,24 +86,14 @@ tyndall_engine::uniforms! {
     pub struct CompositeParams as "Params" {
         /// Camera clip → world.
         pub inv_view_proj: [[f32; 4]; 4],
-        /// World → light clip.
-        pub light_view_proj: [[f32; 4]; 4],
         /// Camera position.
         pub eye: [f32; 3],
         /// PCF radius.
         pub pcf: u32,
-        /// Direction to the sun.
-        pub to_sun: [f32; 3],
         /// Shadow bias.
         pub bias: f32,
-        /// Sun radiance.
-        pub radiance: [f32; 3],
         /// 1 when in-scatter is connected.
         pub has_inscatter: u32,
-        /// Ambient colour.
-        pub ambient: [f32; 4],
-        /// Sky colour.
-        pub sky: [f32; 4],
         /// 1 when transmittance is connected.
         pub has_transmittance: u32,
         /// 1 when aerial_transmittance is connected.
@@ -110,24 +102,19 @@ tyndall_engine::uniforms! {
         pub has_aerial_inscatter: u32,
         /// 1 when a light map is connected.
         pub has_light_map: u32,
+        /// Padding.
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Ambient colour.
+        pub ambient: [f32; 4],
+        /// Sky colour.
+        pub sky: [f32; 4],
         /// World → light-map clip (identity without one).
         pub light_map_view_proj: [[f32; 4]; 4],
-        /// The spot's or point light's position.
-        pub light_pos: [f32; 3],
-        /// 0: the sun; 1: a spot, 2: a point light (lit by its falloff and direction per point).
-        pub local_kind: u32,
-        /// A spot's unit direction.
-        pub spot_dir: [f32; 3],
-        /// cos of a spot's inner cone half-angle.
-        pub cos_inner: f32,
-        /// cos of a spot's outer cone half-angle.
-        pub cos_outer: f32,
-        /// Range (m), 0 for unlimited.
-        pub range: f32,
-        /// The map's depth 0, m.
-        pub near: f32,
-        /// The map's depth 1, m.
-        pub far: f32,
+        /// The shadow map's light: the sun, or a spot or point light lighting each point by
+        /// its falloff and direction.
+        pub light: LightBlock,
     }
 }
 
@@ -268,34 +255,25 @@ impl NodeKind for Composite {
             .input("aerial_inscatter")
             .and_then(|v| v.texture().cloned());
         let light_map = ctx.light_map_opt("light_map")?;
-        let (vp, lvp) = (cam.view_proj(), light.view_proj());
         let u = CompositeParams {
-            inv_view_proj: vp.inverse().to_cols_array_2d(),
-            light_view_proj: lvp.to_cols_array_2d(),
+            inv_view_proj: cam.view_proj().inverse().to_cols_array_2d(),
             eye: cam.eye().to_array(),
             pcf: p.pcf as u32,
-            to_sun: light.backward().to_array(),
             bias: p.bias,
-            radiance: light.radiance,
             has_inscatter: inscatter.is_some() as u32,
-            ambient: p.ambient,
-            sky: p.sky,
             has_transmittance: transmittance.is_some() as u32,
             has_aerial_transmittance: aerial_t.is_some() as u32,
             has_aerial_inscatter: aerial_l.is_some() as u32,
             has_light_map: light_map.is_some() as u32,
+            _pad0: 0,
+            _pad1: 0,
+            ambient: p.ambient,
+            sky: p.sky,
             light_map_view_proj: light_map
                 .as_ref()
                 .map_or(glam::Mat4::IDENTITY, |(_, m)| m.view_proj())
                 .to_cols_array_2d(),
-            local_kind: light.local.map_or(0, |l| if l.point { 2 } else { 1 }),
-            light_pos: light.local.map_or([0.0; 3], |l| l.position),
-            cos_inner: light.local.map_or(1.0, |l| l.cos_inner),
-            spot_dir: light.local.map_or([0.0, -1.0, 0.0], |l| l.direction),
-            cos_outer: light.local.map_or(1.0, |l| l.cos_outer),
-            range: light.local.map_or(0.0, |l| l.range),
-            near: light.local.map_or(0.0, |l| l.near),
-            far: light.local.map_or(1.0, |l| l.far),
+            light: LightBlock::of_map(&light),
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());

@@ -4,12 +4,18 @@
 # every preset outside graphs/lights, graphs/lib and graphs/bench with both binaries at 160×90,
 # frame 1, EXR (every output of the presets with several), and compares the files' bytes.
 #   scripts/sun_presets_unchanged.sh BASE      # e.g. 3d985aa, the commit before issue #44
-# BASE_BIN=path/to/old/tyndall skips building BASE (a binary built from it already).
+# BASE_BIN=path/to/old/tyndall skips building BASE (a binary built from it already);
+# NEW_BIN=path/to/new/tyndall skips building the working tree (e.g. one built in a worktree).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 base="${1:?usage: scripts/sun_presets_unchanged.sh BASE-COMMIT}"
 export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-cargo build --release --quiet
+if [ -n "${NEW_BIN:-}" ]; then
+  new="$NEW_BIN"
+else
+  cargo build --release --quiet
+  new="target/release/tyndall"
+fi
 tmp="$(mktemp -d)"
 trap 'git worktree remove --force "$tmp/base" >/dev/null 2>&1 || true; rm -rf "$tmp"' EXIT
 if [ -n "${BASE_BIN:-}" ]; then
@@ -19,7 +25,6 @@ else
   (cd "$tmp/base" && cargo build --release --quiet -p tyndall)
   old="$tmp/base/target/release/tyndall"
 fi
-new="target/release/tyndall"
 same=0 differ=0
 for g in $(ls graphs/*/*.ron | grep -v '^graphs/\(lights\|lib\|bench\)/'); do
   # Presets added after BASE (e.g. graphs/color/window_aces.ron, whose nodes BASE lacks) have

@@ -6,33 +6,21 @@
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
-    light_view_proj: mat4x4<f32>,
     eye: vec3<f32>,
     pcf: u32,
-    to_sun: vec3<f32>,
     bias: f32,
-    radiance: vec3<f32>,
     has_inscatter: u32,
-    ambient: vec4<f32>,
-    sky: vec4<f32>,
     has_transmittance: u32,
     has_aerial_transmittance: u32,
     has_aerial_inscatter: u32,
     has_light_map: u32,
+    _pad0: u32,
+    _pad1: u32,
+    ambient: vec4<f32>,
+    sky: vec4<f32>,
     light_map_view_proj: mat4x4<f32>,
-    light_pos: vec3<f32>,
-    local_kind: u32,
-    spot_dir: vec3<f32>,
-    cos_inner: f32,
-    cos_outer: f32,
-    range: f32,
-    near: f32,
-    far: f32,
-}
-
-// The spot or point light of the shadow map (local_kind ≠ 0).
-fn local_light() -> LocalLight {
-    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
+    // The shadow map's light (lib/shadow.wgsl).
+    light: Light,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -59,9 +47,9 @@ fn sun_colour(x: vec3<f32>) -> vec3<f32> {
 }
 
 fn surface_shadow(x: vec3<f32>) -> f32 {
-    var uvz = light_uvz(P.light_view_proj, x);
-    if P.local_kind != 0u {
-        uvz = light_uvz_local(local_light(), P.light_view_proj, x);
+    var uvz = light_uvz(P.light.view_proj, x);
+    if P.light.kind != 0u {
+        uvz = light_uvz_local(P.light, P.light.view_proj, x);
     }
     let size = vec2<i32>(textureDimensions(shadow));
     let centre = vec2<i32>(floor(uvz.xy * vec2<f32>(size)));
@@ -94,13 +82,13 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
         let dir = pixel_ray(P.inv_view_proj, P.eye, id.xy, size);
         let x = P.eye + dir * textureLoad(depth, id.xy, 0).r;
         let n = textureLoad(normal, id.xy, 0).xyz;
-        var to_light = P.to_sun;
+        var to_light = towards_sun(P.light);
         var falloff = 1.0;
-        if P.local_kind != 0u {
-            to_light = normalize(P.light_pos - x);
-            falloff = light_falloff(local_light(), x);
+        if P.light.kind != 0u {
+            to_light = normalize(P.light.position - x);
+            falloff = light_falloff(P.light, x);
         }
-        let direct = P.radiance * sun_colour(x) * (max(dot(n, to_light), 0.0) * falloff) * surface_shadow(x);
+        let direct = P.light.radiance * sun_colour(x) * (max(dot(n, to_light), 0.0) * falloff) * surface_shadow(x);
         colour = a.rgb * (P.ambient.rgb + direct);
     } else {
         colour = P.sky.rgb;

@@ -15,7 +15,6 @@
 
 struct View {
     inv_view_proj: mat4x4<f32>,
-    light_view_proj: mat4x4<f32>,
     eye: vec3<f32>,
     steps: u32,
     scale: vec3<f32>,
@@ -23,19 +22,13 @@ struct View {
     map_size: vec2<u32>,
     bias: f32,
     row_offset: u32,
-    // A spot (local_kind 1): its falloff and HG g weigh each sample.
-    light_pos: vec3<f32>,
-    local_kind: u32,
-    spot_dir: vec3<f32>,
-    cos_inner: f32,
-    cos_outer: f32,
-    range: f32,
-    near: f32,
-    far: f32,
     g: f32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
+    // The light map's light (lib/shadow.wgsl): a spot (kind 1) weighs each sample by its
+    // falloff and HG g; the sun (kind 0) by nothing.
+    light: Light,
 }
 
 // The resident solve's vector passes (`combine`, `mask_frozen`, `reduce`, `decode`, `clear`).
@@ -73,32 +66,28 @@ fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
 // Light-space (u, v, depth) of a world point, and whether the sun reaches it (nearest texel,
 // depth bias; outside the map or the light box: lit).
 fn light_uv(x: vec3<f32>) -> vec3<f32> {
-    if P.local_kind != 0u {
-        return light_uvz_local(spot(), P.light_view_proj, x);
+    if P.light.kind != 0u {
+        return light_uvz_local(P.light, P.light.view_proj, x);
     }
-    return light_uvz(P.light_view_proj, x);
-}
-
-fn spot() -> LocalLight {
-    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
+    return light_uvz(P.light.view_proj, x);
 }
 
 // A spot's falloff and phase at distance t along the ray (1 for the sun: one factor of every
 // row, which cancels).
 fn lamp(dir: vec3<f32>, t: f32) -> f32 {
-    if P.local_kind == 0u {
+    if P.light.kind == 0u {
         return 1.0;
     }
     let x = P.eye + dir * t;
-    let l = P.light_pos - x;
+    let l = P.light.position - x;
     let to_light = select(vec3<f32>(0.0), l / length(l), dot(l, l) > 0.0);
-    return light_falloff(spot(), x) * henyey_greenstein(P.g, dot(dir, to_light));
+    return light_falloff(P.light, x) * henyey_greenstein(P.g, dot(dir, to_light));
 }
 
 // The row's normaliser: ∫_0^s e^{−σt t} dt for the sun; for a spot the sum of every sample's
 // falloff × phase × interval weight, lit or not (so Σ_i ŵ_i ≤ 1 still holds).
 fn row_total(dir: vec3<f32>, s: f32) -> f32 {
-    if P.local_kind == 0u {
+    if P.light.kind == 0u {
         return decay_integral(s, P.sigma_t);
     }
     let n = f32(P.steps);

@@ -137,7 +137,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
 }).tools(&["stroke_painting"])
 
 .shaders(&[SHADER, g_buffer::SHADER])
-.uniforms(&[ViewParams::LAYOUT, VectorParams::LAYOUT, g_buffer::GBufferParams::LAYOUT]);
+.uniforms(&[ViewParams::LAYOUT, tyndall_engine::eval::LightBlock::LAYOUT, VectorParams::LAYOUT, g_buffer::GBufferParams::LAYOUT]);
 
 const SHADER: Shader = crate::shader(
     "light_map_solve",

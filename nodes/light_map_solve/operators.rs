@@ -2,6 +2,7 @@
 //! first surface, spread bilinearly over the light map): the CPU reference and the GPU passes.
 
 use super::{Bind, GpuError, GpuTexture, Matrices, NodeError, Operator, Raster, TexFormat, SHADER};
+use tyndall_engine::eval::LightBlock;
 use tyndall_engine::gpu::Recorder;
 
 use crate::algorithms::shader_lib::{decay_integral, henyey_greenstein, light_uvz, sun_reaches};
@@ -216,8 +217,6 @@ tyndall_engine::uniforms! {
     pub struct ViewParams as "View" {
         /// Camera clip → world.
         pub inv_view_proj: [[f32; 4]; 4],
-        /// World → light clip.
-        pub light_view_proj: [[f32; 4]; 4],
         /// Camera position.
         pub eye: [f32; 3],
         /// Samples per ray.
@@ -233,22 +232,6 @@ tyndall_engine::uniforms! {
         /// The view's first row in the resident solve's row vectors (`forward_rows`,
         /// `adjoint_rows`; unused by `forward` and `adjoint`).
         pub row_offset: u32,
-        /// A spot's position (local_kind 1), m.
-        pub light_pos: [f32; 3],
-        /// 0 the sun, 1 a spot.
-        pub local_kind: u32,
-        /// A spot's unit direction.
-        pub spot_dir: [f32; 3],
-        /// cos of a spot's inner cone half-angle.
-        pub cos_inner: f32,
-        /// cos of a spot's outer cone half-angle.
-        pub cos_outer: f32,
-        /// Range, m (0: unlimited).
-        pub range: f32,
-        /// The spot map's depth 0, m.
-        pub near: f32,
-        /// The spot map's depth 1, m.
-        pub far: f32,
         /// Henyey–Greenstein g (a spot's rows).
         pub g: f32,
         /// Padding.
@@ -257,6 +240,9 @@ tyndall_engine::uniforms! {
         pub _pad1: u32,
         /// Padding.
         pub _pad2: u32,
+        /// The light map's light: the sun, or a spot whose falloff and phase weigh each
+        /// sample (a point light is refused).
+        pub light: LightBlock,
     }
 }
 
@@ -272,10 +258,8 @@ impl ViewParams {
         scale: [f32; 3],
         row_offset: u32,
     ) -> Self {
-        let l = light.local;
         ViewParams {
             inv_view_proj: camera.view_proj().inverse().to_cols_array_2d(),
-            light_view_proj: light.view_proj().to_cols_array_2d(),
             eye: camera.eye().to_array(),
             steps: s.steps,
             scale,
@@ -283,18 +267,11 @@ impl ViewParams {
             map_size: [n, n],
             bias: s.bias,
             row_offset,
-            light_pos: l.map_or([0.0; 3], |l| l.position),
-            local_kind: l.is_some() as u32,
-            spot_dir: l.map_or([0.0, -1.0, 0.0], |l| l.direction),
-            cos_inner: l.map_or(-1.0, |l| l.cos_inner),
-            cos_outer: l.map_or(-1.0, |l| l.cos_outer),
-            range: l.map_or(0.0, |l| l.range),
-            near: l.map_or(0.0, |l| l.near),
-            far: l.map_or(1.0, |l| l.far),
             g: s.g,
             _pad0: 0,
             _pad1: 0,
             _pad2: 0,
+            light: LightBlock::of_map(light),
         }
     }
 }

@@ -32,7 +32,7 @@ pub fn reference_pixel_phase(
     (w, h): (u32, u32),
 ) -> PixelResult {
     let inv = Mat4::from_cols_array_2d(&p.inv_view_proj);
-    let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
+    let lvp = Mat4::from_cols_array_2d(&p.light.view_proj);
     let eye = Vec3::from(p.eye);
     let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
     let (t0, t1) = medium_segment(p, dir, s);
@@ -67,7 +67,7 @@ pub fn reference_pixel_phase(
         } else {
             1.0
         };
-        let rad = [0, 1, 2].map(|c| p.radiance[c] * (p.sigma_t * p.albedo) * acc[c]);
+        let rad = [0, 1, 2].map(|c| p.light.radiance[c] * (p.sigma_t * p.albedo) * acc[c]);
         return (vbar, rad, (-len * p.sigma_t).exp());
     }
     let mut lit = 0u32;
@@ -88,14 +88,14 @@ pub fn reference_pixel_phase(
     } else {
         1.0
     };
-    let cos = dir.dot(Vec3::from(p.to_sun));
+    let cos = dir.dot(p.to_sun());
     let f = phase.map_or([henyey_greenstein(p.g, cos); 3], |t| t.lookup(cos));
     let k = if p.light_extinction != 0 {
         weighted
     } else {
         decay_integral(len, p.sigma_t) * vbar
     };
-    let rad = [0, 1, 2].map(|c| p.radiance[c] * p.sigma_t * p.albedo * f[c] * k);
+    let rad = [0, 1, 2].map(|c| p.light.radiance[c] * p.sigma_t * p.albedo * f[c] * k);
     (vbar, rad, (-len * p.sigma_t).exp())
 }
 

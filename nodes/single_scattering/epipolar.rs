@@ -93,15 +93,15 @@ pub fn epipolar_geometry(
     use glam::{DVec2, DVec3, DVec4};
     let inv = Mat4::from_cols_array_2d(&p.inv_view_proj).as_dmat4();
     let vp = inv.inverse();
-    let lvp = Mat4::from_cols_array_2d(&p.light_view_proj).as_dmat4();
-    let sun = Vec3::from(p.to_sun).as_dvec3();
+    let lvp = Mat4::from_cols_array_2d(&p.light.view_proj).as_dmat4();
+    let sun = p.to_sun().as_dvec3();
     let eye = Vec3::from(p.eye).as_dvec3();
     let size = DVec2::new(w as f64, h as f64);
     let msize = DVec2::new(map.0 as f64, map.1 as f64);
     let centre = size * 0.5;
     // A spot: its light converges on its position, not on a direction.
-    let spot = p.local_kind == 1;
-    let light_pos = Vec3::from(p.light_pos).as_dvec3();
+    let spot = p.light.kind == 1;
+    let light_pos = Vec3::from(p.light.position).as_dvec3();
     // The epipole: the image of the point at infinity towards the sun, or of the spot's
     // position (projective, so a light behind the camera gives the point the lines converge to
     // on the other side).

@@ -85,7 +85,7 @@ pub(super) fn dispatch_epipolar(
         ("EXTINCTION", u.light_extinction as f64),
         ("LIGHT_MAP", 0.0),
         ("SOFT", 0.0),
-        ("LOCAL", if u.local_kind == 1 { 1.0 } else { 0.0 }),
+        ("LOCAL", if u.light.kind == 1 { 1.0 } else { 0.0 }),
         ("POINT", 0.0),
     ];
     let pass = |entry: &str, level: u32, extra: Option<(&str, Bind)>, size: (u32, u32)| {
@@ -202,16 +202,16 @@ pub(super) fn scatter(
         ("EXTINCTION", on(u.light_extinction != 0)),
         ("LIGHT_MAP", on(i.light_map.is_some())),
         ("SOFT", on(i.soft.is_some())),
-        ("LOCAL", on(u.local_kind != 0)),
-        ("POINT", on(u.local_kind == 2)),
+        ("LOCAL", on(u.light.kind != 0)),
+        ("POINT", on(u.light.kind == 2)),
     ];
     // A spot or point light: MinMax walks its perspective map's pyramid, face by face for a
     // point light's atlas (min_max.wgsl, `min_max_local`), for a point light's Epipolar too
     // (the atlas has no single projection to rectify); Epipolar runs for a spot as for the sun
     // (its slices' planes hold the spot); with a light map BruteForce marches whatever the
     // method (the node's docs).
-    let lamp_light_map = u.local_kind != 0 && i.light_map.is_some();
-    let point_min_max = u.local_kind == 2 && p.method == Method::Epipolar;
+    let lamp_light_map = u.light.kind != 0 && i.light_map.is_some();
+    let point_min_max = u.light.kind == 2 && p.method == Method::Epipolar;
     if p.method == Method::BruteForce || lamp_light_map {
         let no_map;
         let (map, lm) = match i.light_map {

@@ -19,7 +19,7 @@ pub(super) struct MapRay {
 pub(super) fn map_ray(p: &ScatterParams, msize: glam::Vec2, dir: Vec3, s: f32) -> MapRay {
     let (t0, t1) = medium_segment(p, dir, s);
     let t1 = t1.max(t0);
-    let lvp = Mat4::from_cols_array_2d(&p.light_view_proj);
+    let lvp = Mat4::from_cols_array_2d(&p.light.view_proj);
     let eye = Vec3::from(p.eye);
     let c0 = lvp * eye.extend(1.0);
     let c1 = lvp * (eye + dir).extend(1.0);

@@ -32,7 +32,7 @@ pub fn medium_segment(p: &ScatterParams, dir: Vec3, s: f32) -> (f32, f32) {
 /// ℓ along the ray through the face the sun shines through on axis k: `(α, β)` with
 /// ℓ_k(t) = α + β t (an axis parallel to the sun never limits ℓ).
 pub(super) fn light_line(p: &ScatterParams, dir: Vec3, k: usize) -> (f32, f32) {
-    let sk = p.to_sun[k];
+    let sk = p.to_sun()[k];
     if sk.abs() < 1e-12 {
         return (3.0e38, 0.0);
     }
@@ -46,7 +46,7 @@ pub(super) fn light_exit(p: &ScatterParams, dir: Vec3, t: f32) -> f32 {
     let q = Vec3::from(p.eye) + dir * t;
     let mut ell = 3.0e38f32;
     for k in 0..3 {
-        let sk = p.to_sun[k];
+        let sk = p.to_sun()[k];
         if sk.abs() >= 1e-12 {
             let face = if sk > 0.0 { p.box_max[k] } else { p.box_min[k] };
             ell = ell.min((face - q[k]) / sk);

@@ -211,7 +211,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     params: Params::SPECS,
 })
 .shaders(&[BRUTE_FORCE, MIN_MAX, EPIPOLAR])
-.uniforms(&[ScatterParams::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT, EpiParams::LAYOUT]);
+.uniforms(&[ScatterParams::LAYOUT, tyndall_engine::eval::LightBlock::LAYOUT, SoftView::LAYOUT, LevelsParams::LAYOUT, BuildParams::LAYOUT, LightMapView::LAYOUT, EpiParams::LAYOUT]);
 
 /// Method `BruteForce` (and its light-map variant).
 const BRUTE_FORCE: Shader = crate::shader(

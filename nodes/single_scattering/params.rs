@@ -2,24 +2,19 @@
 //! `LightMapView`, `Epi` of `shaders/single_scattering/`) and how they are filled.
 
 use super::{EpiGeometry, EpiKnobs, EpiSlice, Matrices, Params, Vec3};
+use tyndall_engine::eval::LightBlock;
 
 tyndall_engine::uniforms! {
     /// Uniforms of `shaders/single_scattering/common.wgsl` (struct `Params`).
     pub struct ScatterParams as "Params" {
         /// Camera clip → world.
         pub inv_view_proj: [[f32; 4]; 4],
-        /// World → light clip.
-        pub light_view_proj: [[f32; 4]; 4],
         /// Camera position.
         pub eye: [f32; 3],
         /// Samples per ray.
         pub steps: u32,
-        /// Unit direction towards the sun.
-        pub to_sun: [f32; 3],
         /// σt.
         pub sigma_t: f32,
-        /// Incoming radiance (sun × tint × intensity).
-        pub radiance: [f32; 3],
         /// ρ.
         pub albedo: f32,
         /// HG g.
@@ -31,40 +26,31 @@ tyndall_engine::uniforms! {
         /// MinMax: pyramid level at and below which mixed blocks are estimated, not refined
         /// (0 = exact).
         pub min_level: u32,
+        /// Width of the connected phase table (0: Henyey–Greenstein `g`).
+        pub phase_width: u32,
+        /// Slices of the connected soft visibility volume (0: the hard shadow-map test).
+        pub soft_slices: u32,
         /// Medium box, low corner (when `bounded`).
         pub box_min: [f32; 3],
         /// 1 when the medium is the box, 0 when it fills the view ray.
         pub bounded: u32,
         /// Medium box, high corner.
         pub box_max: [f32; 3],
-        /// 1 when the sun is attenuated on its way through the medium.
+        /// 1 when the light is attenuated on its way through the medium.
         pub light_extinction: u32,
-        /// Width of the connected phase table (0: Henyey–Greenstein `g`).
-        pub phase_width: u32,
-        /// Slices of the connected soft visibility volume (0: the hard shadow-map test).
-        pub soft_slices: u32,
         /// Added to the per-pixel jitter hash, modulo 1 (`jitter_pattern = frame`: a frame's
         /// phase, 0 otherwise).
         pub jitter_phase: f32,
-        /// 0: the sun (parallel light along `to_sun`); 1: a spot, 2: a point light at
-        /// `light_pos` (BruteForce marches it with falloff, cone and per-sample phase).
-        pub local_kind: u32,
-        /// A spot's or point light's position.
-        pub light_pos: [f32; 3],
-        /// cos of a spot's inner cone half-angle.
-        pub cos_inner: f32,
-        /// A spot's unit direction.
-        pub spot_dir: [f32; 3],
-        /// cos of a spot's outer cone half-angle.
-        pub cos_outer: f32,
-        /// Range (m), 0 for unlimited.
-        pub range: f32,
-        /// The map's depth 0, m along its axis.
-        pub near: f32,
-        /// The map's depth 1, m along its axis.
-        pub far: f32,
         /// Padding.
-        pub _pad3: u32,
+        pub _pad0: u32,
+        /// Padding.
+        pub _pad1: u32,
+        /// Padding.
+        pub _pad2: u32,
+        /// The shadow map's light (the sun: parallel light; a spot or point light: BruteForce
+        /// marches it with falloff, cone and per-sample phase), its radiance × `tint` ×
+        /// `intensity`.
+        pub light: LightBlock,
     }
 }
 
@@ -72,16 +58,13 @@ impl ScatterParams {
     /// Build the uniforms from the camera and light metadata and the node's parameters (the
     /// medium and quality ones; bounds come with [`ScatterParams::with_bounds`]).
     pub fn new(camera: &Matrices, light: &Matrices, p: &Params) -> ScatterParams {
-        let (vp, lvp) = (camera.view_proj(), light.view_proj());
-        let (eye, to_sun) = (camera.eye(), light.backward());
+        let mut block = LightBlock::of_map(light);
+        block.radiance = [0, 1, 2].map(|i| light.radiance[i] * p.tint[i] * p.intensity);
         ScatterParams {
-            inv_view_proj: vp.inverse().to_cols_array_2d(),
-            light_view_proj: lvp.to_cols_array_2d(),
-            eye: eye.to_array(),
+            inv_view_proj: camera.view_proj().inverse().to_cols_array_2d(),
+            eye: camera.eye().to_array(),
             steps: p.steps as u32,
-            to_sun: to_sun.to_array(),
             sigma_t: p.sigma_t,
-            radiance: [0, 1, 2].map(|i| light.radiance[i] * p.tint[i] * p.intensity),
             albedo: p.albedo,
             g: p.g,
             jitter: p.jitter,
@@ -94,43 +77,31 @@ impl ScatterParams {
             phase_width: 0,
             soft_slices: 0,
             jitter_phase: 0.0,
-            local_kind: 0,
-            light_pos: [0.0; 3],
-            cos_inner: 1.0,
-            spot_dir: [0.0, -1.0, 0.0],
-            cos_outer: 1.0,
-            range: 0.0,
-            near: 0.0,
-            far: 1.0,
-            _pad3: 0,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
+            light: block,
         }
-        .with_local(light.local)
-    }
-
-    /// Light from a spot or point light (`None`: the sun, as [`ScatterParams::new`] leaves it).
-    pub fn with_local(mut self, local: Option<tyndall_engine::scene::LocalLight>) -> Self {
-        if let Some(l) = local {
-            self.local_kind = if l.point { 2 } else { 1 };
-            self.light_pos = l.position;
-            self.spot_dir = l.direction;
-            (self.cos_inner, self.cos_outer) = (l.cos_inner, l.cos_outer);
-            (self.range, self.near, self.far) = (l.range, l.near, l.far);
-        }
-        self
     }
 
     /// The spot or point light these uniforms carry (`None`: the sun).
     pub fn local(&self) -> Option<tyndall_engine::scene::LocalLight> {
-        (self.local_kind != 0).then_some(tyndall_engine::scene::LocalLight {
-            point: self.local_kind == 2,
-            position: self.light_pos,
-            direction: self.spot_dir,
-            cos_inner: self.cos_inner,
-            cos_outer: self.cos_outer,
-            range: self.range,
-            near: self.near,
-            far: self.far,
-        })
+        self.light.local()
+    }
+
+    /// World → the light map's clip.
+    pub fn light_view_proj(&self) -> glam::Mat4 {
+        glam::Mat4::from_cols_array_2d(&self.light.view_proj)
+    }
+
+    /// The unit direction towards the sun (meaningful for the sun's map).
+    pub fn to_sun(&self) -> Vec3 {
+        self.light.to_sun()
+    }
+
+    /// The light's radiance per channel (× the node's tint and intensity).
+    pub fn radiance(&self) -> [f32; 3] {
+        self.light.radiance
     }
 
     /// Bound the medium to the box `(min, max)` (`None`: it fills every view ray) and switch

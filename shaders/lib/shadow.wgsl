@@ -35,20 +35,31 @@ fn sun_reaches(shadow: texture_2d<f32>, l: vec3<f32>, bias: f32) -> bool {
 
 // ---- Spot and point lights (CPU twin: tyndall_engine::scene::LocalLight) --------------------
 
-// A spot (kind 1) or point light (kind 2) as a shadow map of it carries it.
-struct LocalLight {
-    kind: u32,
+// One light as every uniform that carries one holds it (its member `light`; Rust:
+// tyndall_engine::eval::LightBlock, 128 bytes): kind 0 the sun, 1 a spot, 2 a point light;
+// `view_proj` world → the light map's clip (identity for a point light's atlas); `direction`
+// the way the light shines (the sun's travel, a spot's axis); `radiance` W/m² (sun) or W/sr.
+struct Light {
+    view_proj: mat4x4<f32>,
     position: vec3<f32>,
+    kind: u32,
     direction: vec3<f32>,
     cos_inner: f32,
+    radiance: vec3<f32>,
     cos_outer: f32,
     range: f32,
     near: f32,
     far: f32,
+    _pad: u32,
+}
+
+// The unit direction towards a directional light (the sun).
+fn towards_sun(l: Light) -> vec3<f32> {
+    return -l.direction;
 }
 
 // glTF's attenuation at x: inverse square, windowed by the range, times a spot's smooth cone.
-fn light_falloff(l: LocalLight, x: vec3<f32>) -> f32 {
+fn light_falloff(l: Light, x: vec3<f32>) -> f32 {
     let v = l.position - x;
     let d2 = max(dot(v, v), 1e-12);
     var a = 1.0 / d2;
@@ -96,7 +107,7 @@ fn cube_frame(face: u32) -> mat3x3<f32> {
 // Light-space (u, v, depth) of x in a spot's map (world → clip `view_proj`, linear clip z) or
 // a point light's 3 × 2 cube atlas; a point behind a spot maps outside (lit, as outside any map;
 // its cone gives it nothing).
-fn light_uvz_local(l: LocalLight, view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
+fn light_uvz_local(l: Light, view_proj: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
     if l.kind == 2u {
         let d = x - l.position;
         let face = cube_face(d);

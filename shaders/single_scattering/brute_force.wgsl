@@ -52,7 +52,7 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     let len = max(seg.y - seg.x, 0.0);
     let offset = P.jitter * (fract(pixel_jitter(id.x, id.y) + P.jitter_phase) - 0.5);
     let map = LIGHT_MAP && LM.enabled != 0u;
-    if LOCAL && P.local_kind != 0u {
+    if LOCAL && P.light.kind != 0u {
         brute_force_local(id.xy, dir, t0, len, offset, map);
         return;
     }
@@ -81,9 +81,9 @@ fn brute_force(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
     if map {
-        let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
+        let base = P.sigma_t * P.albedo * phase(dot(dir, towards_sun(P.light)));
         textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-        textureStore(out_inscatter, id.xy, vec4<f32>(P.radiance * base * acc, 1.0));
+        textureStore(out_inscatter, id.xy, vec4<f32>(P.light.radiance * base * acc, 1.0));
         textureStore(out_transmittance, id.xy, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
     } else {
         store(id.xy, dir, vbar, len, weighted);
@@ -105,7 +105,7 @@ fn brute_force_local(p: vec2<u32>, dir: vec3<f32>, t0: f32, len: f32, offset: f3
         let v = visible(x);
         lit += v;
         if v > 0.0 {
-            let to_light = normalize(P.light_pos - x);
+            let to_light = normalize(P.light.position - x);
             var e = exp(-P.sigma_t * (t - t0));
             if extinction() {
                 e *= exp(-P.sigma_t * local_light_path(x));
@@ -120,6 +120,6 @@ fn brute_force_local(p: vec2<u32>, dir: vec3<f32>, t0: f32, len: f32, offset: f3
     }
     let vbar = select(1.0, lit / f32(P.steps), len > 0.0 || P.bounded == 0u);
     textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, p, vec4<f32>(P.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
+    textureStore(out_inscatter, p, vec4<f32>(P.light.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
     textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
 }

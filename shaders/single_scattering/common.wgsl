@@ -8,33 +8,26 @@
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
-    light_view_proj: mat4x4<f32>,
     eye: vec3<f32>,
     steps: u32,
-    to_sun: vec3<f32>,
     sigma_t: f32,
-    radiance: vec3<f32>,
     albedo: f32,
     g: f32,
     jitter: f32,
     bias: f32,
     min_level: u32,
+    phase_width: u32,
+    soft_slices: u32,
     box_min: vec3<f32>,
     bounded: u32,
     box_max: vec3<f32>,
     light_extinction: u32,
-    phase_width: u32,
-    soft_slices: u32,
     jitter_phase: f32,
-    local_kind: u32,
-    light_pos: vec3<f32>,
-    cos_inner: f32,
-    spot_dir: vec3<f32>,
-    cos_outer: f32,
-    range: f32,
-    near: f32,
-    far: f32,
-    _pad3: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+    // The light of the shadow map (lib/shadow.wgsl), its radiance × tint × intensity.
+    light: Light,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -144,22 +137,18 @@ fn soft_visible(x: vec3<f32>) -> f32 {
 
 // ---- Spot and point lights (LOCAL; lib/shadow.wgsl) ----------------------------------------
 
-fn local_light() -> LocalLight {
-    return LocalLight(P.local_kind, P.light_pos, P.spot_dir, P.cos_inner, P.cos_outer, P.range, P.near, P.far);
-}
-
 fn local_falloff(x: vec3<f32>) -> f32 {
-    return light_falloff(local_light(), x);
+    return light_falloff(P.light, x);
 }
 
 fn local_uvz(x: vec3<f32>) -> vec3<f32> {
-    return light_uvz_local(local_light(), P.light_view_proj, x);
+    return light_uvz_local(P.light, P.light.view_proj, x);
 }
 
 // Distance from x (inside the medium's box) to the box's boundary towards the light, at most
 // the distance to the light: what the light crosses of the medium to reach x.
 fn local_light_path(x: vec3<f32>) -> f32 {
-    let l = P.light_pos - x;
+    let l = P.light.position - x;
     let r = length(l);
     if r <= 0.0 {
         return 0.0;
@@ -179,10 +168,10 @@ fn visible(x: vec3<f32>) -> f32 {
     if SOFT && P.soft_slices != 0u {
         return soft_visible(x);
     }
-    if LOCAL && P.local_kind != 0u {
+    if LOCAL && P.light.kind != 0u {
         return select(0.0, 1.0, sun_reaches(shadow, local_uvz(x), P.bias));
     }
-    return select(0.0, 1.0, sun_reaches(shadow, light_uvz(P.light_view_proj, x), P.bias));
+    return select(0.0, 1.0, sun_reaches(shadow, light_uvz(P.light.view_proj, x), P.bias));
 }
 
 
@@ -221,7 +210,7 @@ fn medium_segment(dir: vec3<f32>, s: f32) -> vec2<f32> {
 // ℓ along the ray through face k (the face the sun shines through on axis k): ℓ_k(t) = α + β t.
 // An axis the sun is parallel to never limits ℓ (a huge α).
 fn light_line(dir: vec3<f32>, k: i32) -> vec2<f32> {
-    let sk = P.to_sun[k];
+    let sk = towards_sun(P.light)[k];
     if abs(sk) < 1e-12 {
         return vec2<f32>(3.0e38, 0.0);
     }
@@ -236,7 +225,7 @@ fn light_exit(dir: vec3<f32>, t: f32) -> f32 {
     let q = P.eye + dir * t;
     var ell = 3.0e38;
     for (var k = 0; k < 3; k++) {
-        let sk = P.to_sun[k];
+        let sk = towards_sun(P.light)[k];
         if abs(sk) >= 1e-12 {
             let face = select(P.box_min[k], P.box_max[k], sk > 0.0);
             ell = min(ell, (face - q[k]) / sk);
@@ -320,12 +309,12 @@ fn view_ray(p: vec2<u32>, size: vec2<u32>) -> vec3<f32> {
 // Write the outputs of one pixel. Light extinction off: the seed's factored form (eq. 2),
 // σt ρ f · (1 − e^{−Lσt})/σt · V̄ over the medium's length L on the ray; on: σt ρ f · ∫ V E dt.
 fn store(p: vec2<u32>, dir: vec3<f32>, vbar: f32, len: f32, weighted: f32) {
-    let base = P.sigma_t * P.albedo * phase(dot(dir, P.to_sun));
+    let base = P.sigma_t * P.albedo * phase(dot(dir, towards_sun(P.light)));
     var k = base * decay_integral(len, P.sigma_t) * vbar;
     if extinction() {
         k = base * weighted;
     }
     textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, p, vec4<f32>(P.radiance * k, 1.0));
+    textureStore(out_inscatter, p, vec4<f32>(P.light.radiance * k, 1.0));
     textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
 }

@@ -161,7 +161,7 @@ fn epi_sample(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = min(vec2<u32>(max(floor(q), vec2<f32>(0.0))), size - 1u);
     let s = textureLoad(depth, px, 0).r;
     let dir = screen_ray(q, size);
-    if LOCAL && P.local_kind != 0u {
+    if LOCAL && P.light.kind != 0u {
         // A spot: (V̄, lit share of the in-scatter integral, medium length).
         let res = lamp_tree_ray(id.y, line, dir, s);
         textureStore(out_samples, id.xy, vec4<f32>(res.x, res.y, s, res.z));
@@ -278,7 +278,7 @@ fn epi_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let seg = medium_segment(dir, s);
     let len = max(seg.y - seg.x, 0.0);
     let got = epi_interpolate(vec2<f32>(id.xy) + 0.5, s, len);
-    if got.z > 0.5 && LOCAL && P.local_kind != 0u {
+    if got.z > 0.5 && LOCAL && P.light.kind != 0u {
         store_lamp(id.xy, got.x, len, got.y * lamp_unshadowed(dir, s));
     } else if got.z > 0.5 {
         var weighted = 0.0;
@@ -318,7 +318,7 @@ fn epi_fallback(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = fallback[i];
     let p = vec2<u32>(index % size.x, min(index / size.x, size.y - 1u));
     let dir = view_ray(p, size);
-    if LOCAL && P.local_kind != 0u {
+    if LOCAL && P.light.kind != 0u {
         min_max_local(p, dir, textureLoad(depth, p, 0).r);
         return;
     }

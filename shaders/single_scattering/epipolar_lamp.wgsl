@@ -159,8 +159,8 @@ fn lamp_tree_ray(k: u32, line: vec4<f32>, dir: vec3<f32>, s: f32) -> vec3<f32> {
     let t0 = seg.x;
     let t1 = max(seg.y, seg.x);
     let len = t1 - t0;
-    let c0 = P.light_view_proj * vec4<f32>(P.eye, 1.0);
-    let dc = P.light_view_proj * vec4<f32>(P.eye + dir, 1.0) - c0;
+    let c0 = P.light.view_proj * vec4<f32>(P.eye, 1.0);
+    let dc = P.light.view_proj * vec4<f32>(P.eye + dir, 1.0) - c0;
     let r = frustum_part(t0, t1, c0, dc);
     let ta = clamp(r.x, t0, t1);
     let tb = clamp(r.y, ta, t1);

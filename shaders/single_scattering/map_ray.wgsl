@@ -35,8 +35,8 @@ struct MapRay {
 fn map_ray(dir: vec3<f32>, s: f32) -> MapRay {
     let seg = medium_segment(dir, s);
     let msize = vec2<f32>(textureDimensions(shadow));
-    let c0 = P.light_view_proj * vec4<f32>(P.eye, 1.0);
-    let c1 = P.light_view_proj * vec4<f32>(P.eye + dir, 1.0);
+    let c0 = P.light.view_proj * vec4<f32>(P.eye, 1.0);
+    let c1 = P.light.view_proj * vec4<f32>(P.eye + dir, 1.0);
     var r: MapRay;
     r.a = vec3<f32>((c0.x * 0.5 + 0.5) * msize.x, (0.5 - c0.y * 0.5) * msize.y, c0.z);
     r.d = vec3<f32>((c1.x - c0.x) * 0.5 * msize.x, -(c1.y - c0.y) * 0.5 * msize.y, c1.z - c0.z);

@@ -164,7 +164,7 @@ fn min_max(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let dir = view_ray(id.xy, size);
-    if LOCAL && P.local_kind != 0u {
+    if LOCAL && P.light.kind != 0u {
         min_max_local(id.xy, dir, textureLoad(depth, id.xy, 0).r);
         return;
     }

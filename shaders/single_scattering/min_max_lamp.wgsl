@@ -39,8 +39,8 @@ fn lamp_integral(dir: vec3<f32>, t0: f32, u: f32, v: f32) -> vec3<f32> {
     if v <= u {
         return vec3<f32>(0.0);
     }
-    let tc = dot(P.light_pos - P.eye, dir);
-    let h = max(length(P.eye + dir * tc - P.light_pos), 1e-4);
+    let tc = dot(P.light.position - P.eye, dir);
+    let h = max(length(P.eye + dir * tc - P.light.position), 1e-4);
     let au = atan((u - tc) / h);
     let av = atan((v - tc) / h);
     let n = u32(clamp(ceil(f32(P.steps) * (av - au) / PI), 1.0, f32(P.steps)));
@@ -49,7 +49,7 @@ fn lamp_integral(dir: vec3<f32>, t0: f32, u: f32, v: f32) -> vec3<f32> {
     for (var i = 0u; i < n; i++) {
         let t = tc + h * tan(au + (f32(i) + 0.5) * dth);
         let x = P.eye + dir * t;
-        let l = P.light_pos - x;
+        let l = P.light.position - x;
         var e = exp(-P.sigma_t * (t - t0));
         if extinction() {
             e *= exp(-P.sigma_t * local_light_path(x));
@@ -288,18 +288,18 @@ fn min_max_local(p: vec2<u32>, dir: vec3<f32>, s: f32) {
     var acc = vec3<f32>(0.0);
     var run = vec2<f32>(-1.0, -1.0);
     var cursor = t0;
-    let point = POINT && P.local_kind == 2u;
+    let point = POINT && P.light.kind == 2u;
     let face_res = vec2<f32>(msize.x / 3.0, msize.y / 2.0);
     // The pyramid levels whose cells stay inside one face.
     let face_top = min(L.count, u32(floor(log2(max(face_res.x, 1.0)))));
-    let e0 = P.eye - P.light_pos;
-    let span = P.far - P.near;
+    let e0 = P.eye - P.light.position;
+    let span = P.light.far - P.light.near;
     var done = 0u;
     // One map for a spot; for a point light the faces the ray crosses, in order along it. (One
     // call of the walk: a second copy of it costs lavapipe registers and time.)
     for (var k = 0u; k < select(1u, 6u, point); k++) {
-        var c0 = P.light_view_proj * vec4<f32>(P.eye, 1.0);
-        var dc = P.light_view_proj * vec4<f32>(P.eye + dir, 1.0) - c0;
+        var c0 = P.light.view_proj * vec4<f32>(P.eye, 1.0);
+        var dc = P.light.view_proj * vec4<f32>(P.eye + dir, 1.0) - c0;
         var r = frustum_part(t0, t1, c0, dc);
         var origin = vec2<f32>(0.0);
         var res = msize;
@@ -312,7 +312,7 @@ fn min_max_local(p: vec2<u32>, dir: vec3<f32>, s: f32) {
                     continue;
                 }
                 let fr = cube_frame(f);
-                let fc0 = vec4<f32>(dot(fr[1], e0), dot(fr[2], e0), (dot(fr[0], e0) - P.near) / span, dot(fr[0], e0));
+                let fc0 = vec4<f32>(dot(fr[1], e0), dot(fr[2], e0), (dot(fr[0], e0) - P.light.near) / span, dot(fr[0], e0));
                 let fdc = vec4<f32>(dot(fr[1], dir), dot(fr[2], dir), dot(fr[0], dir) / span, dot(fr[0], dir));
                 let fr_t = frustum_part(t0, t1, fc0, fdc);
                 if fr_t.y > fr_t.x && (best == 6u || fr_t.x < r.x) {
@@ -346,6 +346,6 @@ fn min_max_local(p: vec2<u32>, dir: vec3<f32>, s: f32) {
 // radiance, σt and albedo) and the transmittance over the medium length `len`.
 fn store_lamp(p: vec2<u32>, vbar: f32, len: f32, acc: vec3<f32>) {
     textureStore(out_vis, p, vec4<f32>(vbar, 0.0, 0.0, 1.0));
-    textureStore(out_inscatter, p, vec4<f32>(P.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
+    textureStore(out_inscatter, p, vec4<f32>(P.light.radiance * (P.sigma_t * P.albedo) * acc, 1.0));
     textureStore(out_transmittance, p, vec4<f32>(exp(-len * P.sigma_t), 0.0, 0.0, 1.0));
 }

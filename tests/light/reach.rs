@@ -98,7 +98,7 @@ fn traced_pixel(
     let (t0, t1) = medium_segment(p, dir, s);
     let len = (t1 - t0).max(0.0);
     let n = STEPS as f32;
-    let radiance = (p.radiance[0] + p.radiance[1] + p.radiance[2]) / 3.0;
+    let radiance = (p.light.radiance[0] + p.light.radiance[1] + p.light.radiance[2]) / 3.0;
     let mut acc = [0.0f32; 2];
     for i in 0..STEPS {
         let t = t0 + (i as f32 + 0.5) / n * len;
@@ -115,7 +115,7 @@ fn traced_pixel(
                 (reach, henyey_greenstein(p.g, cos) * k)
             }
             None => {
-                let to_sun = Vec3::from(p.to_sun);
+                let to_sun = p.to_sun();
                 let reach = bvh.cast(x, to_sun * 100.0).is_none();
                 let a = t0 + i as f32 / n * len;
                 let b = t0 + (i + 1) as f32 / n * len;

@@ -12,6 +12,7 @@ mod groups;
 mod history;
 mod inputs;
 mod key;
+mod light_block;
 use key::{key_and_inputs, Upstream};
 mod node;
 mod params;
@@ -29,6 +30,7 @@ use std::time::{Duration, Instant};
 pub use convert::{download, download_later, upload_raster, PendingRaster};
 pub use error::EvalError;
 pub use history::MAX_HISTORY_DEPTH;
+pub use light_block::LightBlock;
 pub use node::{
     check_side, Earlier, FileRole, KeyInput, NodeDecl, NodeError, NodeKind, Registry, RunCtx,
 };
