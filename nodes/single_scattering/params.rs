@@ -89,19 +89,9 @@ impl ScatterParams {
         self.light.local()
     }
 
-    /// World → the light map's clip.
-    pub fn light_view_proj(&self) -> glam::Mat4 {
-        glam::Mat4::from_cols_array_2d(&self.light.view_proj)
-    }
-
     /// The unit direction towards the sun (meaningful for the sun's map).
     pub fn to_sun(&self) -> Vec3 {
         self.light.to_sun()
-    }
-
-    /// The light's radiance per channel (× the node's tint and intensity).
-    pub fn radiance(&self) -> [f32; 3] {
-        self.light.radiance
     }
 
     /// Bound the medium to the box `(min, max)` (`None`: it fills every view ray) and switch
