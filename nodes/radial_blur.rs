@@ -6,7 +6,8 @@
 //! sum += bilinear(p)·decay^i·weight; `image` = sum·exposure. Pixel coordinates, texel centres
 //! at i + 0.5, bilinear between texel centres, clamped to the edge. The light is at
 //! (`light_x`, `light_y`) pixels, or — with a `scene` connected — at the position of the
-//! scene's light `light` (empty: its first light) seen by the scene's camera: a directional
+//! scene's light `light` (empty: its first directional light, the sun, else its first light)
+//! seen by the scene's camera: a directional
 //! light's the projection of the direction to it, a spot's or point light's the projection of
 //! its position (either may lie off screen; one behind the camera gives a mirrored position, as
 //! the screen-space method does). A `light` the scene lacks is refused, naming its lights.
@@ -20,7 +21,7 @@
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
 //! | `light_x`, `light_y` | Float | 480, 100 | ±1e6 px | light position (no `scene`) |
-//! | `light` | Text | "" | | with a `scene`: which of its lights (empty: the first, the sun of a built-in scene; a name or an index) |
+//! | `light` | Text | "" | | with a `scene`: which of its lights (empty: the first directional one, else the first; a name or an index) |
 //! | `samples` | Int | 64 | 1…1024 | samples per pixel (quality knob) |
 //! | `density` | Float | 0.9 | 0…10 | fraction of the way to the light covered |
 //! | `decay` | Float | 0.96 | 0…1 | per-sample falloff |
@@ -45,7 +46,7 @@ tyndall_engine::params! {
     pub struct Params {
         light_x: f32 = ParamSpec::float("light_x", 480.0, -1e6, 1e6, "px", "Light position x in pixels (pixel centres at i + 0.5)."),
         light_y: f32 = ParamSpec::float("light_y", 100.0, -1e6, 1e6, "px", "Light position y in pixels (down)."),
-        light: String = ParamSpec::text("light", "", "With a scene: the light whose screen position the blur converges on (empty: the scene's first light; else a name or an index). A light the scene lacks is refused, naming its lights."),
+        light: String = ParamSpec::text("light", "", "With a scene: the light whose screen position the blur converges on (empty: the scene's first directional light, else its first light; or a name or an index). A light the scene lacks is refused, naming its lights."),
         samples: i64 = ParamSpec::int("samples", 64, 1, 1024, "samples", "Samples per pixel (quality knob)."),
         density: f32 = ParamSpec::float("density", 0.9, 0.0, 10.0, "", "Fraction of the way to the light the samples cover."),
         decay: f32 = ParamSpec::float("decay", 0.96, 0.0, 1.0, "", "Falloff per sample."),
@@ -163,14 +164,22 @@ impl NodeKind for RadialBlur {
         }
         let light = match ctx.scene_opt("scene")? {
             Some(scene) => {
+                // Empty: the first directional light (the sun), as before lamps came in, else
+                // the first light.
+                let first_sun = (prm.light.trim().is_empty())
+                    .then(|| scene.scene.lights.iter().find(|l| l.as_sun().is_some()))
+                    .flatten()
+                    .cloned();
                 let light =
-                    scene
-                        .scene
-                        .find_light(&prm.light)
-                        .map_err(|message| NodeError::Param {
-                            param: "light".into(),
-                            message,
-                        })?;
+                    match first_sun {
+                        Some(l) => l,
+                        None => scene.scene.find_light(&prm.light).map_err(|message| {
+                            NodeError::Param {
+                                param: "light".into(),
+                                message,
+                            }
+                        })?,
+                    };
                 light_pixel(&scene.scene, &light, src.width, src.height)
             }
             None => [prm.light_x, prm.light_y],
