@@ -240,19 +240,25 @@ def build_roof():
     return scene
 
 
+def cage(z):
+    """Twelve vertical bars 0.45 m around (0, 0, z), 1.8 m tall, over a solid floor plate just
+    below z − 0.9: a point light at (0, 0, z) shines out between the bars and up."""
+    bars = []
+    for k in range(12):
+        a = 2 * math.pi * k / 12
+        cx, cy = 0.45 * math.cos(a), 0.45 * math.sin(a)
+        bars.append(((cx - 0.06, cy - 0.06, z - 0.9), (cx + 0.06, cy + 0.06, z + 0.9)))
+    bars.append(((-0.5, -0.5, z - 0.95), (0.5, 0.5, z - 0.85)))
+    occluders(bars)
+
+
 def build_point_inside():
     """A point light 2 m inside a fog box reaching 10 m below it, in a cage of twelve vertical
     bars, with no floor. The lamp is above the frame (the in-scatter of rays passing it closely
     would dominate the comparison's lit pixels)."""
     scene = start(ground=False)
     fog((-4, -4, -8), (4, 4, 4))
-    cage = []
-    for k in range(12):
-        a = 2 * math.pi * k / 12
-        cx, cy = 0.45 * math.cos(a), 0.45 * math.sin(a)
-        cage.append(((cx - 0.06, cy - 0.06, 1.1), (cx + 0.06, cy + 0.06, 2.9)))
-    cage.append(((-0.5, -0.5, 1.05), (0.5, 0.5, 1.15)))
-    occluders(cage)
+    cage(2.0)
     lamp(scene, "point", (0.0, 0.0, 2.0))
     camera(scene, (8.0, -11.0, -3.0), (0.0, 0.0, -4.5))
     return scene
@@ -262,13 +268,7 @@ def build_point():
     """A point light 1 m above a fog box, in a cage of twelve vertical bars with a solid floor."""
     scene = start()
     fog((-4, -4, 0), (4, 4, 4))
-    cage = []
-    for k in range(12):
-        a = 2 * math.pi * k / 12
-        cx, cy = 0.45 * math.cos(a), 0.45 * math.sin(a)
-        cage.append(((cx - 0.06, cy - 0.06, 4.1), (cx + 0.06, cy + 0.06, 5.9)))
-    cage.append(((-0.5, -0.5, 4.05), (0.5, 0.5, 4.15)))
-    occluders(cage)
+    cage(5.0)
     lamp(scene, "point", (0.0, 0.0, 5.0))
     camera(scene, (8.0, -11.0, 3.5), (0.0, 0.0, 2.0))
     return scene

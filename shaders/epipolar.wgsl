@@ -1,11 +1,11 @@
 // EpipolarDilation / EpipolarClosure: 1D min (then max) along epipolar rays in slope space
 // (nodes/epipolar/; SPEC §4 eq. 3, seed 001 §4.1).
-#import lib/shadow
 //
 // Each texel t (centre c_t, distance d_t from the epipole l) has the slope
 // κ_t = (z_t − z_l) / d_t. Dilation: κ'_t = min(κ_t, κ_s over the `length` samples s from t
 // towards l); erosion: max over the samples on the far side. Then z'_t = z_l + d_t κ'_t, which
 // is the seed's `d_t/d_s · (z_s − z_l) + z_l` minimised over s.
+#import lib/shadow
 
 struct Params {
     epipole: vec2<f32>,
@@ -26,10 +26,18 @@ struct Params {
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var out_map: texture_storage_2d<r32float, write>;
 
-// Clear texels (no occluder) have slope +∞ (SHADOW_CLEAR) and map back to clear.
-fn slope(texel: vec2<i32>, d: f32, z_l: f32) -> f32 {
-    let z = textureLoad(src, texel, 0).r;
+// Depth z at distance d from the epipole ↔ slope κ = (z − z_l) / d. A clear texel (no
+// occluder, SHADOW_CLEAR) has slope +∞ and maps back to clear.
+fn to_slope(z: f32, z_l: f32, d: f32) -> f32 {
     return keep_clear(z, (z - z_l) / d);
+}
+
+fn from_slope(k: f32, z_l: f32, d: f32) -> f32 {
+    return keep_clear(k, z_l + d * k);
+}
+
+fn slope(texel: vec2<i32>, d: f32, z_l: f32) -> f32 {
+    return to_slope(textureLoad(src, texel, 0).r, z_l, d);
 }
 
 // The texel a sample lands on: the reference's exact f32 steps, shared by both methods.
@@ -71,7 +79,7 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
     // (`reverse` swaps the sides, not the operations).
     let towards = (P.op == 0u) != (reverse == 1u);
     let dir = select(-to_l / d_t, to_l / d_t, towards);
-    var k = keep_clear(z, (z - z_l) / d_t);
+    var k = to_slope(z, z_l, d_t);
     for (var i = 1; i <= P.length; i++) {
         if towards && f32(i) >= d_t {
             break;
@@ -87,7 +95,7 @@ fn reference(@builtin(global_invocation_id) id: vec3<u32>) {
         let ks = slope(s, d_s, z_l);
         k = select(min(k, ks), max(k, ks), P.op == 1u);
     }
-    textureStore(out_map, id.xy, vec4<f32>(keep_clear(k, z_l + d_t * k), 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(from_slope(k, z_l, d_t), 0.0, 0.0, 1.0));
 }
 
 // ---- Fast path: exact, with a cost flat in `length` on shadow maps -------------------------
@@ -159,8 +167,7 @@ fn kappa(@builtin(global_invocation_id) id: vec3<u32>) {
     let d_s = length(R.epipole - (vec2<f32>(s) + 0.5));
     var v = identity_r();
     if d_s > 0.0 {
-        let z = textureLoad(src, s, 0).r;
-        v = keep_clear(z, (z - R.z_l) / d_s);
+        v = to_slope(textureLoad(src, s, 0).r, R.z_l, d_s);
     }
     textureStore(grid_out, id.xy, vec4<f32>(v, 0.0, 0.0, 1.0));
 }
@@ -323,7 +330,7 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let last = hi;
     let e = R.ends;
-    var acc = keep_clear(z, (z - R.z_l) / d_t);
+    var acc = to_slope(z, R.z_l, d_t);
     for (var i = 1; i <= min(e, last); i++) {
         acc = pick_r(acc, textureLoad(kappa_in, sample_texel(c, dir, i), 0).r);
     }
@@ -353,7 +360,7 @@ fn project_back(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    textureStore(out_map, id.xy, vec4<f32>(keep_clear(acc, R.z_l + d_t * acc), 0.0, 0.0, 1.0));
+    textureStore(out_map, id.xy, vec4<f32>(from_slope(acc, R.z_l, d_t), 0.0, 0.0, 1.0));
 }
 
 // ---- A spot's perspective map (nodes/epipolar/lamp.rs, `Perspective`) ----------------------------
