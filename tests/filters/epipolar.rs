@@ -119,6 +119,10 @@ fn identity_and_flat_maps() {
     assert_eq!(g.pixel(8, 8), map.pixel(8, 8));
     // With the epipole in front of the map (z_l < 1), an empty map stays empty; a fully
     // occluded one stays finite.
+    let empty = Raster::new(16, 16, 1, tyndall::eval::SHADOW_CLEAR);
+    let d = run(&gpu, "EpipolarDilation", &empty, [-40.0, 8.0], 0.2, 8);
+    assert!(d.data.iter().all(|v| tyndall::eval::is_clear(*v)));
+    // A map of occluders at the far plane (depth 1) stays at depth 1.
     let ones = Raster::new(16, 16, 1, 1.0);
     let d = run(&gpu, "EpipolarDilation", &ones, [-40.0, 8.0], 0.2, 8);
     assert!(d.data.iter().all(|v| (*v - 1.0).abs() <= 1e-6));

@@ -321,7 +321,7 @@ fn a_point_light_in_a_clear_medium_matches_the_closed_form() {
     ])
     .expect("parameters");
     let params = ScatterParams::new(&camera, &light, &m);
-    let shadow = Raster::new(6, 4, 1, 1.0); // no occluder anywhere
+    let shadow = Raster::new(6, 4, 1, tyndall::eval::SHADOW_CLEAR); // no occluder anywhere
     let s = 10.0f32;
     let (_, ins, _) = reference_pixel(&params, &shadow, s, 0, 0, w, h);
     let (d, tc) = (2.0f32, 4.0f32);

@@ -253,7 +253,7 @@ fn extremes_stay_finite_and_in_range() {
         return;
     };
     let res = 16;
-    let empty = Raster::new(res, res, 1, 1.0);
+    let empty = Raster::new(res, res, 1, tyndall::eval::SHADOW_CLEAR);
     let full = Raster::new(res, res, 1, 0.0);
     for (what, map) in [("empty", &empty), ("fully occluded", &full)] {
         for (slices, radius) in [(0, 0.0), (1, 10.0), (3, 10.0), (64, 0.001)] {

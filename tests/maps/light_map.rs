@@ -6,7 +6,7 @@ use crate::common;
 use std::sync::Arc;
 
 use glam::Vec3;
-use tyndall::eval::{Matrices, PortValue};
+use tyndall::eval::{Matrices, PortValue, SHADOW_CLEAR};
 use tyndall::graph::ParamValue;
 use tyndall::io::Raster;
 use tyndall::nodes::light_map_solve::{self as lms, Sampling, Settings, ViewProblem};
@@ -40,7 +40,7 @@ fn camera(position: Vec3, w: u32, h: u32) -> Matrices {
 
 /// A shadow map with one occluder block (so some rays are partly shadowed).
 fn shadow() -> Raster {
-    let mut r = Raster::new(16, 16, 1, 1.0);
+    let mut r = Raster::new(16, 16, 1, SHADOW_CLEAR);
     for y in 6..9 {
         for x in 5..8 {
             r.data[y * 16 + x] = 0.2;
@@ -302,7 +302,12 @@ fn gpu_and_cpu_solves_agree() {
     let n = 8;
     let views = views_from_render(&gpu, &known_map(n), light());
     let sh = gpu.upload(16, 16, 1, &shadow().data).expect("upload");
-    let set = settings(20);
+    // Five iterations: the iterates are well defined there. This problem (an 8² map seen by
+    // three 40×30 views) is solved to f32 precision by then, and further CG steps move in
+    // directions the data do not fix, in an order-dependent way: measured, GPU and CPU differ
+    // by 6e-7 of the largest value after 5 iterations, 1e-4 after 8, 1.4e-2 after 10 (with or
+    // without non-negativity), since #60 made the fixture's clear texels clear.
+    let set = settings(5);
     let cpu = lms::solve_reference(&views, &shadow(), &light(), n, SAMPLING, set).expect("cpu");
     let g = solve_gpu(&gpu, views.clone(), &sh, light(), n, set).expect("gpu");
     let top = cpu.x.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
@@ -312,8 +317,7 @@ fn gpu_and_cpu_solves_agree() {
         .flatten()
         .zip(g.x.iter().flatten())
         .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
-    // 1e-3 relative: the bound (the passes march in f32 in another order; measured
-    // 7e-6). On larger, underdetermined maps the iterates are sensitive to such differences
+    // 1e-3 relative: the bound (the passes march in f32 in another order). On larger, underdetermined maps the iterates are sensitive to such differences
     // (24²: 3e-4 without non-negativity after 20 iterations, and the active set of the
     // non-negativity can differ), so the comparison is made where the problem is well posed.
     assert!(
