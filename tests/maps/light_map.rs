@@ -478,8 +478,14 @@ fn resident_solve_reaches_the_cpu_residual() {
     // underdetermined 24² map amplify that (see gpu_and_cpu_solves_agree); the goal is the
     // residual reached, not the same iterates.
     assert!(r <= 1.01 * c, "resident residual {r} vs CPU {c}");
-    assert!(
-        (r - o).abs() <= 0.01 * o,
-        "resident residual {r} vs operator path {o}"
-    );
+    assert!(o <= 1.01 * c, "operator-path residual {o} vs CPU {c}");
+    // The same passes: the two GPU drivers' residuals agree step by step (measured within 4e-7
+    // relative) until the non-negativity's active sets first differ, which on this fixture
+    // happens after iteration 23 (from there the ends differ by a few %, both below the CPU's).
+    for (i, (a, b)) in res.residuals.iter().zip(&op.residuals).take(20).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-4 * b,
+            "iteration {i}: resident residual {a} vs operator path {b}"
+        );
+    }
 }
