@@ -49,6 +49,7 @@ pub mod temporal_accumulate;
 pub mod tonemap;
 pub mod transfer_function;
 pub mod util;
+pub mod vdb_volume;
 
 include!(concat!(env!("OUT_DIR"), "/shader_files.rs"));
 
@@ -125,5 +126,6 @@ pub fn registry() -> Registry {
     r.add(Arc::new(colour_space::ColourSpace));
     r.add(Arc::new(display_view::DisplayView));
     r.add(Arc::new(transfer_function::TransferFunction));
+    r.add(Arc::new(vdb_volume::VdbVolume));
     r
 }

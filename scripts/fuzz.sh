@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzz every reader of user files (issue #15, item 4): the RON graph loader, the EXR and PNG
-# readers and the glTF loader, all targets at once, SECONDS each (default 600).
+# readers, the glTF loader and the OpenVDB reader, all targets at once, SECONDS each (default 600).
 #
 #   scripts/fuzz.sh [SECONDS]
 #
@@ -11,7 +11,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/../fuzz"
 SECS="${1:-600}"
-TARGETS="graph_ron image_exr image_png gltf"
+TARGETS="graph_ron image_exr image_png gltf vdb_read"
 mkdir -p ../out
 cargo +nightly fuzz build -s none || exit 2
 pids=()

@@ -75,6 +75,7 @@ pub(super) fn run_eval(registry: Arc<Registry>, a: EvalArgs) -> Result<(), CliEr
             ..Default::default()
         };
         let result = ev.evaluate(&v.graph, &targets, &opts)?;
+        print_notes(&result);
         for (key, file) in &files {
             if let Some(val) = result.outputs.get(key) {
                 write_value(&gpu, val, &with_suffix(file, &v.suffix))?;

@@ -197,6 +197,10 @@ pub enum CliError {
 
 impl From<EvalError> for CliError {
     fn from(e: EvalError) -> Self {
+        // A malformed input file is bad input (exit 2) wherever the evaluation found it.
+        if e.bad_input() {
+            return CliError::BadInput(e.to_string());
+        }
         CliError::Eval(Box::new(e))
     }
 }
@@ -407,6 +411,14 @@ pub(super) fn write_value(gpu: &Gpu, v: &PortValue, path: &Path) -> Result<(), C
             source: e.into(),
         })
     })
+}
+
+/// What the nodes said about their runs ([`tyndall_engine::eval::RunCtx::note`]), on stderr
+/// with or without `--stats`.
+pub(super) fn print_notes(ev: &Evaluation) {
+    for (node, note) in &ev.stats.notes {
+        eprintln!("note: node '{node}': {note}");
+    }
 }
 
 pub(super) fn print_stats(ev: &Evaluation, header: &str) {

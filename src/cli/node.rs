@@ -117,6 +117,7 @@ pub(super) fn run_node(registry: Arc<Registry>, a: NodeArgs) -> Result<(), CliEr
     }
     let mut ev = Evaluator::new(registry.clone(), gpu.clone());
     let result = ev.evaluate(&g, &targets, &opts)?;
+    print_notes(&result);
     for (port, file) in files {
         if let Some(v) = result.outputs.get(&(id.clone(), port)) {
             write_value(&gpu, v, &file)?;

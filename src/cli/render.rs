@@ -122,6 +122,7 @@ pub(super) fn run_render(registry: Arc<Registry>, a: RenderArgs) -> Result<(), C
                     };
                     match ev.evaluate(&v.graph, &targets, &opts) {
                         Ok(result) => {
+                            print_notes(&result);
                             if a.common.stats {
                                 let label = match f {
                                     Some(f) => format!("frame {f} {}", v.label),

@@ -9,3 +9,4 @@ mod common;
 mod colour;
 mod io;
 mod plate;
+mod vdb;

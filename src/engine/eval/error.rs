@@ -52,6 +52,12 @@ pub enum EvalError {
 }
 
 impl EvalError {
+    /// Whether a node failed on a bad input file ([`NodeError::BadFile`]): bad input, not a
+    /// failed evaluation.
+    pub fn bad_input(&self) -> bool {
+        matches!(self, EvalError::Node { source, .. } if matches!(source.innermost(), NodeError::BadFile(_)))
+    }
+
     /// Whether the GPU device was lost (or hung past the watchdog): nothing later can run on it,
     /// so a batch stops instead of failing every remaining frame.
     pub fn device_lost(&self) -> bool {

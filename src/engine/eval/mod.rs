@@ -124,6 +124,8 @@ pub struct Evaluator {
     cache: cache::Cache,
     /// Node runs for earlier frames in the current evaluation (see [`Stats::earlier_runs`]).
     earlier_runs: usize,
+    /// What the nodes that ran in the current evaluation said ([`RunCtx::note`]): node id, note.
+    notes: Vec<(String, String)>,
     /// The pipeline cache could not be saved, and that was said once.
     cache_warned: bool,
     /// The colour config of its evaluations (empty: the current config).
@@ -143,6 +145,7 @@ impl Evaluator {
             gpu,
             cache: cache::Cache::new(DEFAULT_CACHE_BUDGET),
             earlier_runs: 0,
+            notes: Vec::new(),
             cache_warned: false,
             colour_config: String::new(),
             colour: Default::default(),
@@ -268,6 +271,7 @@ impl Evaluator {
     ) -> Result<Evaluation, EvalError> {
         self.cache.tick();
         self.earlier_runs = 0;
+        self.notes.clear();
         crate::trace::set_frame(opts.frame);
         self.colour = crate::colour::ColourCtx {
             config: self.colour_config.clone(),
@@ -328,6 +332,7 @@ impl Evaluator {
         r.stats.pipelines = (compiled - pipelines.0, cached - pipelines.1);
         r.stats.prepared = self.gpu.pipelines_prepared() - prepared;
         r.stats.submits = submits;
+        r.stats.notes = std::mem::take(&mut self.notes);
         Ok(r)
     }
 
@@ -414,6 +419,7 @@ impl Evaluator {
                 passed_through: false,
                 earlier: &history.earlier,
                 colour: &colour,
+                notes: Vec::new(),
             };
             let outputs = match self.cache.reuse(id, key, want) {
                 Some((outputs, cost)) => {
@@ -426,6 +432,8 @@ impl Evaluator {
                         self.run(&*k, &mut ctx, want, opts).map_err(node_err)?;
                     let time = wall + history.time;
                     self.cache.record(id, key, &outputs, time);
+                    let said = std::mem::take(&mut ctx.notes);
+                    self.notes.extend(said.into_iter().map(|m| (id.clone(), m)));
                     let status = if ctx.passed_through {
                         Status::PassedThrough
                     } else {

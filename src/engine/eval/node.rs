@@ -39,6 +39,12 @@ pub enum NodeError {
     /// The GPU reported an error.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// An input file that is malformed, truncated or of an unsupported kind: bad input, which
+    /// the command line reports with exit code 2 (a file that cannot be written, or a failure
+    /// while running, is [`NodeError::Io`] or another variant: exit 1). The message names the
+    /// file.
+    #[error("{0}")]
+    BadFile(String),
     /// Anything else.
     #[error("{0}")]
     Other(String),
@@ -122,6 +128,8 @@ pub struct RunCtx<'a> {
     /// The evaluation's colour settings (config, working space); read only by nodes that
     /// declare [`NodeDecl::colour`].
     pub colour: &'a crate::colour::ColourCtx,
+    /// What the node said about this run ([`RunCtx::note`]).
+    pub notes: Vec<String>,
 }
 
 /// A node's connected inputs evaluated at an earlier frame (see [`NodeKind::history`]).
@@ -181,6 +189,13 @@ impl RunCtx<'_> {
     /// was modelled there.
     pub fn pass_through(&mut self) {
         self.passed_through = true;
+    }
+
+    /// Say something the user should know about this run that is not an error — a file's grid
+    /// filtered down to fit a limit, say. The evaluation's [`Stats::notes`](super::Stats::notes)
+    /// carry it, and the command line prints it on stderr.
+    pub fn note(&mut self, message: impl Into<String>) {
+        self.notes.push(message.into());
     }
 
     /// Report progress of long work: `done` of `total` steps and a short message (shown by the

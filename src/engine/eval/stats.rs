@@ -81,6 +81,9 @@ pub struct Stats {
     pub prepared: u64,
     /// Command buffers the evaluation submitted: its nodes' and the last chunk's.
     pub submits: u64,
+    /// What nodes that ran said about their run ([`RunCtx::note`](super::RunCtx::note)): node
+    /// id and note, in the order they ran.
+    pub notes: Vec<(String, String)>,
 }
 
 impl Stats {
@@ -244,6 +247,7 @@ pub(super) fn report(
             pipelines: (0, 0),
             prepared: 0,
             submits: 0,
+            notes: Vec::new(),
         },
     }
 }

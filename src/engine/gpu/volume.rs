@@ -322,6 +322,45 @@ impl Gpu {
         })
     }
 
+    /// A one-channel volume of `size` with level 0 set to `values` (x fastest, then y, then z)
+    /// and the levels above zero: a volume read from a file (`VdbVolume`), whose mips a pass
+    /// then builds from level 0.
+    pub fn upload_volume(&self, size: [u32; 3], values: &[f32]) -> Result<GpuVolume, GpuError> {
+        let texels = size.iter().map(|&s| s as usize).product::<usize>();
+        if values.len() != texels {
+            return Err(GpuError::BadData(format!(
+                "{} values for a {}×{}×{} volume ({texels} expected)",
+                values.len(),
+                size[0],
+                size[1],
+                size[2],
+            )));
+        }
+        let v = self.volume(size)?;
+        // A new texture: no recorded pass reads or writes it before this queue write, and no
+        // pass has written level 0 through its row buffer (so no later flush overwrites it).
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &v.raw,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(values),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size[0] * 4),
+                rows_per_image: Some(size[1]),
+            },
+            wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: size[2],
+            },
+        );
+        Ok(v)
+    }
+
     /// A read-only RGBA 3D lookup table of `size` texels (one level), `rgba` x fastest, then
     /// y, then z — what a colour transform's 3D LUT is read from (`textureLoad`; no sampler,
     /// not filterable). Not for [`Recorder::read_volume`], which reads one-channel volumes.

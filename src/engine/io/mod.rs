@@ -8,10 +8,12 @@ use thiserror::Error;
 pub mod deferred;
 mod exr_out;
 mod layers;
+mod vdb;
 
 use exr_out::write_exr;
 pub use exr_out::{write_exr_layers, ExrHeader, ExrLayer};
 pub use layers::read_exr_layer;
+pub use vdb::{read_vdb_grid, vdb_grids, GridInfo, VdbError, VdbGrid};
 
 /// A CPU-side float image: row-major, `channels` interleaved floats per pixel (1 or 4).
 #[derive(Debug, Clone, PartialEq)]

@@ -1,0 +1,335 @@
+//! OpenVDB files: one scalar grid densified over its active bounding box, through the patched
+//! `vdb-rs` (`vendor/vdb-rs`, PATCHES.md there).
+//!
+//! What loads: float, double and half grids (`Tree_float_5_4_3`, `Tree_double_5_4_3`,
+//! `Tree_half_5_4_3`), half-float storage (`saveFloatAsHalf`), Blosc, zip and uncompressed
+//! blocks, file versions 218–225 (OpenVDB 4 to 12 write 222–224), uniform-scale,
+//! scale-translate, scale, translation, affine and unitary maps, active voxels and active
+//! tiles at every level. Vector, boolean, integer and point grids, frustum maps and
+//! multi-buffer trees are refused naming the grid. A malformed or truncated file is an error
+//! naming the file, never a panic (`fuzz/fuzz_targets/vdb_read.rs`).
+//!
+//! Index coordinates: a grid's voxel (i, j, k) is at index (i, j, k); [`VdbGrid::index_to_world`]
+//! places index space in the file's world. The dense array holds the box
+//! `index_min … index_min + dims·reduce − 1`, x fastest; with `reduce` > 1 each texel is the mean
+//! of reduce³ voxels (inactive ones count as the background), centred at
+//! `index_min + (reduce − 1)/2 + reduce·texel`.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use glam::DMat4;
+use thiserror::Error;
+
+/// Reading a VDB file failed.
+#[derive(Debug, Error, Clone)]
+pub enum VdbError {
+    /// The file cannot be opened, is malformed or truncated, or uses an unsupported feature.
+    #[error("cannot read OpenVDB file {path}: {reason}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The file has no grid of that name.
+    #[error("{path} has no grid '{grid}' (its grids: {known})")]
+    NoGrid {
+        /// The file.
+        path: PathBuf,
+        /// The requested grid.
+        grid: String,
+        /// The file's grids and their types.
+        known: String,
+    },
+    /// The grid's type or layout cannot be read as a scalar density.
+    #[error("{path}, grid '{grid}': {reason}")]
+    Grid {
+        /// The file.
+        path: PathBuf,
+        /// The grid.
+        grid: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// A grid's name and its OpenVDB type (e.g. `Tree_float_5_4_3`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridInfo {
+    /// The grid's name.
+    pub name: String,
+    /// Its tree type.
+    pub grid_type: String,
+    /// Whether its leaves are stored as half floats.
+    pub half: bool,
+}
+
+/// One scalar grid, densified.
+#[derive(Debug, Clone)]
+pub struct VdbGrid {
+    /// The grid's name.
+    pub name: String,
+    /// Its tree type.
+    pub grid_type: String,
+    /// The file's index → world transform (column vectors, world = M · index).
+    pub index_to_world: DMat4,
+    /// Lowest active index of the active bounding box (voxels and tiles).
+    pub index_min: [i32; 3],
+    /// Side of the active bounding box, voxels.
+    pub active_dims: [u32; 3],
+    /// Voxels per texel along each axis (1: every voxel; > 1: filtered down to fit the limit).
+    pub reduce: u32,
+    /// Texels of [`VdbGrid::data`] along x, y, z.
+    pub dims: [u32; 3],
+    /// The values, x fastest, then y, then z.
+    pub data: Vec<f32>,
+    /// The value of every voxel the file does not store (the grid's background).
+    pub background: f32,
+    /// Active voxels (tiles counted by the voxels they cover).
+    pub active_voxels: u64,
+}
+
+impl VdbGrid {
+    /// Index coordinates of texel (0, 0, 0)'s sample (the centre of its reduce³ block).
+    pub fn first_sample_index(&self) -> [f64; 3] {
+        let h = (self.reduce as f64 - 1.0) / 2.0;
+        self.index_min.map(|v| v as f64 + h)
+    }
+}
+
+fn file_err(path: &Path, reason: impl std::fmt::Display) -> VdbError {
+    VdbError::File {
+        path: path.to_path_buf(),
+        reason: reason.to_string(),
+    }
+}
+
+type Reader = vdb_rs::VdbReader<BufReader<File>>;
+
+fn open(path: &Path) -> Result<Reader, VdbError> {
+    let f = File::open(path).map_err(|e| file_err(path, e))?;
+    guarded(path, || vdb_rs::VdbReader::new(BufReader::new(f)))
+}
+
+/// Runs a vdb-rs call; an error or a panic the patches missed becomes an error naming the file.
+fn guarded<T>(
+    path: &Path,
+    f: impl FnOnce() -> Result<T, vdb_rs::ParseError>,
+) -> Result<T, VdbError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(e)) => Err(file_err(path, e)),
+        Err(_) => Err(file_err(path, "the reader failed on malformed data")),
+    }
+}
+
+/// The grids of a VDB file, sorted by name.
+pub fn vdb_grids(path: &Path) -> Result<Vec<GridInfo>, VdbError> {
+    let r = open(path)?;
+    let mut grids: Vec<GridInfo> = r
+        .grid_descriptors
+        .values()
+        .map(|d| GridInfo {
+            name: d.name.clone(),
+            grid_type: d.grid_type.clone(),
+            half: d.meta_data.is_half_float(),
+        })
+        .collect();
+    grids.sort_by(|a, b| a.name.cmp(&b.name));
+    Ok(grids)
+}
+
+/// The scalar types a grid can be densified from.
+enum Scalar {
+    F32,
+    F64,
+    F16,
+}
+
+fn scalar_type(grid_type: &str) -> Option<Scalar> {
+    // A tree type is `Tree_<value>_5_4_3`; files before version 215 append `_HalfFloat` etc.
+    let value = grid_type.strip_prefix("Tree_")?.split('_').next()?;
+    let layout = grid_type.strip_prefix("Tree_")?.split_once('_')?.1;
+    if !layout.starts_with("5_4_3") {
+        return None;
+    }
+    match value {
+        "float" => Some(Scalar::F32),
+        "double" => Some(Scalar::F64),
+        "half" => Some(Scalar::F16),
+        _ => None,
+    }
+}
+
+/// Read grid `grid` of `path` and densify its active bounding box; a box wider than `limit`
+/// texels along any axis is filtered down by the smallest integer factor that fits (a box mean).
+pub fn read_vdb_grid(path: &Path, grid: &str, limit: u32) -> Result<VdbGrid, VdbError> {
+    let mut r = open(path)?;
+    let Some(desc) = r.grid_descriptors.get(grid).cloned() else {
+        let mut known: Vec<String> = r
+            .grid_descriptors
+            .values()
+            .map(|d| format!("{} ({})", d.name, d.grid_type))
+            .collect();
+        known.sort();
+        return Err(VdbError::NoGrid {
+            path: path.to_path_buf(),
+            grid: grid.to_string(),
+            known: if known.is_empty() {
+                "none".into()
+            } else {
+                known.join(", ")
+            },
+        });
+    };
+    let grid_err = |reason: String| VdbError::Grid {
+        path: path.to_path_buf(),
+        grid: grid.to_string(),
+        reason,
+    };
+    if !desc.instance_parent.is_empty() {
+        return Err(grid_err(format!(
+            "is an instance of grid '{}'; read that grid",
+            desc.instance_parent
+        )));
+    }
+    let Some(kind) = scalar_type(&desc.grid_type) else {
+        return Err(grid_err(format!(
+            "is a {} grid; VdbVolume reads scalar float, double or half grids",
+            desc.grid_type
+        )));
+    };
+    let limit = limit.max(1);
+    let densify = |r: &mut Reader| -> Result<VdbGrid, VdbError> {
+        match kind {
+            Scalar::F32 => {
+                let g = guarded(path, || r.read_grid::<f32>(grid))?;
+                dense(&g, |v| v, limit, &desc.grid_type).map_err(grid_err)
+            }
+            Scalar::F64 => {
+                let g = guarded(path, || r.read_grid::<f64>(grid))?;
+                dense(&g, |v| v as f32, limit, &desc.grid_type).map_err(grid_err)
+            }
+            Scalar::F16 => {
+                let g = guarded(path, || r.read_grid::<half::f16>(grid))?;
+                dense(&g, half::f16::to_f32, limit, &desc.grid_type).map_err(grid_err)
+            }
+        }
+    };
+    densify(&mut r)
+}
+
+/// Tile extents by level (vdb-rs's `VdbLevel`): a level-1 tile covers 8³ voxels, level 2 128³.
+fn extent(level: vdb_rs::VdbLevel) -> i32 {
+    match level {
+        vdb_rs::VdbLevel::Voxel => 1,
+        vdb_rs::VdbLevel::Node3 => 8,
+        vdb_rs::VdbLevel::Node4 => 128,
+    }
+}
+
+/// The largest box side densified before filtering, voxels (a root tile is 4096 wide).
+const ROOT_TILE: i32 = 4096;
+
+fn dense<T: Copy>(
+    g: &vdb_rs::Grid<T>,
+    to_f32: impl Fn(T) -> f32,
+    limit: u32,
+    grid_type: &str,
+) -> Result<VdbGrid, String> {
+    // Every active item: (origin, side, value).
+    let items = || {
+        g.iter()
+            .map(|(p, v, level)| ([p.x as i32, p.y as i32, p.z as i32], extent(level), v))
+            .chain(
+                g.tree
+                    .tiles
+                    .iter()
+                    .filter(|t| t.active)
+                    .map(|t| (t.origin.to_array(), ROOT_TILE, t.value)),
+            )
+    };
+    let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+    let mut active = 0u64;
+    for (o, s, _) in items() {
+        for a in 0..3 {
+            lo[a] = lo[a].min(o[a]);
+            hi[a] = hi[a].max(o[a].saturating_add(s - 1));
+        }
+        active += (s as u64).pow(3);
+    }
+    let background = to_f32(g.tree.background);
+    let index_to_world = g.transform.index_to_world();
+    if !index_to_world.is_finite() || index_to_world.determinant().abs() < 1e-300 {
+        return Err("its transform is singular or not finite".into());
+    }
+    if active == 0 {
+        // An empty grid: one background texel at the origin.
+        return Ok(VdbGrid {
+            name: g.descriptor.name.clone(),
+            grid_type: grid_type.to_string(),
+            index_to_world,
+            index_min: [0; 3],
+            active_dims: [0; 3],
+            reduce: 1,
+            dims: [1; 3],
+            data: vec![background],
+            background,
+            active_voxels: 0,
+        });
+    }
+    let side = [0, 1, 2].map(|a| (hi[a] as i64 - lo[a] as i64 + 1) as u64);
+    let widest = side.iter().copied().max().unwrap_or(1);
+    let reduce = widest.div_ceil(limit as u64).max(1);
+    let dims = side.map(|s| s.div_ceil(reduce) as u32);
+    let n = dims.iter().map(|d| *d as u64).product::<u64>();
+    if n > 1 << 31 {
+        return Err(format!("its dense box of {dims:?} texels is too large"));
+    }
+    let r = reduce as i64;
+    // Unfiltered, a texel no active item sets holds the background; filtered, the sums start at 0.
+    let mut data = vec![if reduce > 1 { 0.0 } else { background }; n as usize];
+    let mut hits = vec![0u32; if reduce > 1 { n as usize } else { 0 }];
+    let idx = |p: [i64; 3]| -> usize {
+        let t = [0, 1, 2].map(|a| ((p[a] - lo[a] as i64) / r) as u64);
+        ((t[2] * dims[1] as u64 + t[1]) * dims[0] as u64 + t[0]) as usize
+    };
+    for (o, s, v) in items() {
+        let v = to_f32(v);
+        let o = o.map(|c| c as i64);
+        for z in o[2]..o[2] + s as i64 {
+            for y in o[1]..o[1] + s as i64 {
+                for x in o[0]..o[0] + s as i64 {
+                    let i = idx([x, y, z]);
+                    if reduce > 1 {
+                        data[i] += v;
+                        hits[i] += 1;
+                    } else {
+                        data[i] = v;
+                    }
+                }
+            }
+        }
+    }
+    if reduce > 1 {
+        // A box mean over reduce³ voxels: the ones no active item covers hold the background.
+        let full = (reduce * reduce * reduce) as f32;
+        for (d, h) in data.iter_mut().zip(&hits) {
+            *d = (*d + background * (full - *h as f32)) / full;
+        }
+    }
+    Ok(VdbGrid {
+        name: g.descriptor.name.clone(),
+        grid_type: grid_type.to_string(),
+        index_to_world,
+        index_min: lo,
+        active_dims: side.map(|s| s as u32),
+        reduce: reduce as u32,
+        dims,
+        data,
+        background,
+        active_voxels: active,
+    })
+}
