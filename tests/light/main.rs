@@ -7,6 +7,7 @@
 mod common;
 
 mod cycles;
+mod density;
 mod light_model;
 mod lights;
 mod phase;

@@ -1,0 +1,201 @@
+//! A heterogeneous medium (issue #61): σt(x) = `sigma_t` · density(x) from the `density` Volume,
+//! the light attenuated by the density between each point and the light, and the view ray
+//! marched through the varying σt. The CPU reference (an independent march towards the light
+//! from every sample) and the GPU passes (`shaders/single_scattering/density.wgsl`).
+//!
+//! Light transmittance: a volume over the density's box, `transmittance_resolution` texels on
+//! its longest side, each texel the light's transmittance from its centre to the box's boundary
+//! (or to a lamp inside it), e^{−σt Σ density Δ} over `light_steps` midpoints; a sample reads it
+//! trilinearly. Built once per run, for any light (a spot's and a point light's rays converge on
+//! the light, the sun's are parallel). Both are quality knobs, measured in the `density` bench.
+
+use super::{medium_segment, Bind, GpuError, NodeError, PixelResult, Raster, ScatterParams, Vec3};
+use crate::algorithms::shader_lib::{henyey_greenstein, light_uvz, sun_reaches};
+use tyndall_engine::gpu::{GpuVolume, Recorder, Shader};
+
+/// The density passes.
+pub(super) const DENSITY: Shader = crate::shader(
+    "single_scattering/density",
+    include_str!("../../shaders/single_scattering/density.wgsl"),
+);
+
+tyndall_engine::uniforms! {
+    /// Uniforms of `shaders/single_scattering/density.wgsl` (struct `DensityView`).
+    pub struct DensityView as "DensityView" {
+        /// The density volume's world box, low corner, m.
+        pub lo: [f32; 3],
+        /// Samples per light ray of the transmittance volume.
+        pub light_steps: u32,
+        /// High corner, m.
+        pub hi: [f32; 3],
+        /// Padding.
+        pub _pad0: u32,
+    }
+}
+
+/// A density on the CPU: level 0 of a Volume and its world box.
+#[derive(Debug, Clone)]
+pub struct Density {
+    /// Texels along x, y, z.
+    pub size: [u32; 3],
+    /// Values, x fastest.
+    pub data: Vec<f32>,
+    /// World box `[min, max]`.
+    pub bounds: [[f32; 3]; 2],
+}
+
+impl Density {
+    /// The density at world point `x`: trilinear between texel centres, the edge texels held
+    /// over the outer half texel, 0 outside the box (the shader's `box_trilinear`).
+    pub fn at(&self, x: Vec3) -> f32 {
+        let [lo, hi] = self.bounds.map(Vec3::from);
+        let u = (x - lo) / (hi - lo).max(Vec3::splat(1e-12));
+        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
+            return 0.0;
+        }
+        let n = self.size.map(|v| v as i64);
+        let q = [0, 1, 2].map(|k| u[k] * n[k] as f32 - 0.5);
+        let b = q.map(|v| v.floor() as i64);
+        let f = [0, 1, 2].map(|k| q[k] - q[k].floor());
+        let at = |o: [i64; 3]| {
+            let c: [i64; 3] = std::array::from_fn(|k| (b[k] + o[k]).clamp(0, n[k] - 1));
+            self.data[((c[2] * n[1] + c[1]) * n[0] + c[0]) as usize]
+        };
+        let mut v = 0.0;
+        for k in 0..8 {
+            let o = [(k & 1) as i64, ((k >> 1) & 1) as i64, ((k >> 2) & 1) as i64];
+            let w: f32 = (0..3)
+                .map(|a| if o[a] == 1 { f[a] } else { 1.0 - f[a] })
+                .product();
+            v += w * at(o);
+        }
+        v.max(0.0)
+    }
+
+    /// Where a ray from `o` along `d` is inside the box: `[t0, t1]` (t1 < t0 when it misses).
+    pub fn segment(&self, o: Vec3, d: Vec3) -> (f32, f32) {
+        let (mut t0, mut t1) = (f32::MIN, f32::MAX);
+        for k in 0..3 {
+            let (lo, hi) = (self.bounds[0][k], self.bounds[1][k]);
+            if d[k] != 0.0 {
+                let (a, b) = ((lo - o[k]) / d[k], (hi - o[k]) / d[k]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            } else if o[k] < lo || o[k] > hi {
+                return (0.0, -1.0);
+            }
+        }
+        (t0, t1)
+    }
+}
+
+/// CPU reference of the light reaching `x` through the density: e^{−σt ∫ density} from x to
+/// the box's boundary towards the light (or to a lamp inside it), `m` midpoints — marched from
+/// x itself, not read from a transmittance volume.
+pub fn light_transmittance(p: &ScatterParams, density: &Density, x: Vec3, m: u32) -> f32 {
+    let (d, far) = match p.local() {
+        Some(l) => {
+            let v = l.position() - x;
+            (v.normalize_or(Vec3::Y), v.length())
+        }
+        None => (p.to_sun(), f32::MAX),
+    };
+    let (_, t1) = density.segment(x, d);
+    let len = t1.min(far).max(0.0);
+    let delta = len / m as f32;
+    let tau: f32 = (0..m)
+        .map(|i| density.at(x + d * ((i as f32 + 0.5) * delta)))
+        .sum();
+    (-p.sigma_t * tau * delta).exp()
+}
+
+/// CPU reference of one pixel through the density (the oracle of the GPU passes): `steps`
+/// samples of the medium's part of the view ray inside the density's box, each lit by the
+/// shadow map's test times [`light_transmittance`] with `light_steps` midpoints, with the
+/// Henyey–Greenstein phase function (`p.g`); `s` the pixel's depth.
+pub fn density_reference_pixel(
+    p: &ScatterParams,
+    shadow: &Raster,
+    density: &Density,
+    s: f32,
+    (x, y): (u32, u32),
+    (w, h): (u32, u32),
+    light_steps: u32,
+) -> PixelResult {
+    let inv = glam::Mat4::from_cols_array_2d(&p.inv_view_proj);
+    let eye = Vec3::from(p.eye);
+    let dir = tyndall_engine::eval::pixel_ray(inv, eye, x, y, w, h);
+    let (a, b) = medium_segment(p, dir, s);
+    let (da, db) = density.segment(eye, dir);
+    let (t0, t1) = (a.max(da), b.min(db));
+    let len = (t1 - t0).max(0.0);
+    let hash = crate::algorithms::shader_lib::pixel_jitter(x, y) + p.jitter_phase;
+    let offset = p.jitter * ((hash - hash.floor()) - 0.5);
+    let delta = len / p.steps as f32;
+    let lvp = glam::Mat4::from_cols_array_2d(&p.light.view_proj);
+    let (mut tr, mut lit, mut acc) = (1.0f32, 0.0f32, [0.0f32; 3]);
+    for i in 0..p.steps {
+        let t = t0 + (i as f32 + 0.5 + offset) * delta;
+        let xs = eye + dir * t;
+        let sigma = p.sigma_t * density.at(xs);
+        let (v, f) = match p.local() {
+            Some(l) => {
+                let uvz = l.uvz(lvp, xs).unwrap_or(Vec3::new(-1.0, -1.0, 2.0));
+                let cos = dir.dot((l.position() - xs).normalize_or_zero());
+                (
+                    sun_reaches(shadow, uvz, p.bias),
+                    henyey_greenstein(p.g, cos) * l.falloff(xs),
+                )
+            }
+            None => (
+                sun_reaches(shadow, light_uvz(lvp, xs), p.bias),
+                henyey_greenstein(p.g, dir.dot(p.to_sun())),
+            ),
+        };
+        let light = if v {
+            light_transmittance(p, density, xs, light_steps)
+        } else {
+            0.0
+        };
+        lit += light;
+        let absorbed = 1.0 - (-sigma * delta).exp();
+        for (c, a) in acc.iter_mut().enumerate() {
+            *a += p.light.radiance[c] * p.albedo * f * light * tr * absorbed;
+        }
+        tr *= (-sigma * delta).exp();
+    }
+    let vbar = if len > 0.0 { lit / p.steps as f32 } else { 1.0 };
+    (vbar, acc, tr)
+}
+
+/// The light transmittance volume over the density's box: `resolution` texels on its longest
+/// side (at least 2 on every side).
+pub(super) fn build_light_transmittance(
+    gpu: &Recorder,
+    binds: &[(&str, Bind)],
+    bounds: [[f32; 3]; 2],
+    resolution: u32,
+) -> Result<GpuVolume, GpuError> {
+    let ext = [0, 1, 2].map(|k| (bounds[1][k] - bounds[0][k]).max(0.0));
+    let longest = ext.iter().copied().fold(0.0f32, f32::max).max(1e-12);
+    let size =
+        ext.map(|e| ((e / longest * resolution as f32).round() as u32).clamp(2, resolution.max(2)));
+    let v = gpu.volume(size)?;
+    let mut b = binds.to_vec();
+    b.push(("out_light_tr", Bind::VolumeLevel(&v, 0)));
+    gpu.dispatch_3d(DENSITY, "light_transmittance", &b, size)?;
+    Ok(v)
+}
+
+/// Refuse what the density path does not do.
+pub(super) fn check(light_map: bool) -> Result<(), NodeError> {
+    if light_map {
+        return Err(NodeError::Input {
+            port: "light_map".into(),
+            message: "cannot be combined with a density (the density path does not read a light \
+                      map yet): disconnect one"
+                .into(),
+        });
+    }
+    Ok(())
+}

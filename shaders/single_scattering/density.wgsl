@@ -1,0 +1,150 @@
+// SingleScattering with a density volume (nodes/single_scattering/density.rs): σt(x) =
+// sigma_t · density(x) inside the volume's box, the light reaching a point attenuated by the
+// density between it and the light (a light-space transmittance volume built once per run),
+// the view ray marched through the varying σt.
+#import single_scattering/common
+
+struct DensityView {
+    // The density volume's world box (the light transmittance volume covers the same box).
+    lo: vec3<f32>,
+    // Samples per light ray of the transmittance volume (midpoints).
+    light_steps: u32,
+    hi: vec3<f32>,
+    _pad0: u32,
+}
+
+@group(0) @binding(20) var density_volume: texture_3d<f32>;
+@group(0) @binding(21) var light_tr: texture_3d<f32>;
+@group(0) @binding(22) var<uniform> D: DensityView;
+@group(0) @binding(23) var out_light_tr: texture_storage_3d<r32float, write>;
+
+// A volume covering D's box at world point x: trilinear between texel centres ((i + ½)/n of
+// the box), the edge texels held over the outer half texel; 0 outside the box.
+fn box_trilinear(v: texture_3d<f32>, x: vec3<f32>, outside: f32) -> f32 {
+    let u = (x - D.lo) / max(D.hi - D.lo, vec3<f32>(1e-12));
+    if any(u < vec3<f32>(0.0)) || any(u > vec3<f32>(1.0)) {
+        return outside;
+    }
+    let n = vec3<i32>(textureDimensions(v, 0));
+    let q = u * vec3<f32>(n) - 0.5;
+    let b = vec3<i32>(floor(q));
+    let f = q - floor(q);
+    let i0 = clamp(b, vec3<i32>(0), n - 1);
+    let i1 = clamp(b + 1, vec3<i32>(0), n - 1);
+    let c000 = textureLoad(v, vec3<i32>(i0.x, i0.y, i0.z), 0).r;
+    let c100 = textureLoad(v, vec3<i32>(i1.x, i0.y, i0.z), 0).r;
+    let c010 = textureLoad(v, vec3<i32>(i0.x, i1.y, i0.z), 0).r;
+    let c110 = textureLoad(v, vec3<i32>(i1.x, i1.y, i0.z), 0).r;
+    let c001 = textureLoad(v, vec3<i32>(i0.x, i0.y, i1.z), 0).r;
+    let c101 = textureLoad(v, vec3<i32>(i1.x, i0.y, i1.z), 0).r;
+    let c011 = textureLoad(v, vec3<i32>(i0.x, i1.y, i1.z), 0).r;
+    let c111 = textureLoad(v, vec3<i32>(i1.x, i1.y, i1.z), 0).r;
+    let y0 = mix(mix(c000, c100, f.x), mix(c010, c110, f.x), f.y);
+    let y1 = mix(mix(c001, c101, f.x), mix(c011, c111, f.x), f.y);
+    return mix(y0, y1, f.z);
+}
+
+fn density_at(x: vec3<f32>) -> f32 {
+    return max(box_trilinear(density_volume, x, 0.0), 0.0);
+}
+
+// The unit direction from x towards the light, and how far the light is (the sun: unbounded).
+fn to_light(x: vec3<f32>) -> vec4<f32> {
+    if LOCAL && P.light.kind != 0u {
+        let l = P.light.position - x;
+        let r = length(l);
+        return vec4<f32>(select(vec3<f32>(0.0, 1.0, 0.0), l / r, r > 0.0), r);
+    }
+    return vec4<f32>(towards_sun(P.light), 1e30);
+}
+
+// Distance from x along unit d to where it leaves D's box (0 when it starts outside going out).
+fn box_exit(x: vec3<f32>, d: vec3<f32>) -> f32 {
+    var t = 1e30;
+    for (var k = 0; k < 3; k++) {
+        if d[k] > 0.0 {
+            t = min(t, (D.hi[k] - x[k]) / d[k]);
+        } else if d[k] < 0.0 {
+            t = min(t, (D.lo[k] - x[k]) / d[k]);
+        }
+    }
+    return max(t, 0.0);
+}
+
+// The light's transmittance through the density from texel (i, j, k)'s centre to the box's
+// boundary (or to a lamp inside it): e^{−σt Σ density(x_m) Δ}, midpoints of `light_steps`
+// equal intervals.
+@compute @workgroup_size(4, 4, 4)
+fn light_transmittance(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = textureDimensions(out_light_tr);
+    if any(id >= n) {
+        return;
+    }
+    let x = D.lo + (vec3<f32>(id) + 0.5) / vec3<f32>(n) * (D.hi - D.lo);
+    let l = to_light(x);
+    let len = min(box_exit(x, l.xyz), l.w);
+    let m = max(D.light_steps, 1u);
+    let delta = len / f32(m);
+    var tau = 0.0;
+    for (var i = 0u; i < m; i++) {
+        tau += density_at(x + l.xyz * ((f32(i) + 0.5) * delta));
+    }
+    textureStore(out_light_tr, id, vec4<f32>(exp(-P.sigma_t * tau * delta), 0.0, 0.0, 1.0));
+}
+
+// BruteForce through the density: `steps` samples at the centres of equal intervals of the
+// ray's part inside the medium and the box. Sample i stands for its interval Δ with σ_i =
+// σt · density(x_i): it adds ρ f(θ) L_i T_i (1 − e^{−σ_i Δ}), T_i the view ray's transmittance
+// up to the interval, L_i = V(x_i) · T_light(x_i) (· a lamp's falloff); T_{i+1} = T_i e^{−σ_i Δ}.
+// `visibility` is the mean of V · T_light over the samples (the mean light reaching them).
+@compute @workgroup_size(8, 8)
+fn brute_force_density(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(depth);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let dir = view_ray(id.xy, size);
+    let s = textureLoad(depth, id.xy, 0).r;
+    // The medium's part of [0, s], clipped to the density's box.
+    let seg = medium_segment(dir, s);
+    var t0 = seg.x;
+    var t1 = seg.y;
+    for (var k = 0; k < 3; k++) {
+        if dir[k] != 0.0 {
+            let a = (D.lo[k] - P.eye[k]) / dir[k];
+            let b = (D.hi[k] - P.eye[k]) / dir[k];
+            t0 = max(t0, min(a, b));
+            t1 = min(t1, max(a, b));
+        } else if P.eye[k] < D.lo[k] || P.eye[k] > D.hi[k] {
+            t1 = t0 - 1.0;
+        }
+    }
+    let len = max(t1 - t0, 0.0);
+    let offset = P.jitter * (fract(pixel_jitter(id.x, id.y) + P.jitter_phase) - 0.5);
+    let delta = len / f32(P.steps);
+    var tr = 1.0;
+    var lit = 0.0;
+    var acc = vec3<f32>(0.0);
+    for (var i = 0u; i < P.steps; i++) {
+        let t = t0 + (f32(i) + 0.5 + offset) * delta;
+        let x = P.eye + dir * t;
+        let sigma = P.sigma_t * density_at(x);
+        let light = visible(x) * box_trilinear(light_tr, x, 1.0);
+        lit += light;
+        let absorbed = 1.0 - exp(-sigma * delta);
+        if light > 0.0 && absorbed > 0.0 {
+            var f: vec3<f32>;
+            if LOCAL && P.light.kind != 0u {
+                f = phase(dot(dir, normalize(P.light.position - x))) * local_falloff(x);
+            } else {
+                f = phase(dot(dir, towards_sun(P.light)));
+            }
+            acc += f * (light * tr * absorbed);
+        }
+        tr *= exp(-sigma * delta);
+    }
+    let vbar = select(1.0, lit / f32(P.steps), len > 0.0);
+    textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
+    textureStore(out_inscatter, id.xy, vec4<f32>(P.light.radiance * P.albedo * acc, 1.0));
+    textureStore(out_transmittance, id.xy, vec4<f32>(tr, 0.0, 0.0, 1.0));
+}
