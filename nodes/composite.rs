@@ -12,7 +12,11 @@
 //! unmodified map: only the scattering sees a manipulated one. When the map is a spot's or
 //! point light's, `E · max(0, n·l)` becomes `I · a(x) · max(0, n·l(x))`: its intensity (W/sr)
 //! times glTF's falloff at the surface point (inverse square, cone, range) and l(x) the
-//! direction from the point to the light. Several lights: one `Composite` per light, summed
+//! direction from the point to the light. With `light_transmittance` connected (SingleScattering's
+//! output of that name, with a density) the direct light is also multiplied by the light's
+//! transmittance through the smoke seen from the surface point towards the light — read at the
+//! point inside the density's box, where the ray towards the light enters the box from outside,
+//! 1 when it misses it: the ground under a plume lies in its shadow. Several lights: one `Composite` per light, summed
 //! (`Math`, `op = add`), with the ambient in one of them.
 //!
 //! | port | dir | type |
@@ -24,6 +28,7 @@
 //! | `transmittance` | in | Scalar (optional) |
 //! | `aerial_transmittance`, `aerial_inscatter` | in | Image (optional, from `Sky`) |
 //! | `light_map` | in | LightMap (optional, from `LightMap`) |
+//! | `light_transmittance` | in | Volume (optional, from `SingleScattering` with a density) |
 //! | `image` | out | Image (linear RGB, alpha 1) |
 //!
 //! | param | type | default | range | |
@@ -72,6 +77,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("aerial_transmittance", &[PortType::Image], "Per-channel attenuation by the atmosphere (Sky.transmittance), applied last."),
         PortSpec::input("aerial_inscatter", &[PortType::Image], "The atmosphere's in-scatter and sky (Sky.inscatter), added last."),
         PortSpec::input("light_map", &[PortType::LightMap], "Light map multiplying the sun on surfaces (unconnected: 1), as SingleScattering.light_map does for the medium."),
+        PortSpec::input("light_transmittance", &[PortType::Volume], "The light's transmittance through a density (SingleScattering.light_transmittance): surfaces under the smoke are shadowed by it (unconnected: 1)."),
     ],
     outputs: &[PortSpec::output("image", &[PortType::Image], "Linear radiance.")],
     params: Params::SPECS,
@@ -102,8 +108,8 @@ tyndall_engine::uniforms! {
         pub has_aerial_inscatter: u32,
         /// 1 when a light map is connected.
         pub has_light_map: u32,
-        /// Padding.
-        pub _pad0: u32,
+        /// 1 when a light transmittance volume is connected.
+        pub has_light_transmittance: u32,
         /// Padding.
         pub _pad1: u32,
         /// Ambient colour.
@@ -112,6 +118,14 @@ tyndall_engine::uniforms! {
         pub sky: [f32; 4],
         /// World → light-map clip (identity without one).
         pub light_map_view_proj: [[f32; 4]; 4],
+        /// The light transmittance volume's box, low corner, m.
+        pub tr_lo: [f32; 3],
+        /// Padding.
+        pub _pad2: u32,
+        /// High corner, m.
+        pub tr_hi: [f32; 3],
+        /// Padding.
+        pub _pad3: u32,
         /// The shadow map's light: the sun, or a spot or point light lighting each point by
         /// its falloff and direction.
         pub light: LightBlock,
@@ -138,6 +152,8 @@ pub struct RefInputs<'a> {
     pub aerial_inscatter: Option<&'a Raster>,
     /// `light_map` (RGB) and its projection, if connected.
     pub light_map: Option<(&'a Raster, &'a Matrices)>,
+    /// `light_transmittance`, if connected.
+    pub light_transmittance: Option<&'a crate::algorithms::box_volume::BoxVolume>,
 }
 
 /// CPU reference of the node (the formula of the module docs, as `shaders/composite.wgsl`
@@ -196,7 +212,11 @@ pub fn reference(i: &RefInputs, ambient: [f32; 3], sky: [f32; 3], bias: f32, pcf
                     .dot(to_light)
                     .max(0.0)
                     * falloff;
-                let (m, s) = (sun_colour(p), surface_shadow(p));
+                let through = i.light_transmittance.map_or(1.0, |v| match light.local {
+                    Some(l) => v.towards(p, to_light, (l.position() - p).length()),
+                    None => v.towards(p, to_light, f32::MAX),
+                });
+                let (m, s) = (sun_colour(p), surface_shadow(p) * through);
                 std::array::from_fn(|c| {
                     a[c] * (ambient[c] + light.radiance[c] * m[c] * lambert * s)
                 })
@@ -255,6 +275,8 @@ impl NodeKind for Composite {
             .input("aerial_inscatter")
             .and_then(|v| v.texture().cloned());
         let light_map = ctx.light_map_opt("light_map")?;
+        let light_tr = ctx.volume_opt("light_transmittance")?;
+        let tr_box = light_tr.as_ref().map_or([[0.0; 3]; 2], |(_, b)| *b);
         let u = CompositeParams {
             inv_view_proj: cam.view_proj().inverse().to_cols_array_2d(),
             eye: cam.eye().to_array(),
@@ -265,7 +287,7 @@ impl NodeKind for Composite {
             has_aerial_transmittance: aerial_t.is_some() as u32,
             has_aerial_inscatter: aerial_l.is_some() as u32,
             has_light_map: light_map.is_some() as u32,
-            _pad0: 0,
+            has_light_transmittance: light_tr.is_some() as u32,
             _pad1: 0,
             ambient: p.ambient,
             sky: p.sky,
@@ -273,7 +295,19 @@ impl NodeKind for Composite {
                 .as_ref()
                 .map_or(glam::Mat4::IDENTITY, |(_, m)| m.view_proj())
                 .to_cols_array_2d(),
+            tr_lo: tr_box[0],
+            _pad2: 0,
+            tr_hi: tr_box[1],
+            _pad3: 0,
             light: LightBlock::of_map(&light),
+        };
+        let no_volume;
+        let light_tr_volume = match &light_tr {
+            Some((v, _)) => &**v,
+            None => {
+                no_volume = ctx.gpu.volume([1, 1, 1])?;
+                &no_volume
+            }
         };
         let out = ctx.gpu.texture(w, h, TexFormat::Rgba32F)?;
         let ins = inscatter.unwrap_or_else(|| dummy.clone());
@@ -286,6 +320,7 @@ impl NodeKind for Composite {
             "composite",
             &[
                 ("P", Bind::Uniform(bytemuck::bytes_of(&u))),
+                ("light_tr", Bind::Volume(light_tr_volume)),
                 ("albedo", Bind::Texture(&albedo)),
                 ("normal", Bind::Texture(&normal)),
                 ("depth", Bind::Texture(&depth)),

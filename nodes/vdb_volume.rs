@@ -23,6 +23,10 @@
 //! `max_resolution` texels per side (outside the grid: the background). Outside the box a
 //! density reads 0 where `SingleScattering` bounds the medium by it.
 //!
+//! **Sequences.** With a frame pattern in `path`, each run starts reading the next frame's file on
+//! a worker thread, and the next run takes that grid instead of reading it (if its file is
+//! unchanged); one frame is held ahead, so memory stays bounded over a long shot.
+//!
 //! | port | dir | type | |
 //! |---|---|---|---|
 //! | `volume` | out | Volume | the grid and its world box |
@@ -282,6 +286,75 @@ fn trilinear(grid: &VdbGrid, a: DVec3) -> f32 {
     v as f32
 }
 
+/// Sequences: the next frame's grid, read on a worker thread while the current frame renders.
+/// One entry (the frame after the last one read) per process, so memory stays bounded over a
+/// long shot; an entry is used only if the file's stamp is unchanged.
+mod prefetch {
+    use std::sync::{Arc, Mutex, OnceLock};
+    use tyndall_engine::io::VdbGrid;
+
+    /// What was read ahead: (path, grid, limit, file stamp) and the result.
+    type Slot = Option<((String, String, u32, u64), Arc<Mutex<Option<VdbGrid>>>)>;
+
+    fn slot() -> &'static Mutex<Slot> {
+        static SLOT: OnceLock<Mutex<Slot>> = OnceLock::new();
+        SLOT.get_or_init(|| Mutex::new(None))
+    }
+
+    static HITS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+    /// How many runs found their grid read ahead (for tests and `--stats` readers).
+    pub fn hits() -> u64 {
+        HITS.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn stamp(path: &str) -> u64 {
+        tyndall_engine::eval::file_stamp(std::path::Path::new(path))
+    }
+
+    /// The grid read ahead for this request, waiting for the worker if it is still reading.
+    pub fn take(path: &str, grid: &str, limit: u32) -> Option<VdbGrid> {
+        let key = (path.to_string(), grid.to_string(), limit, stamp(path));
+        let entry = {
+            let mut s = slot().lock().unwrap_or_else(|e| e.into_inner());
+            match s.take() {
+                Some((k, v)) if k == key => v,
+                other => {
+                    *s = other;
+                    return None;
+                }
+            }
+        };
+        let got = entry.lock().unwrap_or_else(|e| e.into_inner()).take();
+        if got.is_some() {
+            HITS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        got
+    }
+
+    /// Start reading `path`'s grid on a worker thread (replacing what was read ahead before).
+    pub fn start(path: String, grid: String, limit: u32) {
+        if !std::path::Path::new(&path).is_file() {
+            return;
+        }
+        let result = Arc::new(Mutex::new(None));
+        // The worker holds the result's lock while it reads, so a `take` waits for it.
+        let worker = result.clone();
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let key = (path.clone(), grid.clone(), limit, stamp(&path));
+        std::thread::spawn(move || {
+            let mut held = worker.lock().unwrap_or_else(|e| e.into_inner());
+            let _ = ready_tx.send(());
+            *held =
+                tyndall_engine::io::read_vdb_grid(std::path::Path::new(&path), &grid, limit).ok();
+        });
+        let _ = ready_rx.recv();
+        *slot().lock().unwrap_or_else(|e| e.into_inner()) = Some((key, result));
+    }
+}
+
+pub use prefetch::hits as prefetch_hits;
+
 /// `path` with its frame pattern replaced by the frame (the rendered frame, else the time
 /// rounded); as written when it has none.
 fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
@@ -329,8 +402,17 @@ impl NodeKind for VdbVolume {
         }
         let limit = ctx.side("max_resolution", prm.max_resolution, 3)?;
         ctx.report(0, 2, format!("reading {path}"));
-        let grid = tyndall_engine::io::read_vdb_grid(Path::new(&path), prm.grid.trim(), limit)
-            .map_err(|e| NodeError::BadFile(e.to_string()))?;
+        let grid = match prefetch::take(&path, prm.grid.trim(), limit) {
+            Some(g) => g,
+            None => tyndall_engine::io::read_vdb_grid(Path::new(&path), prm.grid.trim(), limit)
+                .map_err(|e| NodeError::BadFile(e.to_string()))?,
+        };
+        // A sequence: read the next frame's file while this frame renders.
+        if tyndall_engine::eval::with_frame(&prm.path, 0).is_some() {
+            let next = ctx.frame.unwrap_or(ctx.time.round() as i64) + 1;
+            let next_path = frame_path(&prm.path, Some(next), ctx.time);
+            prefetch::start(next_path, prm.grid.trim().to_string(), limit);
+        }
         if grid.reduce > 1 {
             let [x, y, z] = grid.active_dims;
             ctx.note(format!(

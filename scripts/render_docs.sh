@@ -31,6 +31,7 @@ cp out/forest_temporal_0048.png docs/medium/forest_temporal.png
 ./target/release/tyndall render graphs/medium/workshop_dust.ron -o docs/medium/workshop_dust.png --size 960x540
 ./target/release/tyndall render graphs/medium/fence_painted.ron -o docs/medium/fence_painted.png --size 960x540
 ./target/release/tyndall render graphs/medium/tree_intensity.ron -o docs/medium/tree_intensity.png --size 960x540
+./target/release/tyndall render graphs/medium/forest_smoke.ron -o docs/medium/forest_smoke.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180

@@ -3,6 +3,7 @@
 #import lib/camera
 #import lib/sampling
 #import lib/shadow
+#import lib/box_volume
 
 struct Params {
     inv_view_proj: mat4x4<f32>,
@@ -14,11 +15,16 @@ struct Params {
     has_aerial_transmittance: u32,
     has_aerial_inscatter: u32,
     has_light_map: u32,
-    _pad0: u32,
+    has_light_transmittance: u32,
     _pad1: u32,
     ambient: vec4<f32>,
     sky: vec4<f32>,
     light_map_view_proj: mat4x4<f32>,
+    // The light transmittance volume's box (SingleScattering with a density).
+    tr_lo: vec3<f32>,
+    _pad2: u32,
+    tr_hi: vec3<f32>,
+    _pad3: u32,
     // The shadow map's light (lib/shadow.wgsl).
     light: Light,
 }
@@ -34,6 +40,7 @@ struct Params {
 @group(0) @binding(8) var aerial_transmittance: texture_2d<f32>;
 @group(0) @binding(9) var aerial_inscatter: texture_2d<f32>;
 @group(0) @binding(10) var light_map: texture_2d<f32>;
+@group(0) @binding(11) var light_tr: texture_3d<f32>;
 
 // The light map's colour at world point `x` (1 when none is connected): bilinear, texel centres
 // at (i + 0.5)/size, clamped to the edge, as SingleScattering reads it for the medium.
@@ -84,11 +91,17 @@ fn composite(@builtin(global_invocation_id) id: vec3<u32>) {
         let n = textureLoad(normal, id.xy, 0).xyz;
         var to_light = towards_sun(P.light);
         var falloff = 1.0;
+        var far = 1e30;
         if P.light.kind != 0u {
             to_light = normalize(P.light.position - x);
             falloff = light_falloff(P.light, x);
+            far = length(P.light.position - x);
         }
-        let direct = P.light.radiance * sun_colour(x) * (max(dot(n, to_light), 0.0) * falloff) * surface_shadow(x);
+        var through = 1.0;
+        if P.has_light_transmittance != 0u {
+            through = box_towards(light_tr, P.tr_lo, P.tr_hi, x, to_light, far);
+        }
+        let direct = P.light.radiance * sun_colour(x) * (max(dot(n, to_light), 0.0) * falloff) * (surface_shadow(x) * through);
         colour = a.rgb * (P.ambient.rgb + direct);
     } else {
         colour = P.sky.rgb;

@@ -6,6 +6,7 @@
 //! WGSL library ([`shader_lib`], mirroring `shaders/lib/`). Nothing here is a node and nothing
 //! here names one; nodes call it, and a kind that dispatches a shared pass lists its shader.
 
+pub mod box_volume;
 pub mod cgls;
 pub mod cube_atlas;
 pub mod g_buffer;

@@ -10,6 +10,7 @@
 //! the light, the sun's are parallel). Both are quality knobs, measured in the `density` bench.
 
 use super::{medium_segment, Bind, GpuError, NodeError, PixelResult, Raster, ScatterParams, Vec3};
+pub use crate::algorithms::box_volume::BoxVolume as Density;
 use crate::algorithms::shader_lib::{henyey_greenstein, light_uvz, sun_reaches};
 use tyndall_engine::gpu::{GpuVolume, Recorder, Shader};
 
@@ -30,62 +31,6 @@ tyndall_engine::uniforms! {
         pub hi: [f32; 3],
         /// Padding.
         pub _pad0: u32,
-    }
-}
-
-/// A density on the CPU: level 0 of a Volume and its world box.
-#[derive(Debug, Clone)]
-pub struct Density {
-    /// Texels along x, y, z.
-    pub size: [u32; 3],
-    /// Values, x fastest.
-    pub data: Vec<f32>,
-    /// World box `[min, max]`.
-    pub bounds: [[f32; 3]; 2],
-}
-
-impl Density {
-    /// The density at world point `x`: trilinear between texel centres, the edge texels held
-    /// over the outer half texel, 0 outside the box (the shader's `box_trilinear`).
-    pub fn at(&self, x: Vec3) -> f32 {
-        let [lo, hi] = self.bounds.map(Vec3::from);
-        let u = (x - lo) / (hi - lo).max(Vec3::splat(1e-12));
-        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
-            return 0.0;
-        }
-        let n = self.size.map(|v| v as i64);
-        let q = [0, 1, 2].map(|k| u[k] * n[k] as f32 - 0.5);
-        let b = q.map(|v| v.floor() as i64);
-        let f = [0, 1, 2].map(|k| q[k] - q[k].floor());
-        let at = |o: [i64; 3]| {
-            let c: [i64; 3] = std::array::from_fn(|k| (b[k] + o[k]).clamp(0, n[k] - 1));
-            self.data[((c[2] * n[1] + c[1]) * n[0] + c[0]) as usize]
-        };
-        let mut v = 0.0;
-        for k in 0..8 {
-            let o = [(k & 1) as i64, ((k >> 1) & 1) as i64, ((k >> 2) & 1) as i64];
-            let w: f32 = (0..3)
-                .map(|a| if o[a] == 1 { f[a] } else { 1.0 - f[a] })
-                .product();
-            v += w * at(o);
-        }
-        v.max(0.0)
-    }
-
-    /// Where a ray from `o` along `d` is inside the box: `[t0, t1]` (t1 < t0 when it misses).
-    pub fn segment(&self, o: Vec3, d: Vec3) -> (f32, f32) {
-        let (mut t0, mut t1) = (f32::MIN, f32::MAX);
-        for k in 0..3 {
-            let (lo, hi) = (self.bounds[0][k], self.bounds[1][k]);
-            if d[k] != 0.0 {
-                let (a, b) = ((lo - o[k]) / d[k], (hi - o[k]) / d[k]);
-                t0 = t0.max(a.min(b));
-                t1 = t1.min(a.max(b));
-            } else if o[k] < lo || o[k] > hi {
-                return (0.0, -1.0);
-            }
-        }
-        (t0, t1)
     }
 }
 

@@ -148,14 +148,21 @@ pub(super) struct Inputs<'a> {
     pub density: Option<(&'a tyndall_engine::gpu::GpuVolume, [[f32; 3]; 2])>,
 }
 
-/// The method's passes: `[visibility, in-scatter, transmittance]`. Placeholders fill the
-/// bindings of unconnected inputs; pipeline constants compile away what is off.
+/// The outputs of a run: `[visibility, in-scatter, transmittance]`, and with a density the light
+/// transmittance volume and its box.
+type Scattered = (
+    [GpuTexture; 3],
+    Option<(tyndall_engine::gpu::GpuVolume, [[f32; 3]; 2])>,
+);
+
+/// The method's passes. Placeholders fill the bindings of unconnected inputs; pipeline constants
+/// compile away what is off.
 pub(super) fn scatter(
     gpu: &Recorder,
     u: &ScatterParams,
     i: &Inputs,
     p: &Params,
-) -> Result<[GpuTexture; 3], NodeError> {
+) -> Result<Scattered, NodeError> {
     let (w, h) = (i.depth.width, i.depth.height);
     let vis = gpu.texture(w, h, TexFormat::R32F)?;
     let ins = gpu.texture(w, h, TexFormat::Rgba32F)?;
@@ -235,7 +242,7 @@ pub(super) fn scatter(
             (w, h),
             &constants,
         )?;
-        return Ok([vis, ins, tr]);
+        return Ok(([vis, ins, tr], Some((light_tr, bounds))));
     }
     let lamp_light_map = u.light.kind != 0 && i.light_map.is_some();
     let point_min_max = u.light.kind == 2 && p.method == Method::Epipolar;
@@ -251,7 +258,7 @@ pub(super) fn scatter(
         binds.push(("light_map", Bind::Texture(map)));
         binds.push(("LM", Bind::Uniform(bytemuck::bytes_of(&lm))));
         gpu.dispatch_with(BRUTE_FORCE, "brute_force", &binds, (w, h), &constants)?;
-        return Ok([vis, ins, tr]);
+        return Ok(([vis, ins, tr], None));
     }
     // MinMax traverses the pyramid; Epipolar's fall-back rays do too.
     let (levels, atlas) = build_pyramid(gpu, i.shadow)?;
@@ -268,5 +275,5 @@ pub(super) fn scatter(
         };
         dispatch_epipolar(gpu, u, knobs, i.shadow, (w, h), &binds)?;
     }
-    Ok([vis, ins, tr])
+    Ok(([vis, ins, tr], None))
 }

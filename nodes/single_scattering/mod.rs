@@ -111,6 +111,7 @@
 //! | `depth` | out | Depth | the input depth, passed on for transfer functions |
 //! | `inscatter` | out | Image | L_scat, W/(m²·sr) (linear RGB, alpha 1) |
 //! | `transmittance` | out | Scalar | e^{−sσt}, for compositing surfaces behind the medium |
+//! | `light_transmittance` | out | Volume | with a density, the light's transmittance through it over its box (for `Composite`, so surfaces under the smoke are shadowed by it); without one, a 1×1×1 volume of 1 |
 //!
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
@@ -235,6 +236,7 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::output("depth", &[PortType::Depth], "The input depth, passed on."),
         PortSpec::output("inscatter", &[PortType::Image], "In-scattered radiance, W/(m²·sr) (linear RGB)."),
         PortSpec::output("transmittance", &[PortType::Scalar], "e^(−s σt) along the view ray."),
+        PortSpec::output("light_transmittance", &[PortType::Volume], "With a density: the light's transmittance through it over the density's box (Composite's light_transmittance shadows surfaces by the smoke); without one: 1."),
     ],
     params: Params::SPECS,
 })
@@ -405,7 +407,18 @@ impl NodeKind for SingleScattering {
             light_map: light_map.as_ref().map(|(t, m)| (&**t, *m)),
             density: density.as_ref().map(|(v, b)| (&**v, *b)),
         };
-        let [vis, ins, tr] = gpu::scatter(ctx.gpu, &u, &inputs, &p)?;
+        let ([vis, ins, tr], light_tr) = gpu::scatter(ctx.gpu, &u, &inputs, &p)?;
+        let light_tr = match light_tr {
+            Some(v) => Some(v),
+            // Without a density the light crosses nothing: a volume of 1, made when wanted.
+            None if ctx.wants("light_transmittance") => {
+                Some((ctx.gpu.upload_volume([1, 1, 1], &[1.0])?, [[0.0; 3]; 2]))
+            }
+            None => None,
+        };
+        if let Some((v, b)) = light_tr {
+            ctx.set("light_transmittance", PortValue::Volume(Arc::new(v), b));
+        }
         ctx.set("visibility", PortValue::Scalar(Arc::new(vis)));
         ctx.set("inscatter", PortValue::Image(Arc::new(ins)));
         ctx.set("transmittance", PortValue::Scalar(Arc::new(tr)));

@@ -3,6 +3,7 @@
 // density between it and the light (a light-space transmittance volume built once per run),
 // the view ray marched through the varying σt.
 #import single_scattering/common
+#import lib/box_volume
 
 struct DensityView {
     // The density volume's world box (the light transmittance volume covers the same box).
@@ -18,34 +19,8 @@ struct DensityView {
 @group(0) @binding(22) var<uniform> D: DensityView;
 @group(0) @binding(23) var out_light_tr: texture_storage_3d<r32float, write>;
 
-// A volume covering D's box at world point x: trilinear between texel centres ((i + ½)/n of
-// the box), the edge texels held over the outer half texel; 0 outside the box.
-fn box_trilinear(v: texture_3d<f32>, x: vec3<f32>, outside: f32) -> f32 {
-    let u = (x - D.lo) / max(D.hi - D.lo, vec3<f32>(1e-12));
-    if any(u < vec3<f32>(0.0)) || any(u > vec3<f32>(1.0)) {
-        return outside;
-    }
-    let n = vec3<i32>(textureDimensions(v, 0));
-    let q = u * vec3<f32>(n) - 0.5;
-    let b = vec3<i32>(floor(q));
-    let f = q - floor(q);
-    let i0 = clamp(b, vec3<i32>(0), n - 1);
-    let i1 = clamp(b + 1, vec3<i32>(0), n - 1);
-    let c000 = textureLoad(v, vec3<i32>(i0.x, i0.y, i0.z), 0).r;
-    let c100 = textureLoad(v, vec3<i32>(i1.x, i0.y, i0.z), 0).r;
-    let c010 = textureLoad(v, vec3<i32>(i0.x, i1.y, i0.z), 0).r;
-    let c110 = textureLoad(v, vec3<i32>(i1.x, i1.y, i0.z), 0).r;
-    let c001 = textureLoad(v, vec3<i32>(i0.x, i0.y, i1.z), 0).r;
-    let c101 = textureLoad(v, vec3<i32>(i1.x, i0.y, i1.z), 0).r;
-    let c011 = textureLoad(v, vec3<i32>(i0.x, i1.y, i1.z), 0).r;
-    let c111 = textureLoad(v, vec3<i32>(i1.x, i1.y, i1.z), 0).r;
-    let y0 = mix(mix(c000, c100, f.x), mix(c010, c110, f.x), f.y);
-    let y1 = mix(mix(c001, c101, f.x), mix(c011, c111, f.x), f.y);
-    return mix(y0, y1, f.z);
-}
-
 fn density_at(x: vec3<f32>) -> f32 {
-    return max(box_trilinear(density_volume, x, 0.0), 0.0);
+    return max(box_trilinear(density_volume, D.lo, D.hi, x, 0.0), 0.0);
 }
 
 // The unit direction from x towards the light, and how far the light is (the sun: unbounded).
@@ -129,7 +104,7 @@ fn brute_force_density(@builtin(global_invocation_id) id: vec3<u32>) {
         let t = t0 + (f32(i) + 0.5 + offset) * delta;
         let x = P.eye + dir * t;
         let sigma = P.sigma_t * density_at(x);
-        let light = visible(x) * box_trilinear(light_tr, x, 1.0);
+        let light = visible(x) * box_trilinear(light_tr, D.lo, D.hi, x, 1.0);
         lit += light;
         let absorbed = 1.0 - exp(-sigma * delta);
         if light > 0.0 && absorbed > 0.0 {

@@ -86,6 +86,7 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "TemporalAccumulate", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Tonemap", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "TransferFunction", connect: &["visibility", "depth"], fixed: &[], caps: &[("resolution", 64.0), ("diffusion_cycles", 4.0)] },
+    Entry { kind: "VdbVolume", connect: &[], fixed: &[("path", Fixed::Fixture("vdb/float.vdb"))], caps: &[] },
 ];
 
 const SIZE: (u32, u32) = (16, 9);

@@ -369,3 +369,76 @@ fn the_node_notes_filtering_and_refuses_bad_input() {
     let e = vdb_node(&gpu, &[]).expect_err("no path");
     assert!(e.to_string().contains("'path'"), "{e}");
 }
+
+/// A sequence follows the frame (`####`), and each frame after the first takes the grid read
+/// ahead on a worker thread while the frame before rendered — the same values as reading it.
+#[test]
+fn a_sequence_follows_the_frame_and_reads_ahead() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let files = ["float.vdb", "tiles.vdb", "half.vdb"];
+    for (i, f) in files.iter().enumerate() {
+        std::fs::copy(fixture(f), dir.path().join(format!("seq_{:04}.vdb", i + 1))).expect("copy");
+    }
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    let id = g.add_node(&cat, "VdbVolume").expect("node");
+    let pattern = dir.path().join("seq_####.vdb").display().to_string();
+    g.set_param(&cat, &id, "path", text(&pattern))
+        .expect("path");
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let before = vv::prefetch_hits();
+    for (i, f) in files.iter().enumerate() {
+        let frame = i as i64 + 1;
+        let opts = EvalOptions {
+            frame: Some(frame),
+            time: frame as f64,
+            ..Default::default()
+        };
+        let r = ev
+            .evaluate(&g, &[Target::Port(id.clone(), "volume".into())], &opts)
+            .expect("evaluate");
+        let PortValue::Volume(v, _) = &r.outputs[&(id.clone(), "volume".to_string())] else {
+            panic!("a volume");
+        };
+        let want = read_vdb_grid(&fixture(f), "density", 256).expect("read");
+        assert_eq!(v.size, want.dims, "frame {frame}");
+        assert_eq!(
+            gpu.recorder().read_volume(v, 0).expect("read"),
+            want.data,
+            "frame {frame}"
+        );
+    }
+    assert_eq!(
+        vv::prefetch_hits() - before,
+        2,
+        "frames 2 and 3 were read ahead"
+    );
+}
+
+/// On the command line a malformed VDB file is bad input: exit 2, the message naming the node
+/// and the file.
+#[test]
+fn the_cli_exits_2_on_a_malformed_vdb_file() {
+    let _gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bad = dir.path().join("cut.vdb");
+    let bytes = std::fs::read(fixture("tiles.vdb")).expect("read");
+    std::fs::write(&bad, &bytes[..bytes.len() / 3]).expect("write");
+    let preset = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/medium/forest_smoke.ron");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tyndall"))
+        .args(["render", &preset.display().to_string(), "--size", "32x18"])
+        .arg("--set")
+        .arg(format!("smoke.path={}", bad.display()))
+        .arg("--output-dir")
+        .arg(dir.path())
+        .output()
+        .expect("run tyndall");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("'smoke' (VdbVolume)") && err.contains("cut.vdb"),
+        "{err}"
+    );
+}
