@@ -395,3 +395,51 @@ fn composite_shadows_surfaces_by_the_smoke() {
         "the ground under the plume is in its shadow ({darker})"
     );
 }
+
+/// Extremes with a density (the stability matrix runs SingleScattering without one): every
+/// method and bounds, σt 0 and 1e4, g ±0.999, one sample, the transmittance volume's smallest and
+/// a large side (capped at 128: 512³ floats are 512 MiB on lavapipe), 1 and 1024 light steps, a
+/// density of zeros and one of huge values: outputs finite, V̄ and transmittance in [0, 1].
+#[test]
+fn extremes_with_a_density_stay_finite() {
+    let gpu = require_gpu!();
+    let blob = density(None);
+    let zeros = density(Some(0.0));
+    let huge = density(Some(1e6));
+    let e = |v: &str| ParamValue::Enum(v.into());
+    let cases: Vec<Vec<(&str, ParamValue)>> = vec![
+        vec![],
+        vec![("method", e("MinMax"))],
+        vec![("method", e("Epipolar"))],
+        vec![("bounds", e("box"))],
+        vec![("bounds", e("density"))],
+        vec![p("sigma_t", 0.0)],
+        vec![p("sigma_t", 1e4)],
+        vec![p("g", 0.999)],
+        vec![p("g", -0.999)],
+        vec![("steps", ParamValue::Int(1))],
+        vec![("transmittance_resolution", ParamValue::Int(2))],
+        vec![("transmittance_resolution", ParamValue::Int(128))],
+        vec![("light_steps", ParamValue::Int(1))],
+        vec![("light_steps", ParamValue::Int(1024))],
+        vec![p("jitter", 1.0)],
+    ];
+    // Every case on the blob with the sun; the defaults on each density with the sun and the
+    // spot (the cases' code paths do not depend on the light's kind but for its direction).
+    let mut runs: Vec<(&Density, &str, Matrices, &[(&str, ParamValue)])> = cases
+        .iter()
+        .map(|c| (&blob, "blob", sun(), c.as_slice()))
+        .collect();
+    for (d, what) in [(&blob, "blob"), (&zeros, "zeros"), (&huge, "1e6")] {
+        runs.push((d, what, spot(), &[]));
+        runs.push((d, what, sun(), &[]));
+    }
+    for (d, what, light, c) in runs {
+        let mut params = vec![("steps", ParamValue::Int(16))];
+        params.extend(c.iter().cloned());
+        let (v, ins, t) = run(&gpu, light, &shadow(Some(0.3)), Some(d), &params);
+        let ok = ins.data.iter().all(|x| x.is_finite())
+            && v.data.iter().chain(&t.data).all(|x| (0.0..=1.0).contains(x));
+        assert!(ok, "density {what}, {c:?}: not finite or out of [0, 1]");
+    }
+}
