@@ -232,22 +232,24 @@ pub fn run(
     }
     let base =
         load_file(&graph_path, registry.catalog()).map_err(|e| BenchError::Input(e.to_string()))?;
+    if suite.chain {
+        // A chain resolves its files itself, with its sinks' outputs in their own folder.
+        return chain::run(&run, &graph_path, &base, progress);
+    }
+    // The graph names its input files (a glTF shot, a VDB cache) relative to its folder, as
+    // `tyndall render` reads them.
+    let policy = PathPolicy {
+        graph_dir: graph_path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+        output_dir: std::env::temp_dir(),
+        allow_any: true,
+    };
+    let base =
+        resolve_files(&registry, &base, &policy).map_err(|e| BenchError::Input(e.to_string()))?;
     if !suite.proxies.is_empty() {
         return interactive::run(&run, &base, progress);
     }
     if !suite.frames.is_empty() {
-        // The graph names its input files (the animated glTF shot) relative to its folder.
-        let policy = PathPolicy {
-            graph_dir: graph_path.parent().unwrap_or(Path::new(".")).to_path_buf(),
-            output_dir: std::env::temp_dir(),
-            allow_any: true,
-        };
-        let base = resolve_files(&registry, &base, &policy)
-            .map_err(|e| BenchError::Input(e.to_string()))?;
         return temporal::run(&run, &base, progress);
-    }
-    if suite.chain {
-        return chain::run(&run, &graph_path, &base, progress);
     }
     quality::run(&run, &base, progress)
 }
