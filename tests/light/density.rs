@@ -426,7 +426,8 @@ fn extremes_with_a_density_stay_finite() {
     ];
     // Every case on the blob with the sun; the defaults on each density with the sun and the
     // spot (the cases' code paths do not depend on the light's kind but for its direction).
-    let mut runs: Vec<(&Density, &str, Matrices, &[(&str, ParamValue)])> = cases
+    type Run<'a> = (&'a Density, &'a str, Matrices, &'a [(&'a str, ParamValue)]);
+    let mut runs: Vec<Run> = cases
         .iter()
         .map(|c| (&blob, "blob", sun(), c.as_slice()))
         .collect();
@@ -439,7 +440,10 @@ fn extremes_with_a_density_stay_finite() {
         params.extend(c.iter().cloned());
         let (v, ins, t) = run(&gpu, light, &shadow(Some(0.3)), Some(d), &params);
         let ok = ins.data.iter().all(|x| x.is_finite())
-            && v.data.iter().chain(&t.data).all(|x| (0.0..=1.0).contains(x));
+            && v.data
+                .iter()
+                .chain(&t.data)
+                .all(|x| (0.0..=1.0).contains(x));
         assert!(ok, "density {what}, {c:?}: not finite or out of [0, 1]");
     }
 }
