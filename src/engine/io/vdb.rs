@@ -221,12 +221,117 @@ pub fn read_vdb_grid(path: &Path, grid: &str, limit: u32) -> Result<VdbGrid, Vdb
     densify(&mut r)
 }
 
-/// Tile extents by level (vdb-rs's `VdbLevel`): a level-1 tile covers 8³ voxels, level 2 128³.
-fn extent(level: vdb_rs::VdbLevel) -> i32 {
-    match level {
-        vdb_rs::VdbLevel::Voxel => 1,
-        vdb_rs::VdbLevel::Node3 => 8,
-        vdb_rs::VdbLevel::Node4 => 128,
+/// The active bounding box of `g` (inclusive) and its number of active voxels: a leaf whose 512
+/// voxels are all active counts as its cube, others voxel by voxel; tiles as in
+/// [`for_each_active`].
+fn active_bounds<T: Copy>(g: &vdb_rs::Grid<T>) -> ([i32; 3], [i32; 3], u64) {
+    let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
+    let mut active = 0u64;
+    let mut add = |o: [i32; 3], s: i32, n: u64| {
+        for a in 0..3 {
+            lo[a] = lo[a].min(o[a]);
+            hi[a] = hi[a].max(o[a].saturating_add(s - 1));
+        }
+        active += n;
+    };
+    for n5 in &g.tree.root_nodes {
+        for c5 in n5.child_mask.iter_ones() {
+            let Some(n4) = n5.nodes.get(&(c5 as u32)) else {
+                continue;
+            };
+            for c4 in n4.child_mask.iter_ones() {
+                let Some(leaf) = n4.nodes.get(&(c4 as u32)) else {
+                    continue;
+                };
+                let o = leaf.origin.to_array();
+                let n = leaf.value_mask.count_ones();
+                if n == 512 {
+                    add(o, 8, 512);
+                    continue;
+                }
+                for v in leaf.value_mask.iter_ones() {
+                    let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+                    add([o[0] + x, o[1] + y, o[2] + z], 1, 1);
+                }
+            }
+        }
+    }
+    // The tiles.
+    for_tiles(g, &mut |o, s, _| add(o, s, (s as u64).pow(3)));
+    (lo, hi, active)
+}
+
+/// Call `f(origin, side, value)` for every active item of `g`: each active voxel of a leaf
+/// (side 1), each active tile of an internal node (8 or 128) and of the root (4096) — what
+/// vdb-rs's `GridIter` yields, in the same order within a node, with the same value lookup.
+fn for_each_active<T: Copy>(g: &vdb_rs::Grid<T>, f: &mut dyn FnMut([i32; 3], i32, T)) {
+    for n5 in &g.tree.root_nodes {
+        for c5 in n5.child_mask.iter_ones() {
+            let Some(n4) = n5.nodes.get(&(c5 as u32)) else {
+                continue;
+            };
+            for c4 in n4.child_mask.iter_ones() {
+                let Some(leaf) = n4.nodes.get(&(c4 as u32)) else {
+                    continue;
+                };
+                let o = leaf.origin.to_array();
+                for v in leaf.value_mask.iter_ones() {
+                    let Some(value) = leaf.buffer.get(v) else {
+                        continue;
+                    };
+                    // A leaf's offset runs z fastest, then y, then x.
+                    let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+                    f([o[0] + x, o[1] + y, o[2] + z], 1, *value);
+                }
+            }
+        }
+    }
+    for_tiles(g, f);
+}
+
+/// Call `f(origin, side, value)` for every active tile of `g`: an internal node's (8 or 128
+/// voxels wide) and the root's (4096).
+fn for_tiles<T: Copy>(g: &vdb_rs::Grid<T>, f: &mut dyn FnMut([i32; 3], i32, T)) {
+    use vdb_rs::{Index, Node};
+    // Before node-mask compression an internal node stored only its non-child values.
+    let old = g.descriptor.file_version < vdb_rs::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION;
+    for n5 in &g.tree.root_nodes {
+        for c5 in n5.child_mask.iter_ones() {
+            let Some(n4) = n5.nodes.get(&(c5 as u32)) else {
+                continue;
+            };
+            for t in n4.value_mask.iter_ones() {
+                let k = if old {
+                    n4.child_mask
+                        .iter()
+                        .by_vals()
+                        .take(t)
+                        .filter(|c| !c)
+                        .count()
+                } else {
+                    t
+                };
+                if let Some(value) = n4.data.get(k) {
+                    f(
+                        n4.offset_to_global_coord(Index(t as u32)).0.to_array(),
+                        8,
+                        *value,
+                    );
+                }
+            }
+        }
+        for t in n5.value_mask.iter_ones() {
+            if let Some(value) = n5.data.get(t) {
+                f(
+                    n5.offset_to_global_coord(Index(t as u32)).0.to_array(),
+                    128,
+                    *value,
+                );
+            }
+        }
+    }
+    for t in g.tree.tiles.iter().filter(|t| t.active) {
+        f(t.origin.to_array(), ROOT_TILE, t.value);
     }
 }
 
@@ -239,27 +344,10 @@ fn dense<T: Copy>(
     limit: u32,
     grid_type: &str,
 ) -> Result<VdbGrid, String> {
-    // Every active item: (origin, side, value).
-    let items = || {
-        g.iter()
-            .map(|(p, v, level)| ([p.x as i32, p.y as i32, p.z as i32], extent(level), v))
-            .chain(
-                g.tree
-                    .tiles
-                    .iter()
-                    .filter(|t| t.active)
-                    .map(|t| (t.origin.to_array(), ROOT_TILE, t.value)),
-            )
-    };
-    let (mut lo, mut hi) = ([i32::MAX; 3], [i32::MIN; 3]);
-    let mut active = 0u64;
-    for (o, s, _) in items() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(o[a]);
-            hi[a] = hi[a].max(o[a].saturating_add(s - 1));
-        }
-        active += (s as u64).pow(3);
-    }
+    // Every active item: (origin, side, value), walked leaf by leaf (not voxel by voxel through
+    // vdb-rs's `GridIter`, whose per-voxel bookkeeping was most of a 256³ grid's load).
+    let items = |f: &mut dyn FnMut([i32; 3], i32, T)| for_each_active(g, f);
+    let (lo, hi, active) = active_bounds(g);
     let background = to_f32(g.tree.background);
     let index_to_world = g.transform.index_to_world();
     if !index_to_world.is_finite() || index_to_world.determinant().abs() < 1e-300 {
@@ -292,17 +380,22 @@ fn dense<T: Copy>(
     // Unfiltered, a texel no active item sets holds the background; filtered, the sums start at 0.
     let mut data = vec![if reduce > 1 { 0.0 } else { background }; n as usize];
     let mut hits = vec![0u32; if reduce > 1 { n as usize } else { 0 }];
-    let idx = |p: [i64; 3]| -> usize {
-        let t = [0, 1, 2].map(|a| ((p[a] - lo[a] as i64) / r) as u64);
-        ((t[2] * dims[1] as u64 + t[1]) * dims[0] as u64 + t[0]) as usize
-    };
-    for (o, s, v) in items() {
+    let (d0, d1) = (dims[0] as i64, dims[1] as i64);
+    let lo64 = lo.map(i64::from);
+    items(&mut |o, s, v| {
         let v = to_f32(v);
-        let o = o.map(|c| c as i64);
+        let o = o.map(i64::from);
+        if reduce == 1 && s == 1 {
+            // A voxel of an unfiltered grid: no division.
+            let i = ((o[2] - lo64[2]) * d1 + (o[1] - lo64[1])) * d0 + (o[0] - lo64[0]);
+            data[i as usize] = v;
+            return;
+        }
         for z in o[2]..o[2] + s as i64 {
             for y in o[1]..o[1] + s as i64 {
+                let row = (((z - lo64[2]) / r) * d1 + (y - lo64[1]) / r) * d0;
                 for x in o[0]..o[0] + s as i64 {
-                    let i = idx([x, y, z]);
+                    let i = (row + (x - lo64[0]) / r) as usize;
                     if reduce > 1 {
                         data[i] += v;
                         hits[i] += 1;
@@ -312,7 +405,7 @@ fn dense<T: Copy>(
                 }
             }
         }
-    }
+    });
     if reduce > 1 {
         // A box mean over reduce³ voxels: the ones no active item covers hold the background.
         let full = (reduce * reduce * reduce) as f32;
