@@ -166,13 +166,6 @@ fn header_camera(h: &tyndall_engine::io::ExrHeader, file: &Raster) -> Option<Mat
     })
 }
 
-/// `path` with its frame pattern replaced by the frame (the rendered frame, else the time
-/// rounded); as written when it has none.
-fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
-    let f = frame.unwrap_or(time.round() as i64);
-    tyndall_engine::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
-}
-
 /// The colour space an RGBA file at `path` is in: `named` when set, else the config's file
 /// rules (Tyndall's rule with the built-in config: EXR linear Rec.709, PNG sRGB-encoded).
 pub fn file_colour_space(
@@ -224,7 +217,7 @@ impl NodeKind for ImageInput {
         // An image sequence: each frame is another file (and that file's stamp).
         match Params::from_params(key.params) {
             Ok(p) if tyndall_engine::eval::with_frame(&p.path, 0).is_some() => {
-                let path = frame_path(&p.path, None, key.time);
+                let path = super::util::frame_path(&p.path, None, key.time);
                 key.time.round().to_bits() ^ tyndall_engine::eval::file_stamp(Path::new(&path))
             }
             _ => 0,
@@ -233,7 +226,7 @@ impl NodeKind for ImageInput {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
-        let path = frame_path(&prm.path, ctx.frame, ctx.time);
+        let path = super::util::frame_path(&prm.path, ctx.frame, ctx.time);
         let path = path.as_str();
         if path.is_empty() {
             return Err(NodeError::Param {

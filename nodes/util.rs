@@ -41,3 +41,11 @@ pub fn volume_box(ctx: &RunCtx, [lo, hi]: [[f32; 3]; 2]) -> Result<[[f32; 3]; 2]
     }
     Ok([lo, hi])
 }
+
+/// A file parameter's `path` with its frame pattern (`####`, `%04d`) replaced by the frame (the
+/// rendered frame, else the time rounded); as written when it has none. Shared by the readers
+/// of sequences (`ImageInput`, `VdbVolume`).
+pub fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
+    let f = frame.unwrap_or(time.round() as i64);
+    tyndall_engine::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
+}

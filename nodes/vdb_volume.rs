@@ -355,13 +355,6 @@ mod prefetch {
 
 pub use prefetch::hits as prefetch_hits;
 
-/// `path` with its frame pattern replaced by the frame (the rendered frame, else the time
-/// rounded); as written when it has none.
-fn frame_path(path: &str, frame: Option<i64>, time: f64) -> String {
-    let f = frame.unwrap_or(time.round() as i64);
-    tyndall_engine::eval::with_frame(path, f).unwrap_or_else(|| path.to_string())
-}
-
 impl NodeKind for VdbVolume {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -373,7 +366,7 @@ impl NodeKind for VdbVolume {
         match Params::from_params(key.params) {
             Ok(p) => {
                 let sequence = tyndall_engine::eval::with_frame(&p.path, 0).is_some();
-                let path = frame_path(&p.path, None, key.time);
+                let path = super::util::frame_path(&p.path, None, key.time);
                 let frame = if sequence {
                     key.time.round().to_bits()
                 } else {
@@ -387,7 +380,7 @@ impl NodeKind for VdbVolume {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
-        let path = frame_path(&prm.path, ctx.frame, ctx.time);
+        let path = super::util::frame_path(&prm.path, ctx.frame, ctx.time);
         if path.trim().is_empty() {
             return Err(NodeError::Param {
                 param: "path".into(),
@@ -410,7 +403,7 @@ impl NodeKind for VdbVolume {
         // A sequence: read the next frame's file while this frame renders.
         if tyndall_engine::eval::with_frame(&prm.path, 0).is_some() {
             let next = ctx.frame.unwrap_or(ctx.time.round() as i64) + 1;
-            let next_path = frame_path(&prm.path, Some(next), ctx.time);
+            let next_path = super::util::frame_path(&prm.path, Some(next), ctx.time);
             prefetch::start(next_path, prm.grid.trim().to_string(), limit);
         }
         if grid.reduce > 1 {

@@ -9,7 +9,7 @@
 //! trilinearly. Built once per run, for any light (a spot's and a point light's rays converge on
 //! the light, the sun's are parallel). Both are quality knobs, measured in the `density` bench.
 
-use super::{medium_segment, Bind, GpuError, NodeError, PixelResult, Raster, ScatterParams, Vec3};
+use super::{medium_segment, Bind, NodeError, PixelResult, Raster, ScatterParams, Vec3};
 pub use crate::algorithms::box_volume::BoxVolume as Density;
 use crate::algorithms::shader_lib::{henyey_greenstein, light_uvz, sun_reaches};
 use tyndall_engine::gpu::{GpuVolume, Recorder, Shader};
@@ -113,23 +113,39 @@ pub fn density_reference_pixel(
     (vbar, acc, tr)
 }
 
-/// The light transmittance volume over the density's box: `resolution` texels on its longest
-/// side (at least 2 on every side).
-pub(super) fn build_light_transmittance(
+/// The density path's passes, after the method's shared bindings `binds`: the light
+/// transmittance volume over the density's box (`transmittance_resolution` texels on its longest
+/// side, at least 2 on every side), then the march (`brute_force_density`). Returns that volume
+/// and its box (the `light_transmittance` output).
+pub(super) fn dispatch<'a>(
     gpu: &Recorder,
-    binds: &[(&str, Bind)],
-    bounds: [[f32; 3]; 2],
-    resolution: u32,
-) -> Result<GpuVolume, GpuError> {
+    binds: &[(&'static str, Bind<'a>)],
+    (volume, bounds): (&'a GpuVolume, [[f32; 3]; 2]),
+    p: &super::Params,
+    size: (u32, u32),
+    constants: &[(&str, f64)],
+) -> Result<(GpuVolume, [[f32; 3]; 2]), NodeError> {
+    let view = DensityView {
+        lo: bounds[0],
+        light_steps: p.light_steps as u32,
+        hi: bounds[1],
+        _pad0: 0,
+    };
+    let resolution = p.transmittance_resolution as u32;
     let ext = [0, 1, 2].map(|k| (bounds[1][k] - bounds[0][k]).max(0.0));
     let longest = ext.iter().copied().fold(0.0f32, f32::max).max(1e-12);
-    let size =
+    let tr_size =
         ext.map(|e| ((e / longest * resolution as f32).round() as u32).clamp(2, resolution.max(2)));
-    let v = gpu.volume(size)?;
+    let light_tr = gpu.volume(tr_size)?;
     let mut b = binds.to_vec();
-    b.push(("out_light_tr", Bind::VolumeLevel(&v, 0)));
-    gpu.dispatch_3d(DENSITY, "light_transmittance", &b, size)?;
-    Ok(v)
+    b.push(("density_volume", Bind::Volume(volume)));
+    b.push(("D", Bind::Uniform(bytemuck::bytes_of(&view))));
+    let mut build = b.clone();
+    build.push(("out_light_tr", Bind::VolumeLevel(&light_tr, 0)));
+    gpu.dispatch_3d(DENSITY, "light_transmittance", &build, tr_size)?;
+    b.push(("light_tr", Bind::Volume(&light_tr)));
+    gpu.dispatch_with(DENSITY, "brute_force_density", &b, size, constants)?;
+    Ok((light_tr, bounds))
 }
 
 /// Refuse what the density path does not do.

@@ -219,30 +219,9 @@ pub(super) fn scatter(
     // (the atlas has no single projection to rectify); Epipolar runs for a spot as for the sun
     // (its slices' planes hold the spot); with a light map BruteForce marches whatever the
     // method (the node's docs).
-    if let Some((volume, bounds)) = i.density {
-        let d = super::DensityView {
-            lo: bounds[0],
-            light_steps: p.light_steps as u32,
-            hi: bounds[1],
-            _pad0: 0,
-        };
-        binds.push(("density_volume", Bind::Volume(volume)));
-        binds.push(("D", Bind::Uniform(bytemuck::bytes_of(&d))));
-        let light_tr = super::density::build_light_transmittance(
-            gpu,
-            &binds,
-            bounds,
-            p.transmittance_resolution as u32,
-        )?;
-        binds.push(("light_tr", Bind::Volume(&light_tr)));
-        gpu.dispatch_with(
-            super::density::DENSITY,
-            "brute_force_density",
-            &binds,
-            (w, h),
-            &constants,
-        )?;
-        return Ok(([vis, ins, tr], Some((light_tr, bounds))));
+    if let Some(density) = i.density {
+        let light_tr = super::density::dispatch(gpu, &binds, density, p, (w, h), &constants)?;
+        return Ok(([vis, ins, tr], Some(light_tr)));
     }
     let lamp_light_map = u.light.kind != 0 && i.light_map.is_some();
     let point_min_max = u.light.kind == 2 && p.method == Method::Epipolar;
