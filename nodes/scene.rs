@@ -8,7 +8,9 @@
 //! position and direction from their node, a spot's cone angles and `range` — (a file with no
 //! light at all gets one sun, `default_sun`: white, 3 W/m², 60° up at azimuth 30°);
 //! objects tagged `medium` are not drawn and bound the medium for `SingleScattering`'s
-//! `bounds = tagged`. `camera = custom` and `light = custom` replace the scene's own camera and
+//! `bounds = tagged`; an object whose custom property `vdb` names an OpenVDB file (glTF
+//! `extras`, relative to the glTF file; `####` follows the frame) is a volume object that
+//! `VdbVolume` places in the object's space. `camera = custom` and `light = custom` replace the scene's own camera and
 //! lights with the parameters below (all key-frameable): `light_type = directional` is the sun
 //! of `sun_*`, `spot` and `point` a lamp at `light_x/y/z` of `light_intensity` W/sr, coloured
 //! `sun_colour` (a spot aimed at `light_target_*` with cone `cone_inner`–`cone_outer`).
@@ -76,7 +78,9 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use tyndall_engine::colour::{convert_rgb, ColourCtx};
-use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
+use tyndall_engine::eval::{
+    file_stamp, KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx,
+};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::scene::{
     builtin, find_animation, load_gltf_asset, Builtin, GpuScene, Light, LightKind, Scene, Sun,
@@ -154,10 +158,21 @@ impl NodeKind for SceneNode {
         let Ok(p) = Params::from_params(key.params) else {
             return 0;
         };
-        match animated_seconds(&p, key.time) {
+        let moving = match animated_seconds(&p, key.time) {
             Ok(Some(seconds)) => (seconds as f64).to_bits() ^ 0x5ce4e,
             _ => 0,
+        };
+        // Objects naming OpenVDB files: the frame's file (a sequence follows the frame) and its
+        // stamp (a re-baked cache is read again).
+        let mut h = std::hash::DefaultHasher::new();
+        if let Ok(Some((asset, _))) = chosen_animation(&p) {
+            for file in asset.volume_files() {
+                let frame_file = super::util::frame_path(file, None, key.time);
+                std::hash::Hash::hash(&frame_file, &mut h);
+                std::hash::Hash::hash(&file_stamp(Path::new(&frame_file)), &mut h);
+            }
         }
+        moving ^ std::hash::Hasher::finish(&h)
     }
 
     fn describe_files(
@@ -209,7 +224,11 @@ impl NodeKind for SceneNode {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let p = Params::from_ctx(ctx)?;
-        let scene = load(&p, ctx.time, ctx.colour)?;
+        let mut scene = load(&p, ctx.time, ctx.colour)?;
+        for v in &mut scene.volumes {
+            v.frame_file = super::util::frame_path(&v.file, None, ctx.time);
+            v.stamp = file_stamp(Path::new(&v.frame_file));
+        }
         if let Some(problem) = scene.lights.iter().find_map(Light::problem) {
             return Err(NodeError::Param {
                 param: "path".into(),

@@ -23,17 +23,27 @@
 //! `max_resolution` texels per side (outside the grid: the background). Outside the box a
 //! density reads 0 where `SingleScattering` bounds the medium by it.
 //!
+//! **Volume objects.** With a `scene` connected, the grid is placed in the space of one of its
+//! objects whose custom property `vdb` names a file (glTF `extras`, which Blender's exporter
+//! writes; the add-on adds it to each Volume object and smoke domain it exports): `object`
+//! names it ("" = the first), W above gains the object's matrix N between the user's transform
+//! and the file's, W = T · R · S · N · U · M · C, and the file is the object's unless `path`
+//! is set. The object's space is that of the glTF node, Y-up: a file from Blender is Z-up in
+//! it (`up_axis` = z, as for a file placed by hand).
+//!
 //! **Sequences.** With a frame pattern in `path`, each run starts reading the next frame's file on
 //! a worker thread, and the next run takes that grid instead of reading it (if its file is
 //! unchanged); one frame is held ahead, so memory stays bounded over a long shot.
 //!
 //! | port | dir | type | |
 //! |---|---|---|---|
+//! | `scene` | in | Scene | optional: its volume objects place the file (and name it) |
 //! | `volume` | out | Volume | the grid and its world box |
 //!
 //! | param | type | default | range | |
 //! |---|---|---|---|---|
-//! | `path` | Text | "" | | the `.vdb` file; `####` or `%04d` follows the frame |
+//! | `path` | Text | "" | | the `.vdb` file; `####` or `%04d` follows the frame; with a scene, "" = the object's |
+//! | `object` | Text | "" | | with a scene: the volume object placing the grid ("" = the first) |
 //! | `grid` | Text | density | | the grid to read (a wrong name lists the file's grids) |
 //! | `up_axis` | Enum | y | y, z | the file's up axis (`z`: Blender, Houdini set to Z-up) |
 //! | `voxel_centers` | Enum | openvdb | openvdb, blender | where a voxel's value sits |
@@ -49,6 +59,7 @@ use glam::{DMat3, DMat4, DVec3};
 use tyndall_engine::eval::{KeyInput, NodeDecl, NodeError, NodeKind, PortValue, RunCtx};
 use tyndall_engine::graph::{NodeSchema, ParamSpec, PortSpec, PortType};
 use tyndall_engine::io::VdbGrid;
+use tyndall_engine::scene::{ScenePart, VolumeObject};
 
 use crate::algorithms::volume_mips;
 
@@ -69,7 +80,8 @@ tyndall_engine::choice_enum! {
 tyndall_engine::params! {
     /// The node's parameters (the table above), read once per run.
     pub struct Params {
-        path: String = ParamSpec::text("path", "", "The OpenVDB file (.vdb); a `####` or `%04d` in it is replaced by the frame (simulation caches)."),
+        path: String = ParamSpec::text("path", "", "The OpenVDB file (.vdb); a `####` or `%04d` in it is replaced by the frame (simulation caches). With a scene connected, empty = the file its volume object names."),
+        object: String = ParamSpec::text("object", "", "With a scene connected: the object (glTF node name) whose custom property `vdb` names the file and whose space places it; empty = the first such object."),
         grid: String = ParamSpec::text("grid", "density", "The grid to read (a scalar float, double or half grid)."),
         up_axis: UpAxis = ParamSpec::choice("up_axis", UpAxis::NAMES, "y", "The file's up axis: z for files from Z-up tools (Blender, Houdini set to Z-up), mapped to Y-up as (x, y, z) → (x, z, −y)."),
         voxel_centers: VoxelCenters = ParamSpec::choice("voxel_centers", VoxelCenters::NAMES, "openvdb", "Where a voxel's value sits: openvdb = at its index coordinate (OpenVDB, Houdini, EmberGen); blender = half a voxel further, at the centre of the cell from i to i + 1 (Cycles with a Mantaflow cache)."),
@@ -85,10 +97,11 @@ static DECL: NodeDecl = NodeDecl::new(NodeSchema {
     kind: "VdbVolume",
     category: "Medium",
     doc: "One scalar grid of an OpenVDB file (smoke, clouds, dust; a sequence follows the frame) as a mip-mapped Volume placed by the file's transform, up axis and voxel-centre convention.",
-    inputs: &[],
+    inputs: &[PortSpec::input("scene", &[PortType::Scene], "Optional: the scene whose volume object (custom property `vdb`) names the file and places it in its space.")],
     outputs: &[PortSpec::output("volume", &[PortType::Volume], "The grid's values and its world-space box.")],
     params: Params::SPECS,
 })
+.scene_parts(&[ScenePart::Volumes])
 .files(&[("path", tyndall_engine::eval::FileRole::Read)])
 .shaders(&[volume_mips::SHADER]);
 
@@ -105,6 +118,8 @@ pub struct Placement {
     pub rotate: [f32; 3],
     /// Scale per axis.
     pub scale: [f32; 3],
+    /// The volume object's matrix (object → world; identity without one).
+    pub object: DMat4,
     /// Widest side of a resampled texture.
     pub max_resolution: u32,
 }
@@ -149,11 +164,13 @@ pub fn texel_to_world(grid: &VdbGrid, p: &Placement) -> DMat4 {
     let first = DVec3::from(grid.first_sample_index()) + DVec3::splat(half);
     let texel =
         DMat4::from_translation(first) * DMat4::from_scale(DVec3::splat(grid.reduce as f64));
-    user * up * grid.index_to_world * texel
+    user * p.object * up * grid.index_to_world * texel
 }
 
 /// For each world axis, the texel axis it runs along and whether it runs backwards — when the
-/// linear part of `w` maps texel axes onto world axes (one non-zero per column and row).
+/// linear part of `w` maps texel axes onto world axes (one non-zero per column and row; an
+/// entry below 1e-6 of the largest counts as zero: a glTF object's f32 quaternion turned by 90°
+/// leaves ~1e-8, and 1e-6 of a turn moves a 1,000-voxel grid's far end by 1e-3 voxel).
 fn axis_map(w: &DMat3) -> Option<[(usize, bool); 3]> {
     let cols = [w.x_axis, w.y_axis, w.z_axis];
     let big = cols
@@ -162,7 +179,7 @@ fn axis_map(w: &DMat3) -> Option<[(usize, bool); 3]> {
         .fold(0.0, f64::max);
     let mut out = [(usize::MAX, false); 3];
     for (a, c) in cols.iter().enumerate() {
-        let nz: Vec<usize> = (0..3).filter(|&o| c[o].abs() > 1e-9 * big).collect();
+        let nz: Vec<usize> = (0..3).filter(|&o| c[o].abs() > 1e-6 * big).collect();
         let [o] = nz[..] else { return None };
         if out[o].0 != usize::MAX {
             return None;
@@ -355,6 +372,32 @@ mod prefetch {
 
 pub use prefetch::hits as prefetch_hits;
 
+/// The volume object `name` names ("" = the first) among a scene's.
+fn volume_object(volumes: &[VolumeObject], name: &str) -> Result<VolumeObject, NodeError> {
+    let name = name.trim();
+    let found = if name.is_empty() {
+        volumes.first()
+    } else {
+        volumes.iter().find(|v| v.name == name)
+    };
+    found.cloned().ok_or_else(|| {
+        let names: Vec<&str> = volumes.iter().map(|v| v.name.as_str()).collect();
+        let have = if names.is_empty() {
+            "it has no object with a custom property `vdb` naming a file".to_string()
+        } else {
+            format!("its volume objects: {}", names.join(", "))
+        };
+        NodeError::Input {
+            port: "scene".into(),
+            message: if name.is_empty() {
+                format!("the scene has no volume object: {have}")
+            } else {
+                format!("the scene has no volume object '{name}': {have}")
+            },
+        }
+    })
+}
+
 impl NodeKind for VdbVolume {
     fn decl(&self) -> &'static NodeDecl {
         &DECL
@@ -380,11 +423,33 @@ impl NodeKind for VdbVolume {
 
     fn run(&self, ctx: &mut RunCtx) -> Result<(), NodeError> {
         let prm = Params::from_ctx(ctx)?;
-        let path = super::util::frame_path(&prm.path, ctx.frame, ctx.time);
+        let object = match ctx.scene_opt("scene")? {
+            Some(s) => Some(volume_object(&s.scene.volumes, &prm.object)?),
+            None if !prm.object.trim().is_empty() => {
+                return Err(NodeError::Param {
+                    param: "object".into(),
+                    message: format!(
+                        "names '{}' but no scene is connected to `scene`",
+                        prm.object.trim()
+                    ),
+                })
+            }
+            None => None,
+        };
+        // The file: `path`, else the volume object's (its pattern, and this frame's file).
+        let (pattern, path) = match &object {
+            Some(o) if prm.path.trim().is_empty() => (o.file.clone(), o.frame_file.clone()),
+            _ => (
+                prm.path.clone(),
+                super::util::frame_path(&prm.path, ctx.frame, ctx.time),
+            ),
+        };
         if path.trim().is_empty() {
             return Err(NodeError::Param {
                 param: "path".into(),
-                message: "is empty: set the .vdb file to read".into(),
+                message:
+                    "is empty: set the .vdb file to read (or connect a scene with a volume object)"
+                        .into(),
             });
         }
         if prm.scale.contains(&0.0) {
@@ -401,9 +466,9 @@ impl NodeKind for VdbVolume {
                 .map_err(|e| NodeError::BadFile(e.to_string()))?,
         };
         // A sequence: read the next frame's file while this frame renders.
-        if tyndall_engine::eval::with_frame(&prm.path, 0).is_some() {
+        if tyndall_engine::eval::with_frame(&pattern, 0).is_some() {
             let next = ctx.frame.unwrap_or(ctx.time.round() as i64) + 1;
-            let next_path = super::util::frame_path(&prm.path, Some(next), ctx.time);
+            let next_path = super::util::frame_path(&pattern, Some(next), ctx.time);
             prefetch::start(next_path, prm.grid.trim().to_string(), limit);
         }
         if grid.reduce > 1 {
@@ -419,6 +484,7 @@ impl NodeKind for VdbVolume {
             translate: prm.translate,
             rotate: prm.rotate,
             scale: prm.scale,
+            object: object.map_or(DMat4::IDENTITY, |o| o.world.as_dmat4()),
             max_resolution: limit,
         };
         let placed = place(&grid, &placement).map_err(|m| NodeError::Param {

@@ -16,7 +16,13 @@ Run (Debian: apt-get install blender), from the repository root, after `cargo bu
 - `roof`: a roof with openings over deep fog (16 m below it, σ = 0.1 /m) and no floor: the barn
   loft's shafts, where the fog reaches far past the only occluder (issue #60);
 - `spot_deep`: `spot`'s grille with the fog reaching 12 m below it and no floor;
-- `point_inside`: a point light inside the fog box, in a cage of bars, no floor.
+- `point_inside`: a point light inside the fog box, in a cage of bars, no floor;
+- `smoke`: a Mantaflow smoke cache (scenes/smoke/forest_plume_0090.vdb, made by
+  scripts/scenes/smoke.py) imported as a Volume object, Volume Scatter whose density is
+  SMOKE_SIGMA × the `density` grid, under a roof with openings in a steep sun (issue #61): the
+  smoke shadows itself. Tyndall reads the same file with `VdbVolume` (`up_axis` z,
+  `voxel_centers` blender, `translate` = the object's location in Y-up) into `SingleScattering`'s
+  `density` (`bounds = density`).
 
 For each it
 renders Cycles' Volume Direct pass with volume bounces 0 (single scattering of the light, shadowed,
@@ -47,6 +53,9 @@ SUN_W_M2 = 5.0      # sun irradiance, W/m²
 LAMP_W = 600.0      # spot and point light power, W (Blender's Standard units: P / 4π W/sr)
 SOFT_RADIUS = 0.2   # the soft spot's radius, m
 DEEP_SIGMA = 0.1    # 1/m, the deep fogs of `roof` and `spot_deep` (light crosses 16 m of it)
+SMOKE_SIGMA = 1.5   # 1/m per unit of the smoke's density grid (its values reach ~1)
+SMOKE_VDB = os.path.join(ROOT, "scenes", "smoke", "forest_plume_0090.vdb")
+SMOKE_AT = (-7.0, -9.0, 0.0)  # the Volume object's location: the cache's index 0 at the domain's corner
 WIDTH, HEIGHT = 160, 90
 FOG_MIN = (-4.0, -6.0, 0.0)   # Blender coordinates (z up)
 FOG_MAX = (4.0, -0.2, 4.0)
@@ -240,6 +249,77 @@ def build_roof():
     return scene
 
 
+def build_smoke():
+    """The forest plume's smoke (Mantaflow, 64 voxels on the domain's longest side) under a 20 m
+    roof of 1 m tiles with four 3 m openings above it, a steep sun, a floor: shafts cut by the roof
+    that the smoke dims as they cross it."""
+    scene = start()
+    vol = bpy.data.volumes.new("smoke")
+    vol.filepath = SMOKE_VDB
+    o = bpy.data.objects.new("smoke", vol)
+    scene.collection.objects.link(o)
+    o.location = SMOKE_AT
+    m = bpy.data.materials.new("smoke")
+    m.use_nodes = True
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    attr = nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "density"
+    mul = nodes.new("ShaderNodeMath")
+    mul.operation = "MULTIPLY"
+    mul.inputs[1].default_value = SMOKE_SIGMA
+    links.new(attr.outputs["Fac"], mul.inputs[0])
+    scatter = nodes.new("ShaderNodeVolumeScatter")
+    scatter.inputs["Anisotropy"].default_value = G
+    scatter.inputs["Color"].default_value = (1, 1, 1, 1)
+    links.new(mul.outputs[0], scatter.inputs["Density"])
+    links.new(scatter.outputs["Volume"], nodes["Material Output"].inputs["Volume"])
+    vol.materials.append(m)
+    holes = {(x0 + i, y0 + j) for x0, y0 in ((-7, -8), (-3, -5), (0, -9), (-6, -3))
+             for i in range(3) for j in range(3)}
+    # Each 1 m row of the roof as runs of tiles between the openings (a few dozen boxes, so the
+    # fixture's glTF stays small).
+    boxes = []
+    for y in range(-12, 8):
+        x = -10
+        while x < 10:
+            if (x, y) in holes:
+                x += 1
+                continue
+            end = x
+            while end < 10 and (end, y) not in holes:
+                end += 1
+            boxes.append(((x, y, 8.0), (end, y + 1, 8.2)))
+            x = end
+    occluders(boxes)
+    sun_light(scene, (0.3, 0.2, -1.0))
+    camera(scene, (1.5, -15.0, 3.0), (-1.5, -3.0, 3.2))
+    return scene
+
+
+SMOKE_GRAPH = """(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"path": "scene.gltf"}}),
+        "shadow": (kind: "ShadowMap", params: {{"resolution": 2048}}),
+        "gbuffer": (kind: "GBuffer"),
+        "smoke": (kind: "VdbVolume", params: {{"path": "{vdb}", "up_axis": "z", "voxel_centers": "blender", "translate": ({x}, {y}, {z})}}),
+        "scatter": (kind: "SingleScattering", params: {{"sigma_t": {sigma}, "albedo": 1.0, "g": {g}, "method": "BruteForce", "steps": 1024, "bias": 0.0005, "bounds": "density", "light_extinction": "on", "transmittance_resolution": 128, "light_steps": 128}}),
+        "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),
+    }},
+    edges: [
+        ("scene.scene", "shadow.scene"),
+        ("scene.scene", "gbuffer.scene"),
+        ("scene.scene", "scatter.scene"),
+        ("shadow.map", "scatter.shadow"),
+        ("gbuffer.depth", "scatter.depth"),
+        ("smoke.volume", "scatter.density"),
+        ("scatter.inscatter", "out.image"),
+    ],
+)
+"""
+
+
 def cage(z):
     """Twelve vertical bars 0.45 m around (0, 0, z), 1.8 m tall, over a solid floor plate just
     below z − 0.9: a point light at (0, 0, z) shines out between the bars and up."""
@@ -291,6 +371,9 @@ def render_cycles(scene, samples, out):
     c.volume_bounces = 0
     c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 0
     c.transparent_max_bounces = 8
+    # A heterogeneous volume is ray-marched in steps of volume_step_rate × its voxel size (0.22 m
+    # for the smoke): a quarter of a voxel keeps Cycles' marching error below its noise.
+    c.volume_step_rate = 0.25
     c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
     # Tyndall evaluates one ray through each pixel's centre: a (nearly) zero-width pixel filter
     # makes Cycles average over the same ray instead of a 1.5-pixel footprint.
@@ -362,6 +445,11 @@ def export_and_render_tyndall(out, which):
                       '\n        ("soft.soft", "scatter.soft"),')
     graph = GRAPH.format(gltf=rel, sigma=SCENE_SIGMA.get(which, SIGMA), g=G, method=method, exr=exr,
                          soft_node=soft_node, soft_edges=soft_edges)
+    if which == "smoke":
+        # Blender's (x, y, z) is Tyndall's (x, z, −y); the graph names the file from its folder.
+        x, y, z = SMOKE_AT
+        graph = SMOKE_GRAPH.format(vdb=os.path.relpath(SMOKE_VDB, out), x=x, y=z, z=-y,
+                                   sigma=SMOKE_SIGMA, g=G, exr=exr)
     with open(os.path.join(out, "compare.ron"), "w") as f:
         f.write(graph)
     exe = os.environ.get("TYNDALL", os.path.join(ROOT, "target", "release", "tyndall"))
@@ -401,7 +489,7 @@ def compare(cycles_exr, tyndall_exr):
 
 SCENES = {"sun": build_sun, "spot": build_spot, "point": build_point,
           "spot_soft": lambda: build_spot(SOFT_RADIUS), "roof": build_roof,
-          "spot_deep": build_spot_deep, "point_inside": build_point_inside}
+          "spot_deep": build_spot_deep, "point_inside": build_point_inside, "smoke": build_smoke}
 SCENE_SIGMA = {"roof": DEEP_SIGMA, "spot_deep": DEEP_SIGMA}
 
 

@@ -180,6 +180,7 @@ fn placement() -> Placement {
         translate: [0.0; 3],
         rotate: [0.0; 3],
         scale: [1.0; 3],
+        object: glam::DMat4::IDENTITY,
         max_resolution: 256,
     }
 }
@@ -441,4 +442,128 @@ fn the_cli_exits_2_on_a_malformed_vdb_file() {
         err.contains("'smoke' (VdbVolume)") && err.contains("cut.vdb"),
         "{err}"
     );
+}
+
+/// A glTF file in `dir` with one triangle and an object `smoke` (translated, turned 90° about y,
+/// scaled 2×) whose `vdb` extra names `vdb` (relative to the file), as Blender's exporter writes
+/// a Volume object's custom property.
+fn scene_with_volume_object(dir: &Path, vdb: &str) -> PathBuf {
+    use base64::Engine;
+    let tri: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let b64 = base64::engine::general_purpose::STANDARD.encode(&tri);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+        "nodes": [{{"name": "ground", "mesh": 0}},
+                  {{"name": "smoke", "translation": [1, 2, 3], "rotation": [0, {h}, 0, {h}],
+                    "scale": [2, 2, 2], "extras": {{"vdb": "{vdb}"}}}}],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+        "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [1, 0, 1]}}],
+        "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+        "buffers": [{{"byteLength": 36, "uri": "data:application/octet-stream;base64,{b64}"}}]}}"#
+    );
+    let path = dir.join("scene.gltf");
+    std::fs::write(&path, json).expect("write glTF");
+    path
+}
+
+/// Evaluate Scene (`gltf`) → VdbVolume with these parameters at `time`: the volume's level 0,
+/// size and box; or the error.
+#[allow(clippy::type_complexity)]
+fn vdb_object_node(
+    gpu: &Arc<tyndall::gpu::Gpu>,
+    gltf: &Path,
+    params: &[(&str, ParamValue)],
+    time: f64,
+) -> Result<(Vec<f32>, [u32; 3], [[f32; 3]; 2]), EvalError> {
+    let registry = Arc::new(tyndall::nodes::registry());
+    let cat = registry.catalog().clone();
+    let mut g = Graph::new();
+    let scene = g.add_node(&cat, "Scene").expect("scene");
+    g.set_param(&cat, &scene, "path", text(&gltf.display().to_string()))
+        .expect("path");
+    let id = g.add_node(&cat, "VdbVolume").expect("node");
+    for (k, v) in params {
+        g.set_param(&cat, &id, k, v.clone()).expect("param");
+    }
+    g.connect(&cat, &format!("{scene}.scene"), &format!("{id}.scene"))
+        .expect("edge");
+    let mut ev = Evaluator::new(registry, gpu.clone());
+    let r = ev.evaluate(
+        &g,
+        &[Target::Port(id.clone(), "volume".into())],
+        &EvalOptions {
+            time,
+            ..Default::default()
+        },
+    )?;
+    match &r.outputs[&(id, "volume".to_string())] {
+        PortValue::Volume(v, b) => {
+            let data = gpu.recorder().read_volume(v, 0).expect("read");
+            Ok((data, v.size, *b))
+        }
+        other => panic!("not a volume: {other:?}"),
+    }
+}
+
+/// Issue #61, item 5: a glTF object whose custom property `vdb` names a file places that file
+/// in the object's space — the same texture and box as the object's transform given to the
+/// node by hand (translate, rotate, scale) — and its `####` follows the frame. `object` picks
+/// the object by name; a wrong name, a scene without one, or `object` without a scene are
+/// errors naming what is there.
+#[test]
+fn a_gltf_object_naming_a_vdb_file_places_it_in_its_space() {
+    let gpu = require_gpu!();
+    let dir = tempfile::tempdir().expect("tmp");
+    std::fs::copy(fixture("float.vdb"), dir.path().join("float.vdb")).expect("copy");
+    let gltf = scene_with_volume_object(dir.path(), "float.vdb");
+    let (data, size, b) = vdb_object_node(&gpu, &gltf, &[], 0.0).expect("object");
+    let by_hand = vdb_node(
+        &gpu,
+        &[
+            ("path", text(&fixture("float.vdb").display().to_string())),
+            ("translate", ParamValue::Vec3([1.0, 2.0, 3.0])),
+            ("rotate", ParamValue::Vec3([0.0, 90.0, 0.0])),
+            ("scale", ParamValue::Vec3([2.0, 2.0, 2.0])),
+        ],
+    )
+    .expect("by hand");
+    assert_eq!((&data, size), (&by_hand.0, by_hand.1), "the same texels");
+    for k in 0..3 {
+        for e in 0..2 {
+            // The glTF's quaternion is f32 (sin 45° rounded): the box agrees to its rounding.
+            assert!(
+                (b[e][k] - by_hand.2[e][k]).abs() < 1e-5,
+                "box {b:?} vs by hand {:?}",
+                by_hand.2
+            );
+        }
+    }
+    // Named, and a sequence: frame 7 reads smoke_0007.vdb.
+    std::fs::copy(fixture("tiles.vdb"), dir.path().join("smoke_0007.vdb")).expect("copy");
+    let seq = scene_with_volume_object(dir.path(), "smoke_####.vdb");
+    let (_, size7, _) =
+        vdb_object_node(&gpu, &seq, &[("object", text("smoke"))], 7.0).expect("frame 7");
+    let tiles = read_vdb_grid(&fixture("tiles.vdb"), "density", 256).expect("tiles");
+    let mut want = tiles.dims;
+    want.swap(0, 2); // turned 90° about y: x runs along the file's z
+    assert_eq!(size7, want);
+    let e = vdb_object_node(&gpu, &gltf, &[("object", text("plume"))], 0.0)
+        .expect_err("no such object")
+        .to_string();
+    assert!(e.contains("'plume'") && e.contains("smoke"), "{e}");
+    let e = vdb_node(
+        &gpu,
+        &[
+            ("path", text(&fixture("float.vdb").display().to_string())),
+            ("object", text("smoke")),
+        ],
+    )
+    .expect_err("object without a scene")
+    .to_string();
+    assert!(e.contains("object") && e.contains("no scene"), "{e}");
 }

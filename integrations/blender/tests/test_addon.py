@@ -10,7 +10,11 @@ Tyndall's EXRs exist for each frame with the AOV layers, the camera in Tyndall's
 moves with Blender's, the compositor holds the Image node wired over the Render Layers, and a
 missing tyndall binary is a clear error. Then the same shot lit by a spot light instead of the
 sun: the exported glTF carries it (KHR_lights_punctual, P / 4π × 683 cd, its cone) and
-Tyndall's in-scatter layer shows its cone over the plate."""
+Tyndall's in-scatter layer shows its cone over the plate. Last, smoke (issue #61): a Volume
+object reading the forest plume's cache and a gas domain with an OpenVDB cache are exported
+with their files as the custom property `vdb` (the domain tagged `medium`, an Empty at its low
+corner naming its cache), nothing of it is left in the .blend afterwards, and Tyndall renders
+the smoke from the exported glTF alone (Scene → VdbVolume → SingleScattering)."""
 
 import json
 import math
@@ -152,6 +156,82 @@ def lamp_run(sc):
     assert 0.05 < lit < 0.7, lit
 
 
+SMOKE_GRAPH = """(
+    version: 2,
+    nodes: {{
+        "scene": (kind: "Scene", params: {{"path": "{glb}"}}),
+        "shadow": (kind: "ShadowMap", params: {{"resolution": 512}}),
+        "gbuffer": (kind: "GBuffer", params: {{"width": 96, "height": 64}}),
+        "smoke": (kind: "VdbVolume", params: {{"object": "Plume"}}),
+        "scatter": (kind: "SingleScattering", params: {{"sigma_t": 1.0, "bounds": "density", "steps": 64, "transmittance_resolution": 32, "light_steps": 32}}),
+        "out": (kind: "ImageOutput", params: {{"path": "{exr}"}}),
+    }},
+    edges: [
+        ("scene.scene", "shadow.scene"),
+        ("scene.scene", "gbuffer.scene"),
+        ("scene.scene", "scatter.scene"),
+        ("scene.scene", "smoke.scene"),
+        ("shadow.map", "scatter.shadow"),
+        ("gbuffer.depth", "scatter.depth"),
+        ("smoke.volume", "scatter.density"),
+        ("scatter.inscatter", "out.image"),
+    ],
+)
+"""
+
+
+def smoke_run(sc):
+    """A Volume object and a smoke domain exported with their files; Tyndall renders the
+    Volume object's smoke from the glTF alone."""
+    import tyndall_shafts
+    plume = os.path.join(REPO, "scenes", "smoke", "forest_plume_0090.vdb")
+    vol = bpy.data.volumes.new("Plume")
+    vol.filepath = plume
+    obj = bpy.data.objects.new("Plume", vol)
+    sc.collection.objects.link(obj)
+    obj.location = (-7.0, -9.0, 0.0)
+    bpy.data.objects.remove(bpy.data.objects["Lamp"])  # lamp_run's spot: back to a sun
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sc.collection.objects.link(sun)
+    sun.data.energy = 3.0
+    sun.rotation_euler = (math.radians(30.0), 0.0, math.radians(180.0))
+    bpy.ops.mesh.primitive_cube_add(size=2.0, location=(20.0, 0.0, 1.0))
+    domain = bpy.context.active_object
+    domain.name = "Domain"
+    fluid = domain.modifiers.new("Fluid", "FLUID")
+    fluid.fluid_type = "DOMAIN"
+    fluid.domain_settings.domain_type = "GAS"
+    fluid.domain_settings.cache_data_format = "OPENVDB"
+    fluid.domain_settings.cache_directory = os.path.join(TMP, "cache")
+    glb = os.path.join(TMP, "smoke.glb")
+    tyndall_shafts.export_gltf(glb)
+    nodes = {n["name"]: n for n in glb_json(glb)["nodes"]}
+    extras = nodes["Plume"].get("extras", {})
+    assert extras.get("vdb") == plume, nodes["Plume"]
+    # Blender's (−7, −9, 0) is glTF's (−7, 0, 9).
+    assert nodes["Plume"]["translation"] == [-7.0, 0.0, 9.0], nodes["Plume"]
+    cache = nodes["Domain_cache"]
+    assert cache["extras"]["vdb"] == os.path.join(TMP, "cache", "data", "fluid_data_####.vdb"), cache
+    assert [round(v, 4) for v in cache["translation"]] == [19.0, 0.0, 1.0], cache  # low corner
+    assert "medium" in nodes["Domain"]["extras"]["tyndall_tag"], nodes["Domain"]
+    # Nothing of the export is left behind.
+    assert "vdb" not in obj and "tyndall_tag" not in domain, (obj.keys(), domain.keys())
+    assert "Domain_cache" not in bpy.data.objects
+    bpy.data.objects.remove(domain)  # Mantaflow would look for its (empty) cache at exit
+    exr = os.path.join(TMP, "smoke_inscatter.exr")
+    graph = os.path.join(TMP, "smoke.ron")
+    with open(graph, "w") as f:
+        f.write(SMOKE_GRAPH.format(glb=glb, exr=os.path.basename(exr)))
+    subprocess.run([BINARY, "render", graph, "--set", "smoke.up_axis=z",
+                    "--set", "smoke.voxel_centers=blender", "--output-dir", TMP], check=True)
+    px = bpy.data.images.load(exr).pixels[:]
+    lum = [sum(px[i:i + 3]) / 3 for i in range(0, len(px), 4)]
+    lit = sum(v > 0.05 * max(lum) for v in lum) / len(lum)
+    print(f"smoke: in-scatter max {max(lum):.4g}, {lit * 100:.1f} % of pixels lit")
+    # The plume fills part of the view (the camera looks at the cubes, the smoke beside them).
+    assert max(lum) > 0.0 and 0.01 < lit < 0.9, (max(lum), lit)
+
+
 def main():
     install_addon()
     build_scene()
@@ -199,6 +279,7 @@ def main():
     assert bpy.ops.tyndall.render_shafts() == {"FINISHED"}
     assert sum(n.name.startswith("Tyndall") for n in tree.nodes) == 3
     lamp_run(sc)
+    smoke_run(sc)
     print("TYNDALL_ADDON_TEST OK")
 
 

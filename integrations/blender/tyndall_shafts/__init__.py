@@ -2,7 +2,8 @@
 
 Render Properties > Tyndall Shafts: choose a preset graph, press "Render shafts". The add-on
 exports the scene as glTF (cameras, lights in lux, animation, custom properties as extras, so an
-object's `tyndall_tag` becomes a Tyndall tag), renders Blender's own beauty and depth for a
+object's `tyndall_tag` becomes a Tyndall tag; each Volume object and each smoke domain with an
+OpenVDB cache carries its file as the custom property `vdb`, which `VdbVolume` reads), renders Blender's own beauty and depth for a
 plate preset, runs `tyndall render` over the scene's frame range with progress in the status
 bar (Esc cancels), and wires the result into the compositor: Render Layers × transmittance +
 inscatter → Composite. Errors from Tyndall appear as reports.
@@ -209,6 +210,78 @@ class TYNDALL_OT_render_shafts(bpy.types.Operator):
         return {"FINISHED"}
 
 
+VDB_PROPERTY = "vdb"
+
+
+def vdb_pattern(volume):
+    """A Volume data-block's file, absolute; a sequence's frame number as `####` (Blender's
+    sequences number files by frame: fluid_data_0001.vdb …)."""
+    path = bpy.path.abspath(volume.filepath, library=volume.library)
+    if volume.is_sequence:
+        head, name = os.path.split(path)
+        stem, ext = os.path.splitext(name)
+        digits = len(stem) - len(stem.rstrip("0123456789"))
+        if digits:
+            path = os.path.join(head, stem[:-digits] + "#" * max(digits, 4) + ext)
+    return path
+
+
+def smoke_cache(obj):
+    """The OpenVDB cache pattern of a gas domain (Fluid modifier, OpenVDB cache format), or None."""
+    for m in obj.modifiers:
+        if m.type == "FLUID" and m.fluid_type == "DOMAIN":
+            s = m.domain_settings
+            if s.domain_type == "GAS" and s.cache_data_format == "OPENVDB":
+                cache = bpy.path.abspath(s.cache_directory)
+                return os.path.join(cache, "data", "fluid_data_####.vdb")
+    return None
+
+
+class VolumeExport:
+    """While the glTF is written: each Volume object carries its file as the custom property
+    `vdb` (the exporter writes Volume objects as nodes with their custom properties); each
+    smoke domain is tagged `medium` (its box bounds the medium instead of being drawn) and an
+    Empty `<domain>_cache` stands at the domain's low corner with the cache's pattern (the cache's
+    index 0 is that corner, its voxels in world units). Everything is put back afterwards."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.saved = []  # (object, property, value or None)
+        self.empties = []
+
+    def _set(self, obj, key, value):
+        self.saved.append((obj, key, obj.get(key)))
+        obj[key] = value
+
+    def __enter__(self):
+        from mathutils import Matrix, Vector
+        for obj in list(self.scene.objects):
+            if obj.type == "VOLUME" and obj.data is not None and obj.data.filepath:
+                self._set(obj, VDB_PROPERTY, vdb_pattern(obj.data))
+            pattern = smoke_cache(obj) if obj.type == "MESH" else None
+            if pattern:
+                tags = obj.get("tyndall_tag", "")
+                self._set(obj, "tyndall_tag", (tags + ", " if tags else "") + "medium")
+                lo = Vector([min(c[k] for c in obj.bound_box) for k in range(3)])
+                empty = bpy.data.objects.new(f"{obj.name}_cache", None)
+                self.scene.collection.objects.link(empty)
+                rot = obj.matrix_world.to_quaternion().to_matrix().to_4x4()
+                empty.matrix_world = Matrix.Translation(obj.matrix_world @ lo) @ rot
+                empty[VDB_PROPERTY] = pattern
+                self.empties.append(empty)
+        return self
+
+    def __exit__(self, *exc):
+        for obj, key, value in reversed(self.saved):
+            if value is None:
+                del obj[key]
+            else:
+                obj[key] = value
+        for empty in self.empties:
+            bpy.data.objects.remove(empty)
+        return False
+
+
 def export_gltf(path):
     """The scene as Tyndall reads it: +Y up, cameras, punctual lights in lux (Blender's
     'Standard' lighting mode: a sun of S W/m² is written as 683·S lux and read back as S W/m²),
@@ -231,7 +304,8 @@ def export_gltf(path):
     if "export_draco_mesh_compression_enable" in props:
         kwargs["export_draco_mesh_compression_enable"] = False
     try:
-        bpy.ops.export_scene.gltf(**kwargs)
+        with VolumeExport(bpy.context.scene):
+            bpy.ops.export_scene.gltf(**kwargs)
     except RuntimeError as e:
         raise TyndallError(f"glTF export failed: {e}") from e
 

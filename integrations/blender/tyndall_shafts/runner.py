@@ -124,7 +124,8 @@ class Job:
         """The `tyndall render` command for this job on a graph with `nodes` ({id: kind}).
 
         Every Scene node reads the exported glTF; every GBuffer renders at the scene's
-        resolution; a plate preset's `plate` and `plate_depth` ImageInputs read Blender's
+        resolution; every VdbVolume reads Blender's axes and voxel centres (`up_axis` z,
+        `voxel_centers` blender); a plate preset's `plate` and `plate_depth` ImageInputs read Blender's
         render; the first AovOutput writes the shafts' layers, ImageOutputs a preview."""
         aovs = [i for i, k in nodes.items() if k == "AovOutput"]
         if not aovs:
@@ -143,6 +144,10 @@ class Job:
                          f"{i}.light=scene"]
             elif k == "GBuffer":
                 sets += [f"{i}.width={w}", f"{i}.height={h}"]
+            elif k == "VdbVolume":
+                # Blender's files (Volume objects, Mantaflow caches) are Z-up with voxel values
+                # at cell centres (how Cycles renders them).
+                sets += [f"{i}.up_axis=z", f"{i}.voxel_centers=blender"]
             elif k == "ImageOutput":
                 sets.append(f"{i}.path={os.path.join(self.out_dir, 'preview_' + i + '_####.png')}")
         sets.append(f"{aovs[0]}.path={self.shafts_pattern}")

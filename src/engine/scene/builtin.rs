@@ -242,6 +242,7 @@ fn torus_scene() -> Scene {
             },
         )],
         medium: None,
+        volumes: Vec::new(),
     }
 }
 
@@ -315,6 +316,7 @@ fn tree_scene(rng: &mut Rng, seed: u64) -> Scene {
             },
         )],
         medium: None,
+        volumes: Vec::new(),
     }
 }
 
@@ -406,6 +408,7 @@ fn window_scene(rng: &mut Rng) -> Scene {
             },
         )],
         medium: None,
+        volumes: Vec::new(),
     }
 }
 
@@ -447,6 +450,7 @@ fn fence_scene(rng: &mut Rng) -> Scene {
             },
         )],
         medium: None,
+        volumes: Vec::new(),
     }
 }
 
@@ -505,5 +509,6 @@ fn figure_scene(rng: &mut Rng) -> Scene {
             },
         )],
         medium: None,
+        volumes: Vec::new(),
     }
 }

@@ -189,6 +189,28 @@ pub struct Scene {
     /// part of `objects`: they bound the participating medium and are not drawn); `None` when
     /// the scene has none.
     pub medium: Option<(Vec3, Vec3)>,
+    /// The objects whose custom property `vdb` names an OpenVDB file (glTF node `extras:
+    /// {"vdb": "smoke_####.vdb"}`, which Blender's exporter writes from a custom property), in
+    /// the file's node order: `VdbVolume` places the file in the object's space. Empty for a
+    /// built-in scene.
+    pub volumes: Vec<VolumeObject>,
+}
+
+/// An object naming an OpenVDB file (see [`Scene::volumes`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VolumeObject {
+    /// The glTF node's name.
+    pub name: String,
+    /// The file as the property names it, resolved against the glTF file's folder (a `####` or
+    /// `%04d` in it follows the frame).
+    pub file: String,
+    /// The file of the frame the scene was posed at (`file` with its frame pattern replaced;
+    /// `file` itself without one), set by the `Scene` node.
+    pub frame_file: String,
+    /// A stamp of `frame_file` (size and modification time), so a re-baked cache is read again.
+    pub stamp: u64,
+    /// Object → world (Tyndall's Y-up world), at the posed time.
+    pub world: Mat4,
 }
 
 impl Scene {

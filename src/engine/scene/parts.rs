@@ -1,4 +1,5 @@
-//! The parts of a scene a node can read — camera, lights, geometry, medium bounds — and a
+//! The parts of a scene a node can read — camera, lights, geometry, medium bounds, volume
+//! objects — and a
 //! content key for each, so that a node declaring the parts it reads (`NodeDecl::scene_parts`)
 //! is keyed on those alone: a change of the lights re-runs the shadow map but reuses the
 //! G-buffer.
@@ -18,6 +19,8 @@ pub enum ScenePart {
     Geometry,
     /// The bounds of the objects tagged `medium`.
     Medium,
+    /// The objects naming OpenVDB files ([`Scene::volumes`]: names, files, stamps, placements).
+    Volumes,
 }
 
 /// A content key per part of a scene (equal keys: equal parts).
@@ -31,6 +34,8 @@ pub struct PartKeys {
     pub geometry: u64,
     /// Of [`ScenePart::Medium`].
     pub medium: u64,
+    /// Of [`ScenePart::Volumes`].
+    pub volumes: u64,
     /// Of the meshes as uploaded to the GPU: a placed object's mesh in its own space (not its
     /// placement), every other object's world-space mesh, with indices and colours. Not a part
     /// a node reads: equal keys share vertex and index buffers (`GpuScene::upload`), so an
@@ -93,6 +98,12 @@ impl PartKeys {
                 }
                 scene.medium.is_some().hash(h);
             }),
+            volumes: key(&|h| {
+                for v in &scene.volumes {
+                    (&v.name, &v.file, &v.frame_file, v.stamp).hash(h);
+                    bits(&v.world.to_cols_array(), h);
+                }
+            }),
         }
     }
 
@@ -105,6 +116,7 @@ impl PartKeys {
                 ScenePart::Lights => self.lights,
                 ScenePart::Geometry => self.geometry,
                 ScenePart::Medium => self.medium,
+                ScenePart::Volumes => self.volumes,
             }
             .hash(&mut h);
         }

@@ -5,7 +5,9 @@
 //!
 //! Tags come from a node's `extras`: `{"tags": ["a", "b"]}`, or `{"tyndall_tag": "a, b"}` (a
 //! Blender object's custom property `tyndall_tag`, which Blender's exporter writes as extras);
-//! objects tagged `medium` are not drawn but give the scene's medium bounds. A directional
+//! objects tagged `medium` are not drawn but give the scene's medium bounds. A node whose
+//! `extras` has `"vdb": "file.vdb"` (relative to the glTF file) places that OpenVDB file in its
+//! space ([`crate::scene::Scene::volumes`]). A directional
 //! light's intensity (lux) is read as irradiance in W/m² (÷ 683, [`LUX_PER_WATT`]), a spot or
 //! point light's (candela) as radiant intensity in W/sr (÷ 683 too).
 //!
@@ -114,6 +116,8 @@ struct AssetNode {
     /// The `KHR_lights_punctual` light on the node.
     light: Option<NodeLight>,
     primitives: Vec<Primitive>,
+    /// The OpenVDB file its `vdb` extra names, resolved against the glTF file's folder.
+    vdb: Option<String>,
 }
 
 /// A `KHR_lights_punctual` light as the file gives it (placed by its node when posed).
@@ -139,12 +143,26 @@ pub struct GltfAsset {
     pub animations: Vec<Animation>,
 }
 
-fn tags_of(node: &gltf::Node) -> Vec<String> {
-    let Some(v) = node
-        .extras()
+/// A node's `extras` as JSON (`None`: none, or not JSON).
+fn extras_of(node: &gltf::Node) -> Option<serde_json::Value> {
+    node.extras()
         .as_ref()
         .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
-    else {
+}
+
+/// The file a node's `vdb` extra names (a non-empty string), against the glTF file's folder.
+fn vdb_of(node: &gltf::Node, path: &Path) -> Option<String> {
+    let v = extras_of(node)?;
+    let name = v.get("vdb")?.as_str()?.trim();
+    if name.is_empty() {
+        return None;
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Some(dir.join(name).display().to_string())
+}
+
+fn tags_of(node: &gltf::Node) -> Vec<String> {
+    let Some(v) = extras_of(node) else {
         return Vec::new();
     };
     let mut tags: Vec<String> = v
@@ -333,6 +351,7 @@ pub fn parse_gltf(path: &Path) -> Result<GltfAsset, SceneError> {
             },
             children: node.children().map(|c| c.index()).collect(),
             tags: tags_of(&node),
+            vdb: vdb_of(&node, path),
             camera,
             light,
             primitives,
@@ -381,6 +400,12 @@ pub fn load_gltf_asset(path: &Path) -> Result<Arc<GltfAsset>, SceneError> {
 }
 
 impl GltfAsset {
+    /// The OpenVDB files the nodes' `vdb` extras name (resolved, frame patterns kept), in node
+    /// order.
+    pub fn volume_files(&self) -> Vec<&str> {
+        self.nodes.iter().filter_map(|n| n.vdb.as_deref()).collect()
+    }
+
     /// Whether anything moves: some channel of one of `animations` has two or more keys.
     pub fn moves(&self, animations: &[usize]) -> bool {
         animations

@@ -9,7 +9,9 @@ use glam::{Mat3, Mat4, Vec3};
 
 use super::animation::Animation;
 use super::{err, AssetNode, GltfAsset, Primitive, LUX_PER_WATT, MEDIUM_TAG};
-use crate::scene::{Camera, Light, LightKind, Object, Placement, Scene, SceneError, Sun};
+use crate::scene::{
+    Camera, Light, LightKind, Object, Placement, Scene, SceneError, Sun, VolumeObject,
+};
 
 /// The name of the sun a glTF file with no lights at all is lit by (`tyndall validate` lists
 /// it): a white 3 W/m² sun 60° up at azimuth 30°, so that such a file still renders.
@@ -40,6 +42,7 @@ impl GltfAsset {
         let mut objects = Vec::new();
         let mut camera = None;
         let mut lights = Vec::new();
+        let mut volumes = Vec::new();
         // Nodes the played animations move (and, below, their descendants).
         let keyed: std::collections::HashSet<usize> = anim
             .iter()
@@ -98,6 +101,18 @@ impl GltfAsset {
                 };
                 lights.push((index, light));
             }
+            if let Some(file) = &node.vdb {
+                volumes.push((
+                    index,
+                    VolumeObject {
+                        name: node.name.clone(),
+                        file: file.clone(),
+                        frame_file: file.clone(),
+                        stamp: 0,
+                        world,
+                    },
+                ));
+            }
             let normal_m = Mat3::from_mat4(world).inverse().transpose();
             for (pi, prim) in node.primitives.iter().enumerate() {
                 let mut o = posed(node, pi, prim, world, normal_m);
@@ -132,9 +147,11 @@ impl GltfAsset {
         if lights.is_empty() {
             lights.push(Light::sun(DEFAULT_SUN, default_sun()));
         }
+        volumes.sort_by_key(|(index, _)| *index);
         let mut s = Scene {
             objects,
             medium,
+            volumes: volumes.into_iter().map(|(_, v)| v).collect(),
             camera: Camera {
                 position: Vec3::ZERO,
                 target: Vec3::NEG_Z,
