@@ -8,11 +8,23 @@
 //! (or to a lamp inside it), e^{−σt Σ density Δ} over `light_steps` midpoints; a sample reads it
 //! trilinearly. Built once per run, for any light (a spot's and a point light's rays converge on
 //! the light, the sun's are parallel). Both are quality knobs, measured in the `density` bench.
+//!
+//! Empty-space skipping: an occupancy volume (one texel per 4³ density texels, the largest
+//! density a trilinear read inside that brick can weigh) lets both marches step over empty
+//! bricks whole. It is exact:
+//! a skipped sample reads a density of 0 and adds nothing. After a sample reads 0 the next one
+//! looks the occupancy up (inside the smoke only a branch is added: 6 % on lavapipe; the plume
+//! in a 40 m box runs 1.3× faster than without skipping, BENCHMARKS.md). `visibility`
+//! (V̄) is the mean light over the samples where the density is above 0 (the light reaching
+//! the smoke), 1 on a ray that meets none.
 
 use super::{medium_segment, Bind, NodeError, PixelResult, Raster, ScatterParams, Vec3};
 pub use crate::algorithms::box_volume::BoxVolume as Density;
 use crate::algorithms::shader_lib::{henyey_greenstein, light_uvz, sun_reaches};
 use tyndall_engine::gpu::{GpuVolume, Recorder, Shader};
+
+/// Density texels per side of an occupancy brick (`BRICK` in the shader).
+const BRICK: u32 = 4;
 
 /// The density passes.
 pub(super) const DENSITY: Shader = crate::shader(
@@ -57,7 +69,9 @@ pub fn light_transmittance(p: &ScatterParams, density: &Density, x: Vec3, m: u32
 /// CPU reference of one pixel through the density (the oracle of the GPU passes): `steps`
 /// samples of the medium's part of the view ray inside the density's box, each lit by the
 /// shadow map's test times [`light_transmittance`] with `light_steps` midpoints, with the
-/// Henyey–Greenstein phase function (`p.g`); `s` the pixel's depth.
+/// Henyey–Greenstein phase function (`p.g`); `s` the pixel's depth. V̄ is the mean light over
+/// the samples where the density is above 0 (1 where there is none). Every sample is marched
+/// (no skipping).
 pub fn density_reference_pixel(
     p: &ScatterParams,
     shadow: &Raster,
@@ -78,11 +92,15 @@ pub fn density_reference_pixel(
     let offset = p.jitter * ((hash - hash.floor()) - 0.5);
     let delta = len / p.steps as f32;
     let lvp = glam::Mat4::from_cols_array_2d(&p.light.view_proj);
-    let (mut tr, mut lit, mut acc) = (1.0f32, 0.0f32, [0.0f32; 3]);
+    let (mut tr, mut lit, mut in_smoke, mut acc) = (1.0f32, 0.0f32, 0u32, [0.0f32; 3]);
     for i in 0..p.steps {
         let t = t0 + (i as f32 + 0.5 + offset) * delta;
         let xs = eye + dir * t;
-        let sigma = p.sigma_t * density.at(xs);
+        let dens = density.at(xs);
+        if dens <= 0.0 {
+            continue; // no medium: nothing scattered or absorbed, and not part of V̄
+        }
+        let sigma = p.sigma_t * dens;
         let (v, f) = match p.local() {
             Some(l) => {
                 let uvz = l.uvz(lvp, xs).unwrap_or(Vec3::new(-1.0, -1.0, 2.0));
@@ -103,19 +121,25 @@ pub fn density_reference_pixel(
             0.0
         };
         lit += light;
+        in_smoke += 1;
         let absorbed = 1.0 - (-sigma * delta).exp();
         for (c, a) in acc.iter_mut().enumerate() {
             *a += p.light.radiance[c] * p.albedo * f * light * tr * absorbed;
         }
         tr *= (-sigma * delta).exp();
     }
-    let vbar = if len > 0.0 { lit / p.steps as f32 } else { 1.0 };
+    let vbar = if in_smoke > 0 {
+        lit / in_smoke as f32
+    } else {
+        1.0
+    };
     (vbar, acc, tr)
 }
 
 /// The density path's passes, after the method's shared bindings `binds`: the light
 /// transmittance volume over the density's box (`transmittance_resolution` texels on its longest
-/// side, at least 2 on every side), then the march (`brute_force_density`). Returns that volume
+/// side, at least 2 on every side), then the march (`brute_force_density`); the occupancy of
+/// 4³-texel bricks before both (empty-space skipping). Returns that volume
 /// and its box (the `light_transmittance` output).
 pub(super) fn dispatch<'a>(
     gpu: &Recorder,
@@ -137,9 +161,15 @@ pub(super) fn dispatch<'a>(
     let tr_size =
         ext.map(|e| ((e / longest * resolution as f32).round() as u32).clamp(2, resolution.max(2)));
     let light_tr = gpu.volume(tr_size)?;
+    let occ_size = volume.size.map(|n| n.div_ceil(BRICK).max(1));
+    let occupancy = gpu.volume(occ_size)?;
     let mut b = binds.to_vec();
     b.push(("density_volume", Bind::Volume(volume)));
     b.push(("D", Bind::Uniform(bytemuck::bytes_of(&view))));
+    let mut occ = b.clone();
+    occ.push(("out_occupancy", Bind::VolumeLevel(&occupancy, 0)));
+    gpu.dispatch_3d(DENSITY, "occupancy_build", &occ, occ_size)?;
+    b.push(("occupancy", Bind::Volume(&occupancy)));
     let mut build = b.clone();
     build.push(("out_light_tr", Bind::VolumeLevel(&light_tr, 0)));
     gpu.dispatch_3d(DENSITY, "light_transmittance", &build, tr_size)?;

@@ -67,8 +67,11 @@
 //! interval Δ with σ_i = σt · density(x_i), adds ρ f(θ) L_i T_i (1 − e^{−σ_i Δ}) with T_i the view
 //! ray's transmittance before it and L_i = V(x_i) · T_light(x_i) (· a lamp's falloff); the
 //! `transmittance` output is the product of the e^{−σ_i Δ}, and V̄ the mean of V · T_light over
-//! the samples — the mean light reaching them, so transfer functions, hole filling and every
-//! stylization downstream keep working. MinMax and Epipolar walk the shadow map's trees and do
+//! the samples where the density is above 0 — the mean light reaching the smoke along the ray
+//! (1 on a ray that meets none), so transfer functions, hole filling and every stylization
+//! downstream keep working. Empty space is skipped: both marches step over 4³-texel bricks of
+//! the density holding nothing (exact: what they skip adds 0), so a small plume in a large box
+//! costs less than marching all of it (1.3× on lavapipe, BENCHMARKS.md). MinMax and Epipolar walk the shadow map's trees and do
 //! not integrate a density: with one they run this BruteForce march, and the node says so (a
 //! note). `light_extinction` does not apply (the density's own attenuation is always on); a light
 //! map with a density is refused. A constant density equals the homogeneous box with light

@@ -18,9 +18,65 @@ struct DensityView {
 @group(0) @binding(21) var light_tr: texture_3d<f32>;
 @group(0) @binding(22) var<uniform> D: DensityView;
 @group(0) @binding(23) var out_light_tr: texture_storage_3d<r32float, write>;
+// Empty-space skipping: per brick of BRICK³ density texels, the largest density a trilinear
+// read inside the brick can see (its texels and one more on every side); 0 = empty.
+@group(0) @binding(24) var occupancy: texture_3d<f32>;
+@group(0) @binding(25) var out_occupancy: texture_storage_3d<r32float, write>;
+
+const BRICK: i32 = 4;
 
 fn density_at(x: vec3<f32>) -> f32 {
     return max(box_trilinear(density_volume, D.lo, D.hi, x, 0.0), 0.0);
+}
+
+// Brick b's occupancy: the max of max(density, 0) over texels 4b − 1 … 4b + 4 (clamped), every
+// texel a trilinear read at a point of the brick's box can weigh.
+@compute @workgroup_size(4, 4, 4)
+fn occupancy_build(@builtin(global_invocation_id) id: vec3<u32>) {
+    let nb = textureDimensions(out_occupancy);
+    if any(id >= nb) {
+        return;
+    }
+    let n = vec3<i32>(textureDimensions(density_volume, 0));
+    let a = max(vec3<i32>(id) * BRICK - 1, vec3<i32>(0));
+    let b = min(vec3<i32>(id) * BRICK + BRICK, n - 1);
+    var m = 0.0;
+    for (var z = a.z; z <= b.z; z++) {
+        for (var y = a.y; y <= b.y; y++) {
+            for (var x = a.x; x <= b.x; x++) {
+                m = max(m, textureLoad(density_volume, vec3<i32>(x, y, z), 0).r);
+            }
+        }
+    }
+    textureStore(out_occupancy, id, vec4<f32>(m, 0.0, 0.0, 1.0));
+}
+
+// The samples to step over from sample i at x (along unit d, `delta` apart): 0 when x's brick
+// holds density, else enough to pass the brick's box (at least 1). Every sample skipped lies in
+// an empty brick, where the density reads exactly 0 and adds nothing to any sum.
+fn skip_empty(x: vec3<f32>, d: vec3<f32>, delta: f32) -> u32 {
+    let n = vec3<f32>(textureDimensions(density_volume, 0));
+    let u = (x - D.lo) / max(D.hi - D.lo, vec3<f32>(1e-12));
+    if any(u < vec3<f32>(0.0)) || any(u > vec3<f32>(1.0)) || delta <= 0.0 {
+        return 0u;
+    }
+    let nb = textureDimensions(occupancy, 0);
+    let b = min(vec3<u32>(u * n / f32(BRICK)), nb - 1u);
+    if textureLoad(occupancy, b, 0).r > 0.0 {
+        return 0u;
+    }
+    let cell = (D.hi - D.lo) / n * f32(BRICK);
+    let lo = D.lo + vec3<f32>(b) * cell;
+    let hi = min(lo + cell, D.hi);
+    var t = 1e30;
+    for (var k = 0; k < 3; k++) {
+        if d[k] > 0.0 {
+            t = min(t, (hi[k] - x[k]) / d[k]);
+        } else if d[k] < 0.0 {
+            t = min(t, (lo[k] - x[k]) / d[k]);
+        }
+    }
+    return max(1u, u32(min(ceil(max(t, 0.0) / delta), 1e9)));
 }
 
 // The unit direction from x towards the light, and how far the light is (the sun: unbounded).
@@ -61,8 +117,26 @@ fn light_transmittance(@builtin(global_invocation_id) id: vec3<u32>) {
     let m = max(D.light_steps, 1u);
     let delta = len / f32(m);
     var tau = 0.0;
-    for (var i = 0u; i < m; i++) {
-        tau += density_at(x + l.xyz * ((f32(i) + 0.5) * delta));
+    // Empty bricks are stepped over; the occupancy is looked up only after a sample read 0, so
+    // the smoke itself costs no more than without skipping.
+    var empty = true;
+    var i = 0u;
+    loop {
+        if i >= m {
+            break;
+        }
+        let xi = x + l.xyz * ((f32(i) + 0.5) * delta);
+        if empty {
+            let skip = skip_empty(xi, l.xyz, delta);
+            if skip > 0u {
+                i += skip;
+                continue;
+            }
+        }
+        let dens = density_at(xi);
+        tau += dens;
+        empty = dens == 0.0;
+        i++;
     }
     textureStore(out_light_tr, id, vec4<f32>(exp(-P.sigma_t * tau * delta), 0.0, 0.0, 1.0));
 }
@@ -71,7 +145,9 @@ fn light_transmittance(@builtin(global_invocation_id) id: vec3<u32>) {
 // ray's part inside the medium and the box. Sample i stands for its interval Δ with σ_i =
 // σt · density(x_i): it adds ρ f(θ) L_i T_i (1 − e^{−σ_i Δ}), T_i the view ray's transmittance
 // up to the interval, L_i = V(x_i) · T_light(x_i) (· a lamp's falloff); T_{i+1} = T_i e^{−σ_i Δ}.
-// `visibility` is the mean of V · T_light over the samples (the mean light reaching them).
+// `visibility` is the mean of V · T_light over the samples where the density is above 0 (the
+// mean light reaching the smoke along the ray; 1 where the ray meets none). Samples in empty
+// bricks are stepped over (they add nothing).
 @compute @workgroup_size(8, 8)
 fn brute_force_density(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(depth);
@@ -99,13 +175,33 @@ fn brute_force_density(@builtin(global_invocation_id) id: vec3<u32>) {
     let delta = len / f32(P.steps);
     var tr = 1.0;
     var lit = 0.0;
+    var in_smoke = 0u;
     var acc = vec3<f32>(0.0);
-    for (var i = 0u; i < P.steps; i++) {
+    var empty = true;
+    var i = 0u;
+    loop {
+        if i >= P.steps {
+            break;
+        }
         let t = t0 + (f32(i) + 0.5 + offset) * delta;
         let x = P.eye + dir * t;
-        let sigma = P.sigma_t * density_at(x);
+        if empty {
+            let skip = skip_empty(x, dir, delta);
+            if skip > 0u {
+                i += skip;
+                continue;
+            }
+        }
+        i++;
+        let dens = density_at(x);
+        empty = dens == 0.0;
+        if empty {
+            continue;
+        }
+        let sigma = P.sigma_t * dens;
         let light = visible(x) * box_trilinear(light_tr, D.lo, D.hi, x, 1.0);
         lit += light;
+        in_smoke++;
         let absorbed = 1.0 - exp(-sigma * delta);
         if light > 0.0 && absorbed > 0.0 {
             var f: vec3<f32>;
@@ -118,7 +214,7 @@ fn brute_force_density(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         tr *= exp(-sigma * delta);
     }
-    let vbar = select(1.0, lit / f32(P.steps), len > 0.0);
+    let vbar = select(1.0, lit / f32(in_smoke), in_smoke > 0u);
     textureStore(out_vis, id.xy, vec4<f32>(vbar, 0.0, 0.0, 1.0));
     textureStore(out_inscatter, id.xy, vec4<f32>(P.light.radiance * P.albedo * acc, 1.0));
     textureStore(out_transmittance, id.xy, vec4<f32>(tr, 0.0, 0.0, 1.0));
