@@ -32,6 +32,8 @@ cp out/forest_temporal_0048.png docs/medium/forest_temporal.png
 ./target/release/tyndall render graphs/medium/fence_painted.ron -o docs/medium/fence_painted.png --size 960x540
 ./target/release/tyndall render graphs/medium/tree_intensity.ron -o docs/medium/tree_intensity.png --size 960x540
 ./target/release/tyndall render graphs/medium/forest_smoke.ron -o docs/medium/forest_smoke.png --size 960x540
+./target/release/tyndall render graphs/medium/stage_haze.ron -o out/stage_haze.png --size 480x270 --frames 1
+cp out/stage_haze_0001.png docs/medium/stage_haze.png
 ./target/release/tyndall render graphs/atmosphere/cloud_mie.ron -o docs/atmosphere/cloud_mie.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_sunset.ron -o docs/atmosphere/fence_sunset.png --size 960x540
 ./target/release/tyndall render graphs/atmosphere/fence_soft_kernels.ron -o docs/atmosphere/fence_soft_kernels.png --size 320x180
