@@ -221,6 +221,20 @@ pub fn read_vdb_grid(path: &Path, grid: &str, limit: u32) -> Result<VdbGrid, Vdb
     densify(&mut r)
 }
 
+/// Every leaf node of `g` (the 8³ blocks of voxels under the internal nodes).
+fn leaves<T: Copy>(g: &vdb_rs::Grid<T>) -> impl Iterator<Item = &vdb_rs::Node3<T>> {
+    g.tree.root_nodes.iter().flat_map(|n5| {
+        n5.child_mask
+            .iter_ones()
+            .filter_map(|c5| n5.nodes.get(&(c5 as u32)))
+            .flat_map(|n4| {
+                n4.child_mask
+                    .iter_ones()
+                    .filter_map(|c4| n4.nodes.get(&(c4 as u32)))
+            })
+    })
+}
+
 /// The active bounding box of `g` (inclusive) and its number of active voxels: a leaf whose 512
 /// voxels are all active counts as its cube, others voxel by voxel; tiles as in
 /// [`for_each_active`].
@@ -234,26 +248,15 @@ fn active_bounds<T: Copy>(g: &vdb_rs::Grid<T>) -> ([i32; 3], [i32; 3], u64) {
         }
         active += n;
     };
-    for n5 in &g.tree.root_nodes {
-        for c5 in n5.child_mask.iter_ones() {
-            let Some(n4) = n5.nodes.get(&(c5 as u32)) else {
-                continue;
-            };
-            for c4 in n4.child_mask.iter_ones() {
-                let Some(leaf) = n4.nodes.get(&(c4 as u32)) else {
-                    continue;
-                };
-                let o = leaf.origin.to_array();
-                let n = leaf.value_mask.count_ones();
-                if n == 512 {
-                    add(o, 8, 512);
-                    continue;
-                }
-                for v in leaf.value_mask.iter_ones() {
-                    let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
-                    add([o[0] + x, o[1] + y, o[2] + z], 1, 1);
-                }
-            }
+    for leaf in leaves(g) {
+        let o = leaf.origin.to_array();
+        if leaf.value_mask.count_ones() == 512 {
+            add(o, 8, 512);
+            continue;
+        }
+        for v in leaf.value_mask.iter_ones() {
+            let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+            add([o[0] + x, o[1] + y, o[2] + z], 1, 1);
         }
     }
     // The tiles.
@@ -265,25 +268,15 @@ fn active_bounds<T: Copy>(g: &vdb_rs::Grid<T>) -> ([i32; 3], [i32; 3], u64) {
 /// (side 1), each active tile of an internal node (8 or 128) and of the root (4096) — what
 /// vdb-rs's `GridIter` yields, in the same order within a node, with the same value lookup.
 fn for_each_active<T: Copy>(g: &vdb_rs::Grid<T>, f: &mut dyn FnMut([i32; 3], i32, T)) {
-    for n5 in &g.tree.root_nodes {
-        for c5 in n5.child_mask.iter_ones() {
-            let Some(n4) = n5.nodes.get(&(c5 as u32)) else {
+    for leaf in leaves(g) {
+        let o = leaf.origin.to_array();
+        for v in leaf.value_mask.iter_ones() {
+            let Some(value) = leaf.buffer.get(v) else {
                 continue;
             };
-            for c4 in n4.child_mask.iter_ones() {
-                let Some(leaf) = n4.nodes.get(&(c4 as u32)) else {
-                    continue;
-                };
-                let o = leaf.origin.to_array();
-                for v in leaf.value_mask.iter_ones() {
-                    let Some(value) = leaf.buffer.get(v) else {
-                        continue;
-                    };
-                    // A leaf's offset runs z fastest, then y, then x.
-                    let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
-                    f([o[0] + x, o[1] + y, o[2] + z], 1, *value);
-                }
-            }
+            // A leaf's offset runs z fastest, then y, then x.
+            let (x, y, z) = ((v >> 6) as i32, ((v >> 3) & 7) as i32, (v & 7) as i32);
+            f([o[0] + x, o[1] + y, o[2] + z], 1, *value);
         }
     }
     for_tiles(g, f);
@@ -382,6 +375,54 @@ fn dense<T: Copy>(
     let mut hits = vec![0u32; if reduce > 1 { n as usize } else { 0 }];
     let (d0, d1) = (dims[0] as i64, dims[1] as i64);
     let lo64 = lo.map(i64::from);
+    if reduce == 1 {
+        // Unfiltered: each leaf written straight into the box (a full leaf without looking at
+        // its mask), then the tiles. A leaf's buffer runs z fastest, the box x fastest.
+        for leaf in leaves(g) {
+            let o = leaf.origin.to_array().map(i64::from);
+            let base = ((o[2] - lo64[2]) * d1 + (o[1] - lo64[1])) * d0 + (o[0] - lo64[0]);
+            let full = leaf.value_mask.count_ones() == 512 && leaf.buffer.len() >= 512;
+            let mut put = |v: usize, value: T| {
+                let (x, y, z) = ((v >> 6) as i64, ((v >> 3) & 7) as i64, (v & 7) as i64);
+                data[(base + (z * d1 + y) * d0 + x) as usize] = to_f32(value);
+            };
+            if full {
+                for (v, value) in leaf.buffer.iter().take(512).enumerate() {
+                    put(v, *value);
+                }
+            } else {
+                for v in leaf.value_mask.iter_ones() {
+                    if let Some(value) = leaf.buffer.get(v) {
+                        put(v, *value);
+                    }
+                }
+            }
+        }
+        for_tiles(g, &mut |o, s, v| {
+            let v = to_f32(v);
+            let o = o.map(i64::from);
+            for z in o[2]..o[2] + s as i64 {
+                for y in o[1]..o[1] + s as i64 {
+                    let row = ((z - lo64[2]) * d1 + (y - lo64[1])) * d0 - lo64[0];
+                    for x in o[0]..o[0] + s as i64 {
+                        data[(row + x) as usize] = v;
+                    }
+                }
+            }
+        });
+        return Ok(VdbGrid {
+            name: g.descriptor.name.clone(),
+            grid_type: grid_type.to_string(),
+            index_to_world,
+            index_min: lo,
+            active_dims: side.map(|s| s as u32),
+            reduce: 1,
+            dims,
+            data,
+            background,
+            active_voxels: active,
+        });
+    }
     items(&mut |o, s, v| {
         let v = to_f32(v);
         let o = o.map(i64::from);
