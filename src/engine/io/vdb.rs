@@ -328,6 +328,52 @@ fn for_tiles<T: Copy>(g: &vdb_rs::Grid<T>, f: &mut dyn FnMut([i32; 3], i32, T)) 
     }
 }
 
+/// The unfiltered densify: each leaf of `g` written straight into `data` (the box from `lo`,
+/// `dims` texels, x fastest; a leaf's buffer runs z fastest) — a full leaf without looking at
+/// its mask — then the tiles.
+fn fill_unfiltered<T: Copy>(
+    g: &vdb_rs::Grid<T>,
+    to_f32: &impl Fn(T) -> f32,
+    data: &mut [f32],
+    lo: [i32; 3],
+    dims: [u32; 3],
+) {
+    let (d0, d1) = (dims[0] as i64, dims[1] as i64);
+    let lo64 = lo.map(i64::from);
+    for leaf in leaves(g) {
+        let o = leaf.origin.to_array().map(i64::from);
+        let base = ((o[2] - lo64[2]) * d1 + (o[1] - lo64[1])) * d0 + (o[0] - lo64[0]);
+        let full = leaf.value_mask.count_ones() == 512 && leaf.buffer.len() >= 512;
+        let mut put = |v: usize, value: T| {
+            let (x, y, z) = ((v >> 6) as i64, ((v >> 3) & 7) as i64, (v & 7) as i64);
+            data[(base + (z * d1 + y) * d0 + x) as usize] = to_f32(value);
+        };
+        if full {
+            for (v, value) in leaf.buffer.iter().take(512).enumerate() {
+                put(v, *value);
+            }
+        } else {
+            for v in leaf.value_mask.iter_ones() {
+                if let Some(value) = leaf.buffer.get(v) {
+                    put(v, *value);
+                }
+            }
+        }
+    }
+    for_tiles(g, &mut |o, s, v| {
+        let v = to_f32(v);
+        let o = o.map(i64::from);
+        for z in o[2]..o[2] + s as i64 {
+            for y in o[1]..o[1] + s as i64 {
+                let row = ((z - lo64[2]) * d1 + (y - lo64[1])) * d0 - lo64[0];
+                for x in o[0]..o[0] + s as i64 {
+                    data[(row + x) as usize] = v;
+                }
+            }
+        }
+    });
+}
+
 /// The largest box side densified before filtering, voxels (a root tile is 4096 wide).
 const ROOT_TILE: i32 = 4096;
 
@@ -372,44 +418,10 @@ fn dense<T: Copy>(
     let r = reduce as i64;
     // Unfiltered, a texel no active item sets holds the background; filtered, the sums start at 0.
     let mut data = vec![if reduce > 1 { 0.0 } else { background }; n as usize];
-    let mut hits = vec![0u32; if reduce > 1 { n as usize } else { 0 }];
     let (d0, d1) = (dims[0] as i64, dims[1] as i64);
     let lo64 = lo.map(i64::from);
     if reduce == 1 {
-        // Unfiltered: each leaf written straight into the box (a full leaf without looking at
-        // its mask), then the tiles. A leaf's buffer runs z fastest, the box x fastest.
-        for leaf in leaves(g) {
-            let o = leaf.origin.to_array().map(i64::from);
-            let base = ((o[2] - lo64[2]) * d1 + (o[1] - lo64[1])) * d0 + (o[0] - lo64[0]);
-            let full = leaf.value_mask.count_ones() == 512 && leaf.buffer.len() >= 512;
-            let mut put = |v: usize, value: T| {
-                let (x, y, z) = ((v >> 6) as i64, ((v >> 3) & 7) as i64, (v & 7) as i64);
-                data[(base + (z * d1 + y) * d0 + x) as usize] = to_f32(value);
-            };
-            if full {
-                for (v, value) in leaf.buffer.iter().take(512).enumerate() {
-                    put(v, *value);
-                }
-            } else {
-                for v in leaf.value_mask.iter_ones() {
-                    if let Some(value) = leaf.buffer.get(v) {
-                        put(v, *value);
-                    }
-                }
-            }
-        }
-        for_tiles(g, &mut |o, s, v| {
-            let v = to_f32(v);
-            let o = o.map(i64::from);
-            for z in o[2]..o[2] + s as i64 {
-                for y in o[1]..o[1] + s as i64 {
-                    let row = ((z - lo64[2]) * d1 + (y - lo64[1])) * d0 - lo64[0];
-                    for x in o[0]..o[0] + s as i64 {
-                        data[(row + x) as usize] = v;
-                    }
-                }
-            }
-        });
+        fill_unfiltered(g, &to_f32, &mut data, lo, dims);
         return Ok(VdbGrid {
             name: g.descriptor.name.clone(),
             grid_type: grid_type.to_string(),
@@ -423,36 +435,25 @@ fn dense<T: Copy>(
             active_voxels: active,
         });
     }
+    let mut hits = vec![0u32; n as usize];
     items(&mut |o, s, v| {
         let v = to_f32(v);
         let o = o.map(i64::from);
-        if reduce == 1 && s == 1 {
-            // A voxel of an unfiltered grid: no division.
-            let i = ((o[2] - lo64[2]) * d1 + (o[1] - lo64[1])) * d0 + (o[0] - lo64[0]);
-            data[i as usize] = v;
-            return;
-        }
         for z in o[2]..o[2] + s as i64 {
             for y in o[1]..o[1] + s as i64 {
                 let row = (((z - lo64[2]) / r) * d1 + (y - lo64[1]) / r) * d0;
                 for x in o[0]..o[0] + s as i64 {
                     let i = (row + (x - lo64[0]) / r) as usize;
-                    if reduce > 1 {
-                        data[i] += v;
-                        hits[i] += 1;
-                    } else {
-                        data[i] = v;
-                    }
+                    data[i] += v;
+                    hits[i] += 1;
                 }
             }
         }
     });
-    if reduce > 1 {
-        // A box mean over reduce³ voxels: the ones no active item covers hold the background.
-        let full = (reduce * reduce * reduce) as f32;
-        for (d, h) in data.iter_mut().zip(&hits) {
-            *d = (*d + background * (full - *h as f32)) / full;
-        }
+    // A box mean over reduce³ voxels: the ones no active item covers hold the background.
+    let full = (reduce * reduce * reduce) as f32;
+    for (d, h) in data.iter_mut().zip(&hits) {
+        *d = (*d + background * (full - *h as f32)) / full;
     }
     Ok(VdbGrid {
         name: g.descriptor.name.clone(),
