@@ -338,19 +338,20 @@ fn mask_frozen(@builtin(global_invocation_id) id: vec3<u32>) {
     vout[id.x] = select(vout[id.x], vec4<f32>(0.0), frozen);
 }
 
-// One of 64 partial results per reduction, written at partials[slot * 64 + workgroup]
-// (the caller adds the 64 in f64). mode 0: Σ u·v per channel; 1: Σ |u|; 2: min u;
+// One of up to 64 partial results per reduction, written at partials[slot * 64 + workgroup]
+// (the caller adds those of the workgroups it ran in f64: one per 256 elements, at most 64, so a
+// short vector is not swept by 16384 idle invocations). mode 0: Σ u·v per channel; 1: Σ |u|; 2: min u;
 // 3: min over v < 0 of −u / v (the longest step along v that keeps u ≥ 0; 3.4e38 if none);
 // 4: Σ u² (v unused: a buffer may not be bound twice as writable storage).
-const REDUCE_THREADS: u32 = 16384u;
 var<workgroup> part: array<vec4<f32>, 256>;
 
 @compute @workgroup_size(256)
-fn reduce(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wg: vec3<u32>) {
+fn reduce(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let threads = groups.x * 256u;
     let big = vec4<f32>(3.4e38);
     let minimum = V.mode == 2u || V.mode == 3u;
     var acc4 = select(vec4<f32>(0.0), big, vec4<bool>(minimum));
-    for (var i = id.x; i < V.count; i += REDUCE_THREADS) {
+    for (var i = id.x; i < V.count; i += threads) {
         let u = vin[i];
         let v = vin2[i];
         switch V.mode {

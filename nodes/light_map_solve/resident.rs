@@ -39,10 +39,16 @@ tyndall_engine::uniforms! {
     }
 }
 
-/// Partials per reduction (`reduce` runs 64 workgroups of 256).
+/// Partials per reduction at most (`reduce` runs up to 64 workgroups of 256).
 const PARTIALS: u32 = 64;
-/// Invocations of one `reduce` (`REDUCE_THREADS` in the shader: 64 workgroups of 256).
-const REDUCE_THREADS: u32 = PARTIALS * 256;
+/// Elements per `reduce` workgroup (its `@workgroup_size`).
+const REDUCE_GROUP: u32 = 256;
+
+/// Workgroups of a `reduce` over `count` elements: one per 256 elements, 1 to 64 (they stride
+/// over longer vectors), so a short vector is not swept by 16384 mostly idle invocations.
+fn reduce_groups(count: u32) -> u32 {
+    count.div_ceil(REDUCE_GROUP).clamp(1, PARTIALS)
+}
 /// Reductions one read-back can carry.
 const SLOTS: u32 = 4;
 
@@ -252,8 +258,8 @@ impl<'a> Resident<'a> {
         )
     }
 
-    /// One vector pass over `p.count` elements (`reduce`: always its 64 workgroups, which
-    /// stride over the elements, so that every partial is written).
+    /// One vector pass over `p.count` elements (`reduce`: [`reduce_groups`] workgroups, which
+    /// stride over the elements; each writes its partial).
     fn vector_pass(
         &self,
         entry: &str,
@@ -263,7 +269,7 @@ impl<'a> Resident<'a> {
         let mut all = vec![("V", Bind::Uniform(bytemuck::bytes_of(&p)))];
         all.extend_from_slice(binds);
         let width = if entry == "reduce" {
-            REDUCE_THREADS
+            reduce_groups(p.count) * REDUCE_GROUP
         } else {
             p.count
         };
@@ -346,9 +352,9 @@ impl<'a> Resident<'a> {
             }
             let words = self.gpu.read_buffer_i32(&self.partials)?;
             let values: &[f32] = bytemuck::cast_slice(&words);
-            for (slot, (kind, ..)) in chunk.iter().enumerate() {
-                let part =
-                    &values[slot * PARTIALS as usize * 4..(slot + 1) * PARTIALS as usize * 4];
+            for (slot, (kind, u, _)) in chunk.iter().enumerate() {
+                let start = slot * PARTIALS as usize * 4;
+                let part = &values[start..start + reduce_groups(u.words / 4) as usize * 4];
                 let minimum = matches!(kind, Reduce::Min | Reduce::StepLimit);
                 out.push(std::array::from_fn(|c| {
                     let lane = part.chunks(4).map(|p| p[c] as f64);
