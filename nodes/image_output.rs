@@ -41,6 +41,7 @@
 //! | `inscatter` | in | Image (optional) |
 //! | `transmittance` | in | Scalar (optional) |
 //! | `aov1`, `aov2` | in | Image \| Scalar \| ShadowMap \| Depth (optional) |
+//! | `layers` | in | Layers (optional) — layers written as they are named, always 32-bit where the producer asks (Cryptomatte's IDs), with their header attributes |
 //!
 //! | param | type | default | |
 //! |---|---|---|---|
@@ -286,6 +287,7 @@ static AOV_DECL: NodeDecl = NodeDecl::new(NodeSchema {
         PortSpec::input("transmittance", &[PortType::Scalar], "Transmittance (layer transmittance.Y)."),
         PortSpec::input("aov1", ANY, "Any image-like port, as layer `aov1_name`."),
         PortSpec::input("aov2", ANY, "Any image-like port, as layer `aov2_name`."),
+        PortSpec::input("layers", &[PortType::Layers], "Named layers and their header attributes (Cryptomatte), written as named."),
     ],
     outputs: &[],
     params: AovParams::SPECS,
@@ -318,7 +320,10 @@ impl NodeKind for AovOutput {
             .copied()
             .filter(|p| ctx.input(p).is_some())
             .collect();
-        if connected.is_empty() {
+        if let Some(set) = ctx.input("layers").cloned() {
+            // Written as they are (IDs are bit patterns: no sanitizing pass may touch them).
+            ctx.set("layers", set);
+        } else if connected.is_empty() {
             return Err(NodeError::Input {
                 port: "rgba".into(),
                 message: "nothing to write: connect at least one port".into(),
@@ -343,7 +348,21 @@ impl NodeKind for AovOutput {
             .collect();
         let mut size = None;
         let mut layers = Vec::new();
+        let mut text = Vec::new();
         for (port, written) in outputs {
+            if let PortValue::Layers(set) = written {
+                for layer in &set.layers {
+                    let raster = download(ctx.gpu, &PortValue::Image(layer.texture.clone()))?;
+                    same_size(&mut size, &raster, "layers")?;
+                    layers.push(ExrLayer {
+                        half: half && !layer.float && !floats.contains(&layer.name),
+                        name: layer.name.clone(),
+                        channels: split_channels(&raster, &layer.channels),
+                    });
+                }
+                text.extend(set.attributes.iter().cloned());
+                continue;
+            }
             let name = match port.as_str() {
                 "aov1" => p.aov1_name.trim().to_string(),
                 "aov2" => p.aov2_name.trim().to_string(),
@@ -357,33 +376,15 @@ impl NodeKind for AovOutput {
             }
             let original = ctx.input(port).unwrap_or(written);
             let raster = download(ctx.gpu, written)?;
-            let dims = (raster.width, raster.height);
-            if *size.get_or_insert(dims) != dims {
-                return Err(NodeError::Input {
-                    port: port.clone(),
-                    message: format!(
-                        "is {}×{}, other layers are {}×{}: every layer needs the same size",
-                        dims.0,
-                        dims.1,
-                        size.map_or(0, |s| s.0),
-                        size.map_or(0, |s| s.1)
-                    ),
-                });
-            }
-            let c = raster.channels as usize;
-            let channels = channel_names(port, original)
+            same_size(&mut size, &raster, port)?;
+            let names: Vec<String> = channel_names(port, original)
                 .iter()
-                .enumerate()
-                .map(|(i, ch)| {
-                    let k = i.min(c - 1);
-                    let samples = raster.data.chunks(c).map(|p| p[k]).collect();
-                    (ch.to_string(), samples)
-                })
+                .map(|c| c.to_string())
                 .collect();
             layers.push(ExrLayer {
                 half: half && !floats.contains(&name),
                 name,
-                channels,
+                channels: split_channels(&raster, &names),
             });
         }
         // The rgba layer first, then the rest in port order (BTreeMap: alphabetical).
@@ -402,9 +403,40 @@ impl NodeKind for AovOutput {
             world_to_ndc: camera.map(|m| m.view_proj().to_cols_array()),
             frame: Some(ctx.time.round() as i32),
             chromaticities: chromaticities(ctx)?,
+            text,
         };
         let size = size.unwrap_or((1, 1));
         write_exr_layers(&path, size, &layers, &header)?;
         Ok(())
     }
+}
+
+/// Hold every layer to the first one's size (`size`), naming `port` when one differs.
+fn same_size(size: &mut Option<(u32, u32)>, raster: &Raster, port: &str) -> Result<(), NodeError> {
+    let dims = (raster.width, raster.height);
+    let first = *size.get_or_insert(dims);
+    if first != dims {
+        return Err(NodeError::Input {
+            port: port.into(),
+            message: format!(
+                "is {}×{}, other layers are {}×{}: every layer needs the same size",
+                dims.0, dims.1, first.0, first.1
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The channels of `raster` as `(name, samples)`, one per name (a name past the raster's
+/// channels repeats its last one).
+fn split_channels(raster: &Raster, names: &[String]) -> Vec<(String, Vec<f32>)> {
+    let c = raster.channels as usize;
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, ch)| {
+            let k = i.min(c - 1);
+            (ch.clone(), raster.data.chunks(c).map(|p| p[k]).collect())
+        })
+        .collect()
 }

@@ -19,6 +19,7 @@ pub mod blur;
 pub mod colour_space;
 pub mod composite;
 pub mod constant;
+pub mod cryptomatte;
 pub mod depth_upsample;
 pub mod display_view;
 pub mod downsample;
@@ -80,6 +81,7 @@ pub fn registry() -> Registry {
     r.add(Arc::new(blend_volume::BlendVolume));
     r.add(Arc::new(blur::Blur));
     r.add(Arc::new(composite::Composite));
+    r.add(Arc::new(cryptomatte::Cryptomatte));
     r.add(Arc::new(constant::Constant));
     r.add(Arc::new(depth_upsample::DepthUpsample));
     r.add(Arc::new(downsample::Downsample));

@@ -280,8 +280,19 @@ fn every_graph_in_graphs_validates_and_renders() {
             .filter(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()))
             .count();
         if gpu_available() && sinks > 0 {
-            // One output: written as -o names it; several: each under --output-dir.
-            let out = dir.path().join("r.png");
+            // One output: written as -o names it, in the sink's own format (an AovOutput
+            // writes EXR only); several: each under --output-dir.
+            let ext = g
+                .nodes()
+                .filter(|n| registry.get(&n.kind).is_some_and(|k| k.is_sink()))
+                .find_map(|n| match n.params.get("path") {
+                    Some(tyndall::graph::ParamValue::Text(p)) => std::path::Path::new(p)
+                        .extension()
+                        .map(|e| e.to_string_lossy().into_owned()),
+                    _ => None,
+                })
+                .unwrap_or_else(|| "png".into());
+            let out = dir.path().join(format!("r.{ext}"));
             let sub = dir.path().join(f.file_stem().expect("stem"));
             let graph = f.display().to_string();
             let (flag, target) = if sinks == 1 {

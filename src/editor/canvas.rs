@@ -29,6 +29,7 @@ pub fn port_colour(t: PortType) -> egui::Color32 {
         PortType::LightMap => egui::Color32::from_rgb(250, 240, 200),
         PortType::Scene => egui::Color32::from_rgb(100, 200, 120),
         PortType::Phase => egui::Color32::from_rgb(120, 210, 210),
+        PortType::Layers => egui::Color32::from_rgb(235, 235, 235),
     }
 }
 

@@ -372,7 +372,11 @@ pub fn picture_ports(graph: &Graph, registry: &Registry, id: &str) -> Vec<String
             let t = graph.output_type(cat, id, p.name).unwrap_or(p.types[0]);
             !matches!(
                 t,
-                PortType::Scene | PortType::Phase | PortType::Volume | PortType::SoftShadow
+                PortType::Scene
+                    | PortType::Phase
+                    | PortType::Volume
+                    | PortType::SoftShadow
+                    | PortType::Layers
             )
         })
         .map(|p| p.name.to_string())

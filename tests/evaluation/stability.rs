@@ -42,7 +42,7 @@ const CAP_REASON: &str = "cost or memory grows with the parameter";
 
 #[rustfmt::skip]
 const MATRIX: &[Entry] = &[
-    Entry { kind: "AovOutput", connect: &["rgba", "visibility", "depth"], fixed: &[("path", Fixed::Text("aovs.exr"))], caps: &[] },
+    Entry { kind: "AovOutput", connect: &["rgba", "visibility", "depth", "layers"], fixed: &[("path", Fixed::Text("aovs.exr"))], caps: &[] },
     Entry { kind: "BilateralFilter", connect: &["guide"], fixed: &[], caps: &[] },
     Entry { kind: "BlendVolume", connect: &[], fixed: &[], caps: &[("resolution", 64.0)] },
     Entry { kind: "Blur", connect: &[], fixed: &[], caps: &[] },
@@ -50,6 +50,7 @@ const MATRIX: &[Entry] = &[
     Entry { kind: "ColourSpace", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Composite", connect: &["inscatter", "transmittance"], fixed: &[], caps: &[] },
     Entry { kind: "Constant", connect: &[], fixed: &[], caps: &[("width", 64.0), ("height", 64.0)] },
+    Entry { kind: "Cryptomatte", connect: &[], fixed: &[], caps: &[("width", 64.0), ("height", 64.0)] },
     Entry { kind: "DepthUpsample", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "Dilate2D", connect: &[], fixed: &[], caps: &[] },
     Entry { kind: "DisplayView", connect: &[], fixed: &[], caps: &[] },
@@ -135,6 +136,7 @@ fn provider(
         ),
         (PortType::LightMap, _) => ("LightMap", "light_map", vec![]),
         (PortType::Lut2D, _) => ("TransferFunction", "lut", vec![("resolution", int(16))]),
+        (PortType::Layers, _) => ("Cryptomatte", "layers", vec![("samples", int(1))]),
     }
 }
 

@@ -7,6 +7,7 @@
 mod common;
 
 mod colour;
+mod cryptomatte;
 mod io;
 mod plate;
 mod vdb;

@@ -319,8 +319,7 @@ fn image_input_depth_carries_the_exr_headers_camera() {
         &tyndall::io::ExrHeader {
             world_to_camera: Some(glam::Mat4::from_cols_array_2d(&cam.view).to_cols_array()),
             world_to_ndc: Some(cam.view_proj().to_cols_array()),
-            frame: None,
-            chromaticities: None,
+            ..Default::default()
         },
     )
     .unwrap();

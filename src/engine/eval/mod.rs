@@ -42,7 +42,8 @@ pub use paths::{
 use stats::{report, NodeRun};
 pub use stats::{CancelCheck, NodeStat, Progress, ProgressSink, Stats, Status};
 pub use value::{
-    is_clear, pixel_ray, screen_ray, Mat4, Matrices, PortValue, IDENTITY, SHADOW_CLEAR,
+    is_clear, pixel_ray, screen_ray, LayerSet, Mat4, Matrices, NamedLayer, PortValue, IDENTITY,
+    SHADOW_CLEAR,
 };
 
 use crate::gpu::{Gpu, Recorder};

@@ -166,8 +166,36 @@ pub enum PortValue {
     /// at the point's (u, v) under these light matrices (orthographic along the light, u = x/2
     /// + 1/2, v = 1/2 − y/2 of light clip space, clamp to edge).
     LightMap(Arc<GpuTexture>, Matrices),
+    /// Named layers of a multi-layer EXR with their header attributes (`Cryptomatte`).
+    Layers(Arc<LayerSet>),
     /// Any other port type; the producing and consuming nodes agree on the payload.
     Other(PortType, Arc<dyn Any + Send + Sync>),
+}
+
+/// Named layers of a multi-layer EXR, on the GPU, with the header attributes that describe them
+/// (the value of a `Layers` port): a node that makes several layers at once (`Cryptomatte`: three
+/// ID/coverage layers per kind and a manifest) hands them to `AovOutput` as one value.
+#[derive(Debug, Clone, Default)]
+pub struct LayerSet {
+    /// The layers, in the order they are written.
+    pub layers: Vec<NamedLayer>,
+    /// Header attributes written as strings (`cryptomatte/<key>/name`, `…/manifest`).
+    pub attributes: Vec<(String, String)>,
+}
+
+/// One layer of a [`LayerSet`].
+#[derive(Debug, Clone)]
+pub struct NamedLayer {
+    /// The layer's full name (`ViewLayer.CryptoObject00`): its channels are `<name>.<channel>`.
+    pub name: String,
+    /// Channel names of the texture's channels, in order (`R`, `G`, `B`, `A`; a one-channel
+    /// texture names one).
+    pub channels: Vec<String>,
+    /// The samples (`R32F` or `RGBA32F`).
+    pub texture: Arc<GpuTexture>,
+    /// Always stored as 32-bit floats (IDs whose bits must survive), whatever the writer's
+    /// precision.
+    pub float: bool,
 }
 
 impl PortValue {
@@ -183,6 +211,7 @@ impl PortValue {
             PortValue::Phase(_) => PortType::Phase,
             PortValue::Volume(..) => PortType::Volume,
             PortValue::SoftShadow(..) => PortType::SoftShadow,
+            PortValue::Layers(_) => PortType::Layers,
             PortValue::Other(t, _) => *t,
         }
     }
@@ -197,7 +226,10 @@ impl PortValue {
             | PortValue::Lut2D(t)
             | PortValue::Phase(t)
             | PortValue::LightMap(t, _) => Some(t),
-            PortValue::Other(..) | PortValue::Volume(..) | PortValue::SoftShadow(..) => None,
+            PortValue::Other(..)
+            | PortValue::Volume(..)
+            | PortValue::SoftShadow(..)
+            | PortValue::Layers(_) => None,
         }
     }
 
@@ -213,6 +245,7 @@ impl PortValue {
     pub fn bytes(&self) -> usize {
         match self {
             PortValue::Volume(v, _) | PortValue::SoftShadow(v, _) => v.bytes(),
+            PortValue::Layers(set) => set.layers.iter().map(|l| l.texture.bytes()).sum(),
             _ => self.texture().map_or(0, |t| t.bytes()),
         }
     }

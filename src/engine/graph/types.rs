@@ -28,11 +28,14 @@ pub enum PortType {
     /// A light-space soft visibility volume (occlusion per light texel and depth slice) plus
     /// the light's matrices.
     SoftShadow,
+    /// Named layers of a multi-layer EXR and the header attributes that go with them
+    /// (Cryptomatte's ID/coverage layers and manifest): what `AovOutput` writes as they are named.
+    Layers,
 }
 
 impl PortType {
     /// Every port type, in declaration order.
-    pub const ALL: [PortType; 10] = [
+    pub const ALL: [PortType; 11] = [
         PortType::ShadowMap,
         PortType::Depth,
         PortType::Scalar,
@@ -43,6 +46,7 @@ impl PortType {
         PortType::Scene,
         PortType::Phase,
         PortType::SoftShadow,
+        PortType::Layers,
     ];
 
     /// Stable name used in files, the catalog and messages.
@@ -58,6 +62,7 @@ impl PortType {
             PortType::Scene => "Scene",
             PortType::Phase => "Phase",
             PortType::SoftShadow => "SoftShadow",
+            PortType::Layers => "Layers",
         }
     }
 

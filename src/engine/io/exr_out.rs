@@ -34,6 +34,14 @@ pub struct ExrHeader {
     /// The standard `chromaticities` attribute, `[rx, ry, gx, gy, bx, by, wx, wy]`; `None`:
     /// not written (Rec.709 / D65, what an EXR without it means).
     pub chromaticities: Option<[f32; 8]>,
+    /// String attributes (`cryptomatte/<key>/manifest` …), written as UTF-8 bytes, in order.
+    pub text: Vec<(String, String)>,
+}
+
+/// An EXR string: its UTF-8 bytes (the exr crate's `Text::from` panics on characters above
+/// U+00FF, and a glTF object's name may hold any).
+fn exr_text(s: &str) -> exrp::Text {
+    exrp::Text::from_bytes_unchecked(exrp::SmallVec::from_slice(s.as_bytes()))
 }
 
 /// The exr crate's form of a `chromaticities` attribute.
@@ -98,7 +106,7 @@ fn write_exr_layers_untraced(
             } else {
                 format!("{}.{channel}", layer.name)
             };
-            list.push(exrp::AnyChannel::new(name.as_str(), data));
+            list.push(exrp::AnyChannel::new(exr_text(&name), data));
         }
     }
     let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
@@ -115,6 +123,17 @@ fn write_exr_layers_untraced(
         software_name: Some(exrp::Text::from("Tyndall")),
         ..Default::default()
     };
+    for (key, value) in &header.text {
+        if key.is_empty() || key.len() > 255 {
+            return Err(err(format!(
+                "header attribute name '{key}' must hold 1 to 255 bytes"
+            )));
+        }
+        attributes.other.insert(
+            exr_text(key),
+            exr::meta::attribute::AttributeValue::Text(exr_text(value)),
+        );
+    }
     if let Some(frame) = header.frame {
         attributes.other.insert(
             exrp::Text::from("frame"),

@@ -7,6 +7,12 @@ use exr::prelude::{self as exrp, ReadChannels, ReadLayers};
 
 use super::{ExrHeader, IoError, Raster, MAX_READ_TEXELS};
 
+/// A channel name as text: its bytes as UTF-8 (what Blender and Tyndall write; the exr crate's
+/// own `to_string` reads each byte as a Latin-1 character).
+fn utf8(name: &exrp::Text) -> String {
+    String::from_utf8_lossy(name.as_slice()).into_owned()
+}
+
 /// The one channel `layer` names: a full channel name, or a layer with a single channel.
 fn layer_channel<'a>(
     chans: &'a [exrp::AnyChannel<exrp::FlatSamples>],
@@ -16,14 +22,14 @@ fn layer_channel<'a>(
     let lower = format!("{layer}.").to_ascii_lowercase();
     if let Some(c) = chans
         .iter()
-        .find(|c| c.name.to_string().eq_ignore_ascii_case(layer))
+        .find(|c| utf8(&c.name).eq_ignore_ascii_case(layer))
     {
         return Ok(c);
     }
     let in_layer: Vec<_> = chans
         .iter()
         .filter(|c| {
-            let n = c.name.to_string().to_ascii_lowercase();
+            let n = utf8(&c.name).to_ascii_lowercase();
             n.strip_prefix(&lower)
                 .is_some_and(|rest| !rest.contains('.'))
         })
@@ -38,7 +44,7 @@ fn layer_channel<'a>(
             "layer '{layer}' has channels {} but no R, G, B: name one of them",
             several
                 .iter()
-                .map(|c| c.name.to_string())
+                .map(|c| utf8(&c.name))
                 .collect::<Vec<_>>()
                 .join(", ")
         )),
@@ -112,8 +118,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
         (Some(c), Some(n)) => Some(ExrHeader {
             world_to_camera: Some(c),
             world_to_ndc: Some(n),
-            frame: None,
-            chromaticities: None,
+            ..Default::default()
         }),
         _ => None,
     };
@@ -127,7 +132,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
             exrp::FlatSamples::U32(v) => v.iter().map(|x| *x as f32).collect(),
         }
     };
-    let names: Vec<String> = chans.iter().map(|c| c.name.to_string()).collect();
+    let names: Vec<String> = chans.iter().map(|c| utf8(&c.name)).collect();
     let prefix = if layer.is_empty() {
         String::new()
     } else {
@@ -137,7 +142,7 @@ pub fn read_exr_layer(path: &Path, layer: &str) -> Result<(Raster, Option<ExrHea
         let full = format!("{prefix}{name}");
         chans
             .iter()
-            .find(|c| c.name.to_string().eq_ignore_ascii_case(&full))
+            .find(|c| utf8(&c.name).eq_ignore_ascii_case(&full))
     };
     let (width, height) = (w as u32, h as u32);
     if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {

@@ -44,6 +44,8 @@ impl Rng {
 fn object(name: &str, colour: [f32; 4], tags: &[&str]) -> Object {
     Object {
         name: name.to_string(),
+        node: name.to_string(),
+        material: String::new(),
         positions: Vec::new(),
         normals: Vec::new(),
         indices: Vec::new(),

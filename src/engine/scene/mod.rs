@@ -41,8 +41,15 @@ pub enum SceneError {
 /// One object: a triangle mesh in world space with a base colour and tags.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Object {
-    /// Name (glTF node name or a built-in part name).
+    /// Name (glTF node name or a built-in part name; a node's second and later primitives are
+    /// `<node>.<i>`).
     pub name: String,
+    /// The glTF node (a Blender object) it belongs to — the same for every primitive of the
+    /// node —, or the built-in part: the object Cryptomatte names.
+    pub node: String,
+    /// The glTF material's name (Blender's material), empty without one: the material
+    /// Cryptomatte names.
+    pub material: String,
     /// Vertex positions (world space).
     pub positions: Vec<Vec3>,
     /// Vertex normals (world space, unit length).

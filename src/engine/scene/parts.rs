@@ -15,7 +15,7 @@ pub enum ScenePart {
     Camera,
     /// The lights (every [`Scene::lights`] entry: kind, placement, colour, intensity, range).
     Lights,
-    /// The objects: names, vertices, normals, indices, colours and tags.
+    /// The objects: names (object, node, material), vertices, normals, indices, colours and tags.
     Geometry,
     /// The bounds of the objects tagged `medium`.
     Medium,
@@ -66,7 +66,7 @@ impl PartKeys {
             }),
             geometry: key(&|h| {
                 for o in &scene.objects {
-                    (&o.name, &o.tags, &o.indices).hash(h);
+                    (&o.name, &o.node, &o.material, &o.tags, &o.indices).hash(h);
                     bits(&o.colour, h);
                     for (p, n) in o.positions.iter().zip(&o.normals) {
                         bits(&p.to_array(), h);

@@ -99,6 +99,8 @@ struct Primitive {
     normals: Option<Vec<Vec3>>,
     indices: Vec<u32>,
     colour: [f32; 4],
+    /// The material's name (empty: none, or a material without a name).
+    material: String,
     /// The mesh in the node's space (normals from the file, else from the local faces): what a
     /// moving object's placement draws.
     local: Arc<LocalMesh>,
@@ -283,6 +285,7 @@ fn read_primitives(
             normals,
             indices,
             colour: prim.material().pbr_metallic_roughness().base_color_factor(),
+            material: prim.material().name().unwrap_or_default().to_string(),
             local,
         });
     }

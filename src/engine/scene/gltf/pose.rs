@@ -198,6 +198,8 @@ fn posed(node: &AssetNode, pi: usize, prim: &Primitive, world: Mat4, normal_m: M
         } else {
             format!("{}.{pi}", node.name)
         },
+        node: node.name.clone(),
+        material: prim.material.clone(),
         positions,
         normals,
         indices: prim.indices.clone(),
