@@ -1689,3 +1689,87 @@ fn info_names_the_colour_config_and_a_bad_one_is_refused() {
         "{text}"
     );
 }
+
+/// `tyndall job` through Open Job Description's own CLI (issue #62): scripts/test_openjd.sh
+/// installs PyPI's openjd-cli into target/openjd-venv, checks the template, kills a task after
+/// its first frame, runs the whole step and finds every frame exactly once.
+#[test]
+fn an_openjd_job_renders_every_frame_once_and_resumes_a_killed_task() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let out = Command::new("bash")
+        .arg("scripts/test_openjd.sh")
+        .arg(env!("CARGO_BIN_EXE_tyndall"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("bash runs");
+    let text = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success(),
+        "scripts/test_openjd.sh failed:\n{text}"
+    );
+    assert!(
+        text.contains("openjd: 20 frames in 3 tasks, each written once"),
+        "{text}"
+    );
+}
+
+/// `tyndall job` refuses what it cannot turn into a job, as bad input (exit 2): a frame spec it
+/// cannot read, a chunk of no frames, a graph that does not load.
+#[test]
+fn tyndall_job_refuses_bad_input() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let job = dir.path().join("job.yaml").display().to_string();
+    let graph = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("graphs/physical/window.ron")
+        .display()
+        .to_string();
+    for args in [
+        vec![
+            "job",
+            &graph,
+            "--frames",
+            "9-x",
+            "--output-dir",
+            "r",
+            "-o",
+            &job,
+        ],
+        vec![
+            "job",
+            &graph,
+            "--frames",
+            "1-4",
+            "--chunk",
+            "0",
+            "--output-dir",
+            "r",
+            "-o",
+            &job,
+        ],
+        vec![
+            "job",
+            "no_such.ron",
+            "--frames",
+            "1-4",
+            "--output-dir",
+            "r",
+            "-o",
+            &job,
+        ],
+    ] {
+        let o = tyndall(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!Path::new(&job).exists(), "{args:?} wrote a job");
+    }
+}

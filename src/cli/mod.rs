@@ -9,6 +9,7 @@ mod bench;
 mod eval;
 mod group;
 mod info;
+mod job;
 mod node;
 mod nodes;
 mod pick;
@@ -74,6 +75,10 @@ pub enum Command {
     Eval(EvalArgs),
     /// Render a graph's outputs (all sinks), optionally over a frame range.
     Render(RenderArgs),
+    /// Write an Open Job Description (2023-09) job template that renders a graph's frames in
+    /// chunks (`tyndall render --chunk … --skip-existing` per task): for Deadline Cloud, OpenCue,
+    /// or `openjd run JOB --step Render` on this machine.
+    Job(job::JobArgs),
     /// What one pixel's view ray sees: V̄, linear depth, transfer-function coordinates and the
     /// surface point under it (for 3D constraints anchored to the scene).
     Pick(PickArgs),
@@ -354,6 +359,7 @@ fn run_command(cli: Cli) -> Result<(), CliError> {
         Command::Pick(a) => pick::run_pick(registry, a),
         Command::Group(a) => group::run_group(registry, a),
         Command::Render(a) => render::run_render(registry, a),
+        Command::Job(a) => job::run_job(&registry, a),
     }
 }
 
