@@ -1690,35 +1690,6 @@ fn info_names_the_colour_config_and_a_bad_one_is_refused() {
     );
 }
 
-/// `tyndall job` through Open Job Description's own CLI (issue #62): scripts/test_openjd.sh
-/// installs PyPI's openjd-cli into target/openjd-venv, checks the template, kills a task after
-/// its first frame, runs the whole step and finds every frame exactly once.
-#[test]
-fn an_openjd_job_renders_every_frame_once_and_resumes_a_killed_task() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let out = Command::new("bash")
-        .arg("scripts/test_openjd.sh")
-        .arg(env!("CARGO_BIN_EXE_tyndall"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("bash runs");
-    let text = format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        out.status.success(),
-        "scripts/test_openjd.sh failed:\n{text}"
-    );
-    assert!(
-        text.contains("openjd: 20 frames in 3 tasks, each written once"),
-        "{text}"
-    );
-}
-
 /// `tyndall job` refuses what it cannot turn into a job, as bad input (exit 2): a frame spec it
 /// cannot read, a chunk of no frames, a graph that does not load.
 #[test]
