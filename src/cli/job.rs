@@ -96,6 +96,39 @@ fn path_param(
     )
 }
 
+/// What each task passes to `tyndall render` (OpenJD format strings for the job and task
+/// parameters): the graph, the frames, chunk K of `tasks`, the output folder, resuming, ALF
+/// progress (what farm monitors parse), and `tyndall job`'s `--set` and `--size`.
+fn task_args(a: &JobArgs, tasks: usize) -> Vec<String> {
+    let mut args: Vec<String> = [
+        "render",
+        "{{Param.Graph}}",
+        "--frames",
+        "{{Param.Frames}}",
+        "--chunk",
+    ]
+    .map(String::from)
+    .to_vec();
+    args.push(format!("{{{{Task.Param.Chunk}}}}/{tasks}"));
+    args.extend(
+        [
+            "--output-dir",
+            "{{Param.OutputDir}}",
+            "--skip-existing",
+            "--progress",
+            "alf",
+        ]
+        .map(String::from),
+    );
+    for s in &a.set {
+        args.extend(["--set".to_string(), s.clone()]);
+    }
+    if let Some((w, h)) = a.size {
+        args.extend(["--size".to_string(), format!("{w}x{h}")]);
+    }
+    args
+}
+
 /// Write the job template `tyndall job` describes.
 pub fn run_job(registry: &crate::eval::Registry, a: JobArgs) -> Result<(), CliError> {
     let frames = parse_frame_spec(&a.frames).map_err(|e| bad(format!("--frames: {e}")))?;
@@ -112,7 +145,7 @@ pub fn run_job(registry: &crate::eval::Registry, a: JobArgs) -> Result<(), CliEr
         split_eq(s, "NODE.PARAM=VALUE")?;
     }
     let tasks = frames.0.len().div_ceil(a.chunk);
-    let tyndall = match a.tyndall {
+    let tyndall = match a.tyndall.clone() {
         Some(t) => t,
         None => std::env::current_exe()
             .map_err(|e| bad(format!("this binary's path: {e}")))?
@@ -149,32 +182,7 @@ pub fn run_job(registry: &crate::eval::Registry, a: JobArgs) -> Result<(), CliEr
             );
         }
     }
-    let mut args: Vec<String> = [
-        "render",
-        "{{Param.Graph}}",
-        "--frames",
-        "{{Param.Frames}}",
-        "--chunk",
-    ]
-    .map(String::from)
-    .to_vec();
-    args.push(format!("{{{{Task.Param.Chunk}}}}/{tasks}"));
-    args.extend(
-        [
-            "--output-dir",
-            "{{Param.OutputDir}}",
-            "--skip-existing",
-            "--progress",
-            "alf",
-        ]
-        .map(String::from),
-    );
-    for s in &a.set {
-        args.extend(["--set".to_string(), s.clone()]);
-    }
-    if let Some((w, h)) = a.size {
-        args.extend(["--size".to_string(), format!("{w}x{h}")]);
-    }
+    let args = task_args(&a, tasks);
     let stem = graph
         .file_stem()
         .map_or("graph".into(), |s| s.to_string_lossy().into_owned());
