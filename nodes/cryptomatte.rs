@@ -124,10 +124,10 @@ tyndall_engine::uniforms! {
         pub samples: u32,
         /// The layer written: ranks 2·layer and 2·layer + 1.
         pub layer: u32,
-        /// Half the filter's support, px.
-        pub radius: f32,
-        /// 0 box, 1 Blackman–Harris.
-        pub filter_kind: u32,
+        /// Samples the filter reaches past the pixel's own on each side.
+        pub reach: u32,
+        /// Padding.
+        pub _pad1: u32,
         /// Ranks kept.
         pub ranks: u32,
         /// Padding.
@@ -190,6 +190,33 @@ pub fn manifest<'a>(names: impl IntoIterator<Item = &'a str>) -> String {
     serde_json::to_string(&map).unwrap_or_else(|_| "{}".into())
 }
 
+/// The filter's weight at an offset of `d` px from the pixel centre, along one axis (the 2D
+/// weight is the product of the two axes').
+pub fn filter_weight(filter: Filter, width: f32, d: f32) -> f32 {
+    let radius = width / 2.0;
+    if d.abs() > radius {
+        0.0
+    } else if filter == Filter::Box {
+        1.0
+    } else {
+        let v = std::f32::consts::TAU * (d / width + 0.5);
+        (0.35875 - 0.48829 * v.cos() + 0.14128 * (2.0 * v).cos() - 0.01168 * (3.0 * v).cos())
+            .max(0.0)
+    }
+}
+
+/// The samples the filter reaches past a pixel's own on each side, and the weight of each sample
+/// column (or row) j ∈ [−reach, samples + reach) relative to the pixel's first, at j + reach:
+/// the same for every pixel (the `ranks` pass reads it).
+pub fn axis_weights(s: &Sampling) -> (u32, Vec<f32>) {
+    let n = s.samples as f32;
+    let reach = ((s.width / 2.0 - 0.5) * n).ceil().max(0.0) as i64;
+    let weights = (-reach..s.samples as i64 + reach)
+        .map(|j| filter_weight(s.filter, s.width, (j as f32 + 0.5) / n - 0.5))
+        .collect();
+    (reach as u32, weights)
+}
+
 /// CPU reference of the `ranks` pass: `objects` holds each sample's object index + 1 (0: no
 /// surface), `size.0·samples × size.1·samples` of them, rows top to bottom; `table[i]` is object
 /// i's ID bits (0: none). Returns `ranks.div_ceil(2)` layers of RGBA per pixel.
@@ -209,17 +236,7 @@ pub fn ranks_reference(
     let (fw, fh) = ((w * samples) as i64, (h * samples) as i64);
     let s = samples as f32;
     let radius = width / 2.0;
-    let weight = |d: f32| -> f32 {
-        if d.abs() > radius {
-            0.0
-        } else if filter == Filter::Box {
-            1.0
-        } else {
-            let v = std::f32::consts::TAU * (d / (2.0 * radius) + 0.5);
-            (0.35875 - 0.48829 * v.cos() + 0.14128 * (2.0 * v).cos() - 0.01168 * (3.0 * v).cos())
-                .max(0.0)
-        }
-    };
+    let weight = |d: f32| filter_weight(filter, width, d);
     let layers = ranks.div_ceil(2) as usize;
     let mut out = vec![vec![[0.0f32; 4]; (w * h) as usize]; layers];
     for py in 0..h {
@@ -320,7 +337,14 @@ pub fn rank_layers(
     s: &Sampling,
 ) -> Result<(Vec<GpuTexture>, GpuTexture), NodeError> {
     let table = gpu.buffer_from(table)?;
+    let (reach, weights) = axis_weights(s);
+    let weights: Vec<u32> = weights.iter().map(|w| w.to_bits()).collect();
+    let weights = gpu.buffer_from(&weights)?;
     let preview = gpu.texture(size.0, size.1, TexFormat::Rgba32F)?;
+    // Layer 0 writes each pixel's count of distinct IDs, which the later layers read (a texture
+    // is never written and read in one dispatch: a 1×1 stand-in takes the other binding).
+    let counts = gpu.texture(size.0, size.1, TexFormat::R32F)?;
+    let stand_in = gpu.texture(1, 1, TexFormat::R32F)?;
     let mut out = Vec::new();
     for layer in 0..s.ranks.div_ceil(2) {
         let texture = gpu.texture(size.0, size.1, TexFormat::Rgba32F)?;
@@ -328,8 +352,8 @@ pub fn rank_layers(
             size: [size.0, size.1],
             samples: s.samples,
             layer,
-            radius: s.width / 2.0,
-            filter_kind: u32::from(s.filter == Filter::BlackmanHarris),
+            reach,
+            _pad1: 0,
             ranks: s.ranks,
             _pad0: 0,
         };
@@ -342,6 +366,15 @@ pub fn rank_layers(
                 ("table", Bind::Buffer(&table)),
                 ("out", Bind::Storage(&texture)),
                 ("preview", Bind::Storage(&preview)),
+                ("weights", Bind::Buffer(&weights)),
+                (
+                    "count_out",
+                    Bind::Storage(if layer == 0 { &counts } else { &stand_in }),
+                ),
+                (
+                    "counts",
+                    Bind::Texture(if layer == 0 { &stand_in } else { &counts }),
+                ),
             ],
             size.0,
             size.1,

@@ -9,10 +9,9 @@ struct RankParams {
     samples: u32,
     // The layer written: ranks 2·layer, 2·layer + 1.
     layer: u32,
-    // Half the filter's support, px.
-    radius: f32,
-    // 0 box, 1 Blackman–Harris.
-    filter_kind: u32,
+    // Samples the filter reaches past the pixel's own on each side.
+    reach: u32,
+    _pad1: u32,
     // Ranks kept (pairs past it are 0).
     ranks: u32,
     _pad0: u32,
@@ -26,6 +25,14 @@ struct RankParams {
 @group(0) @binding(3) var out: texture_storage_2d<rgba32float, write>;
 // What the IDs look like (layer 0's dispatch writes it): Σ coverage · the ID's colour.
 @group(0) @binding(4) var preview: texture_storage_2d<rgba32float, write>;
+// The filter's weight along one axis for a sample j samples right of (or below) the pixel's
+// first sample, at weights[j + reach] for j in [−reach, samples + reach): the same for every
+// pixel, so it is computed once on the CPU (`axis_weights`).
+@group(0) @binding(5) var<storage, read_write> weights: array<f32>;
+// Distinct IDs per pixel: written by layer 0's dispatch (`count_out`), read by the later layers'
+// (`counts`), which skip the pixels holding no pair for them (most pixels see one object).
+@group(0) @binding(6) var count_out: texture_storage_2d<r32float, write>;
+@group(0) @binding(7) var counts: texture_2d<f32>;
 
 // An ID's colour in the preview: three bytes of its bits, as linear RGB in [0.05, 1].
 fn id_colour(id: u32) -> vec3<f32> {
@@ -36,40 +43,32 @@ fn id_colour(id: u32) -> vec3<f32> {
 // Distinct IDs one pixel keeps (more is rare: a pixel's footprint holds a few objects).
 const SLOTS: u32 = 16u;
 
-// The filter's weight at an offset of d px from the pixel centre (separable: w(dx)·w(dy)).
-fn weight(d: f32) -> f32 {
-    if abs(d) > P.radius {
-        return 0.0;
-    }
-    if P.filter_kind == 0u {
-        return 1.0;
-    }
-    let v = 6.2831853 * (d / (2.0 * P.radius) + 0.5);
-    return max(0.35875 - 0.48829 * cos(v) + 0.14128 * cos(2.0 * v) - 0.01168 * cos(3.0 * v), 0.0);
-}
-
 @compute @workgroup_size(8, 8)
 fn ranks(@builtin(global_invocation_id) gid: vec3<u32>) {
     if any(gid.xy >= P.size) {
+        return;
+    }
+    if P.layer > 0u && u32(textureLoad(counts, gid.xy, 0).r) <= 2u * P.layer {
+        textureStore(out, gid.xy, vec4<f32>(0.0));
         return;
     }
     var slot_id: array<u32, SLOTS>;
     var slot_w: array<f32, SLOTS>;
     var used = 0u;
     var total = 0.0;
-    let s = f32(P.samples);
+    let s = i32(P.samples);
+    let reach = i32(P.reach);
     let full = vec2<i32>(P.size * P.samples);
-    let centre = (vec2<f32>(gid.xy) + 0.5) * s;
-    let r = P.radius * s;
-    let lo = max(vec2<i32>(floor(centre - r)), vec2<i32>(0));
-    let hi = min(vec2<i32>(ceil(centre + r)), full);
+    let first = vec2<i32>(gid.xy) * s;
+    let lo = max(first - reach, vec2<i32>(0));
+    let hi = min(first + s + reach, full);
     for (var y = lo.y; y < hi.y; y++) {
-        let wy = weight((f32(y) + 0.5 - centre.y) / s);
+        let wy = weights[y - first.y + reach];
         if wy <= 0.0 {
             continue;
         }
         for (var x = lo.x; x < hi.x; x++) {
-            let w = wy * weight((f32(x) + 0.5 - centre.x) / s);
+            let w = wy * weights[x - first.x + reach];
             if w <= 0.0 {
                 continue;
             }
@@ -104,6 +103,7 @@ fn ranks(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let t = max(total, 1e-20);
         textureStore(preview, gid.xy, vec4<f32>(colour / t, seen / t));
+        textureStore(count_out, gid.xy, vec4<f32>(f32(used), 0.0, 0.0, 0.0));
     }
     // Selection sort of the heaviest 2·layer + 2 (ties: the smaller ID first).
     let want = min(2u * P.layer + 2u, used);
