@@ -8,6 +8,7 @@ mod common;
 
 mod colour;
 mod cryptomatte;
+mod deep;
 mod io;
 mod plate;
 mod vdb;

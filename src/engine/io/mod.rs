@@ -5,11 +5,13 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+mod deep;
 pub mod deferred;
 mod exr_out;
 mod layers;
 mod vdb;
 
+pub use deep::{flatten, write_deep_exr, DeepSample};
 use exr_out::write_exr;
 pub use exr_out::{write_exr_layers, ExrHeader, ExrLayer};
 pub use layers::read_exr_layer;
