@@ -190,6 +190,19 @@ pub fn manifest<'a>(names: impl IntoIterator<Item = &'a str>) -> String {
     serde_json::to_string(&map).unwrap_or_else(|_| "{}".into())
 }
 
+/// How the sub-pixel samples become ranked pairs.
+#[derive(Clone, Copy, Debug)]
+pub struct Sampling {
+    /// Sub-pixel samples per axis.
+    pub samples: u32,
+    /// The pixel filter.
+    pub filter: Filter,
+    /// Its full support, px.
+    pub width: f32,
+    /// Ranks kept.
+    pub ranks: u32,
+}
+
 /// The filter's weight at an offset of `d` px from the pixel centre, along one axis (the 2D
 /// weight is the product of the two axes').
 pub fn filter_weight(filter: Filter, width: f32, d: f32) -> f32 {
@@ -311,19 +324,6 @@ fn sample_objects(
         },
     )?;
     Ok(ids)
-}
-
-/// How the sub-pixel samples become ranked pairs.
-#[derive(Clone, Copy, Debug)]
-pub struct Sampling {
-    /// Sub-pixel samples per axis.
-    pub samples: u32,
-    /// The pixel filter.
-    pub filter: Filter,
-    /// Its full support, px.
-    pub width: f32,
-    /// Ranks kept.
-    pub ranks: u32,
 }
 
 /// The `ranks` pass: from `ids` (each sample's object index + 1, `size × samples`) and `table`

@@ -6,8 +6,6 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use std::process::Command;
-
 /// `tyndall job` through Open Job Description's own CLI (issue #62): scripts/test_openjd.sh
 /// installs PyPI's openjd-cli into target/openjd-venv, checks the template, kills a task after
 /// its first frame, runs the whole step and finds every frame exactly once.
@@ -16,21 +14,7 @@ fn an_openjd_job_renders_every_frame_once_and_resumes_a_killed_task() {
     if common::gpu().is_none() {
         return;
     }
-    let out = Command::new("bash")
-        .arg("scripts/test_openjd.sh")
-        .arg(env!("CARGO_BIN_EXE_tyndall"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("bash runs");
-    let text = format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        out.status.success(),
-        "scripts/test_openjd.sh failed:\n{text}"
-    );
+    let text = common::run_script("scripts/test_openjd.sh");
     assert!(
         text.contains("openjd: 20 frames in 3 tasks, each written once"),
         "{text}"

@@ -4,28 +4,12 @@
 
 mod common;
 
-use std::process::Command;
-
 #[test]
 fn the_python_package_builds_and_its_pytest_suite_passes() {
     if common::gpu().is_none() {
         return;
     }
-    let out = Command::new("bash")
-        .arg("scripts/test_python.sh")
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("TYNDALL_BIN", env!("CARGO_BIN_EXE_tyndall"))
-        .output()
-        .expect("bash runs");
-    let text = format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(
-        out.status.success(),
-        "scripts/test_python.sh failed:\n{text}"
-    );
+    let text = common::run_script("scripts/test_python.sh");
     // The summary line, e.g. "22 passed in 6.1s": tests were collected and passed.
     assert!(
         text.lines()

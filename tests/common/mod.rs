@@ -22,6 +22,25 @@ pub fn gpu() -> Option<Arc<Gpu>> {
     }
 }
 
+/// Run `bash SCRIPT` (a path under the repository) with `TYNDALL_BIN` naming the binary under
+/// test; fails the test with the script's output when it fails, else returns that output
+/// (stdout, then stderr). The Python package's and the OpenJD farm's tests are such scripts.
+pub fn run_script(script: &str) -> String {
+    let out = std::process::Command::new("bash")
+        .arg(script)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("TYNDALL_BIN", env!("CARGO_BIN_EXE_tyndall"))
+        .output()
+        .expect("bash runs");
+    let text = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{script} failed:\n{text}");
+    text
+}
+
 /// Whether the program `name` runs here (`name ARG` exits 0). Without it the test is skipped
 /// with one line naming what to install — or fails, under `TYNDALL_REQUIRE_<NAME>=1` (e.g.
 /// `TYNDALL_REQUIRE_OIIOTOOL`, `TYNDALL_REQUIRE_BLENDER`; `.ci/run` sets them all).

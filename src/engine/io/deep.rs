@@ -12,7 +12,7 @@ use exr::meta::attribute::{ChannelDescription, LineOrder, SampleType, Text};
 use exr::meta::header::Header;
 use exr::meta::BlockDescription;
 
-use super::{file_kind, write_via_temp, FileKind, IoError};
+use super::{write_via_temp, IoError};
 
 /// One sample of a deep pixel: what lies between the depths `z` and `z_back` (metres along the
 /// view ray; a surface has `z == z_back`), its colour premultiplied by its alpha, and its alpha
@@ -63,12 +63,7 @@ pub fn write_deep_exr(
         path: path.to_path_buf(),
         reason,
     };
-    if file_kind(path)? != FileKind::Exr {
-        return Err(IoError::Format {
-            path: path.to_path_buf(),
-            reason: "a deep image must be an .exr file".into(),
-        });
-    }
+    super::exr_out::require_exr(path, "a deep image")?;
     let (w, h) = (width as usize, height as usize);
     if pixels.len() != w * h || w == 0 || h == 0 {
         return Err(err(format!(

@@ -78,12 +78,7 @@ fn write_exr_layers_untraced(
         path: path.to_path_buf(),
         reason,
     };
-    if file_kind(path)? != FileKind::Exr {
-        return Err(IoError::Format {
-            path: path.to_path_buf(),
-            reason: "a multi-layer image must be an .exr file".into(),
-        });
-    }
+    require_exr(path, "a multi-layer image")?;
     let n = (width * height) as usize;
     let mut list: Vec<exrp::AnyChannel<exrp::FlatSamples>> = Vec::new();
     for layer in layers {
@@ -157,6 +152,17 @@ fn write_exr_layers_untraced(
     write_via_temp(path, |tmp| {
         img.write().to_file(tmp).map_err(|e| e.to_string())
     })
+}
+
+/// Refuse to write `what` (a multi-layer image, a deep image) to a file that is not an `.exr`.
+pub(super) fn require_exr(path: &Path, what: &str) -> Result<(), IoError> {
+    if file_kind(path)? != FileKind::Exr {
+        return Err(IoError::Format {
+            path: path.to_path_buf(),
+            reason: format!("{what} must be an .exr file"),
+        });
+    }
+    Ok(())
 }
 
 pub(super) fn write_exr(
